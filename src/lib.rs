@@ -1,0 +1,9 @@
+//! wsm — worst-scenario analysis of multibody elastic contact with Tresca friction.
+//!
+//! The pipeline, one module each: `scene` (the JSON document) → `mesh` (P1 triangles, contact
+//! node pairs) → `fem` (elasticity and heat operators, loads, stresses) → `contact` (the exact
+//! direct contact solver) → `dd` (the papers' domain decomposition solver) → `scenario`
+//! (admissible sets, criteria Φ1–Φ6, the outer maximiser).
+
+pub mod mesh;
+pub mod scene;
