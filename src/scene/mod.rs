@@ -1,13 +1,17 @@
-//! Scene: the JSON document a user submits (SPEC §5.2), its validation, and its numeric data.
+//! Scene: the JSON document a user submits (SPEC §5.2), its validation, its numeric data and
+//! its uncertain parameters.
 //!
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
-//! field, `data` resolves the numbers that the worst-scenario engine may vary.
+//! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them.
 
 mod data;
 mod model;
+pub mod params;
+mod validate;
 
 pub use data::*;
 pub use model::*;
+pub use validate::{parse, validate};
 
 use std::fmt;
 

@@ -202,6 +202,21 @@ pub struct Contact {
     /// Tresca slip limit g [Pa]; 0 means frictionless.
     #[serde(default)]
     pub slip_limit: SlipLimit,
+    /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
+    /// flat contact line model curved surfaces, e.g. the 2D Hertz setting.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_gap: Option<InitialGap>,
+}
+
+/// Initial normal gap of a contact zone.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum InitialGap {
+    /// g0 = d²/(2R), d the distance from the touching point (a cylinder of radius R on a flat,
+    /// or two cylinders with 1/R = 1/R1 + 1/R2).
+    Parabola { radius: f64, touch_at: Point },
+    /// Piecewise linear in the arc-length fraction s ∈ [0, 1] along body k's segment.
+    PiecewiseLinear { knots: Vec<f64>, values: Vec<f64> },
 }
 
 /// Slip limit: a constant, or piecewise linear on knots given as fractions of the zone length.

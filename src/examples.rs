@@ -1,0 +1,37 @@
+//! Bundled example scenes (`wsm example NAME`, `GET /v1/examples`), compiled into the binary
+//! from `scenes/*.json`.
+
+/// (name, JSON text) of every bundled scene.
+pub const EXAMPLES: &[(&str, &str)] = &[
+    (
+        "block-on-base",
+        include_str!("../scenes/block-on-base.json"),
+    ),
+    ("heated-plate", include_str!("../scenes/heated-plate.json")),
+    ("hertz", include_str!("../scenes/hertz.json")),
+    ("loaded-block", include_str!("../scenes/loaded-block.json")),
+    (
+        "thick-cylinder",
+        include_str!("../scenes/thick-cylinder.json"),
+    ),
+    ("tunnel-fault", include_str!("../scenes/tunnel-fault.json")),
+];
+
+/// The JSON text of a bundled example.
+pub fn example(name: &str) -> Option<&'static str> {
+    EXAMPLES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_example_parses_and_validates() {
+        for (name, text) in EXAMPLES {
+            if let Err(e) = crate::scene::parse(text) {
+                panic!("example {name}: {e}");
+            }
+        }
+    }
+}

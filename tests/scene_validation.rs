@@ -1,0 +1,247 @@
+//! Bad scenes are refused before any work, with an error naming the offending JSON field.
+
+use serde_json::{json, Value};
+use wsm::scene::parse;
+
+fn base() -> Value {
+    serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap()
+}
+
+/// Apply `edit` to the block-on-base example and check the error path starts with `path`.
+fn refused(edit: impl FnOnce(&mut Value), path: &str) {
+    let mut scene = base();
+    edit(&mut scene);
+    let text = serde_json::to_string(&scene).unwrap();
+    match parse(&text) {
+        Ok(_) => panic!("scene accepted, expected an error at {path}"),
+        Err(e) => assert!(
+            e.path.starts_with(path),
+            "expected error at '{path}', got '{}': {}",
+            e.path,
+            e.reason
+        ),
+    }
+}
+
+#[test]
+fn base_scene_is_valid() {
+    parse(&base().to_string()).unwrap();
+}
+
+#[test]
+fn wrong_version() {
+    refused(|s| s["version"] = json!(2), "version");
+}
+
+#[test]
+fn unknown_top_level_field() {
+    refused(|s| s["bodys"] = json!([]), "bodys");
+}
+
+#[test]
+fn wrong_type_names_the_field() {
+    refused(
+        |s| s["materials"]["rock"]["E"] = json!("stiff"),
+        "materials.rock.E",
+    );
+}
+
+#[test]
+fn no_bodies() {
+    refused(|s| s["bodies"] = json!([]), "bodies");
+}
+
+#[test]
+fn duplicate_body_name() {
+    refused(|s| s["bodies"][1]["name"] = json!("base"), "bodies[1].name");
+}
+
+#[test]
+fn unknown_zone_material() {
+    refused(
+        |s| s["bodies"][0]["zones"][0]["material"] = json!("granite"),
+        "bodies[0].zones[0].material",
+    );
+}
+
+#[test]
+fn polygon_with_two_points() {
+    refused(
+        |s| s["bodies"][0]["zones"][0]["polygon"] = json!([[0, 0], [1, 0]]),
+        "bodies[0].zones[0].polygon",
+    );
+}
+
+#[test]
+fn self_intersecting_polygon() {
+    refused(
+        |s| s["bodies"][0]["zones"][0]["polygon"] = json!([[0, 0], [2, 0.5], [2, 0], [0, 0.5]]),
+        "bodies[0].zones[0].polygon",
+    );
+}
+
+#[test]
+fn poisson_ratio_half() {
+    refused(
+        |s| s["materials"]["rock"]["nu"] = json!(0.5),
+        "materials.rock.nu",
+    );
+}
+
+#[test]
+fn non_positive_young_modulus() {
+    refused(
+        |s| s["materials"]["rock"]["E"] = json!(0.0),
+        "materials.rock.E",
+    );
+}
+
+#[test]
+fn non_positive_shear_modulus() {
+    refused(
+        |s| s["materials"]["rock"] = json!({"lambda": 1e9, "mu": -1.0}),
+        "materials.rock.mu",
+    );
+}
+
+#[test]
+fn mixed_elastic_constants() {
+    refused(
+        |s| s["materials"]["rock"]["lambda"] = json!(1e9),
+        "materials.rock",
+    );
+}
+
+#[test]
+fn segment_of_unknown_body() {
+    refused(
+        |s| s["segments"]["top"]["body"] = json!("lid"),
+        "segments.top.body",
+    );
+}
+
+#[test]
+fn boundary_on_unknown_segment() {
+    refused(
+        |s| s["boundary"][0]["segment"] = json!("floor"),
+        "boundary[0].segment",
+    );
+}
+
+#[test]
+fn boundary_with_two_conditions() {
+    refused(
+        |s| s["boundary"][1]["traction"] = json!([0, 1]),
+        "boundary[1]",
+    );
+}
+
+#[test]
+fn zero_roller_direction() {
+    refused(
+        |s| s["boundary"][0] = json!({"segment": "bottom", "roller": {"direction": [0, 0]}}),
+        "boundary[0].roller.direction",
+    );
+}
+
+#[test]
+fn contact_within_one_body() {
+    refused(
+        |s| s["contacts"][0]["between"] = json!(["block_contact", "push"]),
+        "contacts[0].between",
+    );
+}
+
+#[test]
+fn negative_slip_limit() {
+    refused(
+        |s| s["contacts"][0]["slip_limit"] = json!(-1.0),
+        "contacts[0].slip_limit",
+    );
+}
+
+#[test]
+fn piecewise_slip_with_decreasing_knots() {
+    refused(
+        |s| s["contacts"][0]["slip_limit"] = json!({"knots": [0.0, 0.8, 0.5], "values": [1, 1, 1]}),
+        "contacts[0].slip_limit.knots",
+    );
+}
+
+#[test]
+fn non_positive_mesh_size() {
+    refused(|s| s["mesh"]["max_size"] = json!(0.0), "mesh.max_size");
+}
+
+#[test]
+fn refinement_of_unknown_segment() {
+    refused(
+        |s| s["mesh"]["refine"][0]["segments"] = json!(["nowhere"]),
+        "mesh.refine[0].segments[0]",
+    );
+}
+
+#[test]
+fn thermal_condition_without_thermal_section() {
+    refused(
+        |s| s["boundary"][1] = json!({"segment": "top", "temperature": 300.0}),
+        "boundary[1].temperature",
+    );
+}
+
+#[test]
+fn thermal_criterion_without_thermal_section() {
+    refused(
+        |s| s["search"]["criteria"] = json!(["phi1"]),
+        "search.criteria[0]",
+    );
+}
+
+#[test]
+fn unknown_criterion_name() {
+    refused(
+        |s| s["search"]["criteria"] = json!(["phi9"]),
+        "search.criteria[0]",
+    );
+}
+
+#[test]
+fn uncertain_unknown_field() {
+    refused(
+        |s| s["uncertain"][0]["field"] = json!("materials.rock.density"),
+        "uncertain[0].field",
+    );
+}
+
+#[test]
+fn uncertain_inverted_interval() {
+    refused(
+        |s| s["uncertain"][1]["interval"] = json!([4e5, 3e5]),
+        "uncertain[1].interval",
+    );
+}
+
+#[test]
+fn uncertain_reaches_zero_stiffness() {
+    refused(
+        |s| s["uncertain"][0]["interval"] = json!([-1e9, 1e10]),
+        "uncertain[0].interval",
+    );
+}
+
+#[test]
+fn uncertain_lame_on_young_material() {
+    refused(
+        |s| s["uncertain"][0]["field"] = json!("materials.rock.mu"),
+        "uncertain[0].field",
+    );
+}
+
+#[test]
+fn non_finite_number_is_refused() {
+    let text = base()
+        .to_string()
+        .replace("\"max_size\":0.05", "\"max_size\":1e999");
+    let err = parse(&text).unwrap_err();
+    assert!(err.path.starts_with("mesh.max_size"), "{err}");
+}
