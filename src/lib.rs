@@ -7,4 +7,5 @@
 
 pub mod examples;
 pub mod mesh;
+pub mod output;
 pub mod scene;

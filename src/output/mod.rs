@@ -1,0 +1,3 @@
+//! Output formats: VTU files for ParaView.
+
+pub mod vtu;
