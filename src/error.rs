@@ -16,8 +16,8 @@ pub enum WsmError {
     #[error("body '{body}' cannot be balanced: {reason}")]
     Unbalanced { body: String, reason: String },
     /// The semi-coercive solvability condition fails (CZ Thm 1.2, D05 Thm 2.1).
-    #[error("body {body} cannot be balanced by contact and friction: the loads drive a rigid {motion} that the contact zones cannot hold")]
-    UnbalancedMode { body: usize, motion: String },
+    #[error("body '{body}' cannot be balanced by contact and friction: the loads drive a rigid {motion} that the contact zones cannot hold")]
+    UnbalancedMode { body: String, motion: String },
     /// The contact solver failed (with its residuals).
     #[error("contact solver: {0}")]
     Contact(String),

@@ -29,8 +29,8 @@ const CHUNK: usize = 32;
 struct Kernel {
     /// n_free × k rigid modes of all floating bodies.
     modes: Mat<f64>,
-    /// Per mode: body index and (translation x, translation y, rotation) coefficients.
-    labels: Vec<(usize, [f64; 3])>,
+    /// Per mode: body name and (translation x, translation y, rotation) coefficients.
+    labels: Vec<(String, [f64; 3])>,
     pinned: Vec<usize>,
 }
 
@@ -98,7 +98,7 @@ impl DirectContact {
                 for i in 0..n {
                     all[(i, col)] = rm.modes[(i, j)];
                 }
-                labels.push((rm.body, rm.coefficients[j]));
+                labels.push((elastic.mesh().bodies[rm.body].clone(), rm.coefficients[j]));
                 col += 1;
             }
             pinned.extend(pick_pinned(&rm.modes));
@@ -115,6 +115,14 @@ impl DirectContact {
             kernel: Kernel { modes: all, labels, pinned },
             g,
         })
+    }
+
+    /// G = RᵀBᵀ and e = Rᵀ f: the equilibrium rows of the floating bodies for free-DOF loads f.
+    pub fn equilibrium(&self, f: &[f64]) -> (Mat<f64>, Vec<f64>) {
+        let e = (0..self.kernel_dim())
+            .map(|j| (0..f.len()).map(|i| self.kernel.modes[(i, j)] * f[i]).sum())
+            .collect();
+        (self.g.clone(), e)
     }
 
     /// Number of rigid motions left to the contact (sum over floating bodies).
@@ -236,11 +244,9 @@ impl DirectContact {
                     row.dot(&x0) + row.dot_fixed(fixed) - gap
                 })
                 .collect();
-            let e: Vec<f64> = (0..self.kernel_dim())
-                .map(|j| (0..rhs.len()).map(|i| self.kernel.modes[(i, j)] * rhs[i]).sum())
-                .collect();
+            let (g, e) = self.equilibrium(rhs);
             let (lower, upper) = geometry.bounds(data);
-            let problem = BoxQp::new(factor.c.clone(), d, lower, upper).with_equalities(self.g.clone(), e);
+            let problem = BoxQp::new(factor.c.clone(), d, lower, upper).with_equalities(g, e);
             let options = QpOptions {
                 parallel: false,
                 ..QpOptions::default()
@@ -288,11 +294,11 @@ impl DirectContact {
     }
 
     /// Turn an infeasible equilibrium into a message naming the body and the motion.
-    fn explain(&self, err: QpError) -> WsmError {
+    pub fn explain(&self, err: QpError) -> WsmError {
         match err {
             QpError::Infeasible { equality_rows, .. } => {
                 let row = equality_rows.first().copied().unwrap_or(0);
-                let (body, [tx, ty, rot]) = self.kernel.labels.get(row).copied().unwrap_or((0, [0.0; 3]));
+                let (body, [tx, ty, rot]) = self.kernel.labels.get(row).cloned().unwrap_or_default();
                 WsmError::UnbalancedMode {
                     body,
                     motion: describe_motion(tx, ty, rot),
