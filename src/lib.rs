@@ -6,4 +6,5 @@
 //! (admissible sets, criteria Φ1–Φ6, the outer maximiser).
 
 pub mod mesh;
+pub mod scenario;
 pub mod scene;
