@@ -729,3 +729,32 @@ fn conflicting_and_invalid_data_give_errors() {
         Err(FemError::Input(_))
     ));
 }
+
+// ---------- benchmark (run with --ignored --nocapture) ----------
+
+#[test]
+#[ignore]
+fn benchmark_direct_pipeline() {
+    for (nx, ny) in [(100, 50), (320, 160)] {
+        for (name, par) in [("seq", Par::Seq), ("rayon", Par::rayon(0))] {
+            let t = wsm::fem::bench::elastic_benchmark(nx, ny, 5, par).unwrap();
+            println!(
+                "{nx}x{ny} {name}: {} free DOFs, nnz(L) {}, assembly {:.4}s, symbolic {:.4}s, numeric {:.4}s, solve {:.4}s, (numeric+solve)/first = {:.3}",
+                t.free_dofs, t.factor_nnz, t.assembly, t.symbolic, t.numeric, t.solve, t.refactor_ratio
+            );
+            assert!(t.refactor_ratio < 1.0);
+        }
+    }
+}
+
+#[test]
+fn fully_prescribed_mesh_has_an_empty_system() {
+    let mesh = rectangle(0.0, 0.0, 1.0, 1.0, 1, 1);
+    let d = data(vec![lame(1.0, 1.0)], clamp_all(&mesh));
+    let problem = ElasticProblem::new(&mesh, &d).unwrap();
+    assert_eq!(problem.dofs().n_free(), 0);
+    let u = problem
+        .solve(&problem.factor(&d, Par::Seq).unwrap(), &d, None)
+        .unwrap();
+    assert_eq!(u, vec![[0.0; 2]; 4]);
+}

@@ -82,8 +82,9 @@ impl<const NC: usize> OperatorBuilder<NC> {
     /// symbolic factorisation.
     pub fn finish(self) -> Result<ZonedOperator<NC>, FemError> {
         let n = self.n_free;
+        let free_free: Vec<Vec<Entry<NC>>> = self.free_free.into_iter().map(merge).collect();
         let mut keys: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
-        for zone in &self.free_free {
+        for zone in &free_free {
             keys.extend(zone.iter().map(|e| (e.col, e.row)));
         }
         keys.sort_unstable();
@@ -100,15 +101,11 @@ impl<const NC: usize> OperatorBuilder<NC> {
             let (lo, hi) = (col_ptr[e.col], col_ptr[e.col + 1]);
             lo + row_idx[lo..hi].partition_point(|&r| r < e.row)
         };
-        let zones = self
-            .free_free
-            .into_iter()
-            .map(|entries| {
-                let merged = merge(entries);
-                ZoneBlock {
-                    index: merged.iter().map(position).collect(),
-                    values: merged.iter().map(|e| e.v).collect(),
-                }
+        let zones = free_free
+            .iter()
+            .map(|merged| ZoneBlock {
+                index: merged.iter().map(position).collect(),
+                values: merged.iter().map(|e| e.v).collect(),
             })
             .collect();
         let coupling = self
