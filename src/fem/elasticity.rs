@@ -1,7 +1,8 @@
 //! Plane-strain P1 elasticity: the reduced operator, unit loads and the linear solve.
 //!
-//! Bilinear form (FGCS 2.13', D05 Def. 2.1): a(u, v) = Σ_z ∫_{Ω_z} λ_z tr e(u) tr e(v)
-//! + 2μ_z e(u):e(v), so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
+//! Bilinear form (FGCS 2.13', D05 Def. 2.1):
+//! a(u, v) = Σ_z ∫_{Ω_z} (λ_z tr e(u) tr e(v) + 2μ_z e(u):e(v)),
+//! so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
 //! K^λ_e = area·Bᵀ m mᵀ B (m = (1, 1, 0)) and K^μ_e = area·Bᵀ diag(2, 2, 1) B (engineering shear).
 //! Load functional (FGCS 2.16, D05 §3): S(v, T) = Σ_z ∫ F_z·v + ∫_{Γτ} P·v + Σ_z ∫ (T − T0) β_z tr e(v),
 //! with the pressure form P = −p n. Loads are linear in F, P, p and T − T0: unit load vectors
@@ -367,34 +368,20 @@ fn element_matrices(g: &TriangleGradients) -> [[[f64; 2]; 6]; 6] {
     k
 }
 
-/// K_loc = Tᵀ K T with T = blockdiag(R_a) and R_a = [e0 e1] the local basis of node a.
+/// K_loc = Tᵀ K T with T = blockdiag(R_a), R_a = [e0 e1] the local basis of node a:
+/// (K_loc)_ij = e_i(a)ᵀ K_ab e_j(b) for local DOF i of node a and j of node b.
 fn rotate(k: &mut [[[f64; 2]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
-    let t = |row: usize, col: usize| -> f64 {
-        if row / 2 == col / 2 {
-            bases[row / 2][col % 2][row % 2]
-        } else {
-            0.0
-        }
-    };
-    let mut kt = [[[0.0; 2]; 6]; 6];
-    for i in 0..6 {
-        for j in 0..6 {
-            for m in 2 * (j / 2)..2 * (j / 2) + 2 {
-                for c in 0..2 {
-                    kt[i][j][c] += k[i][m][c] * t(m, j);
-                }
-            }
-        }
-    }
-    for i in 0..6 {
-        for j in 0..6 {
-            let mut v = [0.0; 2];
-            for m in 2 * (i / 2)..2 * (i / 2) + 2 {
-                for c in 0..2 {
-                    v[c] += t(m, i) * kt[m][j][c];
-                }
-            }
-            k[i][j] = v;
+    let global = *k;
+    for (i, row) in k.iter_mut().enumerate() {
+        for (j, entry) in row.iter_mut().enumerate() {
+            let (a, b) = (i / 2, j / 2);
+            let (ea, eb) = (bases[a][i % 2], bases[b][j % 2]);
+            *entry = [0, 1].map(|c| {
+                (0..2)
+                    .flat_map(|p| (0..2).map(move |q| (p, q)))
+                    .map(|(p, q)| ea[p] * global[2 * a + p][2 * b + q][c] * eb[q])
+                    .sum()
+            });
         }
     }
 }

@@ -404,3 +404,47 @@ fn build_operator(
     }
     builder.finish()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::structured::stacked_blocks;
+    use crate::scene::{BoundaryData, Elastic, Expansion, MaterialData};
+
+    #[test]
+    fn contact_pairs_become_one_unknown() {
+        let mesh = stacked_blocks(1.0, 1.0, 1.0, 4, 2, 2);
+        let material = MaterialData {
+            elastic: Elastic::Lame {
+                lambda: 1.0,
+                mu: 1.0,
+            },
+            specific_weight: 0.0,
+            body_force: [0.0; 2],
+            conductivity: 1.0,
+            heat_source: 0.0,
+            expansion: Expansion::Beta(0.0),
+        };
+        let data = Data {
+            materials: vec![material.clone(), material],
+            boundary: vec![BoundaryData {
+                segment: mesh.segment_index("lower_bottom").unwrap(),
+                value: BoundaryValue::Temperature(1.0),
+            }],
+            slip: Vec::new(),
+            reference_temperature: 0.0,
+        };
+        let problem = HeatProblem::new(&mesh, &data).unwrap();
+        let unknowns = problem.operator().n_free() + problem.operator().n_fixed();
+        assert_eq!(unknowns, mesh.nodes.len() - mesh.contacts[0].pairs.len());
+        assert_eq!(problem.operator().n_fixed(), 5);
+        for &[a, b] in &mesh.contacts[0].pairs {
+            assert_eq!(problem.slot(a), problem.slot(b));
+        }
+        // No source, no flux: uniform T = 1 everywhere, through the contact.
+        let t = problem
+            .solve(&problem.factor(&data, Par::Seq).unwrap(), &data)
+            .unwrap();
+        assert!(t.iter().all(|&v| (v - 1.0).abs() < 1e-13));
+    }
+}

@@ -14,6 +14,7 @@
 //! Typical use: `let p = ElasticProblem::new(&mesh, &data)?; let k = p.factor(&data, Par::Seq)?;
 //! let u = p.solve(&k, &data, None)?;` and for a new data set only `factor` and `solve` again.
 
+pub mod bench;
 mod dofs;
 mod elasticity;
 mod geometry;
