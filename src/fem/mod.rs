@@ -26,7 +26,7 @@ pub mod stress;
 
 pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;
-pub use geometry::TriangleGradients;
+pub use geometry::{segment_node_normals, TriangleGradients};
 pub use heat::HeatProblem;
 pub use linear::{Factor, Symbolic};
 pub use operator::{OperatorFactor, Slot, ZonedOperator};
