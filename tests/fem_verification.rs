@@ -115,7 +115,7 @@ fn patch_test_linear_field_is_exact_on_perturbed_mesh() {
         ]
     };
     let field: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| exact(p)).collect();
-    let fixed = problem.dofs().fixed_values_from(&field);
+    let fixed = problem.dofs().fixed_values_from(&field).unwrap();
     let factor = problem.factor(&d, Par::Seq).unwrap();
     let zero = vec![[0.0; 2]; mesh.nodes.len()];
     let u = problem.solve_with(&factor, &zero, &fixed).unwrap();
@@ -244,7 +244,11 @@ fn elastic_errors(ms: &Manufactured, n: usize) -> (f64, f64) {
     let exact: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| ms.u(p)).collect();
     let factor = problem.factor(&d, Par::Seq).unwrap();
     let u = problem
-        .solve_with(&factor, &loads, &problem.dofs().fixed_values_from(&exact))
+        .solve_with(
+            &factor,
+            &loads,
+            &problem.dofs().fixed_values_from(&exact).unwrap(),
+        )
         .unwrap();
     let (mut l2, mut energy) = (0.0, 0.0);
     for t in 0..mesh.triangles.len() {
@@ -332,7 +336,7 @@ fn heat_errors(kappa: f64, n: usize) -> (f64, f64) {
     let nodal: Vec<f64> = mesh.nodes.iter().map(|&p| exact(p)).collect();
     let factor = problem.factor(&d, Par::Seq).unwrap();
     let temp = problem
-        .solve_with(&factor, &loads, &problem.fixed_values_from(&nodal))
+        .solve_with(&factor, &loads, &problem.fixed_values_from(&nodal).unwrap())
         .unwrap();
     let (mut l2, mut h1) = (0.0, 0.0);
     for t in 0..mesh.triangles.len() {

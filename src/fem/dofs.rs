@@ -14,7 +14,7 @@ use crate::scene::{BoundaryData, BoundaryValue};
 
 use super::geometry::segment_node_normals;
 use super::operator::Slot;
-use super::FemError;
+use super::{expect_len, FemError};
 
 /// sin of the smallest angle between two constraint directions still treated as independent.
 const INDEPENDENT: f64 = 1e-6;
@@ -179,12 +179,13 @@ impl DofMap {
     }
 
     /// Prescribed local values taken from a global nodal field (e.g. an exact solution).
-    pub fn fixed_values_from(&self, field: &[[f64; 2]]) -> Vec<f64> {
+    pub fn fixed_values_from(&self, field: &[[f64; 2]]) -> Result<Vec<f64>, FemError> {
+        expect_len("nodal displacements", field.len(), self.n_nodes())?;
         let mut fixed = vec![0.0; self.n_fixed];
         for c in &self.constrained {
             self.store_fixed(c.node, field[c.node], &mut fixed);
         }
-        fixed
+        Ok(fixed)
     }
 
     fn store_fixed(&self, node: usize, u: [f64; 2], fixed: &mut [f64]) {

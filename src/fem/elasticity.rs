@@ -21,7 +21,7 @@ use super::geometry::{
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{element_stresses, internal_forces, ElementStress, ZoneMaterial};
-use super::FemError;
+use super::{expect_len, material_of, FemError};
 
 /// The elasticity problem of a mesh and scene topology: DOFs, operator, unit loads.
 #[derive(Debug, Clone)]
@@ -95,13 +95,7 @@ impl ElasticProblem {
             .zones
             .iter()
             .map(|zone| {
-                let m = data
-                    .materials
-                    .get(zone.material)
-                    .ok_or_else(|| FemError::InvalidMaterial {
-                        material: zone.material,
-                        reason: format!("zone '{}' refers to a missing material", zone.name),
-                    })?;
+                let m = material_of(data, zone)?;
                 let (lambda, mu) = m.elastic.lame();
                 let beta = m.beta();
                 if !(mu > 0.0 && lambda + mu > 0.0 && lambda.is_finite() && beta.is_finite()) {
@@ -155,14 +149,7 @@ impl ElasticProblem {
 
     fn add_body_forces(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
         for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
-            let force = data
-                .materials
-                .get(zone.material)
-                .ok_or_else(|| FemError::InvalidMaterial {
-                    material: zone.material,
-                    reason: format!("zone '{}' refers to a missing material", zone.name),
-                })?
-                .force();
+            let force = material_of(data, zone)?.force();
             for &(node, w) in weights {
                 f[node][0] += w * force[0];
                 f[node][1] += w * force[1];
@@ -172,13 +159,11 @@ impl ElasticProblem {
     }
 
     fn add_boundary_loads(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
-        if data.boundary.len() != self.segment_loads.len() {
-            return Err(FemError::Input(format!(
-                "{} boundary conditions in the data, the problem was built with {}",
-                data.boundary.len(),
-                self.segment_loads.len()
-            )));
-        }
+        expect_len(
+            "boundary conditions",
+            data.boundary.len(),
+            self.segment_loads.len(),
+        )?;
         for (bc, load) in data.boundary.iter().zip(&self.segment_loads) {
             match bc.value {
                 BoundaryValue::Traction(p) => {
@@ -222,15 +207,11 @@ impl ElasticProblem {
     }
 
     fn check_temperature(&self, temperature: &[f64]) -> Result<(), FemError> {
-        if temperature.len() == self.mesh.nodes.len() {
-            Ok(())
-        } else {
-            Err(FemError::Input(format!(
-                "temperature has {} values, the mesh {} nodes",
-                temperature.len(),
-                self.mesh.nodes.len()
-            )))
-        }
+        expect_len(
+            "nodal temperatures",
+            temperature.len(),
+            self.mesh.nodes.len(),
+        )
     }
 
     /// Prescribed local DOF values u_d of the data.
@@ -254,13 +235,7 @@ impl ElasticProblem {
         loads: &[[f64; 2]],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
-        if loads.len() != self.mesh.nodes.len() {
-            return Err(FemError::Input(format!(
-                "{} nodal loads given, the mesh has {} nodes",
-                loads.len(),
-                self.mesh.nodes.len()
-            )));
-        }
+        expect_len("nodal loads", loads.len(), self.mesh.nodes.len())?;
         let (mut b, _) = self.dofs.restrict(loads);
         self.operator.lift(coefficients, fixed, &mut b)?;
         Ok(b)
@@ -304,13 +279,7 @@ impl ElasticProblem {
         u: &[[f64; 2]],
         temperature: Option<&[f64]>,
     ) -> Result<Vec<ElementStress>, FemError> {
-        if u.len() != self.mesh.nodes.len() {
-            return Err(FemError::Input(format!(
-                "displacement has {} nodes, the mesh {}",
-                u.len(),
-                self.mesh.nodes.len()
-            )));
-        }
+        expect_len("nodal displacements", u.len(), self.mesh.nodes.len())?;
         if let Some(t) = temperature {
             self.check_temperature(t)?;
         }

@@ -60,3 +60,27 @@ pub enum FemError {
     #[error("sparse solver: {0}")]
     Solver(String),
 }
+
+/// The material data of a mesh zone.
+fn material_of<'a>(
+    data: &'a crate::scene::Data,
+    zone: &crate::mesh::MeshZone,
+) -> Result<&'a crate::scene::MaterialData, FemError> {
+    data.materials
+        .get(zone.material)
+        .ok_or_else(|| FemError::InvalidMaterial {
+            material: zone.material,
+            reason: format!("zone '{}' refers to a missing material", zone.name),
+        })
+}
+
+/// An input array of the wrong length is an error, not a panic.
+fn expect_len(what: &str, given: usize, expected: usize) -> Result<(), FemError> {
+    if given == expected {
+        Ok(())
+    } else {
+        Err(FemError::Input(format!(
+            "{given} {what} given, {expected} expected"
+        )))
+    }
+}
