@@ -207,7 +207,7 @@ fn conjugate_or_expand(
         f64::INFINITY
     };
     let af = bx.max_step(x, &v.p);
-    if acg <= af {
+    if acg.is_finite() && acg <= af {
         axpy(-acg, &v.p, x);
         axpy(-acg, &v.ap, &mut v.g);
         bx.free_grad(x, &v.g, &mut v.phi);

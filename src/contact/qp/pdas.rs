@@ -73,6 +73,9 @@ pub(super) fn solve(
         return newton.finish(y, alpha, stats, QpMethod::Newton);
     }
     // Fallback to a moderate accuracy, then polish by Newton from the identified active set.
+    if y.iter().chain(&alpha).any(|v| !v.is_finite()) {
+        (y, alpha) = p.start(None);
+    }
     p.project(&mut y);
     let coarse = opts.tol.max(1e-8);
     stats.fallback_iterations += mprgp::smalbe(problem, p, &mut y, &mut alpha, coarse, opts)?;
