@@ -517,21 +517,24 @@ fn timings() {
             ("random SPD k=3", random_problem(&mut rng, m, 3)),
         ] {
             let (mut cold, mut warm) = (vec![], vec![]);
-            let (mut its_cold, mut its_warm) = (0, 0);
+            let (mut its_cold, mut its_warm) = (String::new(), String::new());
             for _ in 0..5 {
                 let t = Instant::now();
                 let s = solve(&p);
                 cold.push(t.elapsed());
-                its_cold = s.iterations;
+                its_cold = format!(
+                    "{} steps, {} MPRGP, {:?}",
+                    s.iterations, s.fallback_iterations, s.method
+                );
                 let q = perturb(&mut rng, &p, 0.01);
                 let t = Instant::now();
                 let w =
                     solve_box_qp(&q, Some(&WarmStart::from(&s)), &QpOptions::default()).unwrap();
                 warm.push(t.elapsed());
-                its_warm = w.iterations;
+                its_warm = format!("{} steps, {} MPRGP", w.iterations, w.fallback_iterations);
             }
             eprintln!(
-                "m = {m:5} {name:15}: cold {:9.2?} ({its_cold} steps), warm after 1% change {:9.2?} ({its_warm} steps)",
+                "m = {m:5} {name:15}: cold {:9.2?} ({its_cold}), warm after 1% change {:9.2?} ({its_warm})",
                 median(cold),
                 median(warm)
             );
