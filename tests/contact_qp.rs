@@ -141,26 +141,24 @@ fn clarabel_solve(p: &BoxQp) -> Vec<f64> {
     let n_rows = b.len();
     let am = CscMatrix::new_from_triplets(n_rows, m, ai, aj, av);
     let cones = [ZeroConeT(n_zero), NonnegativeConeT(n_rows - n_zero)];
-    let settings = DefaultSettingsBuilder::default()
-        .verbose(false)
-        .tol_gap_abs(1e-11)
-        .tol_gap_rel(1e-11)
-        .tol_feas(1e-11)
-        .tol_ktratio(1e-10)
-        .max_iter(400)
-        .build()
-        .unwrap();
-    let mut solver = DefaultSolver::new(&pm, &q, &am, &b, &cones, settings).unwrap();
-    solver.solve();
-    assert!(
-        matches!(
-            solver.solution.status,
-            SolverStatus::Solved | SolverStatus::AlmostSolved
-        ),
-        "clarabel: {:?}",
-        solver.solution.status
-    );
-    solver.solution.x.clone()
+    // The tightest tolerance clarabel reaches on this problem (it may stall at 1e-12).
+    for tol in [1e-12, 1e-11, 1e-10] {
+        let settings = DefaultSettingsBuilder::default()
+            .verbose(false)
+            .tol_gap_abs(tol)
+            .tol_gap_rel(tol)
+            .tol_feas(tol)
+            .tol_ktratio(1e-10)
+            .max_iter(400)
+            .build()
+            .unwrap();
+        let mut solver = DefaultSolver::new(&pm, &q, &am, &b, &cones, settings).unwrap();
+        solver.solve();
+        if solver.solution.status == SolverStatus::Solved {
+            return solver.solution.x.clone();
+        }
+    }
+    panic!("clarabel failed on {p:?}");
 }
 
 fn assert_kkt(p: &BoxQp, s: &QpSolution, tol: f64) {

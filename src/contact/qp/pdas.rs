@@ -119,6 +119,12 @@ pub(super) fn solve(
     p.project(&mut y);
     let coarse = opts.tol.max(1e-8);
     stats.fallback_iterations += mprgp::smalbe(problem, p, &mut y, &mut alpha, coarse, opts)?;
+    if unscaled_kkt(problem, p, &y, &alpha).max() > coarse {
+        // Newton's multipliers can be far off (e.g. after releases along rigid directions):
+        // restart the augmented Lagrangian from the cold start.
+        (y, alpha) = p.start(None);
+        stats.fallback_iterations += mprgp::smalbe(problem, p, &mut y, &mut alpha, coarse, opts)?;
+    }
     let (mut y2, mut a2) = (y.clone(), alpha.clone());
     if newton.run(&mut y2, &mut a2, opts, &mut stats) == Outcome::Converged {
         return newton.finish(y2, a2, stats, QpMethod::FallbackThenNewton);
