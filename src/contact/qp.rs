@@ -35,8 +35,12 @@
 //!    `C_FF + ρ G_FᵀG_F` and a pseudo-inverse of the small Schur complement, which gives the
 //!    minimum-norm `α` in rigid directions that no free constraint fixes (counted in
 //!    [`QpSolution::undetermined_modes`]). Iterative refinement restores machine precision.
+//!    When the free set cannot meet the equalities (a floating body touching nothing in some rigid
+//!    direction), `α` is moved along that direction until the first helpful bound is released
+//!    (a dual ratio test), instead of leaving the prediction unchanged.
 //! 4. **Globalisation.** PDAS converges locally superlinearly (finitely for QPs) but may cycle for
-//!    non-M-matrices. When an active set repeats, the set stagnates, or the step cap is hit, the
+//!    non-M-matrices. When an active set repeats, the set stagnates, the KKT residual has not
+//!    improved for 3 steps, or the step cap is hit, the
 //!    solver falls back to MPRGP (Dostál, *Optimal Quadratic Programming Algorithms*, Springer
 //!    2009; PERMON defaults Γ = 1, ᾱ ≈ 2/‖A‖) — wrapped in the SMALBE augmented Lagrangian when
 //!    equalities are present — which converges for any convex problem, and then polishes its
@@ -210,7 +214,8 @@ pub struct QpSolution {
     /// KKT residuals of the returned point.
     pub kkt: KktResiduals,
     /// Equality directions whose multiplier the final free set does not determine (rank deficiency
-    /// of `G_F`); `alpha` is minimum-norm in those directions.
+    /// of `G_F`); `alpha` is minimum-norm in those directions, in the metric of the scaled
+    /// multipliers `‖(G S)_r‖ α_r` (so zero when the direction is a single undetermined row).
     pub undetermined_modes: usize,
     /// Which algorithm produced the solution.
     pub method: QpMethod,
@@ -374,8 +379,8 @@ pub(crate) fn residuals(
 ) -> KktResiduals {
     let m = x.len();
     let mut gradient_scale = inf_norm(p.d);
-    for j in 0..m {
-        tmp[j] = p.c.col(j).iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum();
+    for (j, t) in tmp.iter_mut().enumerate() {
+        *t = p.c.col(j).iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum();
     }
     gradient_scale = gradient_scale.max(inf_norm(tmp));
     symv(p.c, x, grad);

@@ -1,6 +1,11 @@
 //! MPRGP (modified proportioning with reduced gradient projections, Dostál 2009, ch. 8) for
-//! `min ½ yᵀA y − bᵀy` on a box, the SMALBE augmented Lagrangian for the equalities (Dostál 2009,
-//! ch. 9; PERMON defaults M = 100, ρ = 1.1‖A‖), and the phase-1 feasibility check.
+//! `min ½ yᵀA y − bᵀy` on a box (Γ = 1, ᾱ = 1.9/‖A‖ as in PERMON), the SMALBE augmented
+//! Lagrangian for the equalities (Dostál 2009, ch. 9), and the phase-1 feasibility check.
+//!
+//! SMALBE parameters differ from PERMON's defaults (M₀ = 100, ρ = 1.1‖A‖): in the scaled
+//! variables `M₀ = 1` and `ρ = 10‖C‖` cut the outer iterations on the property-test problems from
+//! hundreds (with stalls on nearly dependent rows of `G`) to tens; the fallback only needs moderate
+//! accuracy before the Newton polish.
 
 use faer::MatRef;
 
@@ -207,7 +212,7 @@ fn conjugate_or_expand(
         f64::INFINITY
     };
     let af = bx.max_step(x, &v.p);
-    if acg <= af {
+    if acg.is_finite() && acg <= af {
         axpy(-acg, &v.p, x);
         axpy(-acg, &v.ap, &mut v.g);
         bx.free_grad(x, &v.g, &mut v.phi);

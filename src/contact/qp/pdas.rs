@@ -35,6 +35,46 @@ enum Outcome {
     Stuck,
 }
 
+/// Newton steps allowed without a new best KKT residual before switching to the fallback.
+const PATIENCE: usize = 3;
+
+/// The best iterate of a Newton run (PDAS is not monotone in any merit function).
+struct Best {
+    kkt: f64,
+    y: Vec<f64>,
+    alpha: Vec<f64>,
+    since: usize,
+}
+
+impl Best {
+    fn new(y: &[f64], alpha: &[f64]) -> Self {
+        Self {
+            kkt: f64::INFINITY,
+            y: y.to_vec(),
+            alpha: alpha.to_vec(),
+            since: 0,
+        }
+    }
+
+    /// Records the iterate if it is the best so far; false when patience is exhausted.
+    fn update(&mut self, kkt: f64, y: &[f64], alpha: &[f64]) -> bool {
+        if kkt < self.kkt {
+            self.kkt = kkt;
+            self.y.copy_from_slice(y);
+            self.alpha.copy_from_slice(alpha);
+            self.since = 0;
+        } else {
+            self.since += 1;
+        }
+        self.since < PATIENCE
+    }
+
+    fn restore(&self, y: &mut [f64], alpha: &mut [f64]) {
+        y.copy_from_slice(&self.y);
+        alpha.copy_from_slice(&self.alpha);
+    }
+}
+
 /// The Newton iteration state (scaled variables).
 struct Newton<'a> {
     problem: &'a BoxQp,
@@ -73,9 +113,18 @@ pub(super) fn solve(
         return newton.finish(y, alpha, stats, QpMethod::Newton);
     }
     // Fallback to a moderate accuracy, then polish by Newton from the identified active set.
+    if y.iter().chain(&alpha).any(|v| !v.is_finite()) {
+        (y, alpha) = p.start(None);
+    }
     p.project(&mut y);
     let coarse = opts.tol.max(1e-8);
     stats.fallback_iterations += mprgp::smalbe(problem, p, &mut y, &mut alpha, coarse, opts)?;
+    if unscaled_kkt(problem, p, &y, &alpha).max() > coarse {
+        // Newton's multipliers can be far off (e.g. after releases along rigid directions):
+        // restart the augmented Lagrangian from the cold start.
+        (y, alpha) = p.start(None);
+        stats.fallback_iterations += mprgp::smalbe(problem, p, &mut y, &mut alpha, coarse, opts)?;
+    }
     let (mut y2, mut a2) = (y.clone(), alpha.clone());
     if newton.run(&mut y2, &mut a2, opts, &mut stats) == Outcome::Converged {
         return newton.finish(y2, a2, stats, QpMethod::FallbackThenNewton);
@@ -96,30 +145,31 @@ impl Newton<'_> {
         stats: &mut Stats,
     ) -> Outcome {
         let mut seen = HashSet::new();
-        let mut first = true;
-        for _ in 0..=opts.max_newton {
-            if unscaled_kkt(self.problem, self.p, y, alpha).max() <= opts.tol {
-                if first {
+        let mut best = Best::new(y, alpha);
+        for step in 0..=opts.max_newton {
+            let kkt = unscaled_kkt(self.problem, self.p, y, alpha).max();
+            if kkt <= opts.tol {
+                if step == 0 {
                     // Converged without a step: still identify the free set and the rank of G_F.
                     self.classify_from_point(y, alpha);
                     self.undetermined = self.count_undetermined(y);
                 }
                 return Outcome::Converged;
             }
+            if !best.update(kkt, y, alpha) {
+                break;
+            }
             let changes = self.classify_from_point(y, alpha);
-            if !first && changes == 0 {
-                return Outcome::Stuck;
+            if (step > 0 && changes == 0) || !seen.insert(self.fingerprint()) {
+                break;
             }
-            if !seen.insert(self.fingerprint()) {
-                return Outcome::Stuck;
-            }
-            stats.active_set_changes += if first { 0 } else { changes };
-            first = false;
+            stats.active_set_changes += if step > 0 { changes } else { 0 };
             if self.step(y, alpha).is_err() {
-                return Outcome::Stuck;
+                break;
             }
             stats.iterations += 1;
         }
+        best.restore(y, alpha);
         Outcome::Stuck
     }
 

@@ -137,15 +137,13 @@ impl Saddle {
         }
         for shift in [0.0, SHIFT] {
             self.fill_h(p, free, shift);
-            let mut stack = MemStack::new(&mut self.buf);
+            let stack = MemStack::new(&mut self.buf);
             let l = self.l.as_mut().submatrix_mut(0, 0, nf, nf);
             let reg = LltRegularization {
                 dynamic_regularization_delta: 0.0,
                 dynamic_regularization_epsilon: 0.0,
             };
-            if llt::factor::cholesky_in_place(l, reg, self.par, &mut stack, Default::default())
-                .is_ok()
-            {
+            if llt::factor::cholesky_in_place(l, reg, self.par, stack, Default::default()).is_ok() {
                 return Ok(shift > 0.0);
             }
         }
@@ -217,11 +215,11 @@ impl Saddle {
             return;
         }
         // t = r_e − G_F z, α = S⁺ t
-        for r in 0..k {
-            self.k_tmp[r] = re[r] - (0..nf).map(|a| self.gft[(a, r)] * xf[a]).sum::<f64>();
+        for (r, (t, e)) in self.k_tmp.iter_mut().zip(re).enumerate() {
+            *t = e - (0..nf).map(|a| self.gft[(a, r)] * xf[a]).sum::<f64>();
         }
-        for r in 0..k {
-            alpha[r] = (0..k)
+        for (r, ar) in alpha.iter_mut().enumerate() {
+            *ar = (0..k)
                 .map(|q| {
                     let proj: f64 = (0..k).map(|t| self.s_vec[(t, q)] * self.k_tmp[t]).sum();
                     self.s_vec[(r, q)] * self.s_inv[q] * proj
@@ -240,13 +238,13 @@ impl Saddle {
 
     fn solve_h(&mut self, v: &mut [f64]) {
         let nf = self.nf;
-        let mut stack = MemStack::new(&mut self.buf);
+        let stack = MemStack::new(&mut self.buf);
         let rhs = MatMut::from_column_major_slice_mut(&mut v[..nf], nf, 1);
         llt::solve::solve_in_place(
             self.l.as_ref().submatrix(0, 0, nf, nf),
             rhs,
             self.par,
-            &mut stack,
+            stack,
         );
     }
 
