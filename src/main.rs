@@ -40,6 +40,35 @@ enum Command {
         #[arg(long)]
         vtu: Option<PathBuf>,
     },
+    /// Worst-scenario search: worst and best value of each criterion over the admissible set.
+    Worst {
+        /// Scene file (JSON).
+        scene: Option<PathBuf>,
+        /// Use a bundled example scene instead of a file.
+        #[arg(long)]
+        example: Option<String>,
+        /// Criteria, e.g. phi3,phi5 (default: the scene's `search.criteria`).
+        #[arg(long, value_delimiter = ',')]
+        criteria: Vec<String>,
+        /// Inner-solve budget (default: the scene's).
+        #[arg(long)]
+        budget: Option<usize>,
+        /// Random seed (default: the scene's).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Write the full result as JSON.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// Timing benchmarks of the inner solvers (not part of the test suite).
+    Bench {
+        /// Target numbers of unknowns.
+        #[arg(long, value_delimiter = ',', default_value = "10000,100000")]
+        sizes: Vec<usize>,
+        /// Runs per measurement (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+    },
     /// Print a bundled example scene, or list them.
     Example {
         name: Option<String>,
@@ -59,6 +88,9 @@ fn main() -> ExitCode {
             app::load_scene(scene.as_deref(), example.as_deref())
                 .and_then(|s| app::solve(s, solver, out.as_deref(), vtu.as_deref()))
         }
+        Command::Worst { scene, example, criteria, budget, seed, out } => app::load_scene(scene.as_deref(), example.as_deref())
+            .and_then(|s| app::worst(s, &criteria, budget, seed, out.as_deref())),
+        Command::Bench { sizes, runs } => wsm::bench::run(&sizes, runs),
         Command::Example { name, list } => app::example(name.as_deref(), list),
     };
     match result {

@@ -15,6 +15,7 @@ mod solution;
 pub use criteria::{evaluate as evaluate_criteria, Fields};
 pub use solution::*;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -62,6 +63,25 @@ pub struct SolveOptions {
     pub warm: Option<WarmStart>,
 }
 
+/// How often the expensive parts ran (for reports and for tests of "compute only what is needed").
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub heat_solves: AtomicUsize,
+    pub factorisations: AtomicUsize,
+    pub elastic_solves: AtomicUsize,
+}
+
+impl Counters {
+    /// (heat solves, stiffness factorisations, elastic solves) so far.
+    pub fn snapshot(&self) -> (usize, usize, usize) {
+        (
+            self.heat_solves.load(Ordering::Relaxed),
+            self.factorisations.load(Ordering::Relaxed),
+            self.elastic_solves.load(Ordering::Relaxed),
+        )
+    }
+}
+
 /// Everything built once per scene.
 pub struct StateProblem {
     pub scene: Scene,
@@ -72,6 +92,7 @@ pub struct StateProblem {
     pub contact: DirectContact,
     factors: Memo<Arc<StiffnessFactor>>,
     temperatures: Memo<Arc<Vec<f64>>>,
+    pub counters: Counters,
     /// Time to build the problem [s].
     pub setup_seconds: f64,
 }
@@ -103,6 +124,7 @@ impl StateProblem {
             contact,
             factors: Memo::new(4),
             temperatures: Memo::new(4),
+            counters: Counters::default(),
             setup_seconds: start.elapsed().as_secs_f64(),
         })
     }
@@ -171,6 +193,7 @@ impl StateProblem {
         let t0 = Instant::now();
         let key = memo::key(coefficients.iter().flatten().copied());
         let (factor, reused) = self.factors.get_or_try(key, || {
+            self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
             self.contact
                 .factor(elastic, &coefficients, options.par)
                 .map(Arc::new)
@@ -178,6 +201,7 @@ impl StateProblem {
         report.reused_factorisation = reused;
         report.timings.factor = t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
+        self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
@@ -224,6 +248,7 @@ impl StateProblem {
             }));
         let key = memo::key(thermal_numbers);
         let (t, _) = self.temperatures.get_or_try(key, || {
+            self.counters.heat_solves.fetch_add(1, Ordering::Relaxed);
             let factor = heat.factor(data, par)?;
             Ok::<_, WsmError>(Arc::new(heat.solve(&factor, data)?))
         })?;

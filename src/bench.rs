@@ -1,0 +1,158 @@
+//! Benchmarks behind `wsm bench` (not part of the test suite): timings of the FEM pipeline and
+//! of the direct contact solver on the tunnel example at chosen sizes. Medians of a few runs.
+
+use std::time::Instant;
+
+use serde_json::Value;
+
+use crate::error::WsmError;
+use crate::fem::Par;
+use crate::scene::{parse, BoundaryValue, Scene};
+use crate::state::{Needs, SolveOptions, StateProblem};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let out = f();
+    (out, t.elapsed().as_secs_f64())
+}
+
+/// The tunnel example with all mesh sizes scaled by `factor`.
+pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
+    let text = crate::examples::example(example)
+        .ok_or_else(|| WsmError::Io(format!("no example '{example}'")))?;
+    let mut v: Value = serde_json::from_str(text).map_err(|e| WsmError::Io(e.to_string()))?;
+    let scale = |x: &mut Value| {
+        if let Some(s) = x.as_f64() {
+            *x = Value::from(s * factor);
+        }
+    };
+    scale(&mut v["mesh"]["max_size"]);
+    if let Some(list) = v["mesh"]["refine"].as_array_mut() {
+        for r in list {
+            scale(&mut r["max_size"]);
+        }
+    }
+    Ok(parse(&v.to_string())?)
+}
+
+/// A state problem of the example with about `unknowns` free DOFs (one correction step).
+pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let n0 = probe.elastic.dofs().n_free() as f64;
+    let factor = (n0 / unknowns as f64).sqrt();
+    StateProblem::new(scaled_scene(example, factor)?)
+}
+
+/// One row of the contact benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ContactRow {
+    pub unknowns: usize,
+    pub contact_pairs: usize,
+    pub setup: f64,
+    pub linear_factor_and_solve: f64,
+    pub contact_first_solve: f64,
+    pub contact_warm_resolve: f64,
+    pub qp_iterations_first: usize,
+    pub qp_iterations_warm: usize,
+}
+
+/// Time a linear solve (factor + solve, contact ignored), a first contact solve (factor, C,
+/// QP, recovery) and a warm re-solve after a 1% change of pressures and slip limits.
+pub fn contact_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<ContactRow, WsmError> {
+    let (problem, setup) = time(|| problem_of_size(example, unknowns));
+    let problem = problem?;
+    let elastic = &problem.elastic;
+    let data = &problem.nominal;
+    let options = |warm| SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: Par::rayon(0),
+        warm,
+    };
+    let (mut linear, mut first, mut warm) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut it_first, mut it_warm) = (0, 0);
+    for run in 0..runs.max(1) {
+        // Perturb λ, μ slightly per run so every first solve really factorises.
+        let mut d = data.clone();
+        for m in &mut d.materials {
+            if let crate::scene::Elastic::Lame { lambda, .. } = &mut m.elastic {
+                *lambda *= 1.0 + 1e-6 * run as f64;
+            }
+            if let crate::scene::Elastic::Young { e, .. } = &mut m.elastic {
+                *e *= 1.0 + 1e-6 * run as f64;
+            }
+        }
+        let ((), t_lin) = time(|| {
+            if let Ok(f) = elastic.operator().factor(&elastic.coefficients(&d).unwrap_or_default(), Par::rayon(0)) {
+                let rhs = elastic.rhs(&d, None).unwrap_or_default();
+                let _ = f.factor.solve(&rhs);
+            }
+        });
+        linear.push(t_lin);
+        let (sol, t_first) = time(|| problem.solve(&d, &options(None)));
+        let sol = sol?;
+        first.push(t_first);
+        it_first = sol.report.qp_iterations;
+        let mut changed = d.clone();
+        for b in &mut changed.boundary {
+            if let BoundaryValue::Pressure(p) = &mut b.value {
+                *p *= 1.01;
+            }
+        }
+        for s in &mut changed.slip {
+            for v in &mut s.values {
+                *v *= 1.01;
+            }
+        }
+        let start = crate::contact::qp::WarmStart {
+            x: sol
+                .contact
+                .iter()
+                .zip(&problem.contact.geometry.pairs)
+                .flat_map(|(c, p)| [c.pressure * p.weight, c.shear * p.weight])
+                .collect(),
+            alpha: Vec::new(),
+        };
+        let (sol2, t_warm) = time(|| problem.solve(&changed, &options(Some(start))));
+        it_warm = sol2?.report.qp_iterations;
+        warm.push(t_warm);
+    }
+    Ok(ContactRow {
+        unknowns: elastic.dofs().n_free(),
+        contact_pairs: problem.contact.geometry.pairs.len(),
+        setup,
+        linear_factor_and_solve: median(linear),
+        contact_first_solve: median(first),
+        contact_warm_resolve: median(warm),
+        qp_iterations_first: it_first,
+        qp_iterations_warm: it_warm,
+    })
+}
+
+/// `wsm bench`: the tables as Markdown.
+pub fn run(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
+    let mut out = String::from(
+        "| unknowns | pairs | setup [s] | linear factor+solve [s] | contact first solve [s] | ratio | warm re-solve [s] | warm/first | QP it. first / warm |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let r = contact_benchmark("tunnel-fault", n, runs)?;
+        out.push_str(&format!(
+            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} | {} / {} |\n",
+            r.unknowns,
+            r.contact_pairs,
+            r.setup,
+            r.linear_factor_and_solve,
+            r.contact_first_solve,
+            r.contact_first_solve / r.linear_factor_and_solve,
+            r.contact_warm_resolve,
+            r.contact_warm_resolve / r.contact_first_solve,
+            r.qp_iterations_first,
+            r.qp_iterations_warm
+        ));
+    }
+    Ok(out)
+}
