@@ -5,5 +5,6 @@
 //! direct contact solver) → `dd` (the papers' domain decomposition solver) → `scenario`
 //! (admissible sets, criteria Φ1–Φ6, the outer maximiser).
 
+pub mod criteria;
 pub mod mesh;
 pub mod scene;

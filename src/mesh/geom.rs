@@ -40,20 +40,17 @@ pub(crate) fn signed_area(ring: &[P]) -> f64 {
         * 0.5
 }
 
-/// Area centroid of a closed ring (any orientation); `None` when the area vanishes.
-pub(crate) fn ring_centroid(ring: &[P]) -> Option<(f64, P)> {
-    let n = ring.len();
-    if n < 3 {
-        return None;
-    }
-    let (mut a, mut cx, mut cy) = (0.0, 0.0, 0.0);
-    for i in 1..n - 1 {
+/// Signed area and first moments (∫x, ∫y) of a closed ring by a fan of signed triangles; exact
+/// for non-convex and degenerate rings. Positive area when CCW.
+pub(crate) fn ring_moments(ring: &[P]) -> (f64, P) {
+    let (mut a, mut mx, mut my) = (0.0, 0.0, 0.0);
+    for i in 1..ring.len().saturating_sub(1) {
         let t = 0.5 * orient(ring[0], ring[i], ring[i + 1]);
         a += t;
-        cx += t * (ring[0][0] + ring[i][0] + ring[i + 1][0]) / 3.0;
-        cy += t * (ring[0][1] + ring[i][1] + ring[i + 1][1]) / 3.0;
+        mx += t * (ring[0][0] + ring[i][0] + ring[i + 1][0]) / 3.0;
+        my += t * (ring[0][1] + ring[i][1] + ring[i + 1][1]) / 3.0;
     }
-    (a != 0.0).then(|| (a, [cx / a, cy / a]))
+    (a, [mx, my])
 }
 
 /// Whether `p` lies inside the closed ring (crossing-number rule; boundary points are undefined).
@@ -203,8 +200,7 @@ mod tests {
     fn ring_area_centroid_and_location() {
         let sq = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [0.0, 1.0]];
         assert_eq!(signed_area(&sq), 2.0);
-        let (a, c) = ring_centroid(&sq).unwrap();
-        assert_eq!((a, c), (2.0, [1.0, 0.5]));
+        assert_eq!(ring_moments(&sq), (2.0, [2.0, 1.0]));
         assert!(point_in_ring([1.0, 0.5], &sq));
         assert!(!point_in_ring([2.5, 0.5], &sq));
         assert_eq!(ring_distance([3.0, 0.5], &sq), 1.0);

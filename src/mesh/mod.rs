@@ -5,14 +5,14 @@
 //! one copy per body. A contact zone is the list of node pairs (node of body k, node of body l) at
 //! the same position, ordered along body k's segment.
 
-mod assemble;
+pub(crate) mod assemble;
 mod generate;
 pub(crate) mod geom;
 mod gmsh;
 mod input;
 mod size;
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use generate::{generate, stats, MeshStats};
 pub use gmsh::import_gmsh;

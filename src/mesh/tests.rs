@@ -6,12 +6,12 @@ use super::geom::{dist, point_in_ring, signed_area};
 use super::*;
 use crate::scene::{Scene, SceneError};
 
-fn scene(json: serde_json::Value) -> Scene {
+pub(crate) fn scene(json: serde_json::Value) -> Scene {
     serde_json::from_value(json).expect("test scene parses")
 }
 
 /// The SPEC §5.2 example (block on a base), geometry and mesh part.
-fn block_on_base() -> serde_json::Value {
+pub(crate) fn block_on_base() -> serde_json::Value {
     serde_json::json!({
         "version": 1,
         "bodies": [
@@ -137,7 +137,7 @@ fn regular_polygon(c: [f64; 2], r: f64, n: usize) -> Vec<[f64; 2]> {
         .collect()
 }
 
-fn tunnel(h: f64) -> serde_json::Value {
+pub(crate) fn tunnel(h: f64) -> serde_json::Value {
     serde_json::json!({
         "version": 1,
         "bodies": [{ "name": "rock", "zones": [{ "name": "rock", "material": "granite",
