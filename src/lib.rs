@@ -6,10 +6,15 @@
 //! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `app` (what the
 //! command line and the service do).
 
+pub mod app;
+pub mod bench;
 pub mod contact;
+pub mod criteria;
 pub mod error;
 pub mod examples;
 pub mod fem;
 pub mod mesh;
 pub mod output;
+pub mod scenario;
 pub mod scene;
+pub mod state;

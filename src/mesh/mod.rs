@@ -5,7 +5,18 @@
 //! one copy per body. A contact zone is the list of node pairs (node of body k, node of body l) at
 //! the same position, ordered along body k's segment.
 
+pub(crate) mod assemble;
+mod generate;
+pub(crate) mod geom;
+mod gmsh;
+mod input;
+mod size;
 pub mod structured;
+#[cfg(test)]
+pub(crate) mod tests;
+
+pub use generate::{generate, stats, MeshStats};
+pub use gmsh::import_gmsh;
 
 /// A material zone of the mesh.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,0 +1,360 @@
+//! Import of a Gmsh mesh (MSH 4.1, ASCII) instead of meshing the scene's polygons.
+//!
+//! The sections `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes` and `$Elements` are read
+//! by a small hand parser (other sections are skipped). Only 3-node triangles (type 2), 2-node
+//! lines (type 1) and points (type 15, ignored) are accepted. Physical names of surfaces are
+//! zone names of the scene; physical names of curves give the edges of the scene segment of the
+//! same name. Node splitting, segments and contacts are shared with the mesher (`assemble`).
+
+use std::collections::{BTreeMap, HashMap};
+
+use super::assemble::{finish, mesh_zones, RawMesh};
+use super::geom::P;
+use super::Mesh;
+use crate::scene::{Scene, SceneError};
+
+const PATH: &str = "mesh.gmsh_file";
+
+fn err(line: usize, reason: impl std::fmt::Display) -> SceneError {
+    SceneError::new(PATH, format!("line {line}: {reason}"))
+}
+
+/// Whitespace-separated tokens of a section, with their line numbers.
+struct Tokens<'a> {
+    items: Vec<(usize, &'a str)>,
+    pos: usize,
+    end_line: usize,
+}
+
+impl<'a> Tokens<'a> {
+    fn new(lines: &[(usize, &'a str)], end_line: usize) -> Tokens<'a> {
+        let items = lines
+            .iter()
+            .flat_map(|&(n, l)| l.split_whitespace().map(move |t| (n, t)))
+            .collect();
+        Tokens {
+            items,
+            pos: 0,
+            end_line,
+        }
+    }
+
+    fn next<T: std::str::FromStr>(&mut self, what: &str) -> Result<T, SceneError> {
+        let Some(&(line, tok)) = self.items.get(self.pos) else {
+            return Err(err(
+                self.end_line,
+                format!("section ends early, expected {what}"),
+            ));
+        };
+        self.pos += 1;
+        tok.parse()
+            .map_err(|_| err(line, format!("expected {what}, found '{tok}'")))
+    }
+
+    fn line(&self) -> usize {
+        self.items.get(self.pos).map_or(self.end_line, |t| t.0)
+    }
+
+    fn skip(&mut self, n: usize) {
+        self.pos += n;
+    }
+}
+
+/// The parts of an MSH file the import uses.
+#[derive(Default)]
+struct Msh {
+    /// (dimension, physical tag) → name.
+    names: HashMap<(i32, i32), String>,
+    /// (dimension, entity tag) → physical tags.
+    physical: HashMap<(i32, i32), Vec<i32>>,
+    nodes: Vec<P>,
+    node_index: HashMap<usize, usize>,
+    /// (surface entity tag, node tags, line).
+    triangles: Vec<(i32, [usize; 3], usize)>,
+    /// (curve entity tag, node tags, line).
+    lines: Vec<(i32, [usize; 2], usize)>,
+}
+
+/// Reads an MSH 4.1 ASCII mesh whose physical names match the scene's zones and segments.
+pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
+    let msh = parse(text)?;
+    let zones = mesh_zones(scene)?;
+    let mut zone_of_name: HashMap<&str, usize> = HashMap::new();
+    let mut z = 0;
+    for (b, body) in scene.bodies.iter().enumerate() {
+        for (k, zone) in body.zones.iter().enumerate() {
+            if zone_of_name.insert(zone.name.as_str(), z).is_some() {
+                return Err(SceneError::new(
+                    format!("bodies[{b}].zones[{k}].name"),
+                    "zone names must be unique when the mesh comes from a Gmsh file",
+                ));
+            }
+            z += 1;
+        }
+    }
+    let names_of = |dim: i32, entity: i32| -> Vec<&str> {
+        msh.physical
+            .get(&(dim, entity))
+            .into_iter()
+            .flatten()
+            .filter_map(|t| msh.names.get(&(dim, *t)).map(String::as_str))
+            .collect()
+    };
+    let node = |tag: usize, line: usize| {
+        msh.node_index
+            .get(&tag)
+            .copied()
+            .ok_or_else(|| err(line, format!("unknown node {tag}")))
+    };
+    let mut raw = RawMesh {
+        nodes: msh.nodes.clone(),
+        ..RawMesh::default()
+    };
+    for &(entity, tags, line) in &msh.triangles {
+        let names = names_of(2, entity);
+        let zone = names
+            .iter()
+            .find_map(|n| zone_of_name.get(n).copied())
+            .ok_or_else(|| {
+                err(
+                    line,
+                    format!(
+                        "surface {entity} (physical names {names:?}) matches no zone of the scene"
+                    ),
+                )
+            })?;
+        raw.triangles.push([
+            node(tags[0], line)?,
+            node(tags[1], line)?,
+            node(tags[2], line)?,
+        ]);
+        raw.zone.push(zone);
+    }
+    check_zones_present(scene, &raw)?;
+    let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
+    for &(entity, tags, line) in &msh.lines {
+        let edge = [node(tags[0], line)?, node(tags[1], line)?];
+        for name in names_of(1, entity) {
+            curves.entry(name.to_string()).or_default().push(edge);
+        }
+    }
+    finish(scene, raw, zones, &curves)
+}
+
+/// Every scene zone must have triangles.
+fn check_zones_present(scene: &Scene, raw: &RawMesh) -> Result<(), SceneError> {
+    let mut present = vec![false; scene.bodies.iter().map(|b| b.zones.len()).sum()];
+    for &z in &raw.zone {
+        present[z] = true;
+    }
+    let mut z = 0;
+    for (b, body) in scene.bodies.iter().enumerate() {
+        for (k, zone) in body.zones.iter().enumerate() {
+            if !present[z] {
+                return Err(SceneError::new(
+                    format!("bodies[{b}].zones[{k}]"),
+                    format!(
+                        "the Gmsh file has no triangles in a physical surface named '{}'",
+                        zone.name
+                    ),
+                ));
+            }
+            z += 1;
+        }
+    }
+    Ok(())
+}
+
+/// Splits the text into sections and parses the known ones.
+fn parse(text: &str) -> Result<Msh, SceneError> {
+    let lines: Vec<(usize, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .collect();
+    let mut msh = Msh::default();
+    let mut seen_format = false;
+    let mut i = 0;
+    while i < lines.len() {
+        let (n, l) = lines[i];
+        if l.is_empty() {
+            i += 1;
+            continue;
+        }
+        let Some(name) = l.strip_prefix('$') else {
+            return Err(err(n, format!("expected a section start, found '{l}'")));
+        };
+        let end = format!("$End{name}");
+        let close = lines[i + 1..]
+            .iter()
+            .position(|&(_, x)| x == end)
+            .map(|k| i + 1 + k)
+            .ok_or_else(|| err(n, format!("section ${name} has no {end}")))?;
+        let body = &lines[i + 1..close];
+        let end_line = lines[close].0;
+        match name {
+            "MeshFormat" => {
+                format(Tokens::new(body, end_line))?;
+                seen_format = true;
+            }
+            "PhysicalNames" => physical_names(body, end_line, &mut msh)?,
+            "Entities" => entities(Tokens::new(body, end_line), &mut msh)?,
+            "Nodes" => nodes(Tokens::new(body, end_line), &mut msh)?,
+            "Elements" => elements(Tokens::new(body, end_line), &mut msh)?,
+            _ => {}
+        }
+        i = close + 1;
+    }
+    if !seen_format {
+        return Err(SceneError::new(
+            PATH,
+            "not a Gmsh .msh file (no $MeshFormat section)",
+        ));
+    }
+    if msh.triangles.is_empty() {
+        return Err(SceneError::new(PATH, "the file has no 3-node triangles"));
+    }
+    Ok(msh)
+}
+
+fn format(mut t: Tokens) -> Result<(), SceneError> {
+    let line = t.line();
+    let version: String = t.next("the format version")?;
+    let file_type: u32 = t.next("the file type")?;
+    if version != "4.1" {
+        return Err(err(
+            line,
+            format!("MSH version {version} is not supported (only 4.1)"),
+        ));
+    }
+    if file_type != 0 {
+        return Err(err(
+            line,
+            "binary MSH files are not supported (save as ASCII)",
+        ));
+    }
+    Ok(())
+}
+
+fn physical_names(
+    body: &[(usize, &str)],
+    end_line: usize,
+    msh: &mut Msh,
+) -> Result<(), SceneError> {
+    let mut rows = body.iter().filter(|(_, l)| !l.is_empty());
+    let count: usize = match rows.next() {
+        Some(&(n, l)) => l
+            .parse()
+            .map_err(|_| err(n, "expected the number of physical names"))?,
+        None => return Err(err(end_line, "empty $PhysicalNames section")),
+    };
+    for _ in 0..count {
+        let &(n, l) = rows
+            .next()
+            .ok_or_else(|| err(end_line, "fewer physical names than announced"))?;
+        let mut parts = l.splitn(3, char::is_whitespace);
+        let dim = parts.next().and_then(|x| x.parse::<i32>().ok());
+        let tag = parts.next().and_then(|x| x.parse::<i32>().ok());
+        let name = parts.next().map(|x| x.trim().trim_matches('"').to_string());
+        match (dim, tag, name) {
+            (Some(d), Some(t), Some(name)) => {
+                msh.names.insert((d, t), name);
+            }
+            _ => return Err(err(n, "expected `dimension tag \"name\"`")),
+        }
+    }
+    Ok(())
+}
+
+fn entities(mut t: Tokens, msh: &mut Msh) -> Result<(), SceneError> {
+    let counts: [usize; 4] = [
+        t.next("the number of points")?,
+        t.next("the number of curves")?,
+        t.next("the number of surfaces")?,
+        t.next("the number of volumes")?,
+    ];
+    for (dim, &count) in counts.iter().enumerate() {
+        for _ in 0..count {
+            let tag: i32 = t.next("an entity tag")?;
+            // Points have one coordinate triple, other entities a bounding box.
+            t.skip(if dim == 0 { 3 } else { 6 });
+            let np: usize = t.next("the number of physical tags")?;
+            let tags = (0..np)
+                .map(|_| t.next::<i32>("a physical tag"))
+                .collect::<Result<Vec<_>, _>>()?;
+            msh.physical
+                .insert((dim as i32, tag), tags.iter().map(|x| x.abs()).collect());
+            if dim > 0 {
+                let nb: usize = t.next("the number of bounding entities")?;
+                t.skip(nb);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn nodes(mut t: Tokens, msh: &mut Msh) -> Result<(), SceneError> {
+    let blocks: usize = t.next("the number of node blocks")?;
+    t.skip(3);
+    for _ in 0..blocks {
+        let dim: usize = t.next("the entity dimension")?;
+        t.skip(1);
+        let parametric: usize = t.next("the parametric flag")?;
+        let n: usize = t.next("the number of nodes")?;
+        let tags = (0..n)
+            .map(|_| t.next::<usize>("a node tag"))
+            .collect::<Result<Vec<_>, _>>()?;
+        for tag in tags {
+            let line = t.line();
+            let x: f64 = t.next("x")?;
+            let y: f64 = t.next("y")?;
+            t.skip(1 + if parametric == 1 { dim } else { 0 });
+            if !x.is_finite() || !y.is_finite() {
+                return Err(err(line, "non-finite node coordinate"));
+            }
+            if msh.node_index.insert(tag, msh.nodes.len()).is_some() {
+                return Err(err(line, format!("node {tag} is defined twice")));
+            }
+            msh.nodes.push([x, y]);
+        }
+    }
+    Ok(())
+}
+
+fn elements(mut t: Tokens, msh: &mut Msh) -> Result<(), SceneError> {
+    let blocks: usize = t.next("the number of element blocks")?;
+    t.skip(3);
+    for _ in 0..blocks {
+        let line = t.line();
+        t.skip(1);
+        let entity: i32 = t.next("the entity tag")?;
+        let kind: u32 = t.next("the element type")?;
+        let n: usize = t.next("the number of elements")?;
+        let per = match kind {
+            1 => 2,
+            2 => 3,
+            15 => 1,
+            _ => {
+                return Err(err(
+                    line,
+                    format!(
+                    "element type {kind} is not supported (only 3-node triangles, 2-node lines)"
+                ),
+                ))
+            }
+        };
+        for _ in 0..n {
+            let line = t.line();
+            t.skip(1);
+            let v = (0..per)
+                .map(|_| t.next::<usize>("a node tag"))
+                .collect::<Result<Vec<_>, _>>()?;
+            match kind {
+                1 => msh.lines.push((entity, [v[0], v[1]], line)),
+                2 => msh.triangles.push((entity, [v[0], v[1], v[2]], line)),
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
