@@ -64,29 +64,53 @@ fn contact_patch_test_transmits_uniform_pressure_exactly() {
 }
 
 #[test]
-fn frictionless_limit_equals_zero_slip_limit_and_huge_limit_is_bonded() {
-    // A block pressed on a base and pushed by a prescribed horizontal displacement of its left
-    // side: g = 0 lets it slide freely, g huge bonds it.
-    let scene = |g: f64| {
-        let mut s = stacked_blocks(1.0e6, g, 0.1);
-        s["boundary"][2] = json!({"segment": "upper_left", "displacement": [1.0e-4, null]});
-        s
-    };
-    let (_, free) = solve_value(&scene(0.0)).unwrap();
+fn zero_slip_limit_is_frictionless() {
+    // The upper block's left side is pushed by a prescribed horizontal displacement; with g = 0
+    // both blocks carry the same uniaxial stress, so the upper one is shifted by exactly the
+    // prescribed 1e-4 m relative to the lower one at every contact node, without shear.
+    let mut scene = stacked_blocks(1.0e6, 0.0, 0.1);
+    scene["boundary"][2] = json!({"segment": "upper_left", "displacement": [1.0e-4, null]});
+    let (_, free) = solve_value(&scene).unwrap();
     for c in &free.contact {
         assert!(c.shear.abs() <= 1e-9 * 1e6);
-    }
-    let (_, bonded) = solve_value(&scene(1.0e12)).unwrap();
-    for c in &bonded.contact {
-        assert_eq!(c.state, ContactState::Stick, "{c:?}");
-        assert!(c.slip.abs() <= 1e-12, "slip {}", c.slip);
-    }
-    // Frictionless: both blocks carry the same uniaxial stress, so the upper one is shifted by
-    // exactly the prescribed 1e-4 m relative to the lower one at every contact node.
-    for c in &free.contact {
         assert!((c.slip.abs() - 1.0e-4).abs() <= 1e-10, "slip {} at {:?}", c.slip, c.position);
     }
-    assert!(free.report.kkt.max() <= 1e-9 && bonded.report.kkt.max() <= 1e-9);
+    assert!(free.report.kkt.max() <= 1e-9, "{:?}", free.report.kkt);
+}
+
+#[test]
+fn huge_slip_limit_gives_the_bonded_solution() {
+    // Pushed sideways by a traction, the upper block sticks everywhere when g is huge, and the
+    // displacement equals that of one body made of the same two zones (same mesh).
+    let mut two = stacked_blocks(1.0e6, 1.0e12, 0.1);
+    two["boundary"][2] = json!({"segment": "upper_left", "traction": [2.0e5, 0]});
+    let mut one = two.clone();
+    one["bodies"] = json!([{"name": "lower", "zones": [
+        {"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]},
+        {"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}]);
+    for seg in ["upper_left", "top", "lower_top", "upper_bottom"] {
+        one["segments"][seg]["body"] = json!("lower");
+    }
+    one["segments"].as_object_mut().unwrap().remove("lower_top");
+    one["segments"].as_object_mut().unwrap().remove("upper_bottom");
+    one["contacts"] = json!([]);
+    let (p2, bonded) = solve_value(&two).unwrap();
+    let (p1, single) = solve_value(&one).unwrap();
+    for c in &bonded.contact {
+        assert_eq!(c.state, ContactState::Stick, "{c:?}");
+        assert!(c.slip.abs() <= 1e-12 && c.gap <= 1e-12, "{c:?}");
+    }
+    let scale = single.displacement.iter().fold(0.0_f64, |m, u| m.max(u[0].abs()).max(u[1].abs()));
+    let (m1, m2) = (p1.mesh(), p2.mesh());
+    let mut compared = 0;
+    for (i, x) in m2.nodes.iter().enumerate() {
+        let j = m1.nodes.iter().position(|y| y == x).expect("same mesh");
+        let (a, b) = (bonded.displacement[i], single.displacement[j]);
+        assert!((a[0] - b[0]).abs().max((a[1] - b[1]).abs()) <= 1e-8 * scale, "node {x:?}: {a:?} vs {b:?}");
+        compared += 1;
+    }
+    assert_eq!(compared, m2.nodes.len());
+    assert!(bonded.report.kkt.max() <= 1e-9, "{:?}", bonded.report.kkt);
 }
 
 #[test]
