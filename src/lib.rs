@@ -6,6 +6,7 @@
 //! (admissible sets, criteria Φ1–Φ6, the outer maximiser).
 
 pub mod examples;
+pub mod fem;
 pub mod mesh;
 pub mod output;
 pub mod scene;

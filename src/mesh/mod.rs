@@ -5,6 +5,8 @@
 //! one copy per body. A contact zone is the list of node pairs (node of body k, node of body l) at
 //! the same position, ordered along body k's segment.
 
+pub mod structured;
+
 /// A material zone of the mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshZone {

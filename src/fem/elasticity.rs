@@ -1,0 +1,419 @@
+//! Plane-strain P1 elasticity: the reduced operator, unit loads and the linear solve.
+//!
+//! Bilinear form (FGCS 2.13', D05 Def. 2.1): a(u, v) = Σ_z ∫_{Ω_z} λ_z tr e(u) tr e(v)
+//! + 2μ_z e(u):e(v), so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
+//! K^λ_e = area·Bᵀ m mᵀ B (m = (1, 1, 0)) and K^μ_e = area·Bᵀ diag(2, 2, 1) B (engineering shear).
+//! Load functional (FGCS 2.16, D05 §3): S(v, T) = Σ_z ∫ F_z·v + ∫_{Γτ} P·v + Σ_z ∫ (T − T0) β_z tr e(v),
+//! with the pressure form P = −p n. Loads are linear in F, P, p and T − T0: unit load vectors
+//! (nodal weights) are precomputed and scaled by the data. The thermal term uses the element mean
+//! of the P1 temperature, exact because tr e(v) is constant per element.
+
+use faer::Par;
+
+use crate::mesh::Mesh;
+use crate::scene::{BoundaryValue, Data, Scene};
+
+use super::dofs::DofMap;
+use super::geometry::{
+    check_mesh, element_gradients, segment_load, zone_weights, SegmentLoad, TriangleGradients,
+};
+use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
+use super::rigid::{floating_bodies, rigid_modes, RigidModes};
+use super::stress::{element_stresses, internal_forces, ElementStress, ZoneMaterial};
+use super::FemError;
+
+/// The elasticity problem of a mesh and scene topology: DOFs, operator, unit loads.
+#[derive(Debug, Clone)]
+pub struct ElasticProblem {
+    mesh: Mesh,
+    dofs: DofMap,
+    operator: ZonedOperator<2>,
+    gradients: Vec<TriangleGradients>,
+    /// ∫ φ_i dx per node, per zone (body force F gives F·w_i).
+    zone_weights: Vec<Vec<(usize, f64)>>,
+    /// Per boundary condition.
+    segment_loads: Vec<SegmentLoad>,
+    floating: Vec<usize>,
+}
+
+impl ElasticProblem {
+    /// Build DOFs, the operator on its pattern, unit loads and the symbolic factorisation. The
+    /// topology (condition kinds, prescribed components) is read from `data`; values are not.
+    pub fn new(mesh: &Mesh, data: &Data) -> Result<ElasticProblem, FemError> {
+        check_mesh(mesh)?;
+        let dofs = DofMap::new(mesh, &data.boundary)?;
+        let gradients = element_gradients(mesh);
+        let operator = build_operator(mesh, &dofs, &gradients)?;
+        let floating = floating_bodies(mesh, &dofs)?;
+        Ok(ElasticProblem {
+            zone_weights: zone_weights(mesh, &gradients),
+            segment_loads: data
+                .boundary
+                .iter()
+                .map(|bc| segment_load(mesh, bc.segment))
+                .collect(),
+            mesh: mesh.clone(),
+            dofs,
+            operator,
+            gradients,
+            floating,
+        })
+    }
+
+    /// [`ElasticProblem::new`] with the data of a validated scene.
+    pub fn from_scene(mesh: &Mesh, scene: &Scene) -> Result<ElasticProblem, FemError> {
+        ElasticProblem::new(mesh, &Data::from_scene(scene))
+    }
+
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// The reduced operator K_ff(λ, μ) with coefficients [λ_z, μ_z] per zone.
+    pub fn operator(&self) -> &ZonedOperator<2> {
+        &self.operator
+    }
+
+    /// Bodies not held against all rigid motions by Dirichlet and roller conditions.
+    pub fn floating_bodies(&self) -> &[usize] {
+        &self.floating
+    }
+
+    /// Rigid motions of `body` left free by its supports, on the reduced DOFs.
+    pub fn rigid_modes(&self, body: usize) -> Result<RigidModes, FemError> {
+        rigid_modes(&self.mesh, &self.dofs, body)
+    }
+
+    /// Validated (λ, μ, β) of every zone.
+    pub fn zone_materials(&self, data: &Data) -> Result<Vec<ZoneMaterial>, FemError> {
+        self.mesh
+            .zones
+            .iter()
+            .map(|zone| {
+                let m = data
+                    .materials
+                    .get(zone.material)
+                    .ok_or_else(|| FemError::InvalidMaterial {
+                        material: zone.material,
+                        reason: format!("zone '{}' refers to a missing material", zone.name),
+                    })?;
+                let (lambda, mu) = m.elastic.lame();
+                let beta = m.beta();
+                if !(mu > 0.0 && lambda + mu > 0.0 && lambda.is_finite() && beta.is_finite()) {
+                    return Err(FemError::InvalidMaterial {
+                        material: zone.material,
+                        reason: format!(
+                            "λ = {lambda}, μ = {mu}, β = {beta}: need μ > 0 and λ + μ > 0 (plane strain)"
+                        ),
+                    });
+                }
+                Ok(ZoneMaterial { lambda, mu, beta })
+            })
+            .collect()
+    }
+
+    /// Operator coefficients [λ_z, μ_z] per zone.
+    pub fn coefficients(&self, data: &Data) -> Result<Vec<[f64; 2]>, FemError> {
+        Ok(self
+            .zone_materials(data)?
+            .iter()
+            .map(|m| [m.lambda, m.mu])
+            .collect())
+    }
+
+    /// Assemble and factorise K_ff for the data (numeric factorisation only; the symbolic one
+    /// is shared). Errors naming the body when a body is floating.
+    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<2>, FemError> {
+        if let Some(&body) = self.floating.first() {
+            return Err(FemError::FloatingBody {
+                body,
+                name: self.mesh.bodies[body].clone(),
+            });
+        }
+        self.operator.factor(&self.coefficients(data)?, par)
+    }
+
+    /// Global nodal load vector f (S(v, T) tested with the nodal basis), before constraints.
+    pub fn loads(
+        &self,
+        data: &Data,
+        temperature: Option<&[f64]>,
+    ) -> Result<Vec<[f64; 2]>, FemError> {
+        let mut f = vec![[0.0; 2]; self.mesh.nodes.len()];
+        self.add_body_forces(data, &mut f)?;
+        self.add_boundary_loads(data, &mut f)?;
+        if let Some(t) = temperature {
+            self.add_thermal_load(data, t, &mut f)?;
+        }
+        Ok(f)
+    }
+
+    fn add_body_forces(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
+        for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
+            let force = data
+                .materials
+                .get(zone.material)
+                .ok_or_else(|| FemError::InvalidMaterial {
+                    material: zone.material,
+                    reason: format!("zone '{}' refers to a missing material", zone.name),
+                })?
+                .force();
+            for &(node, w) in weights {
+                f[node][0] += w * force[0];
+                f[node][1] += w * force[1];
+            }
+        }
+        Ok(())
+    }
+
+    fn add_boundary_loads(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
+        if data.boundary.len() != self.segment_loads.len() {
+            return Err(FemError::Input(format!(
+                "{} boundary conditions in the data, the problem was built with {}",
+                data.boundary.len(),
+                self.segment_loads.len()
+            )));
+        }
+        for (bc, load) in data.boundary.iter().zip(&self.segment_loads) {
+            match bc.value {
+                BoundaryValue::Traction(p) => {
+                    for &(node, w) in &load.weights {
+                        f[node][0] += w * p[0];
+                        f[node][1] += w * p[1];
+                    }
+                }
+                BoundaryValue::Pressure(p) => {
+                    for &(node, n) in &load.normals {
+                        f[node][0] -= p * n[0];
+                        f[node][1] -= p * n[1];
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// f_i += Σ_e β_z (T̄_e − T0) area_e ∂φ_i (the Duhamel–Neumann term of S).
+    fn add_thermal_load(
+        &self,
+        data: &Data,
+        temperature: &[f64],
+        f: &mut [[f64; 2]],
+    ) -> Result<(), FemError> {
+        self.check_temperature(temperature)?;
+        let materials = self.zone_materials(data)?;
+        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+            let beta = materials[self.mesh.triangle_zone[t]].beta;
+            let mean = tri.iter().map(|&n| temperature[n]).sum::<f64>() / 3.0;
+            let g = &self.gradients[t];
+            let s = beta * (mean - data.reference_temperature) * g.area;
+            for (i, &node) in tri.iter().enumerate() {
+                f[node][0] += s * g.dx[i];
+                f[node][1] += s * g.dy[i];
+            }
+        }
+        Ok(())
+    }
+
+    fn check_temperature(&self, temperature: &[f64]) -> Result<(), FemError> {
+        if temperature.len() == self.mesh.nodes.len() {
+            Ok(())
+        } else {
+            Err(FemError::Input(format!(
+                "temperature has {} values, the mesh {} nodes",
+                temperature.len(),
+                self.mesh.nodes.len()
+            )))
+        }
+    }
+
+    /// Prescribed local DOF values u_d of the data.
+    pub fn fixed_values(&self, data: &Data) -> Result<Vec<f64>, FemError> {
+        self.dofs.fixed_values(&self.mesh, &data.boundary)
+    }
+
+    /// Reduced right-hand side b = Rᵀf|_free − K_fd(λ, μ) u_d for the data.
+    pub fn rhs(&self, data: &Data, temperature: Option<&[f64]>) -> Result<Vec<f64>, FemError> {
+        self.rhs_with(
+            &self.coefficients(data)?,
+            &self.loads(data, temperature)?,
+            &self.fixed_values(data)?,
+        )
+    }
+
+    /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values.
+    pub fn rhs_with(
+        &self,
+        coefficients: &[[f64; 2]],
+        loads: &[[f64; 2]],
+        fixed: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        if loads.len() != self.mesh.nodes.len() {
+            return Err(FemError::Input(format!(
+                "{} nodal loads given, the mesh has {} nodes",
+                loads.len(),
+                self.mesh.nodes.len()
+            )));
+        }
+        let (mut b, _) = self.dofs.restrict(loads);
+        self.operator.lift(coefficients, fixed, &mut b)?;
+        Ok(b)
+    }
+
+    /// Solve K u = f for the data with a factor of the same data: the global nodal displacement.
+    pub fn solve(
+        &self,
+        factor: &OperatorFactor<2>,
+        data: &Data,
+        temperature: Option<&[f64]>,
+    ) -> Result<Vec<[f64; 2]>, FemError> {
+        if factor.coefficients != self.coefficients(data)? {
+            return Err(FemError::Input(
+                "the factor was computed for other material data".into(),
+            ));
+        }
+        self.solve_with(
+            factor,
+            &self.loads(data, temperature)?,
+            &self.fixed_values(data)?,
+        )
+    }
+
+    /// Solve with explicit nodal loads and prescribed local values.
+    pub fn solve_with(
+        &self,
+        factor: &OperatorFactor<2>,
+        loads: &[[f64; 2]],
+        fixed: &[f64],
+    ) -> Result<Vec<[f64; 2]>, FemError> {
+        let b = self.rhs_with(&factor.coefficients, loads, fixed)?;
+        let x = factor.factor.solve(&b);
+        Ok(self.dofs.expand(&x, fixed))
+    }
+
+    /// Element strains and stresses (τ11, τ22, τ12, τ33) of a displacement field.
+    pub fn stresses(
+        &self,
+        data: &Data,
+        u: &[[f64; 2]],
+        temperature: Option<&[f64]>,
+    ) -> Result<Vec<ElementStress>, FemError> {
+        if u.len() != self.mesh.nodes.len() {
+            return Err(FemError::Input(format!(
+                "displacement has {} nodes, the mesh {}",
+                u.len(),
+                self.mesh.nodes.len()
+            )));
+        }
+        if let Some(t) = temperature {
+            self.check_temperature(t)?;
+        }
+        let materials = self.zone_materials(data)?;
+        Ok(element_stresses(
+            &self.mesh,
+            &self.gradients,
+            &materials,
+            u,
+            temperature.map(|t| (t, data.reference_temperature)),
+        ))
+    }
+
+    /// Nodal residual K u − f in global components (thermal part included through the stress):
+    /// the reaction forces at constrained nodes, ≈ 0 elsewhere.
+    pub fn reactions(
+        &self,
+        data: &Data,
+        u: &[[f64; 2]],
+        temperature: Option<&[f64]>,
+    ) -> Result<Vec<[f64; 2]>, FemError> {
+        let stresses = self.stresses(data, u, temperature)?;
+        let mut r = internal_forces(&self.mesh, &self.gradients, &stresses);
+        let mut mechanical = vec![[0.0; 2]; self.mesh.nodes.len()];
+        self.add_body_forces(data, &mut mechanical)?;
+        self.add_boundary_loads(data, &mut mechanical)?;
+        for (ri, fi) in r.iter_mut().zip(&mechanical) {
+            ri[0] -= fi[0];
+            ri[1] -= fi[1];
+        }
+        Ok(r)
+    }
+}
+
+/// Per element: K^λ_e = area d dᵀ (d = mᵀB) and K^μ_e = area Bᵀ diag(2, 2, 1) B, global xy.
+fn element_matrices(g: &TriangleGradients) -> [[[f64; 2]; 6]; 6] {
+    let d = g.divergence_row();
+    let mut k = [[[0.0; 2]; 6]; 6];
+    for a in 0..3 {
+        for b in 0..3 {
+            let (xa, ya, xb, yb) = (g.dx[a], g.dy[a], g.dx[b], g.dy[b]);
+            // e(φ_a e_x) = (xa, 0, ya), e(φ_a e_y) = (0, ya, xa) as (e11, e22, γ12).
+            let mu = [
+                [2.0 * xa * xb + ya * yb, ya * xb],
+                [xa * yb, 2.0 * ya * yb + xa * xb],
+            ];
+            for i in 0..2 {
+                for j in 0..2 {
+                    k[2 * a + i][2 * b + j] =
+                        [g.area * d[2 * a + i] * d[2 * b + j], g.area * mu[i][j]];
+                }
+            }
+        }
+    }
+    k
+}
+
+/// K_loc = Tᵀ K T with T = blockdiag(R_a) and R_a = [e0 e1] the local basis of node a.
+fn rotate(k: &mut [[[f64; 2]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
+    let t = |row: usize, col: usize| -> f64 {
+        if row / 2 == col / 2 {
+            bases[row / 2][col % 2][row % 2]
+        } else {
+            0.0
+        }
+    };
+    let mut kt = [[[0.0; 2]; 6]; 6];
+    for i in 0..6 {
+        for j in 0..6 {
+            for m in 2 * (j / 2)..2 * (j / 2) + 2 {
+                for c in 0..2 {
+                    kt[i][j][c] += k[i][m][c] * t(m, j);
+                }
+            }
+        }
+    }
+    for i in 0..6 {
+        for j in 0..6 {
+            let mut v = [0.0; 2];
+            for m in 2 * (i / 2)..2 * (i / 2) + 2 {
+                for c in 0..2 {
+                    v[c] += t(m, i) * kt[m][j][c];
+                }
+            }
+            k[i][j] = v;
+        }
+    }
+}
+
+fn build_operator(
+    mesh: &Mesh,
+    dofs: &DofMap,
+    gradients: &[TriangleGradients],
+) -> Result<ZonedOperator<2>, FemError> {
+    let identity = [[1.0, 0.0], [0.0, 1.0]];
+    let mut builder = OperatorBuilder::<2>::new(dofs.n_free(), dofs.n_fixed(), mesh.zones.len());
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let mut k = element_matrices(&gradients[t]);
+        let bases = tri.map(|n| dofs.basis(n));
+        if bases.iter().any(|b| *b != identity) {
+            rotate(&mut k, bases);
+        }
+        let slots: Vec<Slot> = tri.iter().flat_map(|&n| dofs.slots(n)).collect();
+        builder.add_element(mesh.triangle_zone[t], &slots, |i, j| k[i][j]);
+    }
+    builder.finish()
+}

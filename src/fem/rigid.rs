@@ -1,0 +1,144 @@
+//! Rigid motions and floating bodies (SPEC §2.3, CZ Thm 1.2, D05 Thm 2.1).
+//!
+//! The plane rigid motions of a body are w = a (1, 0) + b (0, 1) + c (−(y − y_c), x − x_c) about
+//! its centroid. A body is floating when some nonzero rigid motion satisfies all its constraints
+//! (every prescribed local DOF of the motion is zero): then K_ff is singular. The kernel of K_ff
+//! on that body is exactly those motions, expressed here on the free DOFs.
+
+use faer::{Mat, Side};
+
+use super::dofs::DofMap;
+use super::operator::Slot;
+use super::FemError;
+use crate::mesh::Mesh;
+
+/// Relative eigenvalue threshold below which a rigid motion counts as unconstrained.
+const KERNEL_TOL: f64 = 1e-10;
+
+/// The rigid motions of a body that its supports leave free.
+#[derive(Debug, Clone)]
+pub struct RigidModes {
+    pub body: usize,
+    /// Rotation centre (area centroid of the body).
+    pub centroid: [f64; 2],
+    /// Each mode as coefficients (translation x, translation y, rotation about the centroid).
+    pub coefficients: Vec<[f64; 3]>,
+    /// Each mode on the reduced (free, rotated) DOFs: n_free × modes.
+    pub modes: Mat<f64>,
+}
+
+/// Area centroid of a body and its radius (largest node distance from the centroid, at least
+/// the smallest positive float so that it can scale the rotation).
+fn centroid_and_radius(mesh: &Mesh, body: usize) -> ([f64; 2], f64) {
+    let (mut area, mut cx, mut cy) = (0.0, 0.0, 0.0);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        if mesh.node_body[tri[0]] != body {
+            continue;
+        }
+        let a = mesh.triangle_area(t);
+        area += a;
+        for &n in tri {
+            cx += a * mesh.nodes[n][0] / 3.0;
+            cy += a * mesh.nodes[n][1] / 3.0;
+        }
+    }
+    let c = if area > 0.0 {
+        [cx / area, cy / area]
+    } else {
+        [0.0, 0.0]
+    };
+    let radius = body_nodes(mesh, body)
+        .map(|n| (mesh.nodes[n][0] - c[0]).hypot(mesh.nodes[n][1] - c[1]))
+        .fold(f64::MIN_POSITIVE, f64::max);
+    (c, radius)
+}
+
+fn body_nodes(mesh: &Mesh, body: usize) -> impl Iterator<Item = usize> + '_ {
+    (0..mesh.nodes.len()).filter(move |&n| mesh.node_body[n] == body)
+}
+
+/// The three unit rigid motions at point p: translation x, translation y, rotation (scaled by
+/// 1/scale so that the three are comparable).
+fn rigid_at(p: [f64; 2], c: [f64; 2], scale: f64) -> [[f64; 2]; 3] {
+    [
+        [1.0, 0.0],
+        [0.0, 1.0],
+        [-(p[1] - c[1]) / scale, (p[0] - c[0]) / scale],
+    ]
+}
+
+/// Coefficient vectors (in the scaled basis) of the rigid motions left free by the constraints.
+fn unconstrained_motions(
+    mesh: &Mesh,
+    dofs: &DofMap,
+    body: usize,
+    c: [f64; 2],
+    scale: f64,
+) -> Result<Vec<[f64; 3]>, FemError> {
+    let mut gram = Mat::<f64>::zeros(3, 3);
+    for node in body_nodes(mesh, body) {
+        let w = rigid_at(mesh.nodes[node], c, scale);
+        for a in dofs.constraint_directions(node) {
+            let row = w.map(|wi| a[0] * wi[0] + a[1] * wi[1]);
+            for i in 0..3 {
+                for j in 0..3 {
+                    gram[(i, j)] += row[i] * row[j];
+                }
+            }
+        }
+    }
+    let trace = gram[(0, 0)] + gram[(1, 1)] + gram[(2, 2)];
+    if trace == 0.0 {
+        return Ok(vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+    }
+    let eig = gram
+        .self_adjoint_eigen(Side::Lower)
+        .map_err(|e| FemError::Solver(format!("rigid-motion eigenproblem: {e:?}")))?;
+    let (s, u) = (eig.S(), eig.U());
+    Ok((0..3)
+        .filter(|&k| s[k] <= KERNEL_TOL * trace)
+        .map(|k| [u[(0, k)], u[(1, k)], u[(2, k)]])
+        .collect())
+}
+
+/// The rigid motions of `body` that its supports leave free (empty when the body is held).
+pub fn rigid_modes(mesh: &Mesh, dofs: &DofMap, body: usize) -> Result<RigidModes, FemError> {
+    let (centroid, scale) = centroid_and_radius(mesh, body);
+    let scaled = unconstrained_motions(mesh, dofs, body, centroid, scale)?;
+    // Back to unscaled rotation: the rotation coefficient multiplies (−(y−yc), x−xc) directly.
+    let coefficients: Vec<[f64; 3]> = scaled.iter().map(|m| [m[0], m[1], m[2] / scale]).collect();
+    let mut modes = Mat::<f64>::zeros(dofs.n_free(), coefficients.len());
+    for node in body_nodes(mesh, body) {
+        let w = rigid_at(mesh.nodes[node], centroid, 1.0);
+        for (k, m) in coefficients.iter().enumerate() {
+            let v = [
+                m[0] * w[0][0] + m[1] * w[1][0] + m[2] * w[2][0],
+                m[0] * w[0][1] + m[1] * w[1][1] + m[2] * w[2][1],
+            ];
+            let local = dofs.to_local(node, v);
+            for (slot, value) in dofs.slots(node).into_iter().zip(local) {
+                if let Slot::Free(i) = slot {
+                    modes[(i, k)] = value;
+                }
+            }
+        }
+    }
+    Ok(RigidModes {
+        body,
+        centroid,
+        coefficients,
+        modes,
+    })
+}
+
+/// Bodies whose supports leave some rigid motion free (K_ff singular on them).
+pub fn floating_bodies(mesh: &Mesh, dofs: &DofMap) -> Result<Vec<usize>, FemError> {
+    let mut floating = Vec::new();
+    for body in 0..mesh.bodies.len() {
+        let (centroid, scale) = centroid_and_radius(mesh, body);
+        if !unconstrained_motions(mesh, dofs, body, centroid, scale)?.is_empty() {
+            floating.push(body);
+        }
+    }
+    Ok(floating)
+}
