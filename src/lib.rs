@@ -2,8 +2,9 @@
 //!
 //! The pipeline, one module each: `scene` (the JSON document) → `mesh` (P1 triangles, contact
 //! node pairs) → `fem` (elasticity and heat operators, loads, stresses) → `contact` (the exact
-//! direct contact solver) → `dd` (the papers' domain decomposition solver) → `scenario`
-//! (admissible sets, criteria Φ1–Φ6, the outer maximiser).
+//! direct contact solver) → `dd` (the papers' domain decomposition solver) → `state` (one state
+//! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `app` (what the
+//! command line and the service do).
 
 pub mod examples;
 pub mod fem;

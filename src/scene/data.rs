@@ -108,31 +108,22 @@ pub struct SlipData {
     pub values: Vec<f64>,
 }
 
-impl SlipData {
-    /// g(s) by linear interpolation (constant outside the knots).
-    pub fn at(&self, s: f64) -> f64 {
-        match self.values.len() {
-            0 => 0.0,
-            1 => self.values[0],
-            _ => {
-                let k = &self.knots;
-                if s <= k[0] {
-                    return self.values[0];
-                }
-                for i in 1..k.len() {
-                    if s <= k[i] {
-                        let w = if k[i] > k[i - 1] {
-                            (s - k[i - 1]) / (k[i] - k[i - 1])
-                        } else {
-                            1.0
-                        };
-                        return self.values[i - 1] * (1.0 - w) + self.values[i] * w;
-                    }
-                }
-                *self.values.last().unwrap_or(&0.0)
-            }
+/// Linear interpolation of `values` at increasing `knots`, constant outside; 0 without knots.
+pub fn piecewise_linear(knots: &[f64], values: &[f64], s: f64) -> f64 {
+    let n = knots.len().min(values.len());
+    if n == 0 {
+        return 0.0;
+    }
+    if s <= knots[0] {
+        return values[0];
+    }
+    for i in 1..n {
+        if s <= knots[i] {
+            let w = (s - knots[i - 1]) / (knots[i] - knots[i - 1]);
+            return values[i - 1] * (1.0 - w) + values[i] * w;
         }
     }
+    values[n - 1]
 }
 
 /// All numbers a solve depends on.

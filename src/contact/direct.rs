@@ -1,0 +1,385 @@
+//! The exact direct contact solver (SPEC §3.1): K factorised once per stiffness, the contact
+//! problem condensed on the node-pair multipliers and solved as a box QP to machine precision.
+//!
+//! Primal (D05 Def. 2.1, discrete): min ½uᵀKu − fᵀu + Σ_m g_m w_m |(B u)_{t,m}| subject to
+//! (B u)_{n,m} ≤ g0_m. Dual with multipliers λ (normal force ≥ 0, |tangential| ≤ g w):
+//!   min ½ λᵀ C λ − λᵀ d   s.t. box,  G λ = e,
+//! with C = B K⁺ Bᵀ, d = B K⁺ f + B_d u_d − g0, and for floating bodies (semi-coercive case, CZ
+//! Thm 1.2, D05 Thm 2.1) the kernel R of K on the free DOFs: G = RᵀBᵀ, e = Rᵀ f (the loads left
+//! after contact must not excite a rigid motion). Then u = K⁺(f − Bᵀλ) + R α with α the equality
+//! multipliers. K⁺ is the generalised inverse obtained by pinning, per floating body, as many
+//! DOFs as it has rigid motions (chosen so that the pinned rows of R are well conditioned).
+//! Infeasible G λ = e within the box means the loads cannot be balanced by contact and friction:
+//! the solve is refused with the body and the unbalanced motion named.
+
+use faer::{Mat, Par};
+use rayon::prelude::*;
+
+use super::pairs::ContactGeometry;
+use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
+use crate::error::WsmError;
+use crate::fem::{ElasticProblem, Factor, RigidModes};
+use crate::scene::Data;
+
+/// Columns of Bᵀ solved at once when forming C.
+const CHUNK: usize = 32;
+
+/// Floating-body kernel on the free DOFs and the DOFs pinned to factorise K.
+#[derive(Debug, Clone)]
+struct Kernel {
+    /// n_free × k rigid modes of all floating bodies.
+    modes: Mat<f64>,
+    /// Per mode: body name and (translation x, translation y, rotation) coefficients.
+    labels: Vec<(String, [f64; 3])>,
+    pinned: Vec<usize>,
+}
+
+/// The contact problem of a scene: geometry, floating-body kernel and G = RᵀBᵀ.
+#[derive(Debug, Clone)]
+pub struct DirectContact {
+    pub geometry: ContactGeometry,
+    kernel: Kernel,
+    g: Mat<f64>,
+}
+
+/// K (with pinned DOFs) factorised for one stiffness data set, with C = B K⁺ Bᵀ.
+#[derive(Debug, Clone)]
+pub struct StiffnessFactor {
+    /// Zone coefficients [λ_z, μ_z] the factor was built from.
+    pub coefficients: Vec<[f64; 2]>,
+    /// Values of the unpinned K (for residual checks).
+    values: Vec<f64>,
+    factor: Factor,
+    c: Mat<f64>,
+}
+
+/// The result of one contact solve.
+#[derive(Debug, Clone)]
+pub struct ContactSolution {
+    /// Displacement on the free DOFs.
+    pub u_free: Vec<f64>,
+    /// Multipliers: per pair (normal force, tangential force) [N/m].
+    pub multipliers: Vec<f64>,
+    /// Rigid-body amplitudes of the floating bodies.
+    pub rigid: Vec<f64>,
+    /// Relative gap and slip: B u + B_d u_d − g0 (normal rows ≤ 0 when closed).
+    pub gaps: Vec<f64>,
+    /// QP statistics (None when there is no contact).
+    pub qp: Option<QpSolution>,
+    /// ‖K u − f + Bᵀλ‖ / ‖f‖ on the free DOFs.
+    pub equilibrium_residual: f64,
+}
+
+impl DirectContact {
+    /// Pairs, B rows and the floating-body kernel. Refuses a floating body without contact.
+    pub fn new(scene: &crate::scene::Scene, elastic: &ElasticProblem) -> Result<DirectContact, WsmError> {
+        let geometry = ContactGeometry::new(scene, elastic.mesh(), elastic.dofs());
+        let mut modes: Vec<RigidModes> = Vec::new();
+        for &body in elastic.floating_bodies() {
+            let touches = geometry.pairs.iter().any(|p| {
+                p.nodes.iter().any(|&n| elastic.mesh().node_body[n] == body)
+            });
+            if !touches {
+                return Err(WsmError::Unbalanced {
+                    body: elastic.mesh().bodies[body].clone(),
+                    reason: "it is not held by displacement or roller conditions and touches no contact zone".into(),
+                });
+            }
+            modes.push(elastic.rigid_modes(body)?);
+        }
+        let n = elastic.dofs().n_free();
+        let k: usize = modes.iter().map(|m| m.modes.ncols()).sum();
+        let mut all = Mat::<f64>::zeros(n, k);
+        let mut labels = Vec::with_capacity(k);
+        let mut pinned = Vec::new();
+        let mut col = 0;
+        for rm in &modes {
+            for j in 0..rm.modes.ncols() {
+                for i in 0..n {
+                    all[(i, col)] = rm.modes[(i, j)];
+                }
+                labels.push((elastic.mesh().bodies[rm.body].clone(), rm.coefficients[j]));
+                col += 1;
+            }
+            pinned.extend(pick_pinned(&rm.modes));
+        }
+        pinned.sort_unstable();
+        let mut g = Mat::<f64>::zeros(k, geometry.dim());
+        for (r, row) in geometry.rows.iter().enumerate() {
+            for j in 0..k {
+                g[(j, r)] = row.free.iter().map(|&(i, c)| c * all[(i, j)]).sum();
+            }
+        }
+        Ok(DirectContact {
+            geometry,
+            kernel: Kernel { modes: all, labels, pinned },
+            g,
+        })
+    }
+
+    /// G = RᵀBᵀ and e = Rᵀ f: the equilibrium rows of the floating bodies for free-DOF loads f.
+    pub fn equilibrium(&self, f: &[f64]) -> (Mat<f64>, Vec<f64>) {
+        let e = (0..self.kernel_dim())
+            .map(|j| (0..f.len()).map(|i| self.kernel.modes[(i, j)] * f[i]).sum())
+            .collect();
+        (self.g.clone(), e)
+    }
+
+    /// Number of rigid motions left to the contact (sum over floating bodies).
+    pub fn kernel_dim(&self) -> usize {
+        self.kernel.labels.len()
+    }
+
+    /// Assemble K for the coefficients, pin the floating DOFs, factorise, and form C.
+    pub fn factor(
+        &self,
+        elastic: &ElasticProblem,
+        coefficients: &[[f64; 2]],
+        par: Par,
+    ) -> Result<StiffnessFactor, WsmError> {
+        let op = elastic.operator();
+        let values = op.assemble(coefficients)?;
+        let mut pinned_values = values.clone();
+        pin(op.pattern(), &mut pinned_values, &self.kernel.pinned);
+        let factor = op.symbolic().factorize(op.matrix(&pinned_values), par)?;
+        let c = self.schur(&factor, op.n_free());
+        Ok(StiffnessFactor {
+            coefficients: coefficients.to_vec(),
+            values,
+            factor,
+            c,
+        })
+    }
+
+    /// x = K⁺ b (pinned entries zero on input and output).
+    fn pseudo_solve(&self, factor: &Factor, b: &mut [f64]) {
+        for &p in &self.kernel.pinned {
+            b[p] = 0.0;
+        }
+        let mut x = faer::MatMut::from_column_major_slice_mut(b, b.len(), 1);
+        factor.solve_in_place(x.as_mut());
+        for &p in &self.kernel.pinned {
+            b[p] = 0.0;
+        }
+    }
+
+    /// C = B K⁺ Bᵀ by chunks of columns, in parallel.
+    fn schur(&self, factor: &Factor, n: usize) -> Mat<f64> {
+        let m = self.geometry.dim();
+        let rows = &self.geometry.rows;
+        let chunks: Vec<(usize, Mat<f64>)> = (0..m.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|chunk| {
+                let start = chunk * CHUNK;
+                let width = CHUNK.min(m - start);
+                let mut y = Mat::<f64>::zeros(n, width);
+                for j in 0..width {
+                    for &(i, c) in &rows[start + j].free {
+                        y[(i, j)] += c;
+                    }
+                }
+                for &p in &self.kernel.pinned {
+                    for j in 0..width {
+                        y[(p, j)] = 0.0;
+                    }
+                }
+                factor.solve_in_place(y.as_mut());
+                for &p in &self.kernel.pinned {
+                    for j in 0..width {
+                        y[(p, j)] = 0.0;
+                    }
+                }
+                let mut block = Mat::<f64>::zeros(m, width);
+                for (r, row) in rows.iter().enumerate() {
+                    for j in 0..width {
+                        block[(r, j)] = row.free.iter().map(|&(i, c)| c * y[(i, j)]).sum();
+                    }
+                }
+                (start, block)
+            })
+            .collect();
+        let mut c = Mat::<f64>::zeros(m, m);
+        for (start, block) in chunks {
+            for j in 0..block.ncols() {
+                for r in 0..m {
+                    c[(r, start + j)] = block[(r, j)];
+                }
+            }
+        }
+        // Symmetrise (rounding) so that the QP's symmetry check sees an exact Hessian.
+        for j in 0..m {
+            for r in 0..j {
+                let v = 0.5 * (c[(r, j)] + c[(j, r)]);
+                c[(r, j)] = v;
+                c[(j, r)] = v;
+            }
+        }
+        c
+    }
+
+    /// Solve the contact problem for the reduced right-hand side `rhs` (loads and lifting) and
+    /// prescribed values `fixed`.
+    pub fn solve(
+        &self,
+        factor: &StiffnessFactor,
+        elastic: &ElasticProblem,
+        rhs: &[f64],
+        fixed: &[f64],
+        data: &Data,
+        warm: Option<&WarmStart>,
+    ) -> Result<ContactSolution, WsmError> {
+        let geometry = &self.geometry;
+        let m = geometry.dim();
+        let mut x0 = rhs.to_vec();
+        self.pseudo_solve(&factor.factor, &mut x0);
+        let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
+            (None, Vec::new(), Vec::new())
+        } else {
+            let d: Vec<f64> = geometry
+                .rows
+                .iter()
+                .enumerate()
+                .map(|(r, row)| {
+                    let gap = if r % 2 == 0 { geometry.pairs[r / 2].gap } else { 0.0 };
+                    row.dot(&x0) + row.dot_fixed(fixed) - gap
+                })
+                .collect();
+            let (g, e) = self.equilibrium(rhs);
+            let (lower, upper) = geometry.bounds(data);
+            let problem = BoxQp::new(factor.c.clone(), d, lower, upper).with_equalities(g, e);
+            let options = QpOptions {
+                parallel: false,
+                ..QpOptions::default()
+            };
+            let sol = solve_box_qp(&problem, warm, &options).map_err(|err| self.explain(err))?;
+            let (x, alpha) = (sol.x.clone(), sol.alpha.clone());
+            (Some(sol), x, alpha)
+        };
+        let mut u_free = rhs.to_vec();
+        for (r, row) in geometry.rows.iter().enumerate() {
+            for &(i, c) in &row.free {
+                u_free[i] -= c * multipliers[r];
+            }
+        }
+        self.pseudo_solve(&factor.factor, &mut u_free);
+        for (j, a) in rigid.iter().enumerate() {
+            for (i, ui) in u_free.iter_mut().enumerate() {
+                *ui += self.kernel.modes[(i, j)] * a;
+            }
+        }
+        let gaps = geometry
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(r, row)| {
+                let gap = if r % 2 == 0 { geometry.pairs[r / 2].gap } else { 0.0 };
+                row.dot(&u_free) + row.dot_fixed(fixed) - gap
+            })
+            .collect();
+        let mut residual = elastic.operator().apply(&factor.values, &u_free);
+        geometry.add_transpose(&multipliers, &mut residual);
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for (r, b) in residual.iter_mut().zip(rhs) {
+            *r -= b;
+        }
+        let scale = norm(rhs).max(f64::MIN_POSITIVE);
+        Ok(ContactSolution {
+            equilibrium_residual: norm(&residual) / scale,
+            u_free,
+            multipliers,
+            rigid,
+            gaps,
+            qp,
+        })
+    }
+
+    /// Turn an infeasible equilibrium into a message naming the body and the motion.
+    pub fn explain(&self, err: QpError) -> WsmError {
+        match err {
+            QpError::Infeasible { equality_rows, .. } => {
+                let row = equality_rows.first().copied().unwrap_or(0);
+                let (body, [tx, ty, rot]) = self.kernel.labels.get(row).cloned().unwrap_or_default();
+                WsmError::UnbalancedMode {
+                    body,
+                    motion: describe_motion(tx, ty, rot),
+                }
+            }
+            other => WsmError::Contact(other.to_string()),
+        }
+    }
+}
+
+/// A human description of a rigid motion a (1,0) + b (0,1) + c rotation.
+fn describe_motion(tx: f64, ty: f64, rot: f64) -> String {
+    let scale = tx.abs().max(ty.abs()).max(rot.abs()).max(f64::MIN_POSITIVE);
+    let mut parts = Vec::new();
+    if tx.abs().max(ty.abs()) > 1e-6 * scale {
+        let n = tx.hypot(ty);
+        parts.push(format!("translation along ({:.3}, {:.3})", tx / n, ty / n));
+    }
+    if rot.abs() > 1e-6 * scale {
+        parts.push("rotation".to_string());
+    }
+    parts.join(" with ")
+}
+
+/// Per floating body: as many DOFs as modes, greedily chosen so that the pinned rows of the
+/// modes are as independent as possible (pivoted Gram–Schmidt on the rows).
+fn pick_pinned(modes: &Mat<f64>) -> Vec<usize> {
+    let (n, k) = (modes.nrows(), modes.ncols());
+    let mut basis: Vec<Vec<f64>> = Vec::new();
+    let mut chosen = Vec::new();
+    for _ in 0..k {
+        let mut best = (0.0, usize::MAX, Vec::new());
+        for i in 0..n {
+            if chosen.contains(&i) {
+                continue;
+            }
+            let mut r: Vec<f64> = (0..k).map(|j| modes[(i, j)]).collect();
+            for b in &basis {
+                let dot: f64 = r.iter().zip(b).map(|(x, y)| x * y).sum();
+                for (x, y) in r.iter_mut().zip(b) {
+                    *x -= dot * y;
+                }
+            }
+            let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm > best.0 {
+                best = (norm, i, r);
+            }
+        }
+        if best.1 == usize::MAX {
+            break;
+        }
+        let (norm, i, r) = best;
+        basis.push(r.into_iter().map(|x| x / norm).collect());
+        chosen.push(i);
+    }
+    chosen
+}
+
+/// Replace the rows and columns of `pinned` DOFs by the identity scaled to the mean diagonal.
+fn pin(pattern: faer::sparse::SymbolicSparseColMatRef<'_, usize>, values: &mut [f64], pinned: &[usize]) {
+    if pinned.is_empty() {
+        return;
+    }
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    let n = pattern.ncols();
+    let mut diag_sum = 0.0;
+    for c in 0..n {
+        for p in col_ptr[c]..col_ptr[c + 1] {
+            if row_idx[p] == c {
+                diag_sum += values[p].abs();
+            }
+        }
+    }
+    let diag = (diag_sum / n.max(1) as f64).max(f64::MIN_POSITIVE);
+    for c in 0..n {
+        let col_pinned = pinned.binary_search(&c).is_ok();
+        for p in col_ptr[c]..col_ptr[c + 1] {
+            let r = row_idx[p];
+            if col_pinned || pinned.binary_search(&r).is_ok() {
+                values[p] = if r == c { diag } else { 0.0 };
+            }
+        }
+    }
+}

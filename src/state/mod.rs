@@ -1,0 +1,249 @@
+//! The state problem (SPEC §2–§3): for one data set, the heat solve (only when needed), the
+//! elastic contact solve (direct solver; DD when the scene asks for it), stresses, contact
+//! results with KKT residuals, and the criteria Φ1–Φ6.
+//!
+//! Everything that depends only on the mesh and the topology is built once in
+//! [`StateProblem::new`]: mesh, criteria weights, DOF map, per-zone operators, symbolic
+//! factorisations, contact geometry and the floating-body kernel. Per data set only numeric work
+//! remains, and a stiffness factorisation (with its contact Schur complement C) or a temperature
+//! field is reused when λ, μ or the thermal data did not change.
+
+mod criteria;
+mod memo;
+mod solution;
+
+pub use criteria::{evaluate as evaluate_criteria, Fields};
+pub use solution::*;
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::contact::direct::{DirectContact, StiffnessFactor};
+use crate::contact::qp::WarmStart;
+use crate::criteria::CriteriaGeometry;
+use crate::error::WsmError;
+use crate::fem::{ElasticProblem, HeatProblem, Par};
+use crate::mesh::Mesh;
+use crate::scene::{BoundaryValue, Criterion, Data, Scene};
+use memo::Memo;
+
+/// What a solve must compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    pub heat: bool,
+    pub elastic: bool,
+}
+
+impl Needs {
+    /// Only what the criteria need: no heat solve without a thermal part, no elastic solve for
+    /// Φ1/Φ2 alone.
+    pub fn for_criteria(scene: &Scene, criteria: &[Criterion]) -> Needs {
+        let elastic = criteria.iter().any(|c| !c.is_thermal());
+        let thermal = scene.thermal.is_some();
+        Needs {
+            heat: thermal && (elastic || criteria.iter().any(|c| c.is_thermal())),
+            elastic,
+        }
+    }
+
+    /// Everything the scene has.
+    pub fn all(scene: &Scene) -> Needs {
+        Needs::for_criteria(scene, &Criterion::ALL)
+    }
+}
+
+/// Options of one solve.
+#[derive(Debug, Clone)]
+pub struct SolveOptions {
+    pub needs: Needs,
+    /// Parallelism inside factorisations (`Par::Seq` when many solves run in parallel).
+    pub par: Par,
+    /// Contact multipliers of a nearby solution to start from.
+    pub warm: Option<WarmStart>,
+}
+
+/// Everything built once per scene.
+pub struct StateProblem {
+    pub scene: Scene,
+    pub nominal: Data,
+    pub criteria: CriteriaGeometry,
+    pub elastic: ElasticProblem,
+    pub heat: Option<HeatProblem>,
+    pub contact: DirectContact,
+    factors: Memo<Arc<StiffnessFactor>>,
+    temperatures: Memo<Arc<Vec<f64>>>,
+    /// Time to build the problem [s].
+    pub setup_seconds: f64,
+}
+
+impl StateProblem {
+    /// Mesh the scene and build the operators (the scene must be validated).
+    pub fn new(scene: Scene) -> Result<StateProblem, WsmError> {
+        let start = Instant::now();
+        let mesh = crate::mesh::generate(&scene)?;
+        StateProblem::with_mesh(scene, mesh, start)
+    }
+
+    /// Build on a given mesh.
+    pub fn with_mesh(scene: Scene, mesh: Mesh, start: Instant) -> Result<StateProblem, WsmError> {
+        let nominal = Data::from_scene(&scene);
+        let criteria = crate::criteria::build(&scene, &mesh)?;
+        let heat = match scene.thermal {
+            Some(_) => Some(HeatProblem::new(&mesh, &nominal)?),
+            None => None,
+        };
+        let elastic = ElasticProblem::new(&mesh, &nominal)?;
+        let contact = DirectContact::new(&scene, &elastic)?;
+        Ok(StateProblem {
+            scene,
+            nominal,
+            criteria,
+            elastic,
+            heat,
+            contact,
+            factors: Memo::new(4),
+            temperatures: Memo::new(4),
+            setup_seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    pub fn mesh(&self) -> &Mesh {
+        self.elastic.mesh()
+    }
+
+    /// Solve the state problem for `data`.
+    pub fn solve(&self, data: &Data, options: &SolveOptions) -> Result<Solution, WsmError> {
+        let start = Instant::now();
+        let mesh = self.mesh();
+        let mut report = SolveReport {
+            solver: "direct".into(),
+            nodes: mesh.nodes.len(),
+            triangles: mesh.triangles.len(),
+            unknowns: self.elastic.dofs().n_free(),
+            contact_pairs: self.contact.geometry.pairs.len(),
+            floating_modes: self.contact.kernel_dim(),
+            ..SolveReport::default()
+        };
+        let temperature = if options.needs.heat {
+            let t0 = Instant::now();
+            let t = self.temperature(data, options.par)?;
+            report.timings.heat = t0.elapsed().as_secs_f64();
+            Some(t)
+        } else {
+            if self.heat.is_some() {
+                report.skipped.push("heat solve (no requested criterion needs it)".into());
+            }
+            None
+        };
+        let mut solution = Solution::default();
+        if options.needs.elastic {
+            self.solve_elastic(data, options, temperature.as_deref().map(Vec::as_slice), &mut solution, &mut report)?;
+        } else {
+            report.skipped.push("elastic contact solve (only thermal criteria requested)".into());
+        }
+        let t0 = Instant::now();
+        solution.criteria = evaluate_criteria(
+            &self.criteria,
+            &Fields {
+                temperature: temperature.as_deref().map(Vec::as_slice),
+                displacement: options.needs.elastic.then_some(solution.displacement.as_slice()),
+                stresses: options.needs.elastic.then_some(solution.stresses.as_slice()),
+            },
+        );
+        solution.temperature = temperature.map(|t| t.as_ref().clone());
+        report.timings.post += t0.elapsed().as_secs_f64();
+        report.timings.total = start.elapsed().as_secs_f64();
+        solution.report = report;
+        Ok(solution)
+    }
+
+    fn solve_elastic(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        temperature: Option<&[f64]>,
+        solution: &mut Solution,
+        report: &mut SolveReport,
+    ) -> Result<(), WsmError> {
+        let elastic = &self.elastic;
+        let coefficients = elastic.coefficients(data)?;
+        report.warnings.extend(locking_warnings(&coefficients, elastic.mesh()));
+        let t0 = Instant::now();
+        let key = memo::key(coefficients.iter().flatten().copied());
+        let (factor, reused) = self.factors.get_or_try(key, || {
+            self.contact
+                .factor(elastic, &coefficients, options.par)
+                .map(Arc::new)
+        })?;
+        report.reused_factorisation = reused;
+        report.timings.factor = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let fixed = elastic.fixed_values(data)?;
+        let loads = elastic.loads(data, temperature)?;
+        let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
+        let sol = self
+            .contact
+            .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
+        report.timings.contact = t1.elapsed().as_secs_f64();
+        let t2 = Instant::now();
+        let u = elastic.dofs().expand(&sol.u_free, &fixed);
+        let u_scale = u.iter().fold(0.0_f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+        let (nodes, kkt) = contact_results(&self.contact.geometry, &sol, data, &elastic.mesh().nodes, u_scale);
+        report.kkt = kkt;
+        if let Some(qp) = &sol.qp {
+            report.qp_iterations = qp.iterations;
+            report.qp_fallback_iterations = qp.fallback_iterations;
+            report.active_set_changes = qp.active_set_changes;
+            report.undetermined_modes = qp.undetermined_modes;
+            if qp.undetermined_modes > 0 {
+                report.warnings.push(format!(
+                    "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the minimum-norm motion is reported",
+                    qp.undetermined_modes
+                ));
+            }
+        }
+        solution.stresses = elastic.stresses(data, &u, temperature)?;
+        solution.displacement = u;
+        solution.contact = nodes;
+        report.timings.post = t2.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The temperature field of the data (reused when the thermal data did not change).
+    fn temperature(&self, data: &Data, par: Par) -> Result<Arc<Vec<f64>>, WsmError> {
+        let Some(heat) = &self.heat else {
+            return Err(WsmError::Contact("the scene has no thermal part".into()));
+        };
+        let thermal_numbers = data
+            .materials
+            .iter()
+            .flat_map(|m| [m.conductivity, m.heat_source])
+            .chain(data.boundary.iter().filter_map(|b| match b.value {
+                BoundaryValue::Temperature(v) | BoundaryValue::HeatFlux(v) => Some(v),
+                _ => None,
+            }));
+        let key = memo::key(thermal_numbers);
+        let (t, _) = self.temperatures.get_or_try(key, || {
+            let factor = heat.factor(data, par)?;
+            Ok::<_, WsmError>(Arc::new(heat.solve(&factor, data)?))
+        })?;
+        Ok(t)
+    }
+}
+
+/// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
+fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {
+    coefficients
+        .iter()
+        .zip(&mesh.zones)
+        .filter_map(|([lambda, mu], zone)| {
+            let nu = lambda / (2.0 * (lambda + mu));
+            (nu >= 0.49).then(|| {
+                format!(
+                    "zone '{}': Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)",
+                    zone.name
+                )
+            })
+        })
+        .collect()
+}
