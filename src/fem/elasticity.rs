@@ -97,9 +97,11 @@ impl ElasticProblem {
         t: usize,
         coefs: &[[f64; 2]],
     ) -> Result<([Slot; 6], [[f64; 6]; 6]), FemError> {
-        let tri = *self.mesh.triangles.get(t).ok_or_else(|| {
-            FemError::Input(format!("triangle {t} out of range"))
-        })?;
+        let tri = *self
+            .mesh
+            .triangles
+            .get(t)
+            .ok_or_else(|| FemError::Input(format!("triangle {t} out of range")))?;
         let c = *coefs.get(self.mesh.triangle_zone[t]).ok_or_else(|| {
             FemError::Input(format!(
                 "{} zone coefficient sets given, triangle {t} is in zone {}",
