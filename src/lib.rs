@@ -6,6 +6,8 @@
 //! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `app` (what the
 //! command line and the service do).
 
+pub mod contact;
+pub mod error;
 pub mod dd;
 pub mod examples;
 pub mod fem;

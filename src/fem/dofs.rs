@@ -14,7 +14,7 @@ use crate::scene::{BoundaryData, BoundaryValue};
 
 use super::geometry::segment_node_normals;
 use super::operator::Slot;
-use super::FemError;
+use super::{expect_len, FemError};
 
 /// sin of the smallest angle between two constraint directions still treated as independent.
 const INDEPENDENT: f64 = 1e-6;
@@ -179,12 +179,13 @@ impl DofMap {
     }
 
     /// Prescribed local values taken from a global nodal field (e.g. an exact solution).
-    pub fn fixed_values_from(&self, field: &[[f64; 2]]) -> Vec<f64> {
+    pub fn fixed_values_from(&self, field: &[[f64; 2]]) -> Result<Vec<f64>, FemError> {
+        expect_len("nodal displacements", field.len(), self.n_nodes())?;
         let mut fixed = vec![0.0; self.n_fixed];
         for c in &self.constrained {
             self.store_fixed(c.node, field[c.node], &mut fixed);
         }
-        fixed
+        Ok(fixed)
     }
 
     fn store_fixed(&self, node: usize, u: [f64; 2], fixed: &mut [f64]) {
@@ -375,4 +376,83 @@ fn check_dependent(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::structured::rectangle;
+
+    fn condition(mesh: &Mesh, name: &str, value: BoundaryValue) -> BoundaryData {
+        BoundaryData {
+            segment: mesh.segment_index(name).unwrap(),
+            value,
+        }
+    }
+
+    #[test]
+    fn oblique_roller_rotates_and_two_constraints_fix_the_node() {
+        let mesh = rectangle(0.0, 0.0, 1.0, 1.0, 2, 2);
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let boundary = vec![
+            condition(&mesh, "left", BoundaryValue::Roller(Some([1.0, 1.0]))),
+            condition(
+                &mesh,
+                "bottom",
+                BoundaryValue::Displacement([None, Some(0.3)]),
+            ),
+        ];
+        let map = DofMap::new(&mesh, &boundary).unwrap();
+        // Node (0, 0.5) on the left side only: local axis 0 along (1, 1)/√2, fixed.
+        let left_middle = 3;
+        assert_eq!(mesh.nodes[left_middle], [0.0, 0.5]);
+        let [e0, e1] = map.basis(left_middle);
+        assert!((e0[0] - s).abs() < 1e-15 && (e0[1] - s).abs() < 1e-15);
+        assert!((e1[0] + s).abs() < 1e-15 && (e1[1] - s).abs() < 1e-15);
+        assert!(matches!(
+            map.slots(left_middle),
+            [Slot::Fixed(_), Slot::Free(_)]
+        ));
+        // Corner (0, 0): u·(1,1)/√2 = 0 and u_y = 0.3 → u = (−0.3, 0.3).
+        let fixed = map.fixed_values(&mesh, &boundary).unwrap();
+        let u = map.expand(&vec![0.0; map.n_free()], &fixed);
+        assert!((u[0][0] + 0.3).abs() < 1e-15 && (u[0][1] - 0.3).abs() < 1e-15);
+        assert_eq!(map.n_fixed() + map.n_free(), 2 * mesh.nodes.len());
+        // Restrict is Rᵀ: a load along e1 at the left middle node lands on its free DOF.
+        let mut load = vec![[0.0; 2]; mesh.nodes.len()];
+        load[left_middle] = [-s, s];
+        let (free, _) = map.restrict(&load);
+        let Slot::Free(i) = map.slots(left_middle)[1] else {
+            unreachable!()
+        };
+        assert!((free[i] - 1.0).abs() < 1e-15);
+    }
+
+    #[test]
+    fn dependent_constraints_must_agree() {
+        let mesh = rectangle(0.0, 0.0, 1.0, 1.0, 2, 2);
+        let with = |v: f64| {
+            vec![
+                condition(
+                    &mesh,
+                    "bottom",
+                    BoundaryValue::Displacement([None, Some(v)]),
+                ),
+                condition(&mesh, "left", BoundaryValue::Roller(Some([0.0, -2.0]))),
+            ]
+        };
+        let map = DofMap::new(&mesh, &with(0.0)).unwrap();
+        assert!(map.fixed_values(&mesh, &with(0.0)).is_ok());
+        let err = map.fixed_values(&mesh, &with(1e-3)).unwrap_err();
+        assert!(
+            matches!(err, FemError::ConflictingConstraints { node: 0, .. }),
+            "{err}"
+        );
+        let zero = vec![condition(
+            &mesh,
+            "left",
+            BoundaryValue::Roller(Some([0.0, 0.0])),
+        )];
+        assert!(DofMap::new(&mesh, &zero).is_err());
+    }
 }

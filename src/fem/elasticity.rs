@@ -1,7 +1,8 @@
 //! Plane-strain P1 elasticity: the reduced operator, unit loads and the linear solve.
 //!
-//! Bilinear form (FGCS 2.13', D05 Def. 2.1): a(u, v) = Σ_z ∫_{Ω_z} λ_z tr e(u) tr e(v)
-//! + 2μ_z e(u):e(v), so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
+//! Bilinear form (FGCS 2.13', D05 Def. 2.1):
+//! a(u, v) = Σ_z ∫_{Ω_z} (λ_z tr e(u) tr e(v) + 2μ_z e(u):e(v)),
+//! so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
 //! K^λ_e = area·Bᵀ m mᵀ B (m = (1, 1, 0)) and K^μ_e = area·Bᵀ diag(2, 2, 1) B (engineering shear).
 //! Load functional (FGCS 2.16, D05 §3): S(v, T) = Σ_z ∫ F_z·v + ∫_{Γτ} P·v + Σ_z ∫ (T − T0) β_z tr e(v),
 //! with the pressure form P = −p n. Loads are linear in F, P, p and T − T0: unit load vectors
@@ -20,7 +21,7 @@ use super::geometry::{
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{element_stresses, internal_forces, ElementStress, ZoneMaterial};
-use super::FemError;
+use super::{expect_len, material_of, FemError};
 
 /// The elasticity problem of a mesh and scene topology: DOFs, operator, unit loads.
 #[derive(Debug, Clone)]
@@ -128,13 +129,7 @@ impl ElasticProblem {
             .zones
             .iter()
             .map(|zone| {
-                let m = data
-                    .materials
-                    .get(zone.material)
-                    .ok_or_else(|| FemError::InvalidMaterial {
-                        material: zone.material,
-                        reason: format!("zone '{}' refers to a missing material", zone.name),
-                    })?;
+                let m = material_of(data, zone)?;
                 let (lambda, mu) = m.elastic.lame();
                 let beta = m.beta();
                 if !(mu > 0.0 && lambda + mu > 0.0 && lambda.is_finite() && beta.is_finite()) {
@@ -188,14 +183,7 @@ impl ElasticProblem {
 
     fn add_body_forces(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
         for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
-            let force = data
-                .materials
-                .get(zone.material)
-                .ok_or_else(|| FemError::InvalidMaterial {
-                    material: zone.material,
-                    reason: format!("zone '{}' refers to a missing material", zone.name),
-                })?
-                .force();
+            let force = material_of(data, zone)?.force();
             for &(node, w) in weights {
                 f[node][0] += w * force[0];
                 f[node][1] += w * force[1];
@@ -205,13 +193,11 @@ impl ElasticProblem {
     }
 
     fn add_boundary_loads(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
-        if data.boundary.len() != self.segment_loads.len() {
-            return Err(FemError::Input(format!(
-                "{} boundary conditions in the data, the problem was built with {}",
-                data.boundary.len(),
-                self.segment_loads.len()
-            )));
-        }
+        expect_len(
+            "boundary conditions",
+            data.boundary.len(),
+            self.segment_loads.len(),
+        )?;
         for (bc, load) in data.boundary.iter().zip(&self.segment_loads) {
             match bc.value {
                 BoundaryValue::Traction(p) => {
@@ -255,15 +241,11 @@ impl ElasticProblem {
     }
 
     fn check_temperature(&self, temperature: &[f64]) -> Result<(), FemError> {
-        if temperature.len() == self.mesh.nodes.len() {
-            Ok(())
-        } else {
-            Err(FemError::Input(format!(
-                "temperature has {} values, the mesh {} nodes",
-                temperature.len(),
-                self.mesh.nodes.len()
-            )))
-        }
+        expect_len(
+            "nodal temperatures",
+            temperature.len(),
+            self.mesh.nodes.len(),
+        )
     }
 
     /// Prescribed local DOF values u_d of the data.
@@ -287,13 +269,7 @@ impl ElasticProblem {
         loads: &[[f64; 2]],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
-        if loads.len() != self.mesh.nodes.len() {
-            return Err(FemError::Input(format!(
-                "{} nodal loads given, the mesh has {} nodes",
-                loads.len(),
-                self.mesh.nodes.len()
-            )));
-        }
+        expect_len("nodal loads", loads.len(), self.mesh.nodes.len())?;
         let (mut b, _) = self.dofs.restrict(loads);
         self.operator.lift(coefficients, fixed, &mut b)?;
         Ok(b)
@@ -337,13 +313,7 @@ impl ElasticProblem {
         u: &[[f64; 2]],
         temperature: Option<&[f64]>,
     ) -> Result<Vec<ElementStress>, FemError> {
-        if u.len() != self.mesh.nodes.len() {
-            return Err(FemError::Input(format!(
-                "displacement has {} nodes, the mesh {}",
-                u.len(),
-                self.mesh.nodes.len()
-            )));
-        }
+        expect_len("nodal displacements", u.len(), self.mesh.nodes.len())?;
         if let Some(t) = temperature {
             self.check_temperature(t)?;
         }
@@ -401,34 +371,20 @@ fn element_matrices(g: &TriangleGradients) -> [[[f64; 2]; 6]; 6] {
     k
 }
 
-/// K_loc = Tᵀ K T with T = blockdiag(R_a) and R_a = [e0 e1] the local basis of node a.
+/// K_loc = Tᵀ K T with T = blockdiag(R_a), R_a = [e0 e1] the local basis of node a:
+/// (K_loc)_ij = e_i(a)ᵀ K_ab e_j(b) for local DOF i of node a and j of node b.
 fn rotate(k: &mut [[[f64; 2]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
-    let t = |row: usize, col: usize| -> f64 {
-        if row / 2 == col / 2 {
-            bases[row / 2][col % 2][row % 2]
-        } else {
-            0.0
-        }
-    };
-    let mut kt = [[[0.0; 2]; 6]; 6];
-    for i in 0..6 {
-        for j in 0..6 {
-            for m in 2 * (j / 2)..2 * (j / 2) + 2 {
-                for c in 0..2 {
-                    kt[i][j][c] += k[i][m][c] * t(m, j);
-                }
-            }
-        }
-    }
-    for i in 0..6 {
-        for j in 0..6 {
-            let mut v = [0.0; 2];
-            for m in 2 * (i / 2)..2 * (i / 2) + 2 {
-                for c in 0..2 {
-                    v[c] += t(m, i) * kt[m][j][c];
-                }
-            }
-            k[i][j] = v;
+    let global = *k;
+    for (i, row) in k.iter_mut().enumerate() {
+        for (j, entry) in row.iter_mut().enumerate() {
+            let (a, b) = (i / 2, j / 2);
+            let (ea, eb) = (bases[a][i % 2], bases[b][j % 2]);
+            *entry = [0, 1].map(|c| {
+                (0..2)
+                    .flat_map(|p| (0..2).map(move |q| (p, q)))
+                    .map(|(p, q)| ea[p] * global[2 * a + p][2 * b + q][c] * eb[q])
+                    .sum()
+            });
         }
     }
 }

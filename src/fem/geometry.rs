@@ -122,7 +122,7 @@ pub fn check_mesh(mesh: &Mesh) -> Result<(), FemError> {
     }
     for t in 0..mesh.triangles.len() {
         let area = mesh.triangle_area(t);
-        if !(area > 0.0) {
+        if area.is_nan() || area <= 0.0 {
             return Err(FemError::Input(format!(
                 "triangle {t} {:?} has area {area} (must be counter-clockwise, non-degenerate)",
                 mesh.triangles[t]

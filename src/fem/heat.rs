@@ -16,7 +16,7 @@ use super::geometry::{
     check_mesh, element_gradients, segment_load, zone_weights, SegmentLoad, TriangleGradients,
 };
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
-use super::FemError;
+use super::{expect_len, material_of, FemError};
 
 /// Union-find with path halving.
 #[derive(Debug, Clone)]
@@ -114,14 +114,7 @@ impl HeatProblem {
             .zones
             .iter()
             .map(|zone| {
-                let kappa = data
-                    .materials
-                    .get(zone.material)
-                    .ok_or_else(|| FemError::InvalidMaterial {
-                        material: zone.material,
-                        reason: format!("zone '{}' refers to a missing material", zone.name),
-                    })?
-                    .conductivity;
+                let kappa = material_of(data, zone)?.conductivity;
                 if kappa > 0.0 && kappa.is_finite() {
                     Ok([kappa])
                 } else {
@@ -141,19 +134,14 @@ impl HeatProblem {
 
     /// Nodal heat loads ∫ W φ_i + ∫ q φ_i ds, before merging and constraints.
     pub fn loads(&self, data: &Data) -> Result<Vec<f64>, FemError> {
-        if data.boundary.len() != self.segment_loads.len() {
-            return Err(FemError::Input(format!(
-                "{} boundary conditions in the data, the problem was built with {}",
-                data.boundary.len(),
-                self.segment_loads.len()
-            )));
-        }
+        expect_len(
+            "boundary conditions",
+            data.boundary.len(),
+            self.segment_loads.len(),
+        )?;
         let mut f = vec![0.0; self.mesh.nodes.len()];
         for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
-            let w = data
-                .materials
-                .get(zone.material)
-                .map_or(0.0, |m| m.heat_source);
+            let w = material_of(data, zone)?.heat_source;
             for &(node, weight) in weights {
                 f[node] += w * weight;
             }
@@ -191,11 +179,13 @@ impl HeatProblem {
     }
 
     /// Prescribed temperatures taken from a nodal field (e.g. an exact solution).
-    pub fn fixed_values_from(&self, field: &[f64]) -> Vec<f64> {
-        self.fixed_sources
+    pub fn fixed_values_from(&self, field: &[f64]) -> Result<Vec<f64>, FemError> {
+        expect_len("nodal temperatures", field.len(), self.mesh.nodes.len())?;
+        Ok(self
+            .fixed_sources
             .iter()
             .map(|&(node, _)| field[node])
-            .collect()
+            .collect())
     }
 
     /// Reduced right-hand side b = f|_free − K_fd(κ) T_d for the data.
@@ -214,13 +204,7 @@ impl HeatProblem {
         loads: &[f64],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
-        if loads.len() != self.mesh.nodes.len() {
-            return Err(FemError::Input(format!(
-                "{} nodal heat loads given, the mesh has {} nodes",
-                loads.len(),
-                self.mesh.nodes.len()
-            )));
-        }
+        expect_len("nodal heat loads", loads.len(), self.mesh.nodes.len())?;
         let mut b = vec![0.0; self.operator.n_free()];
         for (node, &f) in loads.iter().enumerate() {
             if let Slot::Free(i) = self.slot(node) {
@@ -403,4 +387,48 @@ fn build_operator(
         });
     }
     builder.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::structured::stacked_blocks;
+    use crate::scene::{BoundaryData, Elastic, Expansion, MaterialData};
+
+    #[test]
+    fn contact_pairs_become_one_unknown() {
+        let mesh = stacked_blocks(1.0, 1.0, 1.0, 4, 2, 2);
+        let material = MaterialData {
+            elastic: Elastic::Lame {
+                lambda: 1.0,
+                mu: 1.0,
+            },
+            specific_weight: 0.0,
+            body_force: [0.0; 2],
+            conductivity: 1.0,
+            heat_source: 0.0,
+            expansion: Expansion::Beta(0.0),
+        };
+        let data = Data {
+            materials: vec![material.clone(), material],
+            boundary: vec![BoundaryData {
+                segment: mesh.segment_index("lower_bottom").unwrap(),
+                value: BoundaryValue::Temperature(1.0),
+            }],
+            slip: Vec::new(),
+            reference_temperature: 0.0,
+        };
+        let problem = HeatProblem::new(&mesh, &data).unwrap();
+        let unknowns = problem.operator().n_free() + problem.operator().n_fixed();
+        assert_eq!(unknowns, mesh.nodes.len() - mesh.contacts[0].pairs.len());
+        assert_eq!(problem.operator().n_fixed(), 5);
+        for &[a, b] in &mesh.contacts[0].pairs {
+            assert_eq!(problem.slot(a), problem.slot(b));
+        }
+        // No source, no flux: uniform T = 1 everywhere, through the contact.
+        let t = problem
+            .solve(&problem.factor(&data, Par::Seq).unwrap(), &data)
+            .unwrap();
+        assert!(t.iter().all(|&v| (v - 1.0).abs() < 1e-13));
+    }
 }

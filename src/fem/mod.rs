@@ -14,6 +14,7 @@
 //! Typical use: `let p = ElasticProblem::new(&mesh, &data)?; let k = p.factor(&data, Par::Seq)?;
 //! let u = p.solve(&k, &data, None)?;` and for a new data set only `factor` and `solve` again.
 
+pub mod bench;
 mod dofs;
 mod elasticity;
 mod geometry;
@@ -25,7 +26,7 @@ pub mod stress;
 
 pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;
-pub use geometry::TriangleGradients;
+pub use geometry::{segment_node_normals, TriangleGradients};
 pub use heat::HeatProblem;
 pub use linear::{Factor, Symbolic};
 pub use operator::{OperatorFactor, Slot, ZonedOperator};
@@ -58,4 +59,28 @@ pub enum FemError {
     Input(String),
     #[error("sparse solver: {0}")]
     Solver(String),
+}
+
+/// The material data of a mesh zone.
+fn material_of<'a>(
+    data: &'a crate::scene::Data,
+    zone: &crate::mesh::MeshZone,
+) -> Result<&'a crate::scene::MaterialData, FemError> {
+    data.materials
+        .get(zone.material)
+        .ok_or_else(|| FemError::InvalidMaterial {
+            material: zone.material,
+            reason: format!("zone '{}' refers to a missing material", zone.name),
+        })
+}
+
+/// An input array of the wrong length is an error, not a panic.
+fn expect_len(what: &str, given: usize, expected: usize) -> Result<(), FemError> {
+    if given == expected {
+        Ok(())
+    } else {
+        Err(FemError::Input(format!(
+            "{given} {what} given, {expected} expected"
+        )))
+    }
 }

@@ -82,8 +82,9 @@ impl<const NC: usize> OperatorBuilder<NC> {
     /// symbolic factorisation.
     pub fn finish(self) -> Result<ZonedOperator<NC>, FemError> {
         let n = self.n_free;
+        let free_free: Vec<Vec<Entry<NC>>> = self.free_free.into_iter().map(merge).collect();
         let mut keys: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
-        for zone in &self.free_free {
+        for zone in &free_free {
             keys.extend(zone.iter().map(|e| (e.col, e.row)));
         }
         keys.sort_unstable();
@@ -100,15 +101,11 @@ impl<const NC: usize> OperatorBuilder<NC> {
             let (lo, hi) = (col_ptr[e.col], col_ptr[e.col + 1]);
             lo + row_idx[lo..hi].partition_point(|&r| r < e.row)
         };
-        let zones = self
-            .free_free
-            .into_iter()
-            .map(|entries| {
-                let merged = merge(entries);
-                ZoneBlock {
-                    index: merged.iter().map(position).collect(),
-                    values: merged.iter().map(|e| e.v).collect(),
-                }
+        let zones = free_free
+            .iter()
+            .map(|merged| ZoneBlock {
+                index: merged.iter().map(position).collect(),
+                values: merged.iter().map(|e| e.v).collect(),
             })
             .collect();
         let coupling = self
@@ -290,4 +287,90 @@ impl<const NC: usize> ZonedOperator<NC> {
 pub struct OperatorFactor<const NC: usize> {
     pub coefficients: Vec<[f64; NC]>,
     pub factor: Factor,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    /// Two zones of 1D bar elements on unknowns 0..4 (unknown 4 fixed), coefficients [a, b].
+    fn bar() -> ZonedOperator<2> {
+        let slot = |u: usize| {
+            if u == 4 {
+                Slot::Fixed(0)
+            } else {
+                Slot::Free(u)
+            }
+        };
+        let mut b = OperatorBuilder::<2>::new(4, 1, 2);
+        for e in 0..4 {
+            let sign = |i: usize, j: usize| if i == j { 1.0 } else { -1.0 };
+            b.add_element(e % 2, &[slot(e), slot(e + 1)], |i, j| {
+                [sign(i, j), (e + 1) as f64 * sign(i, j)]
+            });
+        }
+        b.finish().unwrap()
+    }
+
+    fn dense(op: &ZonedOperator<2>, values: &[f64]) -> Mat<f64> {
+        let n = op.n_free();
+        let mut k = Mat::<f64>::zeros(n, n);
+        for i in 0..n {
+            let mut e = vec![0.0; n];
+            e[i] = 1.0;
+            for (r, v) in op.apply(values, &e).into_iter().enumerate() {
+                k[(r, i)] = v;
+            }
+        }
+        k
+    }
+
+    #[test]
+    fn assembly_is_the_linear_combination_of_zone_matrices() {
+        let op = bar();
+        let coefs = [[2.0, 0.5], [1.0, 3.0]];
+        let k = dense(&op, &op.assemble(&coefs).unwrap());
+        // Element e (zone e % 2) has stiffness c0 + (e + 1) c1 between unknowns e and e + 1.
+        let s: Vec<f64> = (0..4)
+            .map(|e| coefs[e % 2][0] + (e + 1) as f64 * coefs[e % 2][1])
+            .collect();
+        let expected = [
+            [s[0], -s[0], 0.0, 0.0],
+            [-s[0], s[0] + s[1], -s[1], 0.0],
+            [0.0, -s[1], s[1] + s[2], -s[2]],
+            [0.0, 0.0, -s[2], s[2] + s[3]],
+        ];
+        for i in 0..4 {
+            for j in 0..4 {
+                assert!((k[(i, j)] - expected[i][j]).abs() < 1e-14, "({i},{j})");
+            }
+        }
+        let mut rhs = vec![0.0; 4];
+        op.lift(&coefs, &[2.0], &mut rhs).unwrap();
+        assert_eq!(rhs, vec![0.0, 0.0, 0.0, 2.0 * s[3]]);
+        assert!(op.assemble(&coefs[..1]).is_err());
+    }
+
+    #[test]
+    fn factor_solves_many_right_hand_sides_and_rejects_indefinite() {
+        let op = bar();
+        let coefs = [[2.0, 0.5], [1.0, 3.0]];
+        let values = op.assemble(&coefs).unwrap();
+        let f = op.factor(&coefs, Par::Seq).unwrap();
+        let mut b = Mat::<f64>::from_fn(4, 3, |i, j| (i + 2 * j) as f64 - 1.5);
+        let original = b.clone();
+        f.factor.solve_in_place(b.as_mut());
+        for j in 0..3 {
+            let x: Vec<f64> = b.col(j).iter().copied().collect();
+            let kx = op.apply(&values, &x);
+            for i in 0..4 {
+                assert!((kx[i] - original[(i, j)]).abs() < 1e-12);
+            }
+        }
+        let err = op
+            .factor(&[[-1.0, -1.0], [1.0, 3.0]], Par::Seq)
+            .unwrap_err();
+        assert!(matches!(err, FemError::NotPositiveDefinite { .. }));
+    }
 }

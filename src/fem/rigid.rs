@@ -105,8 +105,13 @@ fn unconstrained_motions(
 pub fn rigid_modes(mesh: &Mesh, dofs: &DofMap, body: usize) -> Result<RigidModes, FemError> {
     let (centroid, scale) = centroid_and_radius(mesh, body);
     let scaled = unconstrained_motions(mesh, dofs, body, centroid, scale)?;
-    // Back to unscaled rotation: the rotation coefficient multiplies (−(y−yc), x−xc) directly.
-    let coefficients: Vec<[f64; 3]> = scaled.iter().map(|m| [m[0], m[1], m[2] / scale]).collect();
+    // Unscaled rotation: the coefficient multiplies (−(y − yc), x − xc) directly; a fully free
+    // body gets the plain basis (translation x, translation y, unit rotation).
+    let coefficients: Vec<[f64; 3]> = if scaled.len() == 3 {
+        vec![[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    } else {
+        scaled.iter().map(|m| [m[0], m[1], m[2] / scale]).collect()
+    };
     let mut modes = Mat::<f64>::zeros(dofs.n_free(), coefficients.len());
     for node in body_nodes(mesh, body) {
         let w = rigid_at(mesh.nodes[node], centroid, 1.0);

@@ -1,0 +1,399 @@
+//! MPRGP (modified proportioning with reduced gradient projections, Dostál 2009, ch. 8) for
+//! `min ½ yᵀA y − bᵀy` on a box, the SMALBE augmented Lagrangian for the equalities (Dostál 2009,
+//! ch. 9; PERMON defaults M = 100, ρ = 1.1‖A‖), and the phase-1 feasibility check.
+
+use faer::MatRef;
+
+use super::scaled::Scaled;
+use super::{
+    add_gt, gemv_rows, inf_norm, residuals, symv, unscaled_kkt, BoxQp, QpError, QpOptions,
+};
+
+/// Proportioning constant Γ.
+const GAMMA: f64 = 1.0;
+/// Expansion step ᾱ = STEP / ‖A‖ (must be ≤ 2 / ‖A‖).
+const STEP: f64 = 1.9;
+/// Relative feasibility tolerance of phase 1.
+const FEAS_TOL: f64 = 1e-9;
+/// Cap on SMALBE outer iterations.
+const MAX_OUTER: usize = 500;
+
+/// `A = C + ρ GᵀG` (with `C` absent in phase 1).
+struct Operator<'a> {
+    c: Option<MatRef<'a, f64>>,
+    g: MatRef<'a, f64>,
+    rho: f64,
+    tmp: Vec<f64>,
+}
+
+impl Operator<'_> {
+    fn apply(&mut self, x: &[f64], out: &mut [f64]) {
+        match self.c {
+            Some(c) => symv(c, x, out),
+            None => out.fill(0.0),
+        }
+        if self.rho != 0.0 && !self.tmp.is_empty() {
+            gemv_rows(self.g, x, &mut self.tmp);
+            add_gt(self.g, &self.tmp, self.rho, out);
+        }
+    }
+
+    /// Power-method estimate of ‖A‖ (slightly enlarged).
+    fn norm_estimate(&mut self, m: usize) -> f64 {
+        let mut v: Vec<f64> = (0..m)
+            .map(|i| 1.0 + 0.1 * ((i * 7919) % 13) as f64)
+            .collect();
+        let mut av = vec![0.0; m];
+        let mut lambda = 0.0;
+        for _ in 0..60 {
+            let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if norm == 0.0 {
+                break;
+            }
+            v.iter_mut().for_each(|a| *a /= norm);
+            self.apply(&v, &mut av);
+            lambda = v.iter().zip(&av).map(|(a, b)| a * b).sum::<f64>();
+            std::mem::swap(&mut v, &mut av);
+        }
+        1.05 * lambda.max(f64::MIN_POSITIVE)
+    }
+}
+
+/// Box and the fixed-step length of one MPRGP run.
+struct Box<'a> {
+    lo: &'a [f64],
+    hi: &'a [f64],
+    abar: f64,
+}
+
+impl Box<'_> {
+    fn is_free(&self, i: usize, x: f64) -> bool {
+        self.lo[i] < x && x < self.hi[i]
+    }
+
+    /// Free gradient φ.
+    fn free_grad(&self, x: &[f64], g: &[f64], out: &mut [f64]) {
+        for i in 0..x.len() {
+            out[i] = if self.is_free(i, x[i]) { g[i] } else { 0.0 };
+        }
+    }
+
+    /// Chopped gradient β.
+    fn chopped_grad(&self, x: &[f64], g: &[f64], out: &mut [f64]) {
+        for i in 0..x.len() {
+            out[i] = if self.lo[i] == self.hi[i] || self.is_free(i, x[i]) {
+                0.0
+            } else if x[i] <= self.lo[i] {
+                g[i].min(0.0)
+            } else {
+                g[i].max(0.0)
+            };
+        }
+    }
+
+    /// `φ̃ · φ` with the reduced free gradient φ̃.
+    fn reduced_dot(&self, x: &[f64], phi: &[f64]) -> f64 {
+        (0..x.len())
+            .map(|i| {
+                let red = if phi[i] > 0.0 {
+                    phi[i].min((x[i] - self.lo[i]) / self.abar)
+                } else {
+                    phi[i].max((x[i] - self.hi[i]) / self.abar)
+                };
+                red * phi[i]
+            })
+            .sum()
+    }
+
+    /// Largest feasible step `t` of `x − t p`.
+    fn max_step(&self, x: &[f64], p: &[f64]) -> f64 {
+        let mut t = f64::INFINITY;
+        for i in 0..x.len() {
+            if p[i] > 0.0 {
+                t = t.min((x[i] - self.lo[i]) / p[i]);
+            } else if p[i] < 0.0 {
+                t = t.min((x[i] - self.hi[i]) / p[i]);
+            }
+        }
+        t.max(0.0)
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi = xi.clamp(self.lo[i], self.hi[i]);
+        }
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
+    y.iter_mut().zip(x).for_each(|(yi, xi)| *yi += a * xi);
+}
+
+/// Work vectors of one MPRGP run.
+struct Vectors {
+    g: Vec<f64>,
+    phi: Vec<f64>,
+    beta: Vec<f64>,
+    p: Vec<f64>,
+    ap: Vec<f64>,
+}
+
+/// Runs MPRGP from `x` until `stop(x, ‖g^P‖∞)` or `max_it` Hessian multiplications.
+/// Returns the iteration count and whether `stop` fired.
+fn mprgp(
+    op: &mut Operator<'_>,
+    b: &[f64],
+    bx: &Box<'_>,
+    x: &mut [f64],
+    max_it: usize,
+    stop: &mut dyn FnMut(&[f64], f64) -> bool,
+) -> Result<(usize, bool), QpError> {
+    let m = x.len();
+    bx.project(x);
+    let mut v = Vectors {
+        g: vec![0.0; m],
+        phi: vec![0.0; m],
+        beta: vec![0.0; m],
+        p: vec![0.0; m],
+        ap: vec![0.0; m],
+    };
+    exact_gradient(op, b, x, &mut v.g);
+    bx.free_grad(x, &v.g, &mut v.p);
+    let mut its = 0;
+    loop {
+        bx.free_grad(x, &v.g, &mut v.phi);
+        bx.chopped_grad(x, &v.g, &mut v.beta);
+        let gp = (0..m).fold(0.0f64, |a, i| a.max((v.phi[i] + v.beta[i]).abs()));
+        if stop(x, gp) {
+            return Ok((its, true));
+        }
+        if its >= max_it {
+            return Ok((its, false));
+        }
+        its += 1;
+        if dot(&v.beta, &v.beta) <= GAMMA * GAMMA * bx.reduced_dot(x, &v.phi) {
+            conjugate_or_expand(op, b, bx, x, &mut v)?;
+        } else {
+            proportion(op, bx, x, &mut v)?;
+        }
+        if its % 64 == 0 {
+            exact_gradient(op, b, x, &mut v.g);
+        }
+    }
+}
+
+fn exact_gradient(op: &mut Operator<'_>, b: &[f64], x: &[f64], g: &mut [f64]) {
+    op.apply(x, g);
+    g.iter_mut().zip(b).for_each(|(gi, bi)| *gi -= bi);
+}
+
+/// CG step along `p` if it stays feasible, else a feasible half step and an expansion step.
+fn conjugate_or_expand(
+    op: &mut Operator<'_>,
+    b: &[f64],
+    bx: &Box<'_>,
+    x: &mut [f64],
+    v: &mut Vectors,
+) -> Result<(), QpError> {
+    op.apply(&v.p, &mut v.ap);
+    let pap = dot(&v.p, &v.ap);
+    let acg = if pap > 0.0 {
+        dot(&v.g, &v.p) / pap
+    } else {
+        f64::INFINITY
+    };
+    let af = bx.max_step(x, &v.p);
+    if acg <= af {
+        axpy(-acg, &v.p, x);
+        axpy(-acg, &v.ap, &mut v.g);
+        bx.free_grad(x, &v.g, &mut v.phi);
+        let beta_cg = dot(&v.phi, &v.ap) / pap;
+        for i in 0..x.len() {
+            v.p[i] = v.phi[i] - beta_cg * v.p[i];
+        }
+        return Ok(());
+    }
+    if af == f64::INFINITY {
+        return Err(QpError::Unbounded);
+    }
+    axpy(-af, &v.p, x);
+    axpy(-af, &v.ap, &mut v.g);
+    bx.free_grad(x, &v.g, &mut v.phi);
+    axpy(-bx.abar, &v.phi, x);
+    bx.project(x);
+    exact_gradient(op, b, x, &mut v.g);
+    bx.free_grad(x, &v.g, &mut v.p);
+    Ok(())
+}
+
+/// Proportioning step along the chopped gradient (releases variables from their bounds).
+fn proportion(
+    op: &mut Operator<'_>,
+    bx: &Box<'_>,
+    x: &mut [f64],
+    v: &mut Vectors,
+) -> Result<(), QpError> {
+    op.apply(&v.beta, &mut v.ap);
+    let bab = dot(&v.beta, &v.ap);
+    let acg = if bab > 0.0 {
+        dot(&v.g, &v.beta) / bab
+    } else {
+        f64::INFINITY
+    };
+    let step = acg.min(bx.max_step(x, &v.beta));
+    if step == f64::INFINITY {
+        return Err(QpError::Unbounded);
+    }
+    axpy(-step, &v.beta, x);
+    axpy(-step, &v.ap, &mut v.g);
+    bx.free_grad(x, &v.g, &mut v.p);
+    Ok(())
+}
+
+/// Phase 1: MPRGP on `½‖G y − e‖²` over the box. Returns the iterations, or
+/// [`QpError::Infeasible`] when the minimum residual is not zero.
+pub(super) fn phase_one(p: &Scaled, opts: &QpOptions) -> Result<usize, QpError> {
+    let (m, k) = (p.dim(), p.n_equalities());
+    let mut op = Operator {
+        c: None,
+        g: p.g.as_ref(),
+        rho: 1.0,
+        tmp: vec![0.0; k],
+    };
+    let mut b = vec![0.0; m];
+    add_gt(p.g.as_ref(), &p.e, 1.0, &mut b);
+    let bx = Box {
+        lo: &p.lo,
+        hi: &p.hi,
+        abar: STEP / op.norm_estimate(m),
+    };
+    let mut y = vec![0.0; m];
+    let mut r = vec![0.0; k];
+    let mut feasible = false;
+    let mut stop = |y: &[f64], gp: f64| {
+        let (res, scale) = equality_residual(p, y, &mut r);
+        feasible = res <= FEAS_TOL * scale;
+        feasible || gp <= 1e-10 * res
+    };
+    let (its, stopped) = mprgp(&mut op, &b, &bx, &mut y, opts.max_fallback, &mut stop)?;
+    if !stopped || feasible {
+        return Ok(its);
+    }
+    let (_, scale) = equality_residual(p, &y, &mut r);
+    let r_orig = p.unscale_equality(&r);
+    let mut rows: Vec<usize> = (0..k).filter(|&i| r[i].abs() > FEAS_TOL * scale).collect();
+    rows.sort_by(|&a, &b| r_orig[b].abs().total_cmp(&r_orig[a].abs()));
+    Err(QpError::Infeasible {
+        residuals: rows.iter().map(|&i| r_orig[i]).collect(),
+        equality_rows: rows,
+    })
+}
+
+/// `r = G y − e`; returns `(‖r‖∞, max(‖e‖∞, max_r Σ_j |G_rj y_j|))`.
+fn equality_residual(p: &Scaled, y: &[f64], r: &mut [f64]) -> (f64, f64) {
+    gemv_rows(p.g.as_ref(), y, r);
+    let mut scale = inf_norm(&p.e);
+    for (row, ri) in r.iter_mut().enumerate() {
+        *ri -= p.e[row];
+        let abs: f64 = (0..y.len()).map(|j| (p.g[(row, j)] * y[j]).abs()).sum();
+        scale = scale.max(abs);
+    }
+    (inf_norm(r), scale)
+}
+
+/// SMALBE outer loop (plain MPRGP without equalities) from `(y, α̃)` until the KKT residual of
+/// the original problem is below `tol`. Returns the MPRGP iterations.
+pub(super) fn smalbe(
+    problem: &BoxQp,
+    p: &Scaled,
+    y: &mut [f64],
+    alpha: &mut [f64],
+    tol: f64,
+    opts: &QpOptions,
+) -> Result<usize, QpError> {
+    let (m, k) = (p.dim(), p.n_equalities());
+    let mut op = Operator {
+        c: Some(p.c.as_ref()),
+        g: p.g.as_ref(),
+        rho: 0.0,
+        tmp: vec![0.0; k],
+    };
+    op.rho = if k > 0 {
+        10.0 * op.norm_estimate(m)
+    } else {
+        0.0
+    };
+    let bx = Box {
+        lo: &p.lo,
+        hi: &p.hi,
+        abar: STEP / op.norm_estimate(m),
+    };
+    let mut mu: Vec<f64> = alpha.iter().map(|a| -a).collect();
+    let mut big_m = 1.0;
+    let mut last_lagrangian = f64::NEG_INFINITY;
+    let gradient_scale = scaled_gradient_scale(p, y, alpha);
+    let eta = 0.1 * gradient_scale;
+    let mut floor = tol * gradient_scale;
+    let mut its = 0;
+    let mut r = vec![0.0; k];
+    for _ in 0..MAX_OUTER {
+        if its >= opts.max_fallback {
+            break;
+        }
+        let b = augmented_rhs(p, &mu, op.rho);
+        let (feas, _) = equality_residual(p, y, &mut r);
+        let inner_tol = if k > 0 {
+            (big_m * feas).min(eta).max(floor)
+        } else {
+            floor
+        };
+        let mut stop = |_: &[f64], gp: f64| gp <= inner_tol;
+        let (n, _) = mprgp(&mut op, &b, &bx, y, opts.max_fallback - its, &mut stop)?;
+        its += n;
+        equality_residual(p, y, &mut r);
+        axpy(op.rho, &r, &mut mu);
+        alpha.iter_mut().zip(&mu).for_each(|(a, u)| *a = -u);
+        let kkt = unscaled_kkt(problem, p, y, alpha);
+        if kkt.max() <= tol {
+            return Ok(its);
+        }
+        if kkt.stationarity.max(kkt.complementarity) > tol {
+            floor *= 0.1;
+        }
+        let lag = lagrangian(p, y, &mu, op.rho, &r);
+        if lag < last_lagrangian + 0.5 * op.rho * dot(&r, &r) {
+            big_m /= 2.0;
+        }
+        last_lagrangian = lag;
+    }
+    Ok(its)
+}
+
+/// `b = d − Gᵀμ + ρ Gᵀe`.
+fn augmented_rhs(p: &Scaled, mu: &[f64], rho: f64) -> Vec<f64> {
+    let mut b = p.d.clone();
+    add_gt(p.g.as_ref(), mu, -1.0, &mut b);
+    add_gt(p.g.as_ref(), &p.e, rho, &mut b);
+    b
+}
+
+/// `L(y, μ, ρ) = ½yᵀCy − dᵀy + μᵀr + ½ρ‖r‖²`, `r = G y − e`.
+fn lagrangian(p: &Scaled, y: &[f64], mu: &[f64], rho: f64, r: &[f64]) -> f64 {
+    let mut cy = vec![0.0; y.len()];
+    symv(p.c.as_ref(), y, &mut cy);
+    0.5 * dot(y, &cy) - dot(&p.d, y) + dot(mu, r) + 0.5 * rho * dot(r, r)
+}
+
+fn scaled_gradient_scale(p: &Scaled, y: &[f64], alpha: &[f64]) -> f64 {
+    let m = y.len();
+    let s = residuals(p.view(), y, alpha, &mut vec![0.0; m], &mut vec![0.0; m]).gradient_scale;
+    if s > 0.0 {
+        s
+    } else {
+        1.0
+    }
+}

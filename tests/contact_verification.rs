@@ -1,0 +1,158 @@
+//! Contact verification (SPEC §6, issue "Contact"): 2D Hertz, the contact patch test, Tresca
+//! limits, stick/slip thresholds, and KKT residuals of every example.
+
+use serde_json::{json, Value};
+use wsm::scene::{parse, Data, Scene};
+use wsm::state::{ContactState, Needs, SolveOptions, Solution, StateProblem};
+
+fn options(scene: &Scene) -> SolveOptions {
+    SolveOptions {
+        needs: Needs::all(scene),
+        par: wsm::fem::Par::Seq,
+        warm: None,
+    }
+}
+
+fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm::error::WsmError> {
+    let scene = parse(&v.to_string())?;
+    let problem = StateProblem::new(scene)?;
+    let sol = problem.solve(&problem.nominal, &options(&problem.scene))?;
+    Ok((problem, sol))
+}
+
+/// Two stacked blocks of width 1: `lower` [0,1]×[0,0.5] on a roller floor, `upper`
+/// [0,1]×[0.5,1] held only by contact (floating in y), rollers on both left sides.
+fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64) -> Value {
+    json!({
+        "version": 1, "name": "stacked blocks",
+        "bodies": [
+            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
+            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
+        ],
+        "segments": {
+            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
+            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
+            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
+            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
+            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
+            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
+        },
+        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
+        "boundary": [
+            {"segment": "floor", "roller": {}},
+            {"segment": "lower_left", "roller": {}},
+            {"segment": "upper_left", "roller": {}},
+            {"segment": "top", "pressure": pressure}
+        ],
+        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit}],
+        "mesh": {"max_size": h}
+    })
+}
+
+#[test]
+fn contact_patch_test_transmits_uniform_pressure_exactly() {
+    let p = 3.0e6;
+    let (problem, sol) = solve_value(&stacked_blocks(p, 1.0e5, 0.1)).unwrap();
+    assert!(problem.contact.kernel_dim() >= 1, "the upper block floats in y");
+    assert!(!sol.contact.is_empty());
+    for c in &sol.contact {
+        assert!((c.pressure - p).abs() <= 1e-8 * p, "pressure {} at {:?}", c.pressure, c.position);
+        assert!(c.shear.abs() <= 1e-8 * p, "shear {}", c.shear);
+        assert_eq!(c.state, ContactState::Stick);
+    }
+    assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+}
+
+#[test]
+fn frictionless_limit_equals_zero_slip_limit_and_huge_limit_is_bonded() {
+    // A block pressed on a base and pushed by a prescribed horizontal displacement of its left
+    // side: g = 0 lets it slide freely, g huge bonds it.
+    let scene = |g: f64| {
+        let mut s = stacked_blocks(1.0e6, g, 0.1);
+        s["boundary"][2] = json!({"segment": "upper_left", "displacement": [1.0e-4, null]});
+        s
+    };
+    let (_, free) = solve_value(&scene(0.0)).unwrap();
+    for c in &free.contact {
+        assert!(c.shear.abs() <= 1e-9 * 1e6);
+    }
+    let (_, bonded) = solve_value(&scene(1.0e12)).unwrap();
+    for c in &bonded.contact {
+        assert_eq!(c.state, ContactState::Stick, "{c:?}");
+        assert!(c.slip.abs() <= 1e-12, "slip {}", c.slip);
+    }
+    // Frictionless: both blocks carry the same uniaxial stress, so the upper one is shifted by
+    // exactly the prescribed 1e-4 m relative to the lower one at every contact node.
+    for c in &free.contact {
+        assert!((c.slip.abs() - 1.0e-4).abs() <= 1e-10, "slip {} at {:?}", c.slip, c.position);
+    }
+    assert!(free.report.kkt.max() <= 1e-9 && bonded.report.kkt.max() <= 1e-9);
+}
+
+#[test]
+fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
+    // Upper block pushed by a traction on its left side (height 0.5): capacity g·L = g·1.
+    let g = 2.0e5;
+    let scene = |t: f64| {
+        let mut s = stacked_blocks(1.0e6, g, 0.1);
+        s["boundary"][2] = json!({"segment": "upper_left", "traction": [t, 0]});
+        s
+    };
+    // Below: 0.5 m × 3.8e5 Pa = 1.9e5 N/m < 2e5 N/m.
+    let (below_problem, below) = solve_value(&scene(3.8e5)).unwrap();
+    let pairs = &below_problem.contact.geometry.pairs;
+    let total_shear: f64 = below.contact.iter().zip(pairs).map(|(c, p)| c.shear * p.weight).sum();
+    assert!((total_shear.abs() - 1.9e5).abs() <= 1e-8 * 1.9e5, "friction force {total_shear}");
+    assert!(below.contact.iter().any(|c| c.state == ContactState::Stick));
+    assert!(below.report.kkt.max() <= 1e-9, "{:?}", below.report.kkt);
+    // Above: 0.5 × 4.2e5 = 2.1e5 > 2e5: the block cannot be held.
+    let err = solve_value(&scene(4.2e5)).err().expect("must be refused");
+    let msg = err.to_string();
+    assert!(msg.contains("upper") && msg.contains("translation"), "{msg}");
+}
+
+#[test]
+fn hertz_half_width_and_peak_pressure() {
+    let base: Value = serde_json::from_str(wsm::examples::example("hertz").unwrap()).unwrap();
+    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
+    let (r, load) = (0.5, 4.0 * 2.5e8);
+    let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
+    let p0_exact = 2.0 * load / (std::f64::consts::PI * a_exact);
+    let mut errors = Vec::new();
+    for h in [0.016, 0.008, 0.004] {
+        let mut scene = base.clone();
+        scene["mesh"]["refine"][0]["max_size"] = json!(h);
+        let (problem, sol) = solve_value(&scene).unwrap();
+        // Total normal force: Σ λ_n = load exactly (the cylinder floats in y).
+        let pairs = &problem.contact.geometry.pairs;
+        let forces: Vec<f64> = sol.contact.iter().zip(pairs).map(|(c, p)| c.pressure * p.weight).collect();
+        let total: f64 = forces.iter().sum();
+        assert!((total - load).abs() <= 1e-8 * load, "total {total} vs {load}");
+        // Half-width from the second moment of the pressure: ∫x²p = p0 π a³/8, ∫p = π a p0/2.
+        let m2: f64 = sol.contact.iter().zip(&forces).map(|(c, f)| c.position[0].powi(2) * f).sum();
+        let a = (4.0 * m2 / total).sqrt();
+        let p0 = sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max);
+        let (ea, ep) = ((a - a_exact).abs() / a_exact, (p0 - p0_exact).abs() / p0_exact);
+        println!("h = {h}: a = {a:.5} (exact {a_exact:.5}, err {ea:.2e}), p0 = {p0:.4e} (exact {p0_exact:.4e}, err {ep:.2e})");
+        assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+        errors.push((ea, ep));
+    }
+    let (ea, ep) = errors[errors.len() - 1];
+    assert!(ea < 0.03 && ep < 0.03, "finest errors a {ea}, p0 {ep}");
+    assert!(errors[2].0 + errors[2].1 < errors[0].0 + errors[0].1, "errors shrink: {errors:?}");
+}
+
+#[test]
+fn every_example_solves_with_small_kkt_residuals() {
+    for (name, text) in wsm::examples::EXAMPLES {
+        let scene = parse(text).unwrap();
+        let problem = StateProblem::new(scene).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let sol = problem
+            .solve(&problem.nominal, &options(&problem.scene))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(sol.report.kkt.max() <= 1e-9, "{name}: {:?}", sol.report.kkt);
+        assert!(sol.displacement.iter().all(|u| u[0].is_finite() && u[1].is_finite()), "{name}");
+        let data: &Data = &problem.nominal;
+        assert_eq!(data.slip.len(), problem.scene.contacts.len());
+    }
+}
