@@ -32,7 +32,9 @@ pub mod report;
 pub mod subdomain;
 pub mod successive;
 
+use crate::contact::pairs::ContactGeometry;
 use crate::fem::{ElasticProblem, FemError, Slot};
+use crate::scene::Data;
 
 pub use partition::{Partition, PartitionRequest};
 pub use report::DdReport;
@@ -158,6 +160,31 @@ impl DdProblem {
             floating_bodies: problem.floating_bodies().to_vec(),
         })
     }
+}
+
+/// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
+/// bounds, so that DD and direct solve the same discrete problem): normal rows
+/// B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
+pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> Vec<DdContactPair> {
+    let (lower, upper) = geometry.bounds(data);
+    geometry
+        .pairs
+        .iter()
+        .enumerate()
+        .map(|(m, p)| {
+            let row = |r: usize, gap: f64| ContactRow {
+                entries: geometry.rows[r].free.clone(),
+                value: gap - geometry.rows[r].dot_fixed(fixed),
+                lower: lower[r],
+                upper: upper[r],
+            };
+            DdContactPair {
+                nodes: p.nodes,
+                normal: row(2 * m, p.gap),
+                tangent: row(2 * m + 1, 0.0),
+            }
+        })
+        .collect()
 }
 
 /// Errors of the DD solver; each says which part failed.

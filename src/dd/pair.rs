@@ -213,7 +213,7 @@ impl ContactCluster {
                     let row = &self.rows[r].entries;
                     let a_s: f64 = row.iter().filter(|e| e.0 == p).map(|e| e.1).sum();
                     row.iter()
-                        .filter(|e| e.0 != p)
+                        .filter(|e| e.0 != p && e.1 != 0.0)
                         .map(|&(j, a)| (new[j], -a / a_s))
                         .collect()
                 }

@@ -87,9 +87,11 @@ impl Partition {
             for node in pair.nodes {
                 match node_subdomains[node].as_slice() {
                     [s] => contact[*s] = true,
-                    _ => return Err(DdError::Partition(format!(
+                    _ => {
+                        return Err(DdError::Partition(format!(
                         "contact node {node} lies on a subdomain interface (Γ ∩ Γc must be empty)"
-                    ))),
+                    )))
+                    }
                 }
             }
         }

@@ -6,7 +6,7 @@ use faer::Mat;
 use super::successive::{DdOptions, DirectAnswer};
 use super::*;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
-use crate::fem::{ElasticProblem, Par};
+use crate::fem::ElasticProblem;
 use crate::mesh::structured::stacked_blocks;
 use crate::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
 
@@ -24,6 +24,15 @@ fn material(e: f64, weight: f64) -> MaterialData {
 /// Two stacked blocks, lower clamped at the bottom, upper pushed down and sideways by a
 /// prescribed displacement of its top; Tresca slip limit `g` on the interface.
 pub(crate) fn two_blocks(nx: usize, g: f64, shear: f64) -> (DdProblem, Data) {
+    two_blocks_with(
+        nx,
+        g,
+        BoundaryValue::Displacement([Some(shear), Some(-0.004)]),
+    )
+}
+
+/// [`two_blocks`] with any condition on the top of the upper block.
+fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> (DdProblem, Data) {
     let mesh = stacked_blocks(2.0, 1.0, 0.5, nx, nx / 2, nx / 4);
     let seg = |name: &str| mesh.segment_index(name).expect("segment");
     let data = Data {
@@ -35,7 +44,7 @@ pub(crate) fn two_blocks(nx: usize, g: f64, shear: f64) -> (DdProblem, Data) {
             },
             BoundaryData {
                 segment: seg("upper_top"),
-                value: BoundaryValue::Displacement([Some(shear), Some(-0.004)]),
+                value: top,
             },
         ],
         slip: vec![SlipData {
@@ -314,4 +323,43 @@ fn partitions_keep_contact_zones_inside_one_subdomain() {
     cut[e] = part.n_subdomains;
     let err = Partition::new(&problem, &PartitionRequest::Explicit(cut)).unwrap_err();
     assert!(err.to_string().contains("contact node"), "{err}");
+}
+
+#[test]
+fn floating_upper_block_is_solved_inside_its_cluster_and_satisfies_the_kkt_conditions() {
+    // The upper block is held only by contact and friction (D05 Thm 2.1): a traction on its
+    // top, pressing and shearing less than the friction can hold.
+    let (problem, _) = two_blocks_with(24, 30.0, BoundaryValue::Traction([3.0, -40.0]));
+    assert_eq!(problem.floating_bodies, vec![1]);
+    let sol = solve(&problem, &options(8, 2), None).expect("dd");
+    eprintln!("{}", sol.report);
+    assert_eq!(sol.report.floating_modes, 3);
+    // Global equilibrium K u − f + Bᵀλ = 0.
+    let mut r: Vec<f64> = problem.rhs.iter().map(|f| -f).collect();
+    for el in &problem.elements {
+        for i in 0..6 {
+            for j in 0..6 {
+                if let (Some(a), Some(b)) = (el.dofs[i], el.dofs[j]) {
+                    r[a] += el.matrix[i][j] * sol.u[b];
+                }
+            }
+        }
+    }
+    let mut scale: f64 = 0.0;
+    for (p, m) in problem.pairs.iter().zip(&sol.multipliers) {
+        for (row, l) in [(&p.normal, m[0]), (&p.tangent, m[1])] {
+            for &(d, a) in &row.entries {
+                r[d] += a * l;
+            }
+            scale = scale.max(l.abs());
+        }
+        // Non-penetration, sign and friction bounds, complementarity.
+        let gap: f64 = p.normal.entries.iter().map(|&(d, a)| a * sol.u[d]).sum();
+        assert!(gap <= 1e-10 && m[0] >= -1e-10 * scale);
+        assert!(m[0] * gap.abs() <= 1e-8 * scale);
+        assert!(m[1].abs() <= p.tangent.upper * (1.0 + 1e-12));
+    }
+    let f = problem.rhs.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let res = r.iter().map(|x| x * x).sum::<f64>().sqrt() / f;
+    assert!(res <= 1e-9, "equilibrium residual {res:.3e}");
 }
