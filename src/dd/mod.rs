@@ -19,10 +19,12 @@
 //!   with contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38), Anderson acceleration and a
 //!   direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
+//! - [`bench`]: scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
 //! rotated nodal bases); [`DdProblem::from_elastic`] builds the input from it.
 
+pub mod bench;
 pub mod coarse;
 pub mod decomposition;
 pub mod pair;

@@ -3,100 +3,11 @@
 
 use faer::Mat;
 
+use super::bench::{two_blocks, two_blocks_with};
 use super::successive::{DdOptions, DirectAnswer};
 use super::*;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
-use crate::fem::ElasticProblem;
-use crate::mesh::structured::stacked_blocks;
-use crate::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
-
-fn material(e: f64, weight: f64) -> MaterialData {
-    MaterialData {
-        elastic: Elastic::Young { e, nu: 0.3 },
-        specific_weight: weight,
-        body_force: [0.0, 0.0],
-        conductivity: 1.0,
-        heat_source: 0.0,
-        expansion: Expansion::Alpha(0.0),
-    }
-}
-
-/// Two stacked blocks, lower clamped at the bottom, upper pushed down and sideways by a
-/// prescribed displacement of its top; Tresca slip limit `g` on the interface.
-pub(crate) fn two_blocks(nx: usize, g: f64, shear: f64) -> (DdProblem, Data) {
-    two_blocks_with(
-        nx,
-        g,
-        BoundaryValue::Displacement([Some(shear), Some(-0.004)]),
-    )
-}
-
-/// [`two_blocks`] with any condition on the top of the upper block.
-fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> (DdProblem, Data) {
-    let mesh = stacked_blocks(2.0, 1.0, 0.5, nx, nx / 2, nx / 4);
-    let seg = |name: &str| mesh.segment_index(name).expect("segment");
-    let data = Data {
-        materials: vec![material(1.0e4, 10.0), material(2.0e4, 10.0)],
-        boundary: vec![
-            BoundaryData {
-                segment: seg("lower_bottom"),
-                value: BoundaryValue::Displacement([Some(0.0), Some(0.0)]),
-            },
-            BoundaryData {
-                segment: seg("upper_top"),
-                value: top,
-            },
-        ],
-        slip: vec![SlipData {
-            knots: vec![0.0, 1.0],
-            values: vec![g, g],
-        }],
-        reference_temperature: 0.0,
-    };
-    let elastic = ElasticProblem::new(&mesh, &data).expect("problem");
-    let coefs = elastic.coefficients(&data).expect("coefficients");
-    let rhs = elastic.rhs(&data, None).expect("rhs");
-    let dofs = elastic.dofs();
-    let contact = &mesh.contacts[0];
-    let top = &mesh.segments[contact.segment_k];
-    let mut weight = vec![0.0; mesh.nodes.len()];
-    for &[a, b] in &top.edges {
-        let h = 0.5 * (mesh.nodes[b][0] - mesh.nodes[a][0]).abs();
-        weight[a] += h;
-        weight[b] += h;
-    }
-    let row = |nodes: [usize; 2], v: [f64; 2], lower: f64, upper: f64| {
-        let mut entries = Vec::new();
-        for (node, sign) in [(nodes[0], 1.0), (nodes[1], -1.0)] {
-            let basis = dofs.basis(node);
-            for (c, slot) in dofs.slots(node).into_iter().enumerate() {
-                if let crate::fem::Slot::Free(i) = slot {
-                    entries.push((i, sign * (v[0] * basis[c][0] + v[1] * basis[c][1])));
-                }
-            }
-        }
-        ContactRow {
-            entries,
-            value: 0.0,
-            lower,
-            upper,
-        }
-    };
-    let pairs = contact
-        .pairs
-        .iter()
-        .map(|&nodes| {
-            let gw = g * weight[nodes[0]];
-            DdContactPair {
-                nodes,
-                normal: row(nodes, [0.0, 1.0], 0.0, f64::INFINITY),
-                tangent: row(nodes, [-1.0, 0.0], -gw, gw),
-            }
-        })
-        .collect();
-    let problem = DdProblem::from_elastic(&elastic, &coefs, rhs, pairs).expect("dd problem");
-    (problem, data)
-}
+use crate::scene::BoundaryValue;
 
 /// Monolithic reference: K factorised, the whole contact problem condensed and solved.
 pub(crate) fn direct(problem: &DdProblem) -> DirectAnswer {
@@ -197,7 +108,7 @@ fn options(subdomains: usize, layers: usize) -> DdOptions {
 #[test]
 fn dd_equals_direct_on_two_blocks_frictionless_partial_slip_and_stick() {
     for g in [0.0, 8.0, 1e9] {
-        let (problem, _) = two_blocks(24, g, 0.003);
+        let problem = two_blocks(24, g, 0.003).expect("problem");
         let reference = direct(&problem);
         let st = states(&problem, &reference.multipliers);
         let sol = solve(&problem, &options(8, 2), None).expect("dd");
@@ -214,7 +125,7 @@ fn dd_equals_direct_on_two_blocks_frictionless_partial_slip_and_stick() {
         assert!(sol.report.coarse_residual.iter().all(|&x| x <= 1e-12));
     }
     // The partial-slip case has stick, slip and (at the free ends) all kinds of pairs.
-    let (problem, _) = two_blocks(24, 8.0, 0.003);
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let st = states(&problem, &direct(&problem).multipliers);
     assert!(st.contains(&1) && st.contains(&2), "{st:?}");
 }
@@ -223,7 +134,7 @@ fn dd_equals_direct_on_two_blocks_frictionless_partial_slip_and_stick() {
 fn divergent_successive_approximations_are_detected_and_accelerated() {
     // A thin contact band in a full-width contact: ρ(S0⁻¹ S_CON') > 1, the plain fixed point
     // diverges (the papers' contraction condition fails); Anderson mixing recovers it.
-    let (problem, _) = two_blocks(24, 8.0, 0.003);
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let reference = direct(&problem);
     let sol = solve(&problem, &options(8, 2), None).expect("dd");
     assert!(sol.report.contraction.iter().any(|&q| q >= 1.0));
@@ -250,7 +161,7 @@ fn divergent_successive_approximations_are_detected_and_accelerated() {
 fn coarse_dimensions_equal_the_counted_kernels() {
     use super::coarse::Balancing;
     use super::decomposition::Decomposition;
-    let (problem, _) = two_blocks(24, 8.0, 0.003);
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let part = Partition::new(
         &problem,
         &PartitionRequest::Automatic {
@@ -285,7 +196,7 @@ fn coarse_dimensions_equal_the_counted_kernels() {
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
-    let (problem, _) = two_blocks(24, 8.0, 0.003);
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -301,7 +212,7 @@ fn results_do_not_depend_on_the_thread_count() {
 
 #[test]
 fn partitions_keep_contact_zones_inside_one_subdomain() {
-    let (problem, _) = two_blocks(24, 8.0, 0.003);
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let part = Partition::new(
         &problem,
         &PartitionRequest::BySize {
@@ -329,7 +240,8 @@ fn partitions_keep_contact_zones_inside_one_subdomain() {
 fn floating_upper_block_is_solved_inside_its_cluster_and_satisfies_the_kkt_conditions() {
     // The upper block is held only by contact and friction (D05 Thm 2.1): a traction on its
     // top, pressing and shearing less than the friction can hold.
-    let (problem, _) = two_blocks_with(24, 30.0, BoundaryValue::Traction([3.0, -40.0]));
+    let problem =
+        two_blocks_with(24, 30.0, BoundaryValue::Traction([3.0, -40.0])).expect("problem");
     assert_eq!(problem.floating_bodies, vec![1]);
     let sol = solve(&problem, &options(8, 2), None).expect("dd");
     eprintln!("{}", sol.report);
