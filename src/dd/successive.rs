@@ -59,7 +59,7 @@ impl Default for DdOptions {
             outer_tol: 1e-10,
             max_outer: 200,
             stagnation: 0.95,
-            anderson_depth: 6,
+            anderson_depth: 20,
             force_acceleration: false,
             qp: QpOptions::default(),
         }
