@@ -219,15 +219,11 @@ fn allot(components: &[Vec<usize>], target: &Target, used: usize, rest: usize) -
         .iter()
         .map(|c| (total * c.len() / rest.max(1)).max(1))
         .collect();
-    let mut assigned: usize = parts.iter().sum();
+    let assigned: usize = parts.iter().sum();
     let mut order: Vec<usize> = (0..components.len()).collect();
-    order.sort_by_key(|&i| std::cmp::Reverse(components[i].len() * 1000 / parts[i]));
-    for &i in order.iter().cycle().take(components.len() * 4) {
-        if assigned >= total {
-            break;
-        }
-        parts[i] += 1;
-        assigned += 1;
+    order.sort_by_key(|&i| std::cmp::Reverse(components[i].len()));
+    for k in 0..total.saturating_sub(assigned) {
+        parts[order[k % order.len()]] += 1;
     }
     parts
 }
