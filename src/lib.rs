@@ -11,6 +11,7 @@ pub mod bench;
 pub mod contact;
 pub mod criteria;
 pub mod error;
+pub mod dd;
 pub mod examples;
 pub mod fem;
 pub mod mesh;

@@ -89,6 +89,40 @@ impl ElasticProblem {
         rigid_modes(&self.mesh, &self.dofs, body)
     }
 
+    /// Matrix of triangle `t` in the rotated nodal basis for zone coefficients `coefs` ([λ_z, μ_z]
+    /// per zone, as from [`Self::coefficients`]), with the slots of its six local DOFs (node-major,
+    /// in the order of the triangle's nodes): the element contribution to K_ff and K_fd. Used by
+    /// the domain decomposition to assemble subdomain matrices.
+    pub fn element_matrix(
+        &self,
+        t: usize,
+        coefs: &[[f64; 2]],
+    ) -> Result<([Slot; 6], [[f64; 6]; 6]), FemError> {
+        let tri = *self
+            .mesh
+            .triangles
+            .get(t)
+            .ok_or_else(|| FemError::Input(format!("triangle {t} out of range")))?;
+        let c = *coefs.get(self.mesh.triangle_zone[t]).ok_or_else(|| {
+            FemError::Input(format!(
+                "{} zone coefficient sets given, triangle {t} is in zone {}",
+                coefs.len(),
+                self.mesh.triangle_zone[t]
+            ))
+        })?;
+        let mut k = element_matrices(&self.gradients[t]);
+        rotate(&mut k, tri.map(|n| self.dofs.basis(n)));
+        let [a, b, d] = tri.map(|n| self.dofs.slots(n));
+        let slots = [a[0], a[1], b[0], b[1], d[0], d[1]];
+        let mut m = [[0.0; 6]; 6];
+        for (i, row) in m.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = c[0] * k[i][j][0] + c[1] * k[i][j][1];
+            }
+        }
+        Ok((slots, m))
+    }
+
     /// Validated (λ, μ, β) of every zone.
     pub fn zone_materials(&self, data: &Data) -> Result<Vec<ZoneMaterial>, FemError> {
         self.mesh

@@ -1,0 +1,299 @@
+//! From a partition to the local objects of the method (D05 §4.1–4.4): the interface Γ (DOFs in
+//! two or more subdomains), the non-contact subdomains T^ι as [`LinearBlock`]s, the contact
+//! clusters ϑ (subdomains linked by contact pairs, union–find) as [`ContactCluster`]s, and their
+//! tied versions for the auxiliary problem. Local factorisations run in parallel.
+
+use rayon::prelude::*;
+
+use super::pair::{ContactCluster, LocalRow};
+use super::partition::Partition;
+use super::subdomain::{assemble, rigid_candidates, Csr, LinearBlock};
+use super::{ContactRow, DdError, DdProblem};
+
+const NONE: usize = usize::MAX;
+
+/// Local DOF sets of one subdomain or cluster: interior (global DOFs) and interface (global
+/// DOFs, their interface indices).
+#[derive(Debug, Clone, Default)]
+pub struct LocalDofs {
+    pub interior: Vec<usize>,
+    pub interface: Vec<usize>,
+    pub gamma: Vec<usize>,
+}
+
+impl LocalDofs {
+    fn all(&self) -> Vec<usize> {
+        self.interior
+            .iter()
+            .chain(&self.interface)
+            .copied()
+            .collect()
+    }
+
+    /// Map global DOF → local index (interior first).
+    fn local_map(&self, n: usize) -> Vec<usize> {
+        let mut map = vec![NONE; n];
+        for (i, &d) in self.all().iter().enumerate() {
+            map[d] = i;
+        }
+        map
+    }
+}
+
+/// Everything the iterations need.
+pub struct Decomposition {
+    pub partition: Partition,
+    /// Global DOF of each interface index.
+    pub interface: Vec<usize>,
+    pub blocks: Vec<LinearBlock>,
+    pub block_dofs: Vec<LocalDofs>,
+    pub clusters: Vec<ContactCluster>,
+    pub cluster_dofs: Vec<LocalDofs>,
+    /// Pair indices of each cluster (rows 2i normal, 2i + 1 tangent).
+    pub cluster_pairs: Vec<Vec<usize>>,
+    /// Tied clusters for the auxiliary problem, and whether the tangential rows had to be tied
+    /// too (full stick) because the normal tie alone left a rigid motion.
+    pub tied: Vec<LinearBlock>,
+    pub full_stick: Vec<bool>,
+}
+
+impl Decomposition {
+    pub fn new(problem: &DdProblem, partition: Partition) -> Result<Decomposition, DdError> {
+        let n = problem.n_dofs();
+        let ns = partition.n_subdomains;
+        let mut elements = vec![Vec::new(); ns];
+        for (e, &s) in partition.element_subdomain.iter().enumerate() {
+            elements[s].push(e);
+        }
+        let mut dof_subs: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (s, list) in elements.iter().enumerate() {
+            for &e in list {
+                for d in problem.elements[e].dofs.into_iter().flatten() {
+                    if dof_subs[d].last() != Some(&s) {
+                        dof_subs[d].push(s);
+                    }
+                }
+            }
+        }
+        for v in &mut dof_subs {
+            v.sort_unstable();
+            v.dedup();
+        }
+        let interface: Vec<usize> = (0..n).filter(|&d| dof_subs[d].len() > 1).collect();
+        let mut gamma_of = vec![NONE; n];
+        for (i, &d) in interface.iter().enumerate() {
+            gamma_of[d] = i;
+        }
+        let mut sub_dofs = vec![LocalDofs::default(); ns];
+        for (d, subs) in dof_subs.iter().enumerate() {
+            for &s in subs {
+                if gamma_of[d] == NONE {
+                    sub_dofs[s].interior.push(d);
+                } else {
+                    sub_dofs[s].interface.push(d);
+                    sub_dofs[s].gamma.push(gamma_of[d]);
+                }
+            }
+        }
+        // ρ_s: mean diagonal of the local stiffness (a stiffness measure, D05 5.5).
+        let rho: Vec<f64> = elements
+            .iter()
+            .map(|list| {
+                let (mut sum, mut count) = (0.0, 0usize);
+                for &e in list {
+                    let el = &problem.elements[e];
+                    for i in 0..6 {
+                        if el.dofs[i].is_some() {
+                            sum += el.matrix[i][i];
+                            count += 1;
+                        }
+                    }
+                }
+                sum / count.max(1) as f64
+            })
+            .collect();
+        let non_contact: Vec<usize> = (0..ns).filter(|&s| !partition.contact[s]).collect();
+        let blocks: Vec<LinearBlock> = non_contact
+            .par_iter()
+            .map(|&s| {
+                let dofs = &sub_dofs[s];
+                let local = dofs.local_map(n);
+                let all = dofs.all();
+                let k = Csr::from_triplets(all.len(), assemble(problem, &elements[s], &local));
+                let cand = rigid_candidates(problem, &all, &vec![0; all.len()]);
+                LinearBlock::new(
+                    k,
+                    dofs.interior.len(),
+                    dofs.gamma.clone(),
+                    vec![rho[s]; dofs.gamma.len()],
+                    dofs.interior.iter().map(|&d| problem.rhs[d]).collect(),
+                    vec![0.0; dofs.gamma.len()],
+                    cand.as_ref(),
+                )
+                .map_err(|reason| DdError::Subdomain {
+                    subdomain: s,
+                    reason,
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        let block_dofs = non_contact.iter().map(|&s| sub_dofs[s].clone()).collect();
+
+        // Clusters: union–find over the contact pairs.
+        let node_sub = {
+            let mut m = vec![NONE; problem.nodes.len()];
+            for (e, el) in problem.elements.iter().enumerate() {
+                for &v in &el.nodes {
+                    m[v] = partition.element_subdomain[e];
+                }
+            }
+            m
+        };
+        let mut parent: Vec<usize> = (0..ns).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for pair in &problem.pairs {
+            let (a, b) = (node_sub[pair.nodes[0]], node_sub[pair.nodes[1]]);
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
+        let mut cluster_of = vec![NONE; ns];
+        let mut members: Vec<Vec<usize>> = Vec::new();
+        for s in (0..ns).filter(|&s| partition.contact[s]) {
+            let r = find(&mut parent, s);
+            if cluster_of[r] == NONE {
+                cluster_of[r] = members.len();
+                members.push(Vec::new());
+            }
+            members[cluster_of[r]].push(s);
+        }
+        let mut cluster_pairs = vec![Vec::new(); members.len()];
+        for (i, pair) in problem.pairs.iter().enumerate() {
+            let r = find(&mut parent, node_sub[pair.nodes[0]]);
+            cluster_pairs[cluster_of[r]].push(i);
+        }
+        let built: Vec<(ContactCluster, LinearBlock, bool, LocalDofs)> = members
+            .par_iter()
+            .zip(&cluster_pairs)
+            .enumerate()
+            .map(|(c, (mem, pairs))| {
+                build_cluster(problem, &elements, &sub_dofs, &rho, mem, pairs)
+                    .map_err(|reason| DdError::Cluster { cluster: c, reason })
+            })
+            .collect::<Result<_, _>>()?;
+        let mut clusters = Vec::new();
+        let mut tied = Vec::new();
+        let mut full_stick = Vec::new();
+        let mut cluster_dofs = Vec::new();
+        for (c, t, f, d) in built {
+            clusters.push(c);
+            tied.push(t);
+            full_stick.push(f);
+            cluster_dofs.push(d);
+        }
+        Ok(Decomposition {
+            partition,
+            interface,
+            blocks,
+            block_dofs,
+            clusters,
+            cluster_dofs,
+            cluster_pairs,
+            tied,
+            full_stick,
+        })
+    }
+
+    pub fn n_interface(&self) -> usize {
+        self.interface.len()
+    }
+}
+
+fn local_row(row: &ContactRow, local: &[usize], n_interior: usize) -> Result<LocalRow, String> {
+    let entries = row
+        .entries
+        .iter()
+        .map(|&(d, a)| match local[d] {
+            i if i < n_interior => Ok((i, a)),
+            _ => Err(format!("contact DOF {d} is not interior to its cluster")),
+        })
+        .collect::<Result<_, _>>()?;
+    Ok(LocalRow {
+        entries,
+        value: row.value,
+        lower: row.lower,
+        upper: row.upper,
+    })
+}
+
+fn build_cluster(
+    problem: &DdProblem,
+    elements: &[Vec<usize>],
+    sub_dofs: &[LocalDofs],
+    rho: &[f64],
+    members: &[usize],
+    pairs: &[usize],
+) -> Result<(ContactCluster, LinearBlock, bool, LocalDofs), String> {
+    let n = problem.n_dofs();
+    // (global, member) for interior and interface DOFs.
+    let mut interior: Vec<(usize, usize)> = Vec::new();
+    let mut iface: Vec<(usize, usize, usize)> = Vec::new();
+    for (m, &s) in members.iter().enumerate() {
+        interior.extend(sub_dofs[s].interior.iter().map(|&d| (d, m)));
+        iface.extend(
+            sub_dofs[s]
+                .interface
+                .iter()
+                .zip(&sub_dofs[s].gamma)
+                .map(|(&d, &g)| (g, d, m)),
+        );
+    }
+    interior.sort_unstable();
+    iface.sort_unstable();
+    let dofs = LocalDofs {
+        interior: interior.iter().map(|x| x.0).collect(),
+        interface: iface.iter().map(|x| x.1).collect(),
+        gamma: iface.iter().map(|x| x.0).collect(),
+    };
+    let group: Vec<usize> = interior
+        .iter()
+        .map(|x| x.1)
+        .chain(iface.iter().map(|x| x.2))
+        .collect();
+    let local = dofs.local_map(n);
+    let all = dofs.all();
+    let els: Vec<usize> = members
+        .iter()
+        .flat_map(|&s| elements[s].iter().copied())
+        .collect();
+    let k = Csr::from_triplets(all.len(), assemble(problem, &els, &local));
+    let ni = dofs.interior.len();
+    let mut rows = Vec::with_capacity(2 * pairs.len());
+    for &p in pairs {
+        rows.push(local_row(&problem.pairs[p].normal, &local, ni)?);
+        rows.push(local_row(&problem.pairs[p].tangent, &local, ni)?);
+    }
+    let cand = rigid_candidates(problem, &all, &group);
+    let f_interior: Vec<f64> = dofs.interior.iter().map(|&d| problem.rhs[d]).collect();
+    let cluster = ContactCluster::new(
+        k,
+        ni,
+        dofs.gamma.clone(),
+        rows,
+        f_interior,
+        cand.subrows(0, ni),
+    )?;
+    let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
+    let (tied, full) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
+        Ok(t) => (t, false),
+        Err(first) => match cluster.tied(|_| true, rho_gamma, cand.as_ref()) {
+            Ok(t) => (t, true),
+            Err(_) => return Err(first),
+        },
+    };
+    Ok((cluster, tied, full, dofs))
+}

@@ -1,0 +1,263 @@
+//! Contact clusters: the nonlinear subdomains Ω^k_i ∪ Ω^l_j of D05 §4.1 (D03's Ω*_j when a
+//! subdomain touches several zones).
+//!
+//! - Frictional local problem (D05 4.27–4.28, FGCS 3.7–3.8, 3.14): with Dirichlet data y on the
+//!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_[l,u](B u_I − e). Condensed
+//!   on the contact multipliers once per factorisation, C = B K_II⁺ Bᵀ, and solved per evaluation
+//!   by [`solve_box_qp`] with warm start; the interface reaction K_ΓI u_I + K_ΓΓ y is the cluster's
+//!   part of S_CON(y) + (its part of F) (reference notes §2.11). A floating member without
+//!   interface (a whole floating body) leaves a kernel R in K_II: then u_I = K_II⁺(…) + Rα and the
+//!   QP carries the equilibrium rows (BR)ᵀλ = Rᵀ(f_I − K_IΓ y) (D05 Thm 2.1 locally).
+//! - Tied auxiliary problem (D05 4.35–4.46, FGCS 3.18–3.24): the normal rows become equalities
+//!   B_n u = e_n, eliminated master/slave (one DOF of each row expressed by the others), which
+//!   gives an ordinary [`LinearBlock`] with matrix TᵀKT. If the tie leaves the interior floating
+//!   (a body that could slide along the tied zone), the tangential rows are tied as well.
+
+use faer::{Mat, MatRef};
+
+use super::subdomain::{Csr, KernelFactor, LinearBlock};
+use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, QpSolution, WarmStart};
+
+/// A contact row on the cluster's interior DOFs.
+#[derive(Debug, Clone)]
+pub struct LocalRow {
+    pub entries: Vec<(usize, f64)>,
+    pub value: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+/// The result of one local frictional solve.
+#[derive(Debug, Clone)]
+pub struct ClusterState {
+    /// Interior displacement (cluster interior order).
+    pub interior: Vec<f64>,
+    /// Interface reaction K_ΓI u_I + K_ΓΓ y.
+    pub reaction: Vec<f64>,
+    /// QP solution (multipliers x in row order, rigid amplitudes α).
+    pub qp: QpSolution,
+}
+
+/// A contact cluster with its condensed contact operator.
+#[derive(Debug, Clone)]
+pub struct ContactCluster {
+    pub n_interior: usize,
+    /// Interface index of each local interface DOF.
+    pub gamma: Vec<usize>,
+    k: Csr,
+    interior: KernelFactor,
+    rows: Vec<LocalRow>,
+    /// K_II⁺ Bᵀ (n_I × m).
+    x: Mat<f64>,
+    /// B K_II⁺ Bᵀ (m × m).
+    c: Mat<f64>,
+    /// (B R)ᵀ (r × m).
+    g: Mat<f64>,
+    f_interior: Vec<f64>,
+}
+
+impl ContactCluster {
+    /// `k`: local matrix ordered [interior; interface]; `rows` on interior DOFs; `candidates`:
+    /// rigid motions of the members on the interior rows (kernel search for floating members).
+    pub fn new(
+        k: Csr,
+        n_interior: usize,
+        gamma: Vec<usize>,
+        rows: Vec<LocalRow>,
+        f_interior: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<ContactCluster, String> {
+        let interior = KernelFactor::new(&k, n_interior, candidates)?;
+        let m = rows.len();
+        let mut bt = Mat::<f64>::zeros(n_interior, m);
+        for (j, row) in rows.iter().enumerate() {
+            for &(i, a) in &row.entries {
+                bt[(i, j)] += a;
+            }
+        }
+        let x = interior.solve_mat(bt.as_ref());
+        let mut c = Mat::<f64>::zeros(m, m);
+        for (i, row) in rows.iter().enumerate() {
+            for j in 0..m {
+                c[(i, j)] = row.entries.iter().map(|&(p, a)| a * x[(p, j)]).sum();
+            }
+        }
+        let c = Mat::from_fn(m, m, |i, j| 0.5 * (c[(i, j)] + c[(j, i)]));
+        let r = interior.kernel();
+        let g = Mat::from_fn(r.ncols(), m, |a, j| {
+            rows[j].entries.iter().map(|&(p, v)| v * r[(p, a)]).sum()
+        });
+        Ok(ContactCluster {
+            n_interior,
+            gamma,
+            k,
+            interior,
+            rows,
+            x,
+            c,
+            g,
+            f_interior,
+        })
+    }
+
+    /// Number of rigid modes of the interior problem (floating members).
+    pub fn n_floating_modes(&self) -> usize {
+        self.g.nrows()
+    }
+
+    fn ranges(&self) -> ((usize, usize), (usize, usize)) {
+        ((0, self.n_interior), (self.n_interior, self.k.dim()))
+    }
+
+    /// Solve the local frictional contact problem with interface values `y`.
+    pub fn evaluate(
+        &self,
+        y: &[f64],
+        warm: Option<&WarmStart>,
+        opts: &QpOptions,
+    ) -> Result<ClusterState, String> {
+        let (ri, rg) = self.ranges();
+        let mut rhs = self.f_interior.clone();
+        let my: Vec<f64> = y.iter().map(|v| -v).collect();
+        self.k.mul_block(ri, rg, &my, &mut rhs);
+        let w = self.interior.solve(&rhs);
+        let d: Vec<f64> = self
+            .rows
+            .iter()
+            .map(|row| row.entries.iter().map(|&(p, a)| a * w[p]).sum::<f64>() - row.value)
+            .collect();
+        let mut qp = BoxQp::new(
+            self.c.clone(),
+            d,
+            self.rows.iter().map(|r| r.lower).collect(),
+            self.rows.iter().map(|r| r.upper).collect(),
+        );
+        let kernel = self.interior.kernel();
+        if kernel.ncols() > 0 {
+            let e = (0..kernel.ncols())
+                .map(|a| (0..self.n_interior).map(|i| kernel[(i, a)] * rhs[i]).sum())
+                .collect();
+            qp = qp.with_equalities(self.g.clone(), e);
+        }
+        let sol = solve_box_qp(&qp, warm, opts).map_err(|e| e.to_string())?;
+        let mut u = w;
+        for (j, &lam) in sol.x.iter().enumerate() {
+            if lam != 0.0 {
+                for (i, ui) in u.iter_mut().enumerate() {
+                    *ui -= self.x[(i, j)] * lam;
+                }
+            }
+        }
+        for (a, &alpha) in sol.alpha.iter().enumerate() {
+            for (i, ui) in u.iter_mut().enumerate() {
+                *ui += kernel[(i, a)] * alpha;
+            }
+        }
+        let mut reaction = vec![0.0; self.gamma.len()];
+        self.k.mul_block(rg, rg, y, &mut reaction);
+        self.k.mul_block(rg, ri, &u, &mut reaction);
+        Ok(ClusterState {
+            interior: u,
+            reaction,
+            qp: sol,
+        })
+    }
+
+    /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated). `rho` and
+    /// `candidates` (rows: all local DOFs) as for [`LinearBlock::new`].
+    pub fn tied(
+        &self,
+        tie: impl Fn(usize) -> bool,
+        rho: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<LinearBlock, String> {
+        let n = self.k.dim();
+        let tied: Vec<usize> = (0..self.rows.len()).filter(|&r| tie(r)).collect();
+        let mut uses = vec![0usize; n];
+        for &r in &tied {
+            for &(p, a) in &self.rows[r].entries {
+                if a != 0.0 {
+                    uses[p] += 1;
+                }
+            }
+        }
+        // slave[p] = Some(row) when DOF p is eliminated by that row.
+        let mut slave: Vec<Option<usize>> = vec![None; n];
+        for &r in &tied {
+            let best = self.rows[r]
+                .entries
+                .iter()
+                .filter(|&&(p, a)| a != 0.0 && uses[p] == 1)
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()).then(b.0.cmp(&a.0)));
+            let Some(&(p, _)) = best else {
+                return Err(format!(
+                    "tied row {r} shares all its DOFs with other rows; cannot eliminate"
+                ));
+            };
+            slave[p] = Some(r);
+        }
+        let mut new = vec![usize::MAX; n];
+        let mut next = 0;
+        for (p, s) in slave.iter().enumerate() {
+            if s.is_none() {
+                new[p] = next;
+                next += 1;
+            }
+        }
+        let n_interior = (0..self.n_interior).filter(|&p| slave[p].is_none()).count();
+        // u = T ũ + t0.
+        let expand = |p: usize| -> Vec<(usize, f64)> {
+            match slave[p] {
+                None => vec![(new[p], 1.0)],
+                Some(r) => {
+                    let row = &self.rows[r].entries;
+                    let a_s: f64 = row.iter().filter(|e| e.0 == p).map(|e| e.1).sum();
+                    row.iter()
+                        .filter(|e| e.0 != p && e.1 != 0.0)
+                        .map(|&(j, a)| (new[j], -a / a_s))
+                        .collect()
+                }
+            }
+        };
+        let mut t0 = vec![0.0; n];
+        for (p, s) in slave.iter().enumerate() {
+            if let Some(r) = *s {
+                let a_s: f64 = self.rows[r]
+                    .entries
+                    .iter()
+                    .filter(|e| e.0 == p)
+                    .map(|e| e.1)
+                    .sum();
+                t0[p] = self.rows[r].value / a_s;
+            }
+        }
+        let mut h = vec![0.0; n];
+        h[..self.n_interior].copy_from_slice(&self.f_interior);
+        let mt0: Vec<f64> = t0.iter().map(|v| -v).collect();
+        self.k.mul_block((0, n), (0, n), &mt0, &mut h);
+        let mut trips = Vec::new();
+        let mut f = vec![0.0; next];
+        let expanded: Vec<Vec<(usize, f64)>> = (0..n).map(expand).collect();
+        for p in 0..n {
+            for &(pn, wp) in &expanded[p] {
+                f[pn] += wp * h[p];
+                for (q, v) in self.k.row(p) {
+                    for &(qn, wq) in &expanded[q] {
+                        trips.push((pn, qn, wp * wq * v));
+                    }
+                }
+            }
+        }
+        let keep: Vec<usize> = (0..n).filter(|&p| slave[p].is_none()).collect();
+        let cand = Mat::from_fn(next, candidates.ncols(), |i, j| candidates[(keep[i], j)]);
+        LinearBlock::new(
+            Csr::from_triplets(next, trips),
+            n_interior,
+            self.gamma.clone(),
+            rho,
+            f[..n_interior].to_vec(),
+            f[n_interior..].to_vec(),
+            cand.as_ref(),
+        )
+    }
+}

@@ -1,0 +1,550 @@
+//! Subdomain linear algebra (D05 §4.3, §5.1; reference notes §2.11).
+//!
+//! A [`LinearBlock`] is a subdomain (or a tied contact cluster) with its local stiffness ordered
+//! interior first, A = [Å B; Bᵀ Ā] = [K_II K_IΓ; K_ΓI K_ΓΓ] (D05 4.24). It provides
+//! - the Schur complement S y = K_ΓΓ y − K_ΓI K_II⁻¹ K_IΓ y, matrix-free through a sparse Cholesky
+//!   factor of K_II (interior Dirichlet solves, D05 4.24–4.26);
+//! - the condensed load g = f_Γ − K_ΓI K_II⁻¹ f_I (its share of F, D05 4.34);
+//! - the Neumann solve S⁺ g: the full local problem with interface load g (D05 5.1–5.2), factored
+//!   with a minimal set of DOFs pinned when the subdomain is floating and the kernel projected out
+//!   (the particular solution φ⁰ ∈ Q, D05 5.10);
+//! - the kernel Z = Ker A (rigid motions surviving the subdomain's Dirichlet/roller constraints,
+//!   D05 3.29), found as the null space of A on the span of the three plane rigid motions.
+
+use faer::sparse::{SparseColMat, Triplet};
+use faer::{Mat, MatRef, Par};
+
+use super::DdProblem;
+use crate::fem::{Factor, Symbolic};
+
+/// Relative size ‖A z‖ / max diag(A) below which a unit rigid motion z counts as a kernel vector.
+const KERNEL_TOL: f64 = 1e-9;
+
+/// Symmetric sparse matrix in compressed rows (both triangles stored).
+#[derive(Debug, Clone)]
+pub struct Csr {
+    n: usize,
+    ptr: Vec<usize>,
+    col: Vec<usize>,
+    val: Vec<f64>,
+}
+
+impl Csr {
+    /// Build from (row, col, value) triplets; duplicates are summed.
+    pub fn from_triplets(n: usize, mut t: Vec<(usize, usize, f64)>) -> Csr {
+        t.sort_unstable_by_key(|&(r, c, _)| (r, c));
+        let mut ptr = vec![0; n + 1];
+        let mut col = Vec::with_capacity(t.len());
+        let mut val: Vec<f64> = Vec::with_capacity(t.len());
+        let mut last = (usize::MAX, usize::MAX);
+        for (r, c, v) in t {
+            if (r, c) == last {
+                if let Some(x) = val.last_mut() {
+                    *x += v;
+                }
+            } else {
+                ptr[r + 1] += 1;
+                col.push(c);
+                val.push(v);
+                last = (r, c);
+            }
+        }
+        for i in 0..n {
+            ptr[i + 1] += ptr[i];
+        }
+        Csr { n, ptr, col, val }
+    }
+
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Entries (col, value) of row `r`.
+    pub fn row(&self, r: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        (self.ptr[r]..self.ptr[r + 1]).map(move |p| (self.col[p], self.val[p]))
+    }
+
+    /// y[r − r0] += Σ_{c ∈ [c0, c1)} A_rc x[c − c0] for r ∈ [r0, r1).
+    pub fn mul_block(
+        &self,
+        (r0, r1): (usize, usize),
+        (c0, c1): (usize, usize),
+        x: &[f64],
+        y: &mut [f64],
+    ) {
+        for r in r0..r1 {
+            let mut s = 0.0;
+            for (c, v) in self.row(r) {
+                if c >= c0 && c < c1 {
+                    s += v * x[c - c0];
+                }
+            }
+            y[r - r0] += s;
+        }
+    }
+
+    /// Largest diagonal entry of the leading `m` × `m` block.
+    fn max_diag(&self, m: usize) -> f64 {
+        (0..m)
+            .flat_map(|r| self.row(r).filter(move |&(c, _)| c == r).map(|(_, v)| v))
+            .fold(0.0, f64::max)
+    }
+}
+
+/// A Cholesky factor of the leading block of a [`Csr`] with its kernel pinned: solves A x = b for
+/// b ∈ Range(A) with x = 0 on the pinned DOFs (a generalised inverse A⁺, A A⁺ A = A).
+#[derive(Debug, Clone)]
+pub struct KernelFactor {
+    n: usize,
+    /// New index of each kept DOF (pinned → None).
+    keep: Vec<Option<usize>>,
+    factor: Option<Factor>,
+    /// Orthonormal kernel basis, n × r.
+    kernel: Mat<f64>,
+}
+
+impl KernelFactor {
+    /// Factor the leading `m` × `m` block of `a`; its kernel is searched in the span of the
+    /// columns of `candidates` (m × c; c = 0 means the block must be positive definite).
+    pub fn new(a: &Csr, m: usize, candidates: MatRef<'_, f64>) -> Result<KernelFactor, String> {
+        let kernel = kernel(a, m, candidates)?;
+        let pinned = pick_pinned(kernel.as_ref());
+        let mut keep = vec![None; m];
+        let mut next = 0;
+        for (i, k) in keep.iter_mut().enumerate() {
+            if !pinned.contains(&i) {
+                *k = Some(next);
+                next += 1;
+            }
+        }
+        let factor = if next == 0 {
+            None
+        } else {
+            let mut trips = Vec::new();
+            for r in 0..m {
+                let Some(nr) = keep[r] else { continue };
+                for (c, v) in a.row(r) {
+                    if c < m {
+                        if let Some(nc) = keep[c] {
+                            if nr >= nc {
+                                trips.push(Triplet::new(nr, nc, v));
+                            }
+                        }
+                    }
+                }
+            }
+            let mat = SparseColMat::<usize, f64>::try_new_from_triplets(next, next, &trips)
+                .map_err(|e| format!("sparse matrix: {e:?}"))?;
+            let symbolic = Symbolic::analyse(mat.symbolic()).map_err(|e| e.to_string())?;
+            Some(
+                symbolic
+                    .factorize(mat.as_ref(), Par::Seq)
+                    .map_err(|e| e.to_string())?,
+            )
+        };
+        Ok(KernelFactor {
+            n: m,
+            keep,
+            factor,
+            kernel,
+        })
+    }
+
+    pub fn kernel(&self) -> MatRef<'_, f64> {
+        self.kernel.as_ref()
+    }
+
+    /// x = A⁺ b for every column b of `rhs` (n × k).
+    pub fn solve_mat(&self, rhs: MatRef<'_, f64>) -> Mat<f64> {
+        let mut out = Mat::<f64>::zeros(self.n, rhs.ncols());
+        let Some(factor) = &self.factor else {
+            return out;
+        };
+        let mut x = Mat::<f64>::zeros(factor.dim(), rhs.ncols());
+        for (i, k) in self.keep.iter().enumerate() {
+            if let Some(k) = *k {
+                for j in 0..rhs.ncols() {
+                    x[(k, j)] = rhs[(i, j)];
+                }
+            }
+        }
+        factor.solve_in_place(x.as_mut());
+        for (i, k) in self.keep.iter().enumerate() {
+            if let Some(k) = *k {
+                for j in 0..rhs.ncols() {
+                    out[(i, j)] = x[(k, j)];
+                }
+            }
+        }
+        out
+    }
+
+    /// x = A⁺ b.
+    pub fn solve(&self, b: &[f64]) -> Vec<f64> {
+        let Some(factor) = &self.factor else {
+            return vec![0.0; self.n];
+        };
+        let mut x = vec![0.0; factor.dim()];
+        for (i, k) in self.keep.iter().enumerate() {
+            if let Some(k) = *k {
+                x[k] = b[i];
+            }
+        }
+        let x = factor.solve(&x);
+        self.keep.iter().map(|k| k.map_or(0.0, |k| x[k])).collect()
+    }
+
+    /// x ← x − Z Zᵀ x (projection onto the complement Q of the kernel).
+    pub fn project(&self, x: &mut [f64]) {
+        let z = &self.kernel;
+        for j in 0..z.ncols() {
+            let s: f64 = (0..self.n).map(|i| z[(i, j)] * x[i]).sum();
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi -= s * z[(i, j)];
+            }
+        }
+    }
+}
+
+/// Orthonormal basis of {z ∈ span(candidates) : A_mm z = 0}.
+fn kernel(a: &Csr, m: usize, candidates: MatRef<'_, f64>) -> Result<Mat<f64>, String> {
+    let q = orthonormal_columns(candidates);
+    if q.ncols() == 0 {
+        return Ok(q);
+    }
+    let mut aq = Mat::<f64>::zeros(m, q.ncols());
+    for j in 0..q.ncols() {
+        let x: Vec<f64> = (0..m).map(|i| q[(i, j)]).collect();
+        let mut y = vec![0.0; m];
+        a.mul_block((0, m), (0, m), &x, &mut y);
+        for i in 0..m {
+            aq[(i, j)] = y[i];
+        }
+    }
+    // SVD of A Q itself (not of the Gram matrix, which would square the rounding level).
+    let svd = aq.thin_svd().map_err(|e| format!("kernel SVD: {e:?}"))?;
+    let tol = KERNEL_TOL * a.max_diag(m);
+    let (s, u) = (svd.S().column_vector(), svd.V());
+    let cols: Vec<usize> = (0..q.ncols()).filter(|&k| s[k] <= tol).collect();
+    let mut z = Mat::<f64>::zeros(m, cols.len());
+    for (jn, &k) in cols.iter().enumerate() {
+        for c in 0..q.ncols() {
+            let w = u[(c, k)];
+            for i in 0..m {
+                z[(i, jn)] += w * q[(i, c)];
+            }
+        }
+    }
+    Ok(orthonormal_columns(z.as_ref()))
+}
+
+/// Modified Gram–Schmidt (twice), dropping columns that are numerically dependent.
+fn orthonormal_columns(a: MatRef<'_, f64>) -> Mat<f64> {
+    let n = a.nrows();
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    for j in 0..a.ncols() {
+        let mut v: Vec<f64> = (0..n).map(|i| a[(i, j)]).collect();
+        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm0 == 0.0 {
+            continue;
+        }
+        for _ in 0..2 {
+            for c in &cols {
+                let s: f64 = c.iter().zip(&v).map(|(a, b)| a * b).sum();
+                v.iter_mut().zip(c).for_each(|(x, y)| *x -= s * y);
+            }
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-8 * norm0 {
+            v.iter_mut().for_each(|x| *x /= norm);
+            cols.push(v);
+        }
+    }
+    Mat::from_fn(n, cols.len(), |i, j| cols[j][i])
+}
+
+/// Rows (DOFs) on which the kernel restricted is nonsingular: greedy pivoting on the rows of Z.
+fn pick_pinned(z: MatRef<'_, f64>) -> Vec<usize> {
+    let (n, r) = (z.nrows(), z.ncols());
+    let mut rows: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..r).map(|j| z[(i, j)]).collect())
+        .collect();
+    let mut pinned = Vec::with_capacity(r);
+    for _ in 0..r {
+        let best = (0..n).filter(|i| !pinned.contains(i)).max_by(|&a, &b| {
+            let na: f64 = rows[a].iter().map(|x| x * x).sum();
+            let nb: f64 = rows[b].iter().map(|x| x * x).sum();
+            na.total_cmp(&nb).then(b.cmp(&a))
+        });
+        let Some(p) = best else { break };
+        let norm = rows[p].iter().map(|x| x * x).sum::<f64>().sqrt();
+        let dir: Vec<f64> = rows[p].iter().map(|x| x / norm).collect();
+        for row in rows.iter_mut() {
+            let s: f64 = row.iter().zip(&dir).map(|(a, b)| a * b).sum();
+            row.iter_mut().zip(&dir).for_each(|(x, d)| *x -= s * d);
+        }
+        pinned.push(p);
+    }
+    pinned
+}
+
+/// The three plane rigid motions (translations, rotation about the group centroid scaled by the
+/// group radius) on the DOFs `dofs`, one set per group (`group[i]` of local DOF i): n × 3·groups.
+pub fn rigid_candidates(problem: &DdProblem, dofs: &[usize], group: &[usize]) -> Mat<f64> {
+    let n_groups = group.iter().map(|g| g + 1).max().unwrap_or(0);
+    let mut centre = vec![[0.0; 3]; n_groups];
+    for (&d, &g) in dofs.iter().zip(group) {
+        let p = problem.nodes[problem.dof_node[d]];
+        centre[g][0] += p[0];
+        centre[g][1] += p[1];
+        centre[g][2] += 1.0;
+    }
+    let centre: Vec<[f64; 2]> = centre.iter().map(|c| [c[0] / c[2], c[1] / c[2]]).collect();
+    let mut radius = vec![f64::MIN_POSITIVE; n_groups];
+    for (&d, &g) in dofs.iter().zip(group) {
+        let p = problem.nodes[problem.dof_node[d]];
+        radius[g] = radius[g].max((p[0] - centre[g][0]).hypot(p[1] - centre[g][1]));
+    }
+    Mat::from_fn(dofs.len(), 3 * n_groups, |i, j| {
+        let g = group[i];
+        if j / 3 != g {
+            return 0.0;
+        }
+        let p = problem.nodes[problem.dof_node[dofs[i]]];
+        let e = problem.dof_direction[dofs[i]];
+        let w = match j % 3 {
+            0 => [1.0, 0.0],
+            1 => [0.0, 1.0],
+            _ => [
+                -(p[1] - centre[g][1]) / radius[g],
+                (p[0] - centre[g][0]) / radius[g],
+            ],
+        };
+        w[0] * e[0] + w[1] * e[1]
+    })
+}
+
+/// Assemble the local stiffness of `elements` on local DOFs `local[global]` (usize::MAX = not
+/// local) into triplets.
+pub fn assemble(
+    problem: &DdProblem,
+    elements: &[usize],
+    local: &[usize],
+) -> Vec<(usize, usize, f64)> {
+    let mut t = Vec::with_capacity(elements.len() * 36);
+    for &e in elements {
+        let el = &problem.elements[e];
+        for (i, di) in el.dofs.iter().enumerate() {
+            let Some(di) = *di else { continue };
+            for (j, dj) in el.dofs.iter().enumerate() {
+                let Some(dj) = *dj else { continue };
+                t.push((local[di], local[dj], el.matrix[i][j]));
+            }
+        }
+    }
+    t
+}
+
+/// A linear subdomain (or tied cluster): local matrix ordered [interior; interface].
+#[derive(Debug, Clone)]
+pub struct LinearBlock {
+    /// Number of interior DOFs; local DOF n_interior + j is interface DOF `gamma[j]`.
+    pub n_interior: usize,
+    /// Interface index of each local interface DOF.
+    pub gamma: Vec<usize>,
+    /// Stiffness measure ρ of the subdomain owning each local interface DOF (D05 5.5).
+    pub rho: Vec<f64>,
+    k: Csr,
+    dirichlet: KernelFactor,
+    neumann: KernelFactor,
+    f_interior: Vec<f64>,
+    gamma_load: Vec<f64>,
+}
+
+impl LinearBlock {
+    /// `k`: local matrix (interior first); `f_interior`: interior load; `gamma_load`: interface
+    /// load carried by this block beyond the global f_Γ; `candidates`: rigid motions (rows = local
+    /// DOFs) spanning the kernel of k.
+    pub fn new(
+        k: Csr,
+        n_interior: usize,
+        gamma: Vec<usize>,
+        rho: Vec<f64>,
+        f_interior: Vec<f64>,
+        gamma_load: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<LinearBlock, String> {
+        let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
+        if dirichlet.kernel().ncols() > 0 {
+            return Err(format!(
+                "the interior problem has {} rigid motions left (a floating part without interface)",
+                dirichlet.kernel().ncols()
+            ));
+        }
+        let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
+        Ok(LinearBlock {
+            n_interior,
+            gamma,
+            rho,
+            k,
+            dirichlet,
+            neumann,
+            f_interior,
+            gamma_load,
+        })
+    }
+
+    pub fn n_gamma(&self) -> usize {
+        self.gamma.len()
+    }
+
+    /// Kernel of the local Neumann matrix (rows: local DOFs).
+    pub fn kernel(&self) -> MatRef<'_, f64> {
+        self.neumann.kernel()
+    }
+
+    fn ranges(&self) -> ((usize, usize), (usize, usize)) {
+        ((0, self.n_interior), (self.n_interior, self.k.dim()))
+    }
+
+    /// S Y for the columns Y of local interface values (n_Γ × k).
+    pub fn schur_mat(&self, y: MatRef<'_, f64>) -> Mat<f64> {
+        let (ri, rg) = self.ranges();
+        let (ni, ng) = (self.n_interior, self.n_gamma());
+        let mut kiy = Mat::<f64>::zeros(ni, y.ncols());
+        let mut out = Mat::<f64>::zeros(ng, y.ncols());
+        for j in 0..y.ncols() {
+            let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
+            let mut t = vec![0.0; ni];
+            self.k.mul_block(ri, rg, &col, &mut t);
+            for i in 0..ni {
+                kiy[(i, j)] = t[i];
+            }
+        }
+        let x = self.dirichlet.solve_mat(kiy.as_ref());
+        for j in 0..y.ncols() {
+            let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
+            let xi: Vec<f64> = (0..ni).map(|i| -x[(i, j)]).collect();
+            let mut s = vec![0.0; ng];
+            self.k.mul_block(rg, rg, &col, &mut s);
+            self.k.mul_block(rg, ri, &xi, &mut s);
+            for i in 0..ng {
+                out[(i, j)] = s[i];
+            }
+        }
+        out
+    }
+
+    /// S y.
+    pub fn schur(&self, y: &[f64]) -> Vec<f64> {
+        let (ri, rg) = self.ranges();
+        let mut t = vec![0.0; self.n_interior];
+        self.k.mul_block(ri, rg, y, &mut t);
+        let x: Vec<f64> = self.dirichlet.solve(&t).iter().map(|v| -v).collect();
+        let mut s = vec![0.0; self.n_gamma()];
+        self.k.mul_block(rg, rg, y, &mut s);
+        self.k.mul_block(rg, ri, &x, &mut s);
+        s
+    }
+
+    /// The block's share of F: gamma_load − K_ΓI K_II⁻¹ f_I.
+    pub fn condensed_load(&self) -> Vec<f64> {
+        let (ri, rg) = self.ranges();
+        let x: Vec<f64> = self
+            .dirichlet
+            .solve(&self.f_interior)
+            .iter()
+            .map(|v| -v)
+            .collect();
+        let mut s = self.gamma_load.clone();
+        self.k.mul_block(rg, ri, &x, &mut s);
+        s
+    }
+
+    /// Interior displacement for interface values y: K_II⁻¹ (f_I − K_IΓ y).
+    pub fn interior(&self, y: &[f64]) -> Vec<f64> {
+        let (ri, rg) = self.ranges();
+        let mut b = self.f_interior.clone();
+        let my: Vec<f64> = y.iter().map(|v| -v).collect();
+        self.k.mul_block(ri, rg, &my, &mut b);
+        self.dirichlet.solve(&b)
+    }
+
+    /// Interface trace of the Neumann solution φ⁰ ∈ Q of A φ = [0; g] (g must annihilate the
+    /// kernel's trace).
+    pub fn neumann(&self, g: &[f64]) -> Vec<f64> {
+        let mut b = vec![0.0; self.k.dim()];
+        b[self.n_interior..].copy_from_slice(g);
+        let mut x = self.neumann.solve(&b);
+        self.neumann.project(&mut x);
+        x[self.n_interior..].to_vec()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 1D chain of springs (Laplacian), free at both ends: kernel = constants.
+    fn chain(n: usize) -> Csr {
+        let mut t = Vec::new();
+        for i in 0..n - 1 {
+            t.extend([
+                (i, i, 1.0),
+                (i + 1, i + 1, 1.0),
+                (i, i + 1, -1.0),
+                (i + 1, i, -1.0),
+            ]);
+        }
+        Csr::from_triplets(n, t)
+    }
+
+    #[test]
+    fn pinned_factor_solves_compatible_systems_and_finds_the_kernel() {
+        let a = chain(6);
+        let cand = Mat::from_fn(6, 2, |i, j| if j == 0 { 1.0 } else { i as f64 });
+        let f = KernelFactor::new(&a, 6, cand.as_ref()).unwrap();
+        assert_eq!(f.kernel().ncols(), 1);
+        let b = [1.0, -2.0, 0.5, 0.0, 0.25, 0.25];
+        let mut x = f.solve(&b);
+        f.project(&mut x);
+        let mut ax = vec![0.0; 6];
+        a.mul_block((0, 6), (0, 6), &x, &mut ax);
+        for (u, v) in ax.iter().zip(b) {
+            assert!((u - v).abs() < 1e-12);
+        }
+        assert!(x.iter().sum::<f64>().abs() < 1e-12);
+    }
+
+    #[test]
+    fn schur_of_a_chain_is_the_series_spring() {
+        // Interior 0..4, interface {4, 5}: springs 0–1–2–3 dangling, 3–4 and 4–5 present.
+        let n = 6;
+        let mut t = vec![(0, 0, 1.0)];
+        for i in 0..n - 1 {
+            t.extend([
+                (i, i, 1.0),
+                (i + 1, i + 1, 1.0),
+                (i, i + 1, -1.0),
+                (i + 1, i, -1.0),
+            ]);
+        }
+        let k = Csr::from_triplets(n, t);
+        let none = Mat::<f64>::zeros(n, 0);
+        let block = LinearBlock::new(
+            k,
+            4,
+            vec![0, 1],
+            vec![1.0; 2],
+            vec![0.0; 4],
+            vec![0.0; 2],
+            none.as_ref(),
+        )
+        .unwrap();
+        // Grounded chain of 5 unit springs in series before DOF 4: stiffness 1/5, plus 4–5.
+        let s = block.schur(&[1.0, 0.0]);
+        assert!((s[0] - (0.2 + 1.0)).abs() < 1e-12 && (s[1] + 1.0).abs() < 1e-12);
+        let sm = block.schur_mat(Mat::from_fn(2, 1, |i, _| [1.0, 0.0][i]).as_ref());
+        assert!((sm[(0, 0)] - s[0]).abs() < 1e-14);
+    }
+}
