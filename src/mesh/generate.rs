@@ -89,7 +89,7 @@ fn triangulate(pslg: Pslg, size: &SizeField, setup: &Setup) -> Result<Cdt, Scene
     }
     let mut h: Vec<f64> = Vec::new();
     for _ in 0..MAX_ROUNDS {
-        refine(&mut cdt, size, setup.min_angle, setup.budget)?;
+        refine(&mut cdt, setup.min_angle, setup.budget)?;
         let mut zone = face_zones(&cdt, setup.geo, setup.scene)?;
         let inserted = split_large_faces(&mut cdt, size, &mut h, &mut zone, setup.budget)?;
         if inserted == 0 {
@@ -201,19 +201,14 @@ fn steiner_point(cdt: &Cdt, face: FixedFaceHandle<InnerTag>) -> Point2<f64> {
     }
 }
 
-/// spade's Delaunay refinement with the angle limit and the global area bound.
-fn refine(
-    cdt: &mut Cdt,
-    size: &SizeField,
-    min_angle: f64,
-    budget: usize,
-) -> Result<(), SceneError> {
-    let h = size.global();
+/// spade's Delaunay refinement to the angle limit. No area bound: spade refines every face of
+/// the convex hull, and an area bound would fill the gaps between bodies; sizes are enforced on
+/// the domain's faces only, by `split_large_faces`.
+fn refine(cdt: &mut Cdt, min_angle: f64, budget: usize) -> Result<(), SceneError> {
     let left = budget.saturating_sub(cdt.num_vertices());
     let result = cdt.refine(
         RefinementParameters::new()
             .with_angle_limit(AngleLimit::from_deg(min_angle))
-            .with_max_allowed_area(0.4 * h * h)
             .with_max_additional_vertices(left),
     );
     if result.refinement_complete {
@@ -222,8 +217,8 @@ fn refine(
         Err(SceneError::new(
             "mesh.min_angle",
             format!(
-                "the quality refinement did not finish within {budget} vertices; \
-                 lower min_angle or check for tiny features"
+                "the angle refinement did not finish within {budget} vertices; \
+                 lower min_angle or check the geometry for tiny features"
             ),
         ))
     }

@@ -105,11 +105,6 @@ impl SizeField {
         }
     }
 
-    /// The global size `mesh.max_size`.
-    pub fn global(&self) -> f64 {
-        self.global
-    }
-
     /// h(p).
     pub fn at(&self, p: P) -> f64 {
         self.sources.iter().fold(self.global, |h, s| {

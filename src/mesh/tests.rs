@@ -236,6 +236,44 @@ fn with(mut base: serde_json::Value, pointer: &str, value: serde_json::Value) ->
 }
 
 #[test]
+fn local_refinement_inside_a_polygon() {
+    let mut json = block_on_base();
+    json["mesh"]["refine"] = serde_json::json!([
+        { "polygon": [[0.2, 0.1], [0.4, 0.1], [0.4, 0.3], [0.2, 0.3]], "max_size": 0.008 }
+    ]);
+    let mesh = generate(&scene(json)).unwrap();
+    check_mesh(&mesh, 28.0);
+    let (mut inside, mut outside) = (0.0_f64, 0.0_f64);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let c = centroid(&mesh, t);
+        let longest = (0..3)
+            .map(|i| dist(mesh.nodes[tri[i]], mesh.nodes[tri[(i + 1) % 3]]))
+            .fold(0.0, f64::max);
+        if (0.2..=0.4).contains(&c[0]) && (0.1..=0.3).contains(&c[1]) {
+            inside = inside.max(longest);
+        } else if c[0] > 1.0 {
+            outside = outside.max(longest);
+        }
+    }
+    println!("longest edge inside the refined polygon {inside:.4}, far away {outside:.4}");
+    assert!(inside <= 0.008 * (1.0 + 1e-9), "{inside}");
+    assert!(outside > 0.03);
+}
+
+#[test]
+fn gmsh_file_named_in_the_scene_is_read() {
+    let file = std::env::temp_dir().join(format!("wsm-two-squares-{}.msh", std::process::id()));
+    std::fs::write(&file, TWO_SQUARES_MSH).unwrap();
+    let mut sc = two_squares_scene();
+    sc.mesh.gmsh_file = Some(file.to_string_lossy().into_owned());
+    let mesh = generate(&sc);
+    std::fs::remove_file(&file).unwrap();
+    assert_eq!(mesh.unwrap().triangles.len(), 4);
+    sc.mesh.gmsh_file = Some("/nonexistent/wsm.msh".into());
+    assert_eq!(generate(&sc).unwrap_err().path, "mesh.gmsh_file");
+}
+
+#[test]
 fn bad_geometry_is_rejected_with_its_path() {
     let base = block_on_base();
     let cases = [
@@ -332,7 +370,7 @@ fn non_finite_coordinates_are_rejected() {
 #[test]
 fn timing_of_a_large_mesh() {
     let t0 = std::time::Instant::now();
-    let mesh = generate(&scene(tunnel(0.045))).unwrap();
+    let mesh = generate(&scene(tunnel(0.07))).unwrap();
     let s = stats(&mesh);
     println!(
         "tunnel mesh: {} nodes, {} triangles in {:.2} s; min angle {:.1}°, max aspect {:.2}, edges {:.4}..{:.4}",
@@ -468,4 +506,46 @@ fn gmsh_errors_name_the_problem() {
     assert_eq!(e.path, "mesh.gmsh_file", "{e}");
     let truncated = &TWO_SQUARES_MSH[..TWO_SQUARES_MSH.find("$EndNodes").unwrap()];
     assert!(import_gmsh(truncated, &sc).is_err());
+}
+
+#[test]
+fn far_apart_bodies_do_not_mesh_the_gap() {
+    let sc = scene(serde_json::json!({
+        "version": 1,
+        "bodies": [
+            { "name": "a", "zones": [{ "name": "a", "material": "m", "polygon": [[0, 0], [1, 0], [1, 1], [0, 1]] }] },
+            { "name": "b", "zones": [{ "name": "b", "material": "m", "polygon": [[300, 0], [301, 0], [301, 1], [300, 1]] }] }
+        ],
+        "materials": { "m": { "E": 1.0, "nu": 0.3 } },
+        "mesh": { "max_size": 0.02 }
+    }));
+    let t0 = std::time::Instant::now();
+    let mesh = generate(&sc).unwrap();
+    println!(
+        "far apart: {} triangles in {:.3} s",
+        mesh.triangles.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    check_mesh(&mesh, 28.0);
+    assert!(t0.elapsed().as_secs_f64() < 2.0);
+}
+
+#[test]
+fn small_input_angles_terminate() {
+    let sc = scene(serde_json::json!({
+        "version": 1,
+        "bodies": [{ "name": "rock", "zones": [
+            { "name": "wedge", "material": "m", "polygon": [[0, 0], [4, 0], [4, 0.3]] },
+            { "name": "rest", "material": "m", "polygon": [[0, 0], [4, 0.3], [4, 1], [0, 1]] }
+        ] }],
+        "materials": { "m": { "E": 1.0, "nu": 0.3 } },
+        "mesh": { "max_size": 0.1 }
+    }));
+    let mesh = generate(&sc).unwrap();
+    let s = stats(&mesh);
+    println!(
+        "wedge of 4.3°: {} triangles, min angle {:.2}°",
+        s.triangles, s.min_angle_deg
+    );
+    assert!(s.min_angle_deg > 1.0);
 }
