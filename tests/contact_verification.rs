@@ -80,10 +80,16 @@ fn zero_slip_limit_is_frictionless() {
 
 #[test]
 fn huge_slip_limit_gives_the_bonded_solution() {
-    // Pushed sideways by a traction, the upper block sticks everywhere when g is huge, and the
-    // displacement equals that of one body made of the same two zones (same mesh).
+    // Sheared by a traction on its top, small enough (2% of the pressure) that even the peeling
+    // stress at the free ends of the interface stays compressive, the upper block sticks
+    // everywhere when g is huge, and the displacement equals that of one body made of the same
+    // two zones (same mesh). A larger shear opens the left end: a real peeling effect.
     let mut two = stacked_blocks(1.0e6, 1.0e12, 0.1);
-    two["boundary"][2] = json!({"segment": "upper_left", "traction": [2.0e5, 0]});
+    two["boundary"] = json!([
+        {"segment": "floor", "roller": {}},
+        {"segment": "lower_left", "roller": {}},
+        {"segment": "top", "traction": [2.0e4, -1.0e6]}
+    ]);
     let mut one = two.clone();
     one["bodies"] = json!([{"name": "lower", "zones": [
         {"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]},

@@ -21,6 +21,11 @@ use crate::error::WsmError;
 use crate::fem::{ElasticProblem, Factor, RigidModes};
 use crate::scene::Data;
 
+/// Relative size (to the largest displacement) of the gap defect that triggers a refinement.
+const REFINE_TOL: f64 = 1e-13;
+/// Refinements of the condensed problem at most.
+const MAX_REFINEMENTS: usize = 3;
+
 /// Columns of Bᵀ solved at once when forming C.
 const CHUNK: usize = 32;
 
@@ -232,50 +237,46 @@ impl DirectContact {
         let m = geometry.dim();
         let mut x0 = rhs.to_vec();
         self.pseudo_solve(&factor.factor, &mut x0);
-        let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
-            (None, Vec::new(), Vec::new())
-        } else {
-            let d: Vec<f64> = geometry
-                .rows
-                .iter()
-                .enumerate()
-                .map(|(r, row)| {
-                    let gap = if r % 2 == 0 { geometry.pairs[r / 2].gap } else { 0.0 };
-                    row.dot(&x0) + row.dot_fixed(fixed) - gap
-                })
-                .collect();
-            let (g, e) = self.equilibrium(rhs);
-            let (lower, upper) = geometry.bounds(data);
-            let problem = BoxQp::new(factor.c.clone(), d, lower, upper).with_equalities(g, e);
-            let options = QpOptions {
-                parallel: false,
-                ..QpOptions::default()
+        let mut d: Vec<f64> = (0..m).map(|r| geometry.rows[r].dot(&x0)).collect();
+        self.add_offsets(fixed, &mut d);
+        let mut start = warm.cloned();
+        let mut refinements = 0;
+        let (qp, multipliers, rigid, u_free, gaps) = loop {
+            let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
+                (None, Vec::new(), Vec::new())
+            } else {
+                let (g, e) = self.equilibrium(rhs);
+                let (lower, upper) = geometry.bounds(data);
+                let problem = BoxQp::new(factor.c.clone(), d.clone(), lower, upper).with_equalities(g, e);
+                let options = QpOptions {
+                    parallel: false,
+                    ..QpOptions::default()
+                };
+                let sol = solve_box_qp(&problem, start.as_ref(), &options).map_err(|err| self.explain(err))?;
+                let (x, alpha) = (sol.x.clone(), sol.alpha.clone());
+                (Some(sol), x, alpha)
             };
-            let sol = solve_box_qp(&problem, warm, &options).map_err(|err| self.explain(err))?;
-            let (x, alpha) = (sol.x.clone(), sol.alpha.clone());
-            (Some(sol), x, alpha)
+            let u_free = self.recover(factor, rhs, &multipliers, &rigid);
+            let mut gaps: Vec<f64> = geometry.rows.iter().map(|row| row.dot(&u_free)).collect();
+            self.add_offsets(fixed, &mut gaps);
+            // Iterative refinement of the condensed problem: the QP saw w = d − Cλ + Gᵀα with C
+            // and d from solves with K; for an ill-conditioned K they differ from the true gaps
+            // B u − g0 by rounding. Shift d by the defect and re-solve from the same active set.
+            let Some(sol) = qp.as_ref() else {
+                break (qp, multipliers, rigid, u_free, gaps);
+            };
+            let u_scale = u_free.iter().fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+            let defect: Vec<f64> = gaps.iter().zip(&sol.w).map(|(t, w)| t - w).collect();
+            let worst = defect.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            if worst <= REFINE_TOL * u_scale || refinements == MAX_REFINEMENTS {
+                break (qp, multipliers, rigid, u_free, gaps);
+            }
+            for (di, delta) in d.iter_mut().zip(&defect) {
+                *di += delta;
+            }
+            start = Some(WarmStart::from(sol));
+            refinements += 1;
         };
-        let mut u_free = rhs.to_vec();
-        for (r, row) in geometry.rows.iter().enumerate() {
-            for &(i, c) in &row.free {
-                u_free[i] -= c * multipliers[r];
-            }
-        }
-        self.pseudo_solve(&factor.factor, &mut u_free);
-        for (j, a) in rigid.iter().enumerate() {
-            for (i, ui) in u_free.iter_mut().enumerate() {
-                *ui += self.kernel.modes[(i, j)] * a;
-            }
-        }
-        let gaps = geometry
-            .rows
-            .iter()
-            .enumerate()
-            .map(|(r, row)| {
-                let gap = if r % 2 == 0 { geometry.pairs[r / 2].gap } else { 0.0 };
-                row.dot(&u_free) + row.dot_fixed(fixed) - gap
-            })
-            .collect();
         let mut residual = elastic.operator().apply(&factor.values, &u_free);
         geometry.add_transpose(&multipliers, &mut residual);
         let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -293,12 +294,41 @@ impl DirectContact {
         })
     }
 
+    /// Add B_d u_d − g0 (prescribed values on contact nodes, initial gaps on normal rows).
+    fn add_offsets(&self, fixed: &[f64], v: &mut [f64]) {
+        for (r, (row, vr)) in self.geometry.rows.iter().zip(v.iter_mut()).enumerate() {
+            let gap = if r % 2 == 0 { self.geometry.pairs[r / 2].gap } else { 0.0 };
+            *vr += row.dot_fixed(fixed) - gap;
+        }
+    }
+
+    /// u = K⁺(f − Bᵀλ) + R α on the free DOFs.
+    fn recover(&self, factor: &StiffnessFactor, rhs: &[f64], multipliers: &[f64], rigid: &[f64]) -> Vec<f64> {
+        let mut u_free = rhs.to_vec();
+        for (row, l) in self.geometry.rows.iter().zip(multipliers) {
+            for &(i, c) in &row.free {
+                u_free[i] -= c * l;
+            }
+        }
+        self.pseudo_solve(&factor.factor, &mut u_free);
+        for (j, a) in rigid.iter().enumerate() {
+            for (i, ui) in u_free.iter_mut().enumerate() {
+                *ui += self.kernel.modes[(i, j)] * a;
+            }
+        }
+        u_free
+    }
+
     /// Turn an infeasible equilibrium into a message naming the body and the motion.
     pub fn explain(&self, err: QpError) -> WsmError {
         match err {
-            QpError::Infeasible { equality_rows, .. } => {
+            QpError::Infeasible { equality_rows, residuals } => {
                 let row = equality_rows.first().copied().unwrap_or(0);
                 let (body, [tx, ty, rot]) = self.kernel.labels.get(row).cloned().unwrap_or_default();
+                // Residual G x − e < 0: the load's work on the mode exceeds what contact can
+                // resist, so the body would move along +mode (and along −mode otherwise).
+                let sign = if residuals.first().copied().unwrap_or(0.0) < 0.0 { 1.0 } else { -1.0 };
+                let (tx, ty, rot) = (sign * tx, sign * ty, sign * rot);
                 WsmError::UnbalancedMode {
                     body,
                     motion: describe_motion(tx, ty, rot),
@@ -318,7 +348,7 @@ fn describe_motion(tx: f64, ty: f64, rot: f64) -> String {
         parts.push(format!("translation along ({:.3}, {:.3})", tx / n, ty / n));
     }
     if rot.abs() > 1e-6 * scale {
-        parts.push("rotation".to_string());
+        parts.push(if rot > 0.0 { "counter-clockwise rotation" } else { "clockwise rotation" }.to_string());
     }
     parts.join(" with ")
 }
