@@ -2,7 +2,8 @@
 //! solver and, before every iteration, stops it on cancellation, wall time, the phase's share of
 //! the budget (an iteration is only started if a whole batch of `batch` new points still fits),
 //! or stagnation (no relative improvement above 1e-9 of the best cost in `stall_window`
-//! iterations). [`run`] drives a guarded solver with argmin's `Executor` and says why it stopped.
+//! iterations). [`run`] drives a guarded solver with argmin's `Executor` and says why it stopped
+//! and where it ended.
 
 use super::session::{Session, Stop};
 use super::{SearchError, Status};
@@ -109,15 +110,23 @@ where
     }
 }
 
-/// Run a guarded solver from `state` with argmin's `Executor`; the reason it stopped.
+/// How a guarded run ended: why, and its best parameter and cost (`None` if a batch was refused
+/// mid-iteration, which loses argmin's state).
+pub(super) struct Finish<P> {
+    pub(super) status: Status,
+    pub(super) best: Option<(P, f64)>,
+}
+
+/// Run a guarded solver from `state` with argmin's `Executor`.
 pub(super) fn run<O, I, S>(
     cost: O,
     guard: Guard<'_, '_, S>,
     state: I,
-) -> Result<Status, SearchError>
+) -> Result<Finish<I::Param>, SearchError>
 where
     O: CostFunction,
     I: State<Float = f64>,
+    I::Param: Clone,
     S: Solver<O, I>,
 {
     let result = Executor::new(cost, guard)
@@ -125,9 +134,18 @@ where
         .ctrlc(false)
         .run();
     match result {
-        Ok(done) => Ok(done.solver().stop.unwrap_or(Status::BudgetExhausted)),
+        Ok(done) => Ok(Finish {
+            status: done.solver().stop.unwrap_or(Status::BudgetExhausted),
+            best: done
+                .state()
+                .get_best_param()
+                .map(|p| (p.clone(), done.state().get_best_cost())),
+        }),
         Err(e) => match e.downcast_ref::<Stop>() {
-            Some(Stop(status)) => Ok(*status),
+            Some(Stop(status)) => Ok(Finish {
+                status: *status,
+                best: None,
+            }),
             None => Err(SearchError::Solver(e.to_string())),
         },
     }

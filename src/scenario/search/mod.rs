@@ -201,3 +201,6 @@ pub enum SearchError {
     #[error("optimiser failure: {0}")]
     Solver(String),
 }
+
+#[cfg(test)]
+mod tests;

@@ -13,7 +13,7 @@
 use super::cache::{EvalCache, Outcome};
 use super::space::Space;
 use super::{Evaluator, Objective, Phase, Progress, SearchControl, Sense, Status};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::atomic::Ordering;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
@@ -177,12 +177,10 @@ impl<'a> Session<'a> {
                 .map(|p| p.iter().map(|x| x.to_bits()).collect())
                 .collect();
             // The distinct points new to this run, in order of first appearance.
-            let mut new: Vec<usize> = Vec::new();
-            for (j, key) in keys.iter().enumerate() {
-                if !ledger.seen.contains_key(key) && !new.iter().any(|&i| keys[i] == *key) {
-                    new.push(j);
-                }
-            }
+            let mut batch_keys = HashSet::new();
+            let new: Vec<usize> = (0..keys.len())
+                .filter(|&j| !ledger.seen.contains_key(&keys[j]) && batch_keys.insert(&keys[j]))
+                .collect();
             if ledger.trace.len() + new.len() > self.budget {
                 return Err(Stop(Status::BudgetExhausted));
             }
