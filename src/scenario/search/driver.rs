@@ -2,14 +2,18 @@
 //! budget B between them. With k free parameters and m objectives:
 //!
 //! - R = min(k·m, B/2) evaluations are reserved for the sensitivities (k per objective);
-//! - screening: the vertices and the centre if 2^k + 1 ≤ B/3, else a Latin hypercube of B/5
-//!   points (never more than B − R);
+//! - screening (shared): the 2^k vertices and the centre if 2^k + 1 ≤ B/3, topped up with a
+//!   Latin hypercube to B/5 points in all (never more than B − R);
 //! - objective j (in order) gets the share (B − R − used) / (m − j) of what is left, so whatever
-//!   an objective leaves unused flows on to the next ones: its swarm may use 60 % of the share,
-//!   the polish of the best point the rest of the share (including what the swarm left); what
-//!   the polish leaves polishes up to two runner-ups — local maxima of the sample (best within
-//!   0.1 of themselves) in the top half of the observed range of values — so that a better
-//!   basin the swarm abandoned, or a second maximiser, is found;
+//!   an objective leaves unused flows on to the next ones. Its swarm may use 40 % of the share;
+//!   the polish uses the rest of the share (including what the swarm left):
+//!   - coarse polishes (step 0.1 → 1e-3) from the basin tops of all points evaluated so far
+//!     (nearest-better clustering, top half of the observed range of values): the best point,
+//!     then up to two runner-ups, each allowed a third of what is left and stopped as soon as it
+//!     joins the basin of an earlier end — this recovers a better basin the swarm abandoned;
+//!   - fine polishes (step 1e-3 → 1e-8, or a flat poll) from the best coarse end, then from
+//!     distinct ends (farther than 0.1 apart) within 1e-3 relative of it, so that several
+//!     maximisers are refined to 1e-9 and reported;
 //! - the sensitivities at every optimum come last, from what is left (at least R).
 //!
 //! Cancellation and the time limit stop everything at the next batch; the partial result is
