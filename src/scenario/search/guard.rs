@@ -150,3 +150,64 @@ where
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenario::search::cache::EvalCache;
+    use crate::scenario::search::space::Space;
+    use crate::scenario::search::{Evaluator, Objective, SearchControl, Sense};
+    use std::sync::atomic::{AtomicBool, Ordering};
+
+    struct Constant;
+    impl Evaluator for Constant {
+        fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>> {
+            points.iter().map(|_| Ok(vec![1.0])).collect()
+        }
+    }
+
+    #[test]
+    fn stops_on_stall_budget_and_cancel() {
+        let space = Space::new(&[[0.0, 1.0]]).unwrap();
+        let objectives = [Objective {
+            criterion: 0,
+            sense: Sense::Max,
+        }];
+        let cancel = AtomicBool::new(false);
+        let control = SearchControl {
+            cancel: &cancel,
+            on_progress: &|_| {},
+        };
+        let mut cache = EvalCache::new();
+        let session = Session::new(
+            &space,
+            &objectives,
+            &Constant,
+            control,
+            10,
+            None,
+            &mut cache,
+        );
+        session.evaluate(&[vec![0.5], vec![0.25]]).unwrap();
+
+        let mut guard = Guard::new((), &session, 10, 4, 3);
+        assert_eq!(guard.check(-1.0), None, "first finite cost improves on ∞");
+        assert_eq!(guard.check(-2.0), None);
+        // Gains of 1e-10 relative do not count.
+        assert_eq!(guard.check(-2.0 - 2e-10), None);
+        assert_eq!(guard.check(-2.0 - 4e-10), None);
+        assert_eq!(guard.check(-2.0 - 6e-10), Some(Status::Stagnated));
+
+        // 2 evaluations used: a batch of 4 fits under 6, not under 5.
+        assert_eq!(Guard::new((), &session, 6, 4, 3).check(0.0), None);
+        assert_eq!(
+            Guard::new((), &session, 5, 4, 3).check(0.0),
+            Some(Status::BudgetExhausted)
+        );
+        cancel.store(true, Ordering::SeqCst);
+        assert_eq!(
+            Guard::new((), &session, 6, 4, 3).check(0.0),
+            Some(Status::Cancelled)
+        );
+    }
+}

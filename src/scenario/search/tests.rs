@@ -331,6 +331,11 @@ fn time_limit_is_respected() {
     assert!(r.elapsed >= Duration::from_millis(200));
     assert!(r.elapsed < Duration::from_millis(200 + 20 + 150));
     assert!(r.objectives[0].best_value.is_some());
+    // An infinite limit is no limit.
+    p.max_seconds = Some(f64::INFINITY);
+    p.budget = 50;
+    e.delay = Duration::ZERO;
+    assert_ne!(run(&p, &e).status, Status::TimeLimit);
 }
 
 // ---- (e) determinism ----
