@@ -2,13 +2,18 @@
 //! budget B between them. With k free parameters and m objectives:
 //!
 //! - R = min(k·m, B/2) evaluations are reserved for the sensitivities (k per objective);
-//! - screening: the vertices and the centre if 2^k + 1 ≤ B/3, else a Latin hypercube of B/5
-//!   points (never more than B − R);
+//! - screening (shared): the 2^k vertices and the centre if 2^k + 1 ≤ B/3, topped up with a
+//!   Latin hypercube to B/5 points in all (never more than B − R);
 //! - objective j (in order) gets the share (B − R − used) / (m − j) of what is left, so whatever
-//!   an objective leaves unused flows on to the next ones: its swarm may use 60 % of the share,
-//!   the polish of the best point the rest of the share (including what the swarm left); what
-//!   the polish leaves polishes up to two runner-up points (within 10 % of the best, farther than
-//!   0.1 away) so that a second maximiser is found and reported;
+//!   an objective leaves unused flows on to the next ones. Its swarm may use 40 % of the share;
+//!   the polish uses the rest of the share (including what the swarm left):
+//!   - coarse polishes (step 0.1 → 1e-3) from the basin tops of all points evaluated so far
+//!     (nearest-better clustering, top half of the observed range of values): the best point,
+//!     then up to two runner-ups, each allowed a third of what is left and stopped as soon as it
+//!     joins the basin of an earlier end — this recovers a better basin the swarm abandoned;
+//!   - fine polishes (step 1e-3 → 1e-8, or a flat poll) from the best coarse end, then from
+//!     distinct ends (farther than 0.1 apart) within 1e-3 relative of it, so that several
+//!     maximisers are refined to 1e-9 and reported;
 //! - the sensitivities at every optimum come last, from what is left (at least R).
 //!
 //! Cancellation and the time limit stop everything at the next batch; the partial result is
@@ -20,15 +25,19 @@ use super::random::stream;
 use super::session::Session;
 use super::space::{is_vertex, Space};
 use super::{
-    polish, pso, screening, sensitivity, Evaluator, ObjectiveResult, Phase, SearchControl,
-    SearchError, SearchProblem, SearchResult, Status,
+    polish::{self, Stage},
+    pso, screening, sensitivity, Evaluator, ObjectiveResult, Phase, SearchControl, SearchError,
+    SearchProblem, SearchResult, Status,
 };
 
 /// Fraction of an objective's share for the swarm.
-const SWARM_FRACTION: f64 = 0.6;
-/// Runner-up points polished when budget remains, and how close to the best they must be.
-const EXTRA_POLISHES: usize = 2;
-const RUNNER_UP_TOL: f64 = 0.1;
+const SWARM_FRACTION: f64 = 0.4;
+/// Runner-up basin tops polished when budget remains, and the top fraction of the observed
+/// range of values they must lie in.
+const RUNNERS_UP: usize = 2;
+const RUNNER_UP_GAP: f64 = 0.5;
+/// Basin tops this close (relative) to the best after the coarse polish are all refined.
+const TIE_TOL: f64 = 1e-3;
 
 /// Random stream ids.
 const SCREENING_STREAM: u64 = 0;
@@ -117,28 +126,68 @@ fn run_phases(session: &Session, seed: u64) -> Result<Vec<Status>, SearchError> 
         )?;
 
         session.set_phase(Phase::Polish { objective: k });
-        let status = match session.best(k) {
-            Some((x, _)) => polish::run(session, k, x, polish_limit)?,
-            None => Status::BudgetExhausted,
-        };
-        if !is_halt(status) {
-            polish_runners_up(session, k, polish_limit)?;
-        }
+        let status = polish_objective(session, k, polish_limit)?;
         statuses.push(session.halt().unwrap_or(status));
     }
     Ok(statuses)
 }
 
-/// Polish the best points of other near-optimal clusters with what the objective's share left.
-fn polish_runners_up(session: &Session, k: usize, limit: usize) -> Result<(), SearchError> {
+/// Coarse polishes from the basin tops of the sample in the top half of its range of values
+/// (best first; a runner-up may use at most a third of what is left), then fine polishes from the
+/// distinct ends (farther than 0.1 apart) within 1e-3 relative of the best end — the best end
+/// and its ties, possibly several maximisers. The status of the fine polish of the best end.
+fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status, SearchError> {
     let ranked = session.ranked(k);
-    let runners_up = optima::representatives(&ranked, RUNNER_UP_TOL, 1 + EXTRA_POLISHES);
-    for x in runners_up.into_iter().skip(1) {
-        if is_halt(polish::run(session, k, x, limit)?) {
-            break;
+    let (Some((_, best)), Some((_, worst))) = (ranked.first(), ranked.last()) else {
+        return Ok(Status::BudgetExhausted);
+    };
+    if session.space.dim() == 0 {
+        // The single point is the whole box.
+        return Ok(Status::Completed);
+    }
+    let tops = optima::basin_tops(
+        &ranked,
+        best - RUNNER_UP_GAP * (best - worst),
+        1 + RUNNERS_UP,
+    );
+    // (point, cost) where each coarse polish ended.
+    let mut ends: Vec<(Vec<f64>, f64)> = Vec::new();
+    for (i, x) in tops.into_iter().enumerate() {
+        let cap = runner_up_cap(session, i, limit);
+        let finish = polish::run(session, k, x, Stage::Coarse, cap, &ends)?;
+        if is_halt(finish.status) {
+            return Ok(finish.status);
+        }
+        ends.extend(finish.best);
+    }
+    // Back to scores (larger is better), best first, for the clustering.
+    let mut scored: Vec<(Vec<f64>, f64)> = ends.into_iter().map(|(x, c)| (x, -c)).collect();
+    scored.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let ties = optima::representatives(&scored, TIE_TOL, 1 + RUNNERS_UP);
+    // No end at all: nothing feasible to polish, or no budget for it.
+    let mut status = Status::BudgetExhausted;
+    for (i, x) in ties.into_iter().enumerate() {
+        let cap = runner_up_cap(session, i, limit);
+        let finish = polish::run(session, k, x, Stage::Fine, cap, &[])?;
+        if is_halt(finish.status) {
+            return Ok(finish.status);
+        }
+        if i == 0 {
+            status = finish.status;
         }
     }
-    Ok(())
+    Ok(status)
+}
+
+/// The evaluation limit of the `i`-th polish of a stage: the first may use everything up to
+/// `limit`, the others a third of what is left.
+fn runner_up_cap(session: &Session, i: usize, limit: usize) -> usize {
+    let used = session.evaluations();
+    if i == 0 {
+        limit
+    } else {
+        used + limit.saturating_sub(used) / 3
+    }
 }
 
 /// Normalised sensitivities at every objective's best point (`None` where not evaluated).

@@ -6,16 +6,18 @@
 //! of evaluations; every point any phase asks for goes through the [`EvalCache`], which can be
 //! pre-loaded from a previous (interrupted) run and persisted afterwards. Phases, one module each:
 //!
-//! 1. [`screening`] — all vertices of the box plus its centre when that is cheap, otherwise a
+//! 1. `screening` — all vertices of the box plus its centre when that is cheap, topped up with a
 //!    scrambled Latin hypercube (SPEC §4.3 item 1);
-//! 2. [`pso`] — argmin's `ParticleSwarm`, seeded with the best points evaluated so far (item 2);
-//! 3. [`polish`] — a bounded compass search written as an argmin `Solver` (item 3);
-//! 4. [`sensitivity`] — normalised one-sided finite differences and active bounds at each
-//!    optimum, then the vertex and several-maximiser reports ([`optima`], item 4).
+//! 2. `pso` — argmin's `ParticleSwarm`, seeded with the best points evaluated so far (item 2);
+//! 3. `polish` — a bounded compass search written as an argmin `Solver`, coarse from the basin
+//!    tops of the sample, then fine from the best of them and its ties (item 3);
+//! 4. `sensitivity` — normalised one-sided finite differences and active bounds at each
+//!    optimum; `optima` — basin tops, the vertex and several-maximiser reports (item 4).
 //!
-//! [`driver`] splits the budget between them; [`session`] is the single gate to the evaluator
-//! (budget, wall time, cancellation, progress, convergence history); [`guard`] applies those
-//! limits and stagnation to any argmin solver; [`space`] maps the unit box onto the physical one.
+//! `driver` runs them and splits the budget; `session` is the single gate to the evaluator
+//! (budget, wall time, cancellation, progress, convergence history); `guard` applies those
+//! limits and stagnation to any argmin solver; `cost` is an objective as an argmin cost;
+//! `space` maps the unit box onto the physical one; `random` gives the seeded streams.
 //!
 //! All searching happens in the unit box [0, 1]^k of the k free parameters (those with lo < hi),
 //! so parameters of very different units are treated alike. Results are identical for a given
@@ -72,7 +74,7 @@ pub struct SearchProblem {
     pub objectives: Vec<Objective>,
     /// Total number of distinct points evaluated for everything (all phases, all objectives).
     pub budget: usize,
-    /// Wall-time limit, checked between batches.
+    /// Wall-time limit in seconds, checked between batches (`None` or ∞: no limit).
     pub max_seconds: Option<f64>,
     /// Seed of every random choice; the result is a function of the problem and the seed.
     pub seed: u64,
@@ -127,11 +129,13 @@ impl Default for SearchControl<'static> {
 /// search is the greatest of its objectives' statuses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Status {
-    /// The polish reached its finest step (1e-8 of the unit box) at the optimum.
+    /// The fine polish of the best point converged: its step fell below 1e-8 of the unit box,
+    /// or a poll around it was flat within 1e-9 relative.
     Completed,
     /// The polish made no relative improvement above 1e-9 for many iterations.
     Stagnated,
-    /// The evaluation budget ran out before the polish converged.
+    /// The evaluation budget ran out before the polish converged (or no feasible point was
+    /// found to polish).
     BudgetExhausted,
     /// `max_seconds` elapsed.
     TimeLimit,
@@ -201,3 +205,6 @@ pub enum SearchError {
     #[error("optimiser failure: {0}")]
     Solver(String),
 }
+
+#[cfg(test)]
+mod tests;

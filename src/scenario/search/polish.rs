@@ -3,13 +3,20 @@
 //!
 //! Each iteration polls x ± s·e_i for every coordinate i, projected onto the unit box (a poll
 //! point that projects back onto x is dropped), as one `bulk_cost` batch of at most 2k points.
-//! The best poll point replaces x if it is strictly better; otherwise s is halved. The search
-//! has converged when s falls below 1e-8 (of the unit box).
+//! The best poll point replaces x if it is strictly better; otherwise s is halved. A polish
+//! started from a runner-up stops as soon as it comes within 0.1 of a known, no worse end of an
+//! earlier polish: it has joined that basin. The search
+//! has converged when s falls below 1e-8 (of the unit box), or earlier when a failed poll is
+//! flat: every poll value within 1e-9 relative of Φ(x). At a smooth interior optimum the poll
+//! values differ from Φ(x) by O(s²), so Φ(x) is then within about 1e-9 of the local optimum
+//! and halving on would only refine the position.
 
 use super::cost::ObjectiveCost;
-use super::guard::{self, Guard};
+use super::guard::{self, Finish, Guard};
+use super::optima::SEPARATION;
 use super::session::Session;
-use super::{SearchError, Status};
+use super::space::distance;
+use super::SearchError;
 use argmin::core::{
     CostFunction, Error, IterState, Problem, Solver, State, TerminationReason, TerminationStatus,
     KV,
@@ -17,13 +24,18 @@ use argmin::core::{
 
 /// First poll step (unit box).
 const INITIAL_STEP: f64 = 0.1;
+/// The coarse stage ends below this step (unit box).
+const COARSE_STEP: f64 = 1e-3;
 /// Converged below this step (unit box).
 const MIN_STEP: f64 = 1e-8;
+/// Converged when a failed poll has every value within this relative distance of Φ(x).
+const FLAT_TOL: f64 = 1e-9;
 /// Poll coordinates this close to a bound are put on it, so that rounding in x ± s cannot
 /// leave the search a few ulps inside the box (far below `MIN_STEP`).
 const SNAP: f64 = 1e-12;
-/// Iterations without relative improvement above 1e-9 before giving up. Halving alone takes
-/// ⌈log2(0.1 / 1e-8)⌉ = 24 iterations, so a clean convergence is never mistaken for a stall.
+/// Iterations without relative improvement above 1e-9 before giving up. Halving alone takes at
+/// most ⌈log2(1e-3 / 1e-8)⌉ = 17 iterations in a stage, so a clean convergence is never
+/// mistaken for a stall.
 const STALL_ITERATIONS: usize = 30;
 
 type Point = IterState<Vec<f64>, (), (), (), (), f64>;
@@ -31,11 +43,20 @@ type Point = IterState<Vec<f64>, (), (), (), (), f64>;
 pub(super) struct CompassSearch {
     step: f64,
     min_step: f64,
+    /// Ends (point, cost) of earlier polishes: reaching one's basin ends this one.
+    known: Vec<(Vec<f64>, f64)>,
+    /// The last poll failed and was flat.
+    flat: bool,
 }
 
 impl CompassSearch {
-    pub(super) fn new(step: f64, min_step: f64) -> Self {
-        CompassSearch { step, min_step }
+    pub(super) fn new(step: f64, min_step: f64, known: Vec<(Vec<f64>, f64)>) -> Self {
+        CompassSearch {
+            step,
+            min_step,
+            known,
+            flat: false,
+        }
     }
 
     /// Poll points around `x`, projected onto [0, 1]^k (and snapped onto a bound closer than
@@ -90,6 +111,7 @@ where
         let fx = state.get_cost();
         let polls = self.poll(&x);
         let costs = problem.bulk_cost(&polls)?;
+        self.flat = costs.iter().all(|c| (c - fx).abs() <= FLAT_TOL * fx.abs());
         // The first strictly smallest cost wins, so ties are broken by poll order.
         let best =
             polls
@@ -100,7 +122,10 @@ where
                     _ => Some((y, c)),
                 });
         Ok(match best {
-            Some((y, c)) if c < fx => (state.param(y).cost(c), None),
+            Some((y, c)) if c < fx => {
+                self.flat = false;
+                (state.param(y).cost(c), None)
+            }
             _ => {
                 self.step *= 0.5;
                 (state.param(x).cost(fx), None)
@@ -108,8 +133,13 @@ where
         })
     }
 
-    fn terminate(&mut self, _state: &Point) -> TerminationStatus {
-        if self.step < self.min_step {
+    fn terminate(&mut self, state: &Point) -> TerminationStatus {
+        let joined = state.get_param().is_some_and(|x| {
+            self.known
+                .iter()
+                .any(|(y, c)| *c <= state.get_cost() && distance(x, y) <= SEPARATION)
+        });
+        if self.flat || self.step < self.min_step || joined {
             TerminationStatus::Terminated(TerminationReason::SolverConverged)
         } else {
             TerminationStatus::NotTerminated
@@ -117,23 +147,36 @@ where
     }
 }
 
-/// Polish objective `k` from the evaluated unit point `start` until converged, stalled, or the
-/// run's evaluation count would pass `limit`.
+/// How far a polish refines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Stage {
+    /// Step 0.1 down to 1e-3: climbs to the top of a basin cheaply.
+    Coarse,
+    /// Step 1e-3 down to 1e-8 (or a flat poll): refines the best basin.
+    Fine,
+}
+
+/// Polish objective `k` from the evaluated unit point `start` until the stage's last step, a
+/// flat poll, a stall, the basin of one of the `known` (point, cost) at no better cost, or the
+/// run's evaluation count would pass `limit`; the best point and cost reached are in the
+/// [`Finish`].
 pub(super) fn run(
     session: &Session,
     k: usize,
     start: Vec<f64>,
+    stage: Stage,
     limit: usize,
-) -> Result<Status, SearchError> {
+    known: &[(Vec<f64>, f64)],
+) -> Result<Finish<Vec<f64>>, SearchError> {
     let dim = start.len();
-    if dim == 0 {
-        return Ok(Status::Completed);
-    }
     let cost = ObjectiveCost {
         session,
         objective: k,
     };
-    let solver = CompassSearch::new(INITIAL_STEP, MIN_STEP);
+    let solver = match stage {
+        Stage::Coarse => CompassSearch::new(INITIAL_STEP, COARSE_STEP, known.to_vec()),
+        Stage::Fine => CompassSearch::new(COARSE_STEP, MIN_STEP, known.to_vec()),
+    };
     let guard = Guard::new(solver, session, limit, 2 * dim, STALL_ITERATIONS);
     guard::run(cost, guard, Point::new().param(start))
 }
@@ -145,7 +188,7 @@ mod tests {
 
     #[test]
     fn poll_projects_and_drops_the_centre() {
-        let c = CompassSearch::new(0.25, 1e-8);
+        let c = CompassSearch::new(0.25, 1e-8, Vec::new());
         assert_eq!(
             c.poll(&[1.0, 0.1]),
             vec![vec![0.75, 0.1], vec![1.0, 0.35], vec![1.0, 0.0]]
@@ -163,13 +206,14 @@ mod tests {
                 Ok((x[0] - 0.3).powi(2) + (x[1] + 2.0).powi(2))
             }
         }
-        let done = Executor::new(Bowl, CompassSearch::new(0.1, 1e-10))
+        let done = Executor::new(Bowl, CompassSearch::new(0.1, 1e-10, Vec::new()))
             .configure(|s| s.param(vec![0.9, 0.9]).max_iters(10_000))
             .ctrlc(false)
             .run()
             .unwrap();
         let best = done.state().get_best_param().unwrap();
-        assert!((best[0] - 0.3).abs() < 1e-9, "{best:?}");
+        // Stopped by the flat poll: |Φ(x ± s) − Φ(x)| ≈ s² ≤ 4e-9 once s ≈ 6e-5.
+        assert!((best[0] - 0.3).abs() < 1e-4, "{best:?}");
         assert_eq!(best[1], 0.0);
         assert_eq!(
             done.state().get_termination_reason(),

@@ -1,6 +1,7 @@
 //! Phase 1, screening (SPEC §4.3 item 1), shared by all objectives: all 2^k vertices of the unit
 //! box plus its centre when 2^k + 1 ≤ budget / 3 (the extremum of a monotone criterion is a
-//! vertex), otherwise a scrambled Latin hypercube of about budget / 5 points.
+//! vertex), topped up (or, without vertices, made) by a scrambled Latin hypercube to about
+//! budget / 5 points in all, so that the swarm is seeded from a space-filling sample.
 
 use super::random::{uniform, Rng};
 
@@ -10,11 +11,16 @@ pub(super) fn design(dim: usize, budget: usize, cap: usize, rng: &mut Rng) -> Ve
         return vec![Vec::new()];
     }
     let vertex_count = u32::try_from(dim).ok().and_then(|d| 1usize.checked_shl(d));
-    match vertex_count {
+    let mut points = match vertex_count {
         // 2^k + 1 <= budget / 3, and the design fits under the cap.
         Some(v) if v < budget / 3 && v < cap => vertices_and_centre(dim, v),
-        _ => latin_hypercube(dim, (budget / 5).clamp(1, cap.max(1)), rng),
-    }
+        _ => Vec::new(),
+    };
+    let fill = (budget / 5)
+        .clamp(1, cap.max(1))
+        .saturating_sub(points.len());
+    points.extend(latin_hypercube(dim, fill, rng));
+    points
 }
 
 fn vertices_and_centre(dim: usize, count: usize) -> Vec<Vec<f64>> {
@@ -51,6 +57,9 @@ mod tests {
     fn vertices_when_cheap() {
         let d = design(3, 27, 27, &mut stream(0, 0));
         assert_eq!(d.len(), 9);
+        // Topped up to 100 / 5 = 20 points.
+        let d20 = design(3, 100, 100, &mut stream(0, 0));
+        assert_eq!((d20.len(), &d20[..9]), (20, &d[..]));
         assert!(d.contains(&vec![1.0, 0.0, 1.0]));
         assert_eq!(d[8], vec![0.5; 3]);
         // 2^3 + 1 = 9 > 26 / 3: a Latin hypercube of 26 / 5 = 5 points instead.

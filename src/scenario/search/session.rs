@@ -13,7 +13,7 @@
 use super::cache::{EvalCache, Outcome};
 use super::space::Space;
 use super::{Evaluator, Objective, Phase, Progress, SearchControl, Sense, Status};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::sync::atomic::Ordering;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
@@ -91,7 +91,8 @@ impl<'a> Session<'a> {
             control,
             budget,
             start: Instant::now(),
-            max_time: max_seconds.map(|s| Duration::from_secs_f64(s.max(0.0))),
+            // An infinite (or unrepresentable) limit is no limit.
+            max_time: max_seconds.and_then(|s| Duration::try_from_secs_f64(s.max(0.0)).ok()),
             ledger: Mutex::new(Ledger {
                 cache,
                 seen: HashMap::new(),
@@ -160,75 +161,81 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Evaluate a batch of unit-box points; returns their trace indices in input order.
+    /// Evaluate a batch of unit-box points, then report progress; returns their trace indices
+    /// in input order.
     fn run_batch<U: AsRef<[f64]>>(&self, units: &[U]) -> Result<Vec<usize>, Stop> {
-        let progress = {
-            let mut ledger = self.ledger();
-            Self::update_halt(&mut ledger, self);
-            if let Some(halt) = ledger.halt {
-                return Err(Stop(halt));
-            }
-            let physical: Vec<Vec<f64>> = units
-                .iter()
-                .map(|u| self.space.to_physical(u.as_ref()))
-                .collect();
-            let keys: Vec<Vec<u64>> = physical
-                .iter()
-                .map(|p| p.iter().map(|x| x.to_bits()).collect())
-                .collect();
-            // The distinct points new to this run, in order of first appearance.
-            let mut new: Vec<usize> = Vec::new();
-            for (j, key) in keys.iter().enumerate() {
-                if !ledger.seen.contains_key(key) && !new.iter().any(|&i| keys[i] == *key) {
-                    new.push(j);
-                }
-            }
-            if ledger.trace.len() + new.len() > self.budget {
-                return Err(Stop(Status::BudgetExhausted));
-            }
-            let missing: Vec<usize> = new
-                .iter()
-                .copied()
-                .filter(|&j| ledger.cache.get(&physical[j]).is_none())
-                .collect();
-            if !missing.is_empty() {
-                let points: Vec<Vec<f64>> = missing.iter().map(|&j| physical[j].clone()).collect();
-                let mut answers = self.evaluator.evaluate(&points).into_iter();
-                for point in points {
-                    let answer = answers.next().unwrap_or_else(|| {
-                        Err("the evaluator returned fewer results than points".to_string())
-                    });
-                    ledger.cache.insert(point, sanitize(answer));
-                }
-                ledger.fresh += missing.len();
-            }
-            for &j in &new {
-                let criteria = ledger
-                    .cache
-                    .get(&physical[j])
-                    .and_then(|o| sanitize(o.clone()).ok());
-                self.record(&mut ledger, units[j].as_ref().to_vec(), criteria);
-                let index = ledger.trace.len() - 1;
-                ledger.seen.insert(keys[j].clone(), index);
-            }
-            let indices = keys
-                .iter()
-                .filter_map(|k| ledger.seen.get(k).copied())
-                .collect();
-            (
-                indices,
-                Progress {
-                    evaluations: ledger.trace.len(),
-                    budget: self.budget,
-                    phase: ledger.phase,
-                    best: (0..self.objectives.len())
-                        .map(|k| self.best_in(&ledger, k).map(|(_, v)| v))
-                        .collect(),
-                },
-            )
+        let (indices, progress) = self.admit(units)?;
+        (self.control.on_progress)(&progress);
+        Ok(indices)
+    }
+
+    /// Under the lock: check halts and budget, evaluate what the cache lacks, record the points
+    /// new to this run.
+    fn admit<U: AsRef<[f64]>>(&self, units: &[U]) -> Result<(Vec<usize>, Progress), Stop> {
+        let mut ledger = self.ledger();
+        Self::update_halt(&mut ledger, self);
+        if let Some(halt) = ledger.halt {
+            return Err(Stop(halt));
+        }
+        let physical: Vec<Vec<f64>> = units
+            .iter()
+            .map(|u| self.space.to_physical(u.as_ref()))
+            .collect();
+        let keys: Vec<Vec<u64>> = physical
+            .iter()
+            .map(|p| p.iter().map(|x| x.to_bits()).collect())
+            .collect();
+        // The distinct points new to this run, in order of first appearance.
+        let mut batch_keys = HashSet::new();
+        let new: Vec<usize> = (0..keys.len())
+            .filter(|&j| !ledger.seen.contains_key(&keys[j]) && batch_keys.insert(&keys[j]))
+            .collect();
+        if ledger.trace.len() + new.len() > self.budget {
+            return Err(Stop(Status::BudgetExhausted));
+        }
+        let missing: Vec<Vec<f64>> = new
+            .iter()
+            .filter(|&&j| ledger.cache.get(&physical[j]).is_none())
+            .map(|&j| physical[j].clone())
+            .collect();
+        self.fill_cache(&mut ledger, missing);
+        for &j in &new {
+            let criteria = ledger
+                .cache
+                .get(&physical[j])
+                .and_then(|o| sanitize(o.clone()).ok());
+            self.record(&mut ledger, units[j].as_ref().to_vec(), criteria);
+            let index = ledger.trace.len() - 1;
+            ledger.seen.insert(keys[j].clone(), index);
+        }
+        let indices = keys
+            .iter()
+            .filter_map(|k| ledger.seen.get(k).copied())
+            .collect();
+        let progress = Progress {
+            evaluations: ledger.trace.len(),
+            budget: self.budget,
+            phase: ledger.phase,
+            best: (0..self.objectives.len())
+                .map(|k| self.best_in(&ledger, k).map(|(_, v)| v))
+                .collect(),
         };
-        (self.control.on_progress)(&progress.1);
-        Ok(progress.0)
+        Ok((indices, progress))
+    }
+
+    /// Evaluate `points` (distinct, not in the cache) as one batch and cache the answers.
+    fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) {
+        if points.is_empty() {
+            return;
+        }
+        let mut answers = self.evaluator.evaluate(&points).into_iter();
+        ledger.fresh += points.len();
+        for point in points {
+            let answer = answers.next().unwrap_or_else(|| {
+                Err("the evaluator returned fewer results than points".to_string())
+            });
+            ledger.cache.insert(point, sanitize(answer));
+        }
     }
 
     /// Append a visit to the trace and update every objective's best and history.
