@@ -9,9 +9,9 @@ use crate::output::result;
 use crate::scenario::search::{EvalCache, Progress};
 use crate::scenario::worst::{prepare, run, WorstSettings};
 use crate::scene::{parse, Criterion, Scene, SceneError, SolverKind};
+use crate::state::{Needs, SolveOptions, StateProblem};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::sync::atomic::AtomicBool;
-use crate::state::{Needs, SolveOptions, StateProblem};
 
 /// Read and validate a scene from a file or a bundled example.
 pub fn load_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
@@ -19,15 +19,24 @@ pub fn load_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, W
         (Some(p), None) => std::fs::read_to_string(p)
             .map_err(|e| WsmError::Io(format!("cannot read {}: {e}", p.display())))?,
         (None, Some(name)) => example_text(name)
-            .ok_or_else(|| WsmError::Io(format!("no bundled example '{name}' (see `wsm example --list`)")))?
+            .ok_or_else(|| {
+                WsmError::Io(format!(
+                    "no bundled example '{name}' (see `wsm example --list`)"
+                ))
+            })?
             .to_string(),
-        _ => return Err(WsmError::Io("give a scene file or --example NAME (not both)".into())),
+        _ => {
+            return Err(WsmError::Io(
+                "give a scene file or --example NAME (not both)".into(),
+            ))
+        }
     };
     Ok(parse(&text)?)
 }
 
 fn write(path: &Path, text: &str) -> Result<(), WsmError> {
-    std::fs::write(path, text).map_err(|e| WsmError::Io(format!("cannot write {}: {e}", path.display())))
+    std::fs::write(path, text)
+        .map_err(|e| WsmError::Io(format!("cannot write {}: {e}", path.display())))
 }
 
 /// `wsm solve`: one state solve; returns the JSON summary.
@@ -48,7 +57,10 @@ pub fn solve(
     };
     let solution = problem.solve(&problem.nominal, &options)?;
     if let Some(p) = out {
-        write(p, &serde_json::to_string(&result::full(&problem, &solution)).unwrap_or_default())?;
+        write(
+            p,
+            &serde_json::to_string(&result::full(&problem, &solution)).unwrap_or_default(),
+        )?;
     }
     if let Some(p) = vtu {
         write(p, &result::vtu(&problem, &solution))?;
@@ -72,7 +84,10 @@ pub fn worst(
             .enumerate()
             .map(|(i, c)| {
                 Criterion::parse(c).ok_or_else(|| {
-                    WsmError::Scene(SceneError::new(format!("--criteria[{i}]"), format!("unknown criterion '{c}' (phi1..phi6)")))
+                    WsmError::Scene(SceneError::new(
+                        format!("--criteria[{i}]"),
+                        format!("unknown criterion '{c}' (phi1..phi6)"),
+                    ))
                 })
             })
             .collect::<Result<_, _>>()?;
@@ -100,7 +115,14 @@ pub fn worst(
             .collect();
         bar.set_message(best.join(", "));
     };
-    let result = run(&problem, &params, &settings, &mut EvalCache::new(), &AtomicBool::new(false), &on_progress)?;
+    let result = run(
+        &problem,
+        &params,
+        &settings,
+        &mut EvalCache::new(),
+        &AtomicBool::new(false),
+        &on_progress,
+    )?;
     bar.finish_and_clear();
     let full = serde_json::to_value(&result).unwrap_or_default();
     if let Some(p) = out {
@@ -127,9 +149,15 @@ fn worst_summary(full: &serde_json::Value) -> serde_json::Value {
 /// `wsm example`: a scene's JSON, or the list of names.
 pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     match (name, list) {
-        (_, true) | (None, false) => Ok(EXAMPLES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join("\n")),
-        (Some(n), false) => example_text(n)
-            .map(str::to_string)
-            .ok_or_else(|| WsmError::Io(format!("no bundled example '{n}' (see `wsm example --list`)"))),
+        (_, true) | (None, false) => Ok(EXAMPLES
+            .iter()
+            .map(|(n, _)| *n)
+            .collect::<Vec<_>>()
+            .join("\n")),
+        (Some(n), false) => example_text(n).map(str::to_string).ok_or_else(|| {
+            WsmError::Io(format!(
+                "no bundled example '{n}' (see `wsm example --list`)"
+            ))
+        }),
     }
 }

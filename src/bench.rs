@@ -63,7 +63,11 @@ pub struct ContactRow {
 
 /// Time a linear solve (factor + solve, contact ignored), a first contact solve (factor, C,
 /// QP, recovery) and a warm re-solve after a 1% change of pressures and slip limits.
-pub fn contact_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<ContactRow, WsmError> {
+pub fn contact_benchmark(
+    example: &str,
+    unknowns: usize,
+    runs: usize,
+) -> Result<ContactRow, WsmError> {
     let (problem, setup) = time(|| problem_of_size(example, unknowns));
     let problem = problem?;
     let elastic = &problem.elastic;
@@ -87,7 +91,10 @@ pub fn contact_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<
             }
         }
         let ((), t_lin) = time(|| {
-            if let Ok(f) = elastic.operator().factor(&elastic.coefficients(&d).unwrap_or_default(), Par::rayon(0)) {
+            if let Ok(f) = elastic
+                .operator()
+                .factor(&elastic.coefficients(&d).unwrap_or_default(), Par::rayon(0))
+            {
                 let rhs = elastic.rhs(&d, None).unwrap_or_default();
                 let _ = f.factor.solve(&rhs);
             }

@@ -9,7 +9,11 @@ use clap::{Parser, Subcommand, ValueEnum};
 use wsm::app;
 
 #[derive(Parser)]
-#[command(name = "wsm", version, about = "Worst-scenario analysis of multibody elastic contact")]
+#[command(
+    name = "wsm",
+    version,
+    about = "Worst-scenario analysis of multibody elastic contact"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -80,7 +84,13 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Solve { scene, example, solver, out, vtu } => {
+        Command::Solve {
+            scene,
+            example,
+            solver,
+            out,
+            vtu,
+        } => {
             let solver = solver.map(|s| match s {
                 SolverArg::Direct => wsm::scene::SolverKind::Direct,
                 SolverArg::Dd => wsm::scene::SolverKind::Dd,
@@ -88,7 +98,14 @@ fn main() -> ExitCode {
             app::load_scene(scene.as_deref(), example.as_deref())
                 .and_then(|s| app::solve(s, solver, out.as_deref(), vtu.as_deref()))
         }
-        Command::Worst { scene, example, criteria, budget, seed, out } => app::load_scene(scene.as_deref(), example.as_deref())
+        Command::Worst {
+            scene,
+            example,
+            criteria,
+            budget,
+            seed,
+            out,
+        } => app::load_scene(scene.as_deref(), example.as_deref())
             .and_then(|s| app::worst(s, &criteria, budget, seed, out.as_deref())),
         Command::Bench { sizes, runs } => wsm::bench::run(&sizes, runs),
         Command::Example { name, list } => app::example(name.as_deref(), list),

@@ -3,7 +3,7 @@
 
 use serde_json::{json, Value};
 use wsm::scene::{parse, Data, Scene};
-use wsm::state::{ContactState, Needs, SolveOptions, Solution, StateProblem};
+use wsm::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
 
 fn options(scene: &Scene) -> SolveOptions {
     SolveOptions {
@@ -53,10 +53,18 @@ fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64) -> Value {
 fn contact_patch_test_transmits_uniform_pressure_exactly() {
     let p = 3.0e6;
     let (problem, sol) = solve_value(&stacked_blocks(p, 1.0e5, 0.1)).unwrap();
-    assert!(problem.contact.kernel_dim() >= 1, "the upper block floats in y");
+    assert!(
+        problem.contact.kernel_dim() >= 1,
+        "the upper block floats in y"
+    );
     assert!(!sol.contact.is_empty());
     for c in &sol.contact {
-        assert!((c.pressure - p).abs() <= 1e-8 * p, "pressure {} at {:?}", c.pressure, c.position);
+        assert!(
+            (c.pressure - p).abs() <= 1e-8 * p,
+            "pressure {} at {:?}",
+            c.pressure,
+            c.position
+        );
         assert!(c.shear.abs() <= 1e-8 * p, "shear {}", c.shear);
         assert_eq!(c.state, ContactState::Stick);
     }
@@ -73,7 +81,12 @@ fn zero_slip_limit_is_frictionless() {
     let (_, free) = solve_value(&scene).unwrap();
     for c in &free.contact {
         assert!(c.shear.abs() <= 1e-9 * 1e6);
-        assert!((c.slip.abs() - 1.0e-4).abs() <= 1e-10, "slip {} at {:?}", c.slip, c.position);
+        assert!(
+            (c.slip.abs() - 1.0e-4).abs() <= 1e-10,
+            "slip {} at {:?}",
+            c.slip,
+            c.position
+        );
     }
     assert!(free.report.kkt.max() <= 1e-9, "{:?}", free.report.kkt);
 }
@@ -98,7 +111,10 @@ fn huge_slip_limit_gives_the_bonded_solution() {
         one["segments"][seg]["body"] = json!("lower");
     }
     one["segments"].as_object_mut().unwrap().remove("lower_top");
-    one["segments"].as_object_mut().unwrap().remove("upper_bottom");
+    one["segments"]
+        .as_object_mut()
+        .unwrap()
+        .remove("upper_bottom");
     one["contacts"] = json!([]);
     let (p2, bonded) = solve_value(&two).unwrap();
     let (p1, single) = solve_value(&one).unwrap();
@@ -106,13 +122,19 @@ fn huge_slip_limit_gives_the_bonded_solution() {
         assert_eq!(c.state, ContactState::Stick, "{c:?}");
         assert!(c.slip.abs() <= 1e-12 && c.gap <= 1e-12, "{c:?}");
     }
-    let scale = single.displacement.iter().fold(0.0_f64, |m, u| m.max(u[0].abs()).max(u[1].abs()));
+    let scale = single
+        .displacement
+        .iter()
+        .fold(0.0_f64, |m, u| m.max(u[0].abs()).max(u[1].abs()));
     let (m1, m2) = (p1.mesh(), p2.mesh());
     let mut compared = 0;
     for (i, x) in m2.nodes.iter().enumerate() {
         let j = m1.nodes.iter().position(|y| y == x).expect("same mesh");
         let (a, b) = (bonded.displacement[i], single.displacement[j]);
-        assert!((a[0] - b[0]).abs().max((a[1] - b[1]).abs()) <= 1e-8 * scale, "node {x:?}: {a:?} vs {b:?}");
+        assert!(
+            (a[0] - b[0]).abs().max((a[1] - b[1]).abs()) <= 1e-8 * scale,
+            "node {x:?}: {a:?} vs {b:?}"
+        );
         compared += 1;
     }
     assert_eq!(compared, m2.nodes.len());
@@ -131,14 +153,25 @@ fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
     // Below: 0.5 m × 3.8e5 Pa = 1.9e5 N/m < 2e5 N/m.
     let (below_problem, below) = solve_value(&scene(3.8e5)).unwrap();
     let pairs = &below_problem.contact.geometry.pairs;
-    let total_shear: f64 = below.contact.iter().zip(pairs).map(|(c, p)| c.shear * p.weight).sum();
-    assert!((total_shear.abs() - 1.9e5).abs() <= 1e-8 * 1.9e5, "friction force {total_shear}");
+    let total_shear: f64 = below
+        .contact
+        .iter()
+        .zip(pairs)
+        .map(|(c, p)| c.shear * p.weight)
+        .sum();
+    assert!(
+        (total_shear.abs() - 1.9e5).abs() <= 1e-8 * 1.9e5,
+        "friction force {total_shear}"
+    );
     assert!(below.contact.iter().any(|c| c.state == ContactState::Stick));
     assert!(below.report.kkt.max() <= 1e-9, "{:?}", below.report.kkt);
     // Above: 0.5 × 4.2e5 = 2.1e5 > 2e5: the block cannot be held.
     let err = solve_value(&scene(4.2e5)).err().expect("must be refused");
     let msg = err.to_string();
-    assert!(msg.contains("upper") && msg.contains("translation"), "{msg}");
+    assert!(
+        msg.contains("upper") && msg.contains("translation"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -155,21 +188,40 @@ fn hertz_half_width_and_peak_pressure() {
         let (problem, sol) = solve_value(&scene).unwrap();
         // Total normal force: Σ λ_n = load exactly (the cylinder floats in y).
         let pairs = &problem.contact.geometry.pairs;
-        let forces: Vec<f64> = sol.contact.iter().zip(pairs).map(|(c, p)| c.pressure * p.weight).collect();
+        let forces: Vec<f64> = sol
+            .contact
+            .iter()
+            .zip(pairs)
+            .map(|(c, p)| c.pressure * p.weight)
+            .collect();
         let total: f64 = forces.iter().sum();
-        assert!((total - load).abs() <= 1e-8 * load, "total {total} vs {load}");
+        assert!(
+            (total - load).abs() <= 1e-8 * load,
+            "total {total} vs {load}"
+        );
         // Half-width from the second moment of the pressure: ∫x²p = p0 π a³/8, ∫p = π a p0/2.
-        let m2: f64 = sol.contact.iter().zip(&forces).map(|(c, f)| c.position[0].powi(2) * f).sum();
+        let m2: f64 = sol
+            .contact
+            .iter()
+            .zip(&forces)
+            .map(|(c, f)| c.position[0].powi(2) * f)
+            .sum();
         let a = (4.0 * m2 / total).sqrt();
         let p0 = sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max);
-        let (ea, ep) = ((a - a_exact).abs() / a_exact, (p0 - p0_exact).abs() / p0_exact);
+        let (ea, ep) = (
+            (a - a_exact).abs() / a_exact,
+            (p0 - p0_exact).abs() / p0_exact,
+        );
         println!("h = {h}: a = {a:.5} (exact {a_exact:.5}, err {ea:.2e}), p0 = {p0:.4e} (exact {p0_exact:.4e}, err {ep:.2e})");
         assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
         errors.push((ea, ep));
     }
     let (ea, ep) = errors[errors.len() - 1];
     assert!(ea < 0.03 && ep < 0.03, "finest errors a {ea}, p0 {ep}");
-    assert!(errors[2].0 + errors[2].1 < errors[0].0 + errors[0].1, "errors shrink: {errors:?}");
+    assert!(
+        errors[2].0 + errors[2].1 < errors[0].0 + errors[0].1,
+        "errors shrink: {errors:?}"
+    );
 }
 
 #[test]
@@ -181,7 +233,12 @@ fn every_example_solves_with_small_kkt_residuals() {
             .solve(&problem.nominal, &options(&problem.scene))
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(sol.report.kkt.max() <= 1e-9, "{name}: {:?}", sol.report.kkt);
-        assert!(sol.displacement.iter().all(|u| u[0].is_finite() && u[1].is_finite()), "{name}");
+        assert!(
+            sol.displacement
+                .iter()
+                .all(|u| u[0].is_finite() && u[1].is_finite()),
+            "{name}"
+        );
         let data: &Data = &problem.nominal;
         assert_eq!(data.slip.len(), problem.scene.contacts.len());
     }

@@ -9,7 +9,11 @@ use wsm::scenario::search::EvalCache;
 use wsm::scenario::worst::{prepare, run, ScenarioEvaluator, WorstResult, WorstSettings};
 use wsm::scene::{parse, Criterion};
 
-fn worst(scene: &Value, criteria: &[Criterion], budget: usize) -> (WorstResult, (usize, usize, usize)) {
+fn worst(
+    scene: &Value,
+    criteria: &[Criterion],
+    budget: usize,
+) -> (WorstResult, (usize, usize, usize)) {
     let scene = parse(&scene.to_string()).unwrap();
     let (problem, params) = prepare(scene).unwrap();
     let settings = WorstSettings {
@@ -18,7 +22,15 @@ fn worst(scene: &Value, criteria: &[Criterion], budget: usize) -> (WorstResult, 
         seed: 7,
         max_seconds: None,
     };
-    let result = run(&problem, &params, &settings, &mut EvalCache::new(), &AtomicBool::new(false), &|_| {}).unwrap();
+    let result = run(
+        &problem,
+        &params,
+        &settings,
+        &mut EvalCache::new(),
+        &AtomicBool::new(false),
+        &|_| {},
+    )
+    .unwrap();
     (result, problem.counters.snapshot())
 }
 
@@ -69,7 +81,8 @@ fn monotone_stress_criterion_worst_is_the_max_load() {
 
 #[test]
 fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluations() {
-    let mut scene: Value = serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [0.0, 4.0e5]},
@@ -87,19 +100,41 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
         }
     }
     let budget = 1681 / 5;
-    let settings = WorstSettings { criteria: criteria.to_vec(), budget, seed: 3, max_seconds: None };
-    let r = run(&problem, &params, &settings, &mut EvalCache::new(), &AtomicBool::new(false), &|_| {}).unwrap();
+    let settings = WorstSettings {
+        criteria: criteria.to_vec(),
+        budget,
+        seed: 3,
+        max_seconds: None,
+    };
+    let r = run(
+        &problem,
+        &params,
+        &settings,
+        &mut EvalCache::new(),
+        &AtomicBool::new(false),
+        &|_| {},
+    )
+    .unwrap();
     let found = r.criteria[0].worst.value.unwrap();
     assert!(r.evaluations <= budget);
-    assert!(found >= grid_max * (1.0 - 1e-6), "found {found}, grid {grid_max}");
+    assert!(
+        found >= grid_max * (1.0 - 1e-6),
+        "found {found}, grid {grid_max}"
+    );
 }
 
 #[test]
 fn thermal_criteria_use_the_heat_solve_only() {
-    let scene: Value = serde_json::from_str(wsm::examples::example("heated-plate").unwrap()).unwrap();
-    let (r, (heat, factorisations, elastic)) = worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30);
+    let scene: Value =
+        serde_json::from_str(wsm::examples::example("heated-plate").unwrap()).unwrap();
+    let (r, (heat, factorisations, elastic)) =
+        worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30);
     assert!(heat > 0);
-    assert_eq!((factorisations, elastic), (0, 0), "no elastic work for Φ1/Φ2");
+    assert_eq!(
+        (factorisations, elastic),
+        (0, 0),
+        "no elastic work for Φ1/Φ2"
+    );
     // Φ1 grows with the heat source and the rim temperature and falls with conductivity.
     let w = &r.criteria[0].worst.data;
     assert_eq!(w[0].1, 2.5e4);
@@ -109,7 +144,8 @@ fn thermal_criteria_use_the_heat_solve_only() {
 
 #[test]
 fn changing_only_loads_and_slip_limits_never_refactorises() {
-    let mut scene: Value = serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 4.0e5]},
@@ -117,14 +153,18 @@ fn changing_only_loads_and_slip_limits_never_refactorises() {
     ]);
     let (r, (_, factorisations, elastic)) = worst(&scene, &[Criterion::Phi6], 30);
     assert!(elastic >= 20, "{elastic} solves");
-    assert_eq!(factorisations, 1, "one factorisation serves every load and slip-limit change");
+    assert_eq!(
+        factorisations, 1,
+        "one factorisation serves every load and slip-limit change"
+    );
     assert!(r.inner.max_kkt_residual <= 1e-9);
 }
 
 #[test]
 fn unbalanced_vertex_is_refused_before_any_solve() {
     // The block floats: at traction 6e5 Pa × 0.5 m = 3e5 N/m > g L = 2.5e5 N/m it slides away.
-    let mut scene: Value = serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 6.0e5]},
@@ -133,5 +173,8 @@ fn unbalanced_vertex_is_refused_before_any_solve() {
     let parsed = parse(&scene.to_string()).unwrap();
     let err = prepare(parsed).err().expect("must be refused");
     let msg = err.to_string();
-    assert!(msg.starts_with("uncertain") && msg.contains("block"), "{msg}");
+    assert!(
+        msg.starts_with("uncertain") && msg.contains("block"),
+        "{msg}"
+    );
 }

@@ -12,6 +12,7 @@
 //! Infeasible G λ = e within the box means the loads cannot be balanced by contact and friction:
 //! the solve is refused with the body and the unbalanced motion named.
 
+use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Par};
 use rayon::prelude::*;
 
@@ -22,7 +23,7 @@ use crate::fem::{ElasticProblem, Factor, RigidModes};
 use crate::scene::Data;
 
 /// Relative size (to the largest displacement) of the gap defect that triggers a refinement.
-const REFINE_TOL: f64 = 1e-13;
+const REFINE_TOL: f64 = 1e-12;
 /// Refinements of the condensed problem at most.
 const MAX_REFINEMENTS: usize = 3;
 
@@ -37,6 +38,33 @@ struct Kernel {
     /// Per mode: body name and (translation x, translation y, rotation) coefficients.
     labels: Vec<(String, [f64; 3])>,
     pinned: Vec<usize>,
+    /// (RᵀR)⁻¹, for the orthogonal projector P = I − R (RᵀR)⁻¹ Rᵀ onto the loads a floating
+    /// body can carry.
+    gram_inverse: Mat<f64>,
+}
+
+impl Kernel {
+    /// v ← P v: remove the rigid-mode components (least squares).
+    fn project(&self, v: &mut [f64]) {
+        let k = self.modes.ncols();
+        if k == 0 {
+            return;
+        }
+        let c: Vec<f64> = (0..k)
+            .map(|j| {
+                v.iter()
+                    .enumerate()
+                    .map(|(i, x)| self.modes[(i, j)] * x)
+                    .sum()
+            })
+            .collect();
+        for j in 0..k {
+            let t: f64 = (0..k).map(|l| self.gram_inverse[(j, l)] * c[l]).sum();
+            for (i, x) in v.iter_mut().enumerate() {
+                *x -= self.modes[(i, j)] * t;
+            }
+        }
+    }
 }
 
 /// The contact problem of a scene: geometry, floating-body kernel and G = RᵀBᵀ.
@@ -77,13 +105,17 @@ pub struct ContactSolution {
 
 impl DirectContact {
     /// Pairs, B rows and the floating-body kernel. Refuses a floating body without contact.
-    pub fn new(scene: &crate::scene::Scene, elastic: &ElasticProblem) -> Result<DirectContact, WsmError> {
+    pub fn new(
+        scene: &crate::scene::Scene,
+        elastic: &ElasticProblem,
+    ) -> Result<DirectContact, WsmError> {
         let geometry = ContactGeometry::new(scene, elastic.mesh(), elastic.dofs());
         let mut modes: Vec<RigidModes> = Vec::new();
         for &body in elastic.floating_bodies() {
-            let touches = geometry.pairs.iter().any(|p| {
-                p.nodes.iter().any(|&n| elastic.mesh().node_body[n] == body)
-            });
+            let touches = geometry
+                .pairs
+                .iter()
+                .any(|p| p.nodes.iter().any(|&n| elastic.mesh().node_body[n] == body));
             if !touches {
                 return Err(WsmError::Unbalanced {
                     body: elastic.mesh().bodies[body].clone(),
@@ -115,9 +147,24 @@ impl DirectContact {
                 g[(j, r)] = row.free.iter().map(|&(i, c)| c * all[(i, j)]).sum();
             }
         }
+        let gram = all.transpose() * &all;
+        let gram_inverse = if k == 0 {
+            Mat::zeros(0, 0)
+        } else {
+            gram.llt(faer::Side::Lower)
+                .map_err(|_| {
+                    WsmError::Contact("rigid modes of the floating bodies are dependent".into())
+                })?
+                .inverse()
+        };
         Ok(DirectContact {
             geometry,
-            kernel: Kernel { modes: all, labels, pinned },
+            kernel: Kernel {
+                modes: all,
+                labels,
+                pinned,
+                gram_inverse,
+            },
             g,
         })
     }
@@ -148,6 +195,7 @@ impl DirectContact {
         pin(op.pattern(), &mut pinned_values, &self.kernel.pinned);
         let factor = op.symbolic().factorize(op.matrix(&pinned_values), par)?;
         let c = self.schur(&factor, op.n_free());
+        let c = self.project_hessian(&factor, c);
         Ok(StiffnessFactor {
             coefficients: coefficients.to_vec(),
             values,
@@ -166,6 +214,52 @@ impl DirectContact {
         for &p in &self.kernel.pinned {
             b[p] = 0.0;
         }
+    }
+
+    /// x = P K⁺ P b: the symmetric generalised inverse of the TFETI-style projected formulation.
+    /// For loads a floating body can carry (Rᵀb = 0) it gives a solution of K x = b like K⁺, but
+    /// the unbalanced part of b no longer produces the huge deformation of a pinned body, which
+    /// keeps d and C on the scale of the true displacements (relative QP tolerances stay
+    /// meaningful for slender floating bodies).
+    fn projected_solve(&self, factor: &Factor, b: &mut [f64]) {
+        self.kernel.project(b);
+        self.pseudo_solve(factor, b);
+        self.kernel.project(b);
+    }
+
+    /// C' = B P K⁺ P Bᵀ from C = B K⁺ Bᵀ: with Z = K⁺R, X = B Z, Q = Rᵀ Z, M = (RᵀR)⁻¹ and
+    /// P Bᵀ = Bᵀ − R M G: C' = C − X M G − Gᵀ M Xᵀ + Gᵀ M Q M G.
+    fn project_hessian(&self, factor: &Factor, mut c: Mat<f64>) -> Mat<f64> {
+        let k = self.kernel_dim();
+        if k == 0 {
+            return c;
+        }
+        let (n, m) = (self.kernel.modes.nrows(), self.geometry.dim());
+        let mut z = Mat::<f64>::zeros(n, k);
+        for j in 0..k {
+            let mut col: Vec<f64> = (0..n).map(|i| self.kernel.modes[(i, j)]).collect();
+            self.pseudo_solve(factor, &mut col);
+            for (i, v) in col.into_iter().enumerate() {
+                z[(i, j)] = v;
+            }
+        }
+        let x = Mat::<f64>::from_fn(m, k, |r, j| {
+            self.geometry.rows[r]
+                .free
+                .iter()
+                .map(|&(i, cf)| cf * z[(i, j)])
+                .sum()
+        });
+        let q = self.kernel.modes.transpose() * &z;
+        let mg = &self.kernel.gram_inverse * &self.g; // k × m
+        let xmg = &x * &mg; // m × m
+        let correction = mg.transpose() * (&q * &mg);
+        for j in 0..m {
+            for r in 0..m {
+                c[(r, j)] += correction[(r, j)] - xmg[(r, j)] - xmg[(j, r)];
+            }
+        }
+        c
     }
 
     /// C = B K⁺ Bᵀ by chunks of columns, in parallel.
@@ -236,7 +330,7 @@ impl DirectContact {
         let geometry = &self.geometry;
         let m = geometry.dim();
         let mut x0 = rhs.to_vec();
-        self.pseudo_solve(&factor.factor, &mut x0);
+        self.projected_solve(&factor.factor, &mut x0);
         let mut d: Vec<f64> = (0..m).map(|r| geometry.rows[r].dot(&x0)).collect();
         self.add_offsets(fixed, &mut d);
         let mut start = warm.cloned();
@@ -247,12 +341,14 @@ impl DirectContact {
             } else {
                 let (g, e) = self.equilibrium(rhs);
                 let (lower, upper) = geometry.bounds(data);
-                let problem = BoxQp::new(factor.c.clone(), d.clone(), lower, upper).with_equalities(g, e);
+                let problem =
+                    BoxQp::new(factor.c.clone(), d.clone(), lower, upper).with_equalities(g, e);
                 let options = QpOptions {
                     parallel: false,
                     ..QpOptions::default()
                 };
-                let sol = solve_box_qp(&problem, start.as_ref(), &options).map_err(|err| self.explain(err))?;
+                let sol = solve_box_qp(&problem, start.as_ref(), &options)
+                    .map_err(|err| self.explain(err))?;
                 let (x, alpha) = (sol.x.clone(), sol.alpha.clone());
                 (Some(sol), x, alpha)
             };
@@ -297,20 +393,30 @@ impl DirectContact {
     /// Add B_d u_d − g0 (prescribed values on contact nodes, initial gaps on normal rows).
     fn add_offsets(&self, fixed: &[f64], v: &mut [f64]) {
         for (r, (row, vr)) in self.geometry.rows.iter().zip(v.iter_mut()).enumerate() {
-            let gap = if r % 2 == 0 { self.geometry.pairs[r / 2].gap } else { 0.0 };
+            let gap = if r % 2 == 0 {
+                self.geometry.pairs[r / 2].gap
+            } else {
+                0.0
+            };
             *vr += row.dot_fixed(fixed) - gap;
         }
     }
 
-    /// u = K⁺(f − Bᵀλ) + R α on the free DOFs.
-    fn recover(&self, factor: &StiffnessFactor, rhs: &[f64], multipliers: &[f64], rigid: &[f64]) -> Vec<f64> {
+    /// u = P K⁺ P (f − Bᵀλ) + R α on the free DOFs.
+    fn recover(
+        &self,
+        factor: &StiffnessFactor,
+        rhs: &[f64],
+        multipliers: &[f64],
+        rigid: &[f64],
+    ) -> Vec<f64> {
         let mut u_free = rhs.to_vec();
         for (row, l) in self.geometry.rows.iter().zip(multipliers) {
             for &(i, c) in &row.free {
                 u_free[i] -= c * l;
             }
         }
-        self.pseudo_solve(&factor.factor, &mut u_free);
+        self.projected_solve(&factor.factor, &mut u_free);
         for (j, a) in rigid.iter().enumerate() {
             for (i, ui) in u_free.iter_mut().enumerate() {
                 *ui += self.kernel.modes[(i, j)] * a;
@@ -322,13 +428,22 @@ impl DirectContact {
     /// Turn an infeasible equilibrium into a message naming the body and the motion.
     pub fn explain(&self, err: QpError) -> WsmError {
         match err {
-            QpError::Infeasible { equality_rows, residuals } => {
+            QpError::Infeasible {
+                equality_rows,
+                residuals,
+            } => {
                 let row = equality_rows.first().copied().unwrap_or(0);
-                let (body, [tx, ty, rot]) = self.kernel.labels.get(row).cloned().unwrap_or_default();
+                let (body, [tx, ty, rot]) =
+                    self.kernel.labels.get(row).cloned().unwrap_or_default();
                 // Residual G x − e < 0: the load's work on the mode exceeds what contact can
                 // resist, so the body would move along +mode (and along −mode otherwise).
-                let sign = if residuals.first().copied().unwrap_or(0.0) < 0.0 { 1.0 } else { -1.0 };
-                let (tx, ty, rot) = (sign * tx, sign * ty, sign * rot);
+                let sign = if residuals.first().copied().unwrap_or(0.0) < 0.0 {
+                    1.0
+                } else {
+                    -1.0
+                };
+                // (+ 0.0 turns −0.0 into 0.0 for printing.)
+                let (tx, ty, rot) = (sign * tx + 0.0, sign * ty + 0.0, sign * rot + 0.0);
                 WsmError::UnbalancedMode {
                     body,
                     motion: describe_motion(tx, ty, rot),
@@ -348,7 +463,14 @@ fn describe_motion(tx: f64, ty: f64, rot: f64) -> String {
         parts.push(format!("translation along ({:.3}, {:.3})", tx / n, ty / n));
     }
     if rot.abs() > 1e-6 * scale {
-        parts.push(if rot > 0.0 { "counter-clockwise rotation" } else { "clockwise rotation" }.to_string());
+        parts.push(
+            if rot > 0.0 {
+                "counter-clockwise rotation"
+            } else {
+                "clockwise rotation"
+            }
+            .to_string(),
+        );
     }
     parts.join(" with ")
 }
@@ -388,7 +510,11 @@ fn pick_pinned(modes: &Mat<f64>) -> Vec<usize> {
 }
 
 /// Replace the rows and columns of `pinned` DOFs by the identity scaled to the mean diagonal.
-fn pin(pattern: faer::sparse::SymbolicSparseColMatRef<'_, usize>, values: &mut [f64], pinned: &[usize]) {
+fn pin(
+    pattern: faer::sparse::SymbolicSparseColMatRef<'_, usize>,
+    values: &mut [f64],
+    pinned: &[usize],
+) {
     if pinned.is_empty() {
         return;
     }

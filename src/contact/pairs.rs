@@ -65,8 +65,9 @@ impl ContactGeometry {
         for (z, zone) in mesh.contacts.iter().enumerate() {
             let contact = &scene.contacts[z];
             let segment = &mesh.segments[zone.segment_k];
-            let normals: HashMap<usize, [f64; 2]> =
-                crate::fem::segment_node_normals(mesh, segment).into_iter().collect();
+            let normals: HashMap<usize, [f64; 2]> = crate::fem::segment_node_normals(mesh, segment)
+                .into_iter()
+                .collect();
             let mut weights = HashMap::<usize, f64>::new();
             for &[a, b] in &segment.edges {
                 let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
@@ -161,6 +162,8 @@ fn initial_gap(gap: Option<&InitialGap>, position: [f64; 2], fraction: f64) -> f
             let d2 = (position[0] - touch_at[0]).powi(2) + (position[1] - touch_at[1]).powi(2);
             d2 / (2.0 * radius)
         }
-        Some(InitialGap::PiecewiseLinear { knots, values }) => piecewise_linear(knots, values, fraction),
+        Some(InitialGap::PiecewiseLinear { knots, values }) => {
+            piecewise_linear(knots, values, fraction)
+        }
     }
 }

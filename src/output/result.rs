@@ -61,11 +61,19 @@ pub fn vtu(problem: &StateProblem, solution: &Solution) -> String {
         points.push(Field {
             name: "displacement",
             components: 3,
-            values: solution.displacement.iter().flat_map(|u| [u[0], u[1], 0.0]).collect(),
+            values: solution
+                .displacement
+                .iter()
+                .flat_map(|u| [u[0], u[1], 0.0])
+                .collect(),
         });
     }
     if let Some(t) = &solution.temperature {
-        points.push(Field { name: "temperature", components: 1, values: t.clone() });
+        points.push(Field {
+            name: "temperature",
+            components: 1,
+            values: t.clone(),
+        });
     }
     if !solution.contact.is_empty() {
         let mut pressure = vec![0.0; n];
@@ -84,10 +92,26 @@ pub fn vtu(problem: &StateProblem, solution: &Solution) -> String {
                 };
             }
         }
-        points.push(Field { name: "contact_pressure", components: 1, values: pressure });
-        points.push(Field { name: "contact_shear", components: 1, values: shear });
-        points.push(Field { name: "contact_gap", components: 1, values: gap });
-        points.push(Field { name: "contact_state", components: 1, values: state });
+        points.push(Field {
+            name: "contact_pressure",
+            components: 1,
+            values: pressure,
+        });
+        points.push(Field {
+            name: "contact_shear",
+            components: 1,
+            values: shear,
+        });
+        points.push(Field {
+            name: "contact_gap",
+            components: 1,
+            values: gap,
+        });
+        points.push(Field {
+            name: "contact_state",
+            components: 1,
+            values: state,
+        });
     }
     let mut cells = vec![Field {
         name: "zone",
@@ -95,7 +119,10 @@ pub fn vtu(problem: &StateProblem, solution: &Solution) -> String {
         values: mesh.triangle_zone.iter().map(|&z| z as f64).collect(),
     }];
     if !solution.stresses.is_empty() {
-        for (k, name) in ["stress_xx", "stress_yy", "stress_xy", "stress_zz"].into_iter().enumerate() {
+        for (k, name) in ["stress_xx", "stress_yy", "stress_xy", "stress_zz"]
+            .into_iter()
+            .enumerate()
+        {
             cells.push(Field {
                 name,
                 components: 1,

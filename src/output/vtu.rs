@@ -17,7 +17,9 @@ pub fn write_vtu(mesh: &Mesh, point_fields: &[Field], cell_fields: &[Field]) -> 
     let (np, nc) = (mesh.nodes.len(), mesh.triangles.len());
     s.push_str("<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n<UnstructuredGrid>\n");
     let _ = writeln!(s, "<Piece NumberOfPoints=\"{np}\" NumberOfCells=\"{nc}\">");
-    s.push_str("<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
+    s.push_str(
+        "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
+    );
     for p in &mesh.nodes {
         let _ = writeln!(s, "{:e} {:e} 0", p[0], p[1]);
     }
@@ -67,8 +69,16 @@ mod tests {
             triangle_zone: vec![0],
             ..Default::default()
         };
-        let u = Field { name: "displacement", components: 3, values: vec![0.0; 9] };
-        let z = Field { name: "zone", components: 1, values: vec![0.0] };
+        let u = Field {
+            name: "displacement",
+            components: 3,
+            values: vec![0.0; 9],
+        };
+        let z = Field {
+            name: "zone",
+            components: 1,
+            values: vec![0.0],
+        };
         let text = write_vtu(&mesh, &[u], &[z]);
         assert!(text.contains("NumberOfPoints=\"3\" NumberOfCells=\"1\""));
         assert!(text.contains("Name=\"displacement\" NumberOfComponents=\"3\""));

@@ -13,7 +13,7 @@ use faer::Mat;
 
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
-use crate::scene::params::{apply, Parameter, ParamTarget};
+use crate::scene::params::{apply, ParamTarget, Parameter};
 use crate::scene::SceneError;
 use crate::state::StateProblem;
 
@@ -33,12 +33,17 @@ fn affects_balance(target: ParamTarget) -> bool {
 }
 
 /// Refuse the admissible set if some vertex leaves a floating body unbalanced.
-pub fn check_balance_on_vertices(problem: &StateProblem, params: &[Parameter]) -> Result<(), WsmError> {
+pub fn check_balance_on_vertices(
+    problem: &StateProblem,
+    params: &[Parameter],
+) -> Result<(), WsmError> {
     let contact = &problem.contact;
     if contact.kernel_dim() == 0 {
         return Ok(());
     }
-    let relevant: Vec<usize> = (0..params.len()).filter(|&i| affects_balance(params[i].target)).collect();
+    let relevant: Vec<usize> = (0..params.len())
+        .filter(|&i| affects_balance(params[i].target))
+        .collect();
     let n = relevant.len();
     let count = if n < 12 { 1usize << n } else { MAX_VERTICES };
     let mid: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
@@ -47,7 +52,11 @@ pub fn check_balance_on_vertices(problem: &StateProblem, params: &[Parameter]) -
         let bits = if n < 12 { v as u64 } else { splitmix(v as u64) };
         let mut theta = mid.clone();
         for (b, &i) in relevant.iter().enumerate() {
-            theta[i] = if (bits >> (b % 64)) & 1 == 1 { params[i].hi } else { params[i].lo };
+            theta[i] = if (bits >> (b % 64)) & 1 == 1 {
+                params[i].hi
+            } else {
+                params[i].lo
+            };
         }
         let data = apply(&problem.scene, &problem.nominal, params, &theta);
         if let Err(e) = balance(problem, &data) {
@@ -55,7 +64,11 @@ pub fn check_balance_on_vertices(problem: &StateProblem, params: &[Parameter]) -
                 .iter()
                 .map(|&i| format!("{} = {}", params[i].name, theta[i]))
                 .collect();
-            return Err(SceneError::new("uncertain", format!("at the vertex ({}): {e}", at.join(", "))).into());
+            return Err(SceneError::new(
+                "uncertain",
+                format!("at the vertex ({}): {e}", at.join(", ")),
+            )
+            .into());
         }
         if n == 0 {
             break;

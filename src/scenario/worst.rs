@@ -16,7 +16,8 @@ use serde::Serialize;
 
 use super::admissible::check_balance_on_vertices;
 use super::search::{
-    search, ActiveBound, EvalCache, Evaluator, Objective, Progress, SearchControl, SearchProblem, Sense, Status,
+    search, ActiveBound, EvalCache, Evaluator, Objective, Progress, SearchControl, SearchProblem,
+    Sense, Status,
 };
 use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
@@ -108,9 +109,16 @@ impl<'a> ScenarioEvaluator<'a> {
     /// The requested criteria at θ.
     pub fn evaluate_one(&self, theta: &[f64]) -> Result<Vec<f64>, String> {
         let start = Instant::now();
-        let data = apply(&self.problem.scene, &self.problem.nominal, self.params, theta);
+        let data = apply(
+            &self.problem.scene,
+            &self.problem.nominal,
+            self.params,
+            theta,
+        );
         let result = self.problem.solve(&data, &self.options(Par::Seq));
-        self.stats.nanos.fetch_add(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
+        self.stats
+            .nanos
+            .fetch_add(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
         self.stats.solves.fetch_add(1, Ordering::Relaxed);
         let solution = result.map_err(|e| {
             self.stats.failures.fetch_add(1, Ordering::Relaxed);
@@ -118,9 +126,13 @@ impl<'a> ScenarioEvaluator<'a> {
         })?;
         let report = &solution.report;
         if report.reused_factorisation {
-            self.stats.reused_factorisations.fetch_add(1, Ordering::Relaxed);
+            self.stats
+                .reused_factorisations
+                .fetch_add(1, Ordering::Relaxed);
         }
-        self.stats.qp_iterations.fetch_add(report.qp_iterations, Ordering::Relaxed);
+        self.stats
+            .qp_iterations
+            .fetch_add(report.qp_iterations, Ordering::Relaxed);
         if let Ok(mut m) = self.stats.max_kkt.lock() {
             *m = m.max(report.kkt.max());
         }
@@ -217,14 +229,14 @@ pub fn run(
     on_progress: &(dyn Fn(&Progress) + Sync),
 ) -> Result<WorstResult, WsmError> {
     if settings.criteria.is_empty() {
-        return Err(crate::scene::SceneError::new("search.criteria", "no criterion requested").into());
+        return Err(
+            crate::scene::SceneError::new("search.criteria", "no criterion requested").into(),
+        );
     }
     let start = Instant::now();
     let evaluator = ScenarioEvaluator::new(problem, params, &settings.criteria)?;
     let objectives: Vec<Objective> = (0..settings.criteria.len())
-        .flat_map(|criterion| {
-            [Sense::Max, Sense::Min].map(|sense| Objective { criterion, sense })
-        })
+        .flat_map(|criterion| [Sense::Max, Sense::Min].map(|sense| Objective { criterion, sense }))
         .collect();
     let search_problem = SearchProblem {
         bounds: params.iter().map(|p| [p.lo, p.hi]).collect(),
@@ -233,7 +245,10 @@ pub fn run(
         max_seconds: settings.max_seconds,
         seed: settings.seed,
     };
-    let control = SearchControl { cancel, on_progress };
+    let control = SearchControl {
+        cancel,
+        on_progress,
+    };
     let result = search(&search_problem, &evaluator, cache, control)
         .map_err(|e| WsmError::Contact(format!("search: {e}")))?;
     if cancel.load(Ordering::Relaxed) && result.status == Status::Cancelled {
@@ -246,7 +261,13 @@ pub fn run(
             data: o
                 .best_point
                 .as_ref()
-                .map(|p| params.iter().zip(p).map(|(q, v)| (q.name.clone(), *v)).collect())
+                .map(|p| {
+                    params
+                        .iter()
+                        .zip(p)
+                        .map(|(q, v)| (q.name.clone(), *v))
+                        .collect()
+                })
                 .unwrap_or_default(),
             active_bounds: o
                 .active_bounds
@@ -285,7 +306,10 @@ pub fn run(
         scene: problem.scene.name.clone(),
         parameters: params
             .iter()
-            .map(|p| ParameterInfo { name: p.name.clone(), interval: [p.lo, p.hi] })
+            .map(|p| ParameterInfo {
+                name: p.name.clone(),
+                interval: [p.lo, p.hi],
+            })
             .collect(),
         criteria,
         status: format!("{:?}", result.status),
@@ -299,7 +323,8 @@ pub fn run(
             solves,
             failures: stats.failures.load(Ordering::Relaxed),
             reused_factorisations: stats.reused_factorisations.load(Ordering::Relaxed),
-            mean_qp_iterations: stats.qp_iterations.load(Ordering::Relaxed) as f64 / solves.max(1) as f64,
+            mean_qp_iterations: stats.qp_iterations.load(Ordering::Relaxed) as f64
+                / solves.max(1) as f64,
             solver_seconds,
             max_kkt_residual: stats.max_kkt.lock().map(|m| *m).unwrap_or(0.0),
         },

@@ -28,8 +28,18 @@ fn max_of(values: impl Iterator<Item = f64>) -> Option<f64> {
 pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6] {
     let mut out = [None; 6];
     if let Some(t) = fields.temperature {
-        out[0] = max_of(geometry.regions.iter().map(|r| mean(&r.node_weights, |i| t[i])));
-        out[1] = max_of(geometry.pieces.iter().map(|p| mean(&p.node_weights, |i| t[i])));
+        out[0] = max_of(
+            geometry
+                .regions
+                .iter()
+                .map(|r| mean(&r.node_weights, |i| t[i])),
+        );
+        out[1] = max_of(
+            geometry
+                .pieces
+                .iter()
+                .map(|p| mean(&p.node_weights, |i| t[i])),
+        );
     }
     if let Some(u) = fields.displacement {
         let along = |n: [f64; 2]| move |i: usize| u[i][0] * n[0] + u[i][1] * n[1];
@@ -39,10 +49,20 @@ pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6
                 .iter()
                 .filter_map(|r| r.normal.map(|n| mean(&r.node_weights, along(n)))),
         );
-        out[3] = max_of(geometry.pieces.iter().map(|p| mean(&p.node_weights, along(p.normal))));
+        out[3] = max_of(
+            geometry
+                .pieces
+                .iter()
+                .map(|p| mean(&p.node_weights, along(p.normal))),
+        );
     }
     if let Some(s) = fields.stresses {
-        out[4] = max_of(geometry.regions.iter().map(|r| mean(&r.element_weights, |e| s[e].i2_squared())));
+        out[4] = max_of(
+            geometry
+                .regions
+                .iter()
+                .map(|r| mean(&r.element_weights, |e| s[e].i2_squared())),
+        );
         out[5] = max_of(geometry.regions.iter().filter_map(|r| {
             r.normal.map(|n| {
                 mean(&r.element_weights, |e| {

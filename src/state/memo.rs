@@ -24,7 +24,11 @@ impl<V: Clone> Memo<V> {
     }
 
     /// The cached value for `key`, or `make()` stored under it; `true` when it was cached.
-    pub fn get_or_try<E>(&self, key: Vec<u64>, make: impl FnOnce() -> Result<V, E>) -> Result<(V, bool), E> {
+    pub fn get_or_try<E>(
+        &self,
+        key: Vec<u64>,
+        make: impl FnOnce() -> Result<V, E>,
+    ) -> Result<(V, bool), E> {
         if let Some(v) = self.lookup(&key) {
             return Ok((v, true));
         }

@@ -153,23 +153,39 @@ impl StateProblem {
             Some(t)
         } else {
             if self.heat.is_some() {
-                report.skipped.push("heat solve (no requested criterion needs it)".into());
+                report
+                    .skipped
+                    .push("heat solve (no requested criterion needs it)".into());
             }
             None
         };
         let mut solution = Solution::default();
         if options.needs.elastic {
-            self.solve_elastic(data, options, temperature.as_deref().map(Vec::as_slice), &mut solution, &mut report)?;
+            self.solve_elastic(
+                data,
+                options,
+                temperature.as_deref().map(Vec::as_slice),
+                &mut solution,
+                &mut report,
+            )?;
         } else {
-            report.skipped.push("elastic contact solve (only thermal criteria requested)".into());
+            report
+                .skipped
+                .push("elastic contact solve (only thermal criteria requested)".into());
         }
         let t0 = Instant::now();
         solution.criteria = evaluate_criteria(
             &self.criteria,
             &Fields {
                 temperature: temperature.as_deref().map(Vec::as_slice),
-                displacement: options.needs.elastic.then_some(solution.displacement.as_slice()),
-                stresses: options.needs.elastic.then_some(solution.stresses.as_slice()),
+                displacement: options
+                    .needs
+                    .elastic
+                    .then_some(solution.displacement.as_slice()),
+                stresses: options
+                    .needs
+                    .elastic
+                    .then_some(solution.stresses.as_slice()),
             },
         );
         solution.temperature = temperature.map(|t| t.as_ref().clone());
@@ -189,7 +205,9 @@ impl StateProblem {
     ) -> Result<(), WsmError> {
         let elastic = &self.elastic;
         let coefficients = elastic.coefficients(data)?;
-        report.warnings.extend(locking_warnings(&coefficients, elastic.mesh()));
+        report
+            .warnings
+            .extend(locking_warnings(&coefficients, elastic.mesh()));
         let t0 = Instant::now();
         let key = memo::key(coefficients.iter().flatten().copied());
         let (factor, reused) = self.factors.get_or_try(key, || {
@@ -205,14 +223,22 @@ impl StateProblem {
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
-        let sol = self
-            .contact
-            .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
+        let sol =
+            self.contact
+                .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
         report.timings.contact = t1.elapsed().as_secs_f64();
         let t2 = Instant::now();
         let u = elastic.dofs().expand(&sol.u_free, &fixed);
-        let u_scale = u.iter().fold(0.0_f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
-        let (nodes, kkt) = contact_results(&self.contact.geometry, &sol, data, &elastic.mesh().nodes, u_scale);
+        let u_scale = u
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+        let (nodes, kkt) = contact_results(
+            &self.contact.geometry,
+            &sol,
+            data,
+            &elastic.mesh().nodes,
+            u_scale,
+        );
         report.kkt = kkt;
         if let Some(qp) = &sol.qp {
             report.qp_iterations = qp.iterations;

@@ -124,7 +124,10 @@ pub fn contact_results(
     displacement_scale: f64,
 ) -> (Vec<ContactNode>, ContactKkt) {
     let lam = &sol.multipliers;
-    let force_scale = lam.iter().fold(0.0_f64, |m, x| m.max(x.abs())).max(f64::MIN_POSITIVE);
+    let force_scale = lam
+        .iter()
+        .fold(0.0_f64, |m, x| m.max(x.abs()))
+        .max(f64::MIN_POSITIVE);
     let u_scale = displacement_scale.max(f64::MIN_POSITIVE);
     let mut kkt = ContactKkt {
         equilibrium: sol.equilibrium_residual,
@@ -150,7 +153,9 @@ pub fn contact_results(
         } else {
             kkt.penetration = kkt.penetration.max(wn.abs() / u_scale);
         }
-        kkt.friction_excess = kkt.friction_excess.max((lt.abs() - bound).max(0.0) / force_scale);
+        kkt.friction_excess = kkt
+            .friction_excess
+            .max((lt.abs() - bound).max(0.0) / force_scale);
         // Tresca: a pair below its slip limit does not slip; at the limit it slips along its
         // multiplier (open pairs included: g acts regardless of the normal force). g = 0 is free.
         let stick_slip = if bound == 0.0 {
