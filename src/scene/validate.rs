@@ -180,7 +180,7 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
         let path = format!("materials.{name}");
         match (m.young, m.nu, m.lambda, m.mu) {
             (Some(e), Some(nu), None, None) => {
-                if !(finite(&format!("{path}.E"), e)? > 0.0) {
+                if finite(&format!("{path}.E"), e)? <= 0.0 {
                     return Err(SceneError::new(
                         format!("{path}.E"),
                         "Young's modulus must be > 0",
@@ -419,7 +419,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
         }
         match &c.initial_gap {
             Some(InitialGap::Parabola { radius, touch_at }) => {
-                if !(finite(&format!("{path}.initial_gap.parabola.radius"), *radius)? > 0.0) {
+                if finite(&format!("{path}.initial_gap.parabola.radius"), *radius)? <= 0.0 {
                     return Err(SceneError::new(
                         format!("{path}.initial_gap.parabola.radius"),
                         "must be > 0",
@@ -477,7 +477,7 @@ fn check_knots(path: &str, knots: &[f64], values: &[f64]) -> Result<(), SceneErr
 }
 
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
-    if !(finite("mesh.max_size", mesh.max_size)? > 0.0) {
+    if finite("mesh.max_size", mesh.max_size)? <= 0.0 {
         return Err(SceneError::new("mesh.max_size", "must be > 0"));
     }
     if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {
@@ -488,7 +488,7 @@ fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
     }
     for (i, r) in mesh.refine.iter().enumerate() {
         let path = format!("mesh.refine[{i}]");
-        if !(finite(&format!("{path}.max_size"), r.max_size)? > 0.0) {
+        if finite(&format!("{path}.max_size"), r.max_size)? <= 0.0 {
             return Err(SceneError::new(format!("{path}.max_size"), "must be > 0"));
         }
         for (j, s) in r.segments.iter().enumerate() {
@@ -593,7 +593,7 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
         return Err(SceneError::new("search.budget", "must be at least 1"));
     }
     if let Some(t) = scene.search.max_seconds {
-        if !(finite("search.max_seconds", t)? > 0.0) {
+        if finite("search.max_seconds", t)? <= 0.0 {
             return Err(SceneError::new("search.max_seconds", "must be > 0"));
         }
     }
