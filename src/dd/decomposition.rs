@@ -3,6 +3,7 @@
 //! clusters ϑ (subdomains linked by contact pairs, union–find) as [`ContactCluster`]s, and their
 //! tied versions for the auxiliary problem. Local factorisations run in parallel.
 
+use faer::Mat;
 use rayon::prelude::*;
 
 use super::pair::{ContactCluster, LocalRow};
@@ -55,6 +56,10 @@ pub struct Decomposition {
     /// too (full stick) because the normal tie alone left a rigid motion.
     pub tied: Vec<LinearBlock>,
     pub full_stick: Vec<bool>,
+    /// Per cluster: ρ of each interface DOF and the rigid-motion candidates (all local DOFs),
+    /// for linearised blocks ([`ContactCluster::linearised`]).
+    pub cluster_rho: Vec<Vec<f64>>,
+    pub cluster_candidates: Vec<Mat<f64>>,
 }
 
 impl Decomposition {
@@ -176,7 +181,7 @@ impl Decomposition {
             let r = find(&mut parent, node_sub[pair.nodes[0]]);
             cluster_pairs[cluster_of[r]].push(i);
         }
-        let built: Vec<(ContactCluster, LinearBlock, bool, LocalDofs)> = members
+        let built: Vec<BuiltCluster> = members
             .par_iter()
             .zip(&cluster_pairs)
             .enumerate()
@@ -189,11 +194,15 @@ impl Decomposition {
         let mut tied = Vec::new();
         let mut full_stick = Vec::new();
         let mut cluster_dofs = Vec::new();
-        for (c, t, f, d) in built {
-            clusters.push(c);
-            tied.push(t);
-            full_stick.push(f);
-            cluster_dofs.push(d);
+        let mut cluster_rho = Vec::new();
+        let mut cluster_candidates = Vec::new();
+        for b in built {
+            clusters.push(b.cluster);
+            tied.push(b.tied);
+            full_stick.push(b.full_stick);
+            cluster_dofs.push(b.dofs);
+            cluster_rho.push(b.rho);
+            cluster_candidates.push(b.candidates);
         }
         Ok(Decomposition {
             partition,
@@ -205,6 +214,8 @@ impl Decomposition {
             cluster_pairs,
             tied,
             full_stick,
+            cluster_rho,
+            cluster_candidates,
         })
     }
 
@@ -230,6 +241,15 @@ fn local_row(row: &ContactRow, local: &[usize], n_interior: usize) -> Result<Loc
     })
 }
 
+struct BuiltCluster {
+    cluster: ContactCluster,
+    tied: LinearBlock,
+    full_stick: bool,
+    dofs: LocalDofs,
+    rho: Vec<f64>,
+    candidates: Mat<f64>,
+}
+
 fn build_cluster(
     problem: &DdProblem,
     elements: &[Vec<usize>],
@@ -237,7 +257,7 @@ fn build_cluster(
     rho: &[f64],
     members: &[usize],
     pairs: &[usize],
-) -> Result<(ContactCluster, LinearBlock, bool, LocalDofs), String> {
+) -> Result<BuiltCluster, String> {
     let n = problem.n_dofs();
     // (global, member) for interior and interface DOFs.
     let mut interior: Vec<(usize, usize)> = Vec::new();
@@ -288,12 +308,20 @@ fn build_cluster(
         cand.subrows(0, ni),
     )?;
     let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
-    let (tied, full) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
+    let (tied, full_stick) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref())
+    {
         Ok(t) => (t, false),
-        Err(first) => match cluster.tied(|_| true, rho_gamma, cand.as_ref()) {
+        Err(first) => match cluster.tied(|_| true, rho_gamma.clone(), cand.as_ref()) {
             Ok(t) => (t, true),
             Err(_) => return Err(first),
         },
     };
-    Ok((cluster, tied, full, dofs))
+    Ok(BuiltCluster {
+        cluster,
+        tied,
+        full_stick,
+        dofs,
+        rho: rho_gamma,
+        candidates: cand,
+    })
 }

@@ -163,7 +163,8 @@ impl ContactCluster {
         })
     }
 
-    /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated). `rho` and
+    /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated), except rows
+    /// without free DOFs. `rho` and
     /// `candidates` (rows: all local DOFs) as for [`LinearBlock::new`].
     pub fn tied(
         &self,
@@ -171,8 +172,51 @@ impl ContactCluster {
         rho: Vec<f64>,
         candidates: MatRef<'_, f64>,
     ) -> Result<LinearBlock, String> {
+        self.tied_with_load(tie, &self.f_interior, rho, candidates)
+    }
+
+    /// The cluster linearised at a local solution with multipliers `x` (the Jacobian of S_CON
+    /// for a fixed active set, plus its constant part): rows strictly inside their bounds
+    /// (closed normal, sticking tangential) become equalities B_r u = e_r, rows at a bound keep
+    /// their multiplier as a load −x_r B_rᵀ. The tied auxiliary problem is the special case
+    /// "all normal rows free". A block with this active set reproduces the cluster's reaction
+    /// exactly as long as the active set does not change, so solving S0 + Σ linearised = F is a
+    /// primal–dual active-set (semismooth Newton) step for S0 U + S_CON(U) = F.
+    pub fn linearised(
+        &self,
+        x: &[f64],
+        rho: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<LinearBlock, String> {
+        let scale = x.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+        let inside = |r: usize| {
+            let row = &self.rows[r];
+            let eps = 1e-12 * scale;
+            x[r] > row.lower + eps && x[r] < row.upper - eps
+        };
+        let mut load = self.f_interior.clone();
+        for (r, row) in self.rows.iter().enumerate() {
+            if !inside(r) {
+                for &(p, a) in &row.entries {
+                    load[p] -= a * x[r];
+                }
+            }
+        }
+        self.tied_with_load(inside, &load, rho, candidates)
+    }
+
+    fn tied_with_load(
+        &self,
+        tie: impl Fn(usize) -> bool,
+        f_interior: &[f64],
+        rho: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<LinearBlock, String> {
         let n = self.k.dim();
-        let tied: Vec<usize> = (0..self.rows.len()).filter(|&r| tie(r)).collect();
+        // Rows on prescribed DOFs only (a pair on a clamped boundary) tie nothing.
+        let tied: Vec<usize> = (0..self.rows.len())
+            .filter(|&r| tie(r) && self.rows[r].entries.iter().any(|e| e.1 != 0.0))
+            .collect();
         let mut uses = vec![0usize; n];
         for &r in &tied {
             for &(p, a) in &self.rows[r].entries {
@@ -232,7 +276,7 @@ impl ContactCluster {
             }
         }
         let mut h = vec![0.0; n];
-        h[..self.n_interior].copy_from_slice(&self.f_interior);
+        h[..self.n_interior].copy_from_slice(f_interior);
         let mt0: Vec<f64> = t0.iter().map(|v| -v).collect();
         self.k.mul_block((0, n), (0, n), &mt0, &mut h);
         let mut trips = Vec::new();

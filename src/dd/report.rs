@@ -10,7 +10,7 @@ use super::decomposition::Decomposition;
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Times {
     /// Partition, local assembly and factorisations, condensed contact operators.
     pub setup: f64,
@@ -26,7 +26,7 @@ pub struct Times {
 }
 
 /// Report of one DD solve.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct DdReport {
     pub n_dofs: usize,
     pub n_interface: usize,
@@ -42,6 +42,8 @@ pub struct DdReport {
     pub outer_iterations: usize,
     pub pcg2_iterations: usize,
     pub pcg2_per_outer: Vec<usize>,
+    /// PCG iterations of each active-set Newton step (empty when not used).
+    pub newton_pcg_iterations: Vec<usize>,
     /// ‖T(U^k) − U^k‖ per outer step (Euclidean norm of the interface trace).
     pub outer_residuals: Vec<f64>,
     /// q_k = r_k / r_{k−1}.
@@ -147,7 +149,11 @@ impl fmt::Display for DdReport {
             )?;
         }
         if let Some(a) = &self.acceleration {
-            writeln!(f, "  acceleration: {a}")?;
+            writeln!(
+                f,
+                "  acceleration: {a}; PCG per Newton step {:?}",
+                self.newton_pcg_iterations
+            )?;
         }
         if let Some(fb) = &self.fallback {
             writeln!(f, "  FALLBACK: {fb}")?;
