@@ -308,8 +308,7 @@ fn build_cluster(
         cand.subrows(0, ni),
     )?;
     let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
-    let (tied, full_stick) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref())
-    {
+    let (tied, full_stick) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
         Ok(t) => (t, false),
         Err(first) => match cluster.tied(|_| true, rho_gamma.clone(), cand.as_ref()) {
             Ok(t) => (t, true),

@@ -16,7 +16,7 @@
 //!   V_0H for S0 (D05 6.4–6.8).
 //! - [`pcg`]: PCG1 / PCG2 (D05 §5, §6).
 //! - [`successive`]: successive approximations S0 U^k = F − S_CON(U^{k−1}) (D05 4.37 / 6.1–6.3)
-//!   with contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38), active-set Newton recovery and a
+//!   with contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38), Anderson acceleration and a
 //!   direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
 //! - [`scene`]: the scene-level entry used by the state layer (`solver.kind = "dd"`).

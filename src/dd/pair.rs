@@ -188,7 +188,10 @@ impl ContactCluster {
         rho: Vec<f64>,
         candidates: MatRef<'_, f64>,
     ) -> Result<LinearBlock, String> {
-        let scale = x.iter().fold(0.0_f64, |m, v| m.max(v.abs())).max(f64::MIN_POSITIVE);
+        let scale = x
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v.abs()))
+            .max(f64::MIN_POSITIVE);
         let inside = |r: usize| {
             let row = &self.rows[r];
             let eps = 1e-12 * scale;

@@ -42,8 +42,6 @@ pub struct DdReport {
     pub outer_iterations: usize,
     pub pcg2_iterations: usize,
     pub pcg2_per_outer: Vec<usize>,
-    /// PCG iterations of each active-set Newton step (empty when not used).
-    pub newton_pcg_iterations: Vec<usize>,
     /// ‖T(U^k) − U^k‖ per outer step (Euclidean norm of the interface trace).
     pub outer_residuals: Vec<f64>,
     /// q_k = r_k / r_{k−1}.
@@ -149,11 +147,7 @@ impl fmt::Display for DdReport {
             )?;
         }
         if let Some(a) = &self.acceleration {
-            writeln!(
-                f,
-                "  acceleration: {a}; PCG per Newton step {:?}",
-                self.newton_pcg_iterations
-            )?;
+            writeln!(f, "  acceleration: {a}")?;
         }
         if let Some(fb) = &self.fallback {
             writeln!(f, "  FALLBACK: {fb}")?;

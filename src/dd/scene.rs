@@ -5,8 +5,8 @@
 //! ‖K u − f + Bᵀλ‖ / ‖f‖ checked on the assembled K), so that contact results, stresses and
 //! criteria stay shared between the two solvers.
 
-use super::successive::{solve, DdOptions, DdSolution, Fallback};
 use super::partition::CONTACT_LAYERS;
+use super::successive::{solve, DdOptions, DdSolution, Fallback};
 use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
 use crate::contact::direct::ContactSolution;
 use crate::contact::pairs::ContactGeometry;

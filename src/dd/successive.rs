@@ -9,18 +9,13 @@
 //! over the contact clusters (reference notes §2.11; F0 = f_Γ + Σ_T R_sᵀ g_s).
 //!
 //! Robustness beyond the papers: the contraction factor q_k = ‖U^{k+1} − U^k‖ / ‖U^k − U^{k−1}‖
-//! is measured every step (Thm 7.1 predicts q ≤ 2β² < 1); when q ≥ 1 or the iteration stagnates
-//! (the contraction condition of Cor. 7.1 fails, e.g. long contact zones whose clusters are not
-//! "small"), the interface equation S0 U + S_CON(U) = F is solved instead by a primal–dual
-//! active-set (semismooth Newton) iteration: S_CON is linearised at the current local contact
-//! solutions ([`super::pair::ContactCluster::linearised`]: closed/sticking rows tied, rows at a
-//! bound carry their multiplier as a load) and the linear interface problem is solved by the
-//! PCG1 machinery (balancing NN with the linearised clusters). It stops when the active set
-//! repeats (then U is exact up to the PCG tolerance). If that fails too, the caller's direct
-//! solver is used. Every such switch is recorded in the report.
+//! is measured every step (Thm 7.1 predicts q ≤ 2β² < 1); when q ≥ 1 or the iteration stagnates,
+//! the fixed point U = T(U) is accelerated by Anderson mixing on the interface trace; if that
+//! fails too, the caller's direct solver is used. Every such switch is recorded in the report.
 
 use std::time::Instant;
 
+use faer::Mat;
 use rayon::prelude::*;
 
 use super::coarse::Balancing;
@@ -42,11 +37,11 @@ pub struct DdOptions {
     /// Stop when ‖U^k − U^{k−1}‖ ≤ outer_tol ‖U^k‖.
     pub outer_tol: f64,
     pub max_outer: usize,
-    /// Switch to active-set Newton when q ≥ 1, or when q > `stagnation` twice in a row.
+    /// Switch to Anderson acceleration when q ≥ 1, or when q > `stagnation` twice in a row.
     pub stagnation: f64,
-    /// Allow the active-set Newton recovery (false: plain successive approximations only).
-    pub newton: bool,
-    /// Active-set Newton from the first step (for tests and comparisons).
+    /// Anderson memory (0 disables acceleration).
+    pub anderson_depth: usize,
+    /// Always accelerate from the first step (for tests and comparisons).
     pub force_acceleration: bool,
     pub qp: QpOptions,
 }
@@ -64,7 +59,7 @@ impl Default for DdOptions {
             outer_tol: 1e-10,
             max_outer: 200,
             stagnation: 0.95,
-            newton: true,
+            anderson_depth: 20,
             force_acceleration: false,
             qp: QpOptions::default(),
         }
@@ -100,23 +95,15 @@ pub fn solve(
     fallback: Option<Fallback>,
 ) -> Result<DdSolution, DdError> {
     let t0 = Instant::now();
-    let mut report = DdReport::default();
-    let mut setup = 0.0;
-    let result = Partition::new(problem, &options.partition)
-        .and_then(|partition| Decomposition::new(problem, partition))
-        .and_then(|dec| {
-            report = DdReport::new(problem, &dec);
-            setup = t0.elapsed().as_secs_f64();
-            iterate(problem, &dec, options, &mut report)
-        });
-    report.times.setup = setup;
-    match result {
-        Ok((u, multipliers, times)) => {
-            report.times = Times {
-                setup,
-                total: t0.elapsed().as_secs_f64(),
-                ..times
-            };
+    let partition = Partition::new(problem, &options.partition)?;
+    let dec = Decomposition::new(problem, partition)?;
+    let mut report = DdReport::new(problem, &dec);
+    let setup = t0.elapsed().as_secs_f64();
+    match iterate(problem, &dec, options, &mut report) {
+        Ok((u, multipliers, mut times)) => {
+            times.setup = setup;
+            times.total = t0.elapsed().as_secs_f64();
+            report.times = times;
             Ok(DdSolution {
                 u,
                 multipliers,
@@ -134,6 +121,7 @@ pub fn solve(
             };
             let answer = direct().map_err(DdError::Fallback)?;
             report.fallback = Some(format!("direct solver used after: {err}"));
+            report.times.setup = setup;
             report.times.total = t0.elapsed().as_secs_f64();
             Ok(DdSolution {
                 u: answer.u,
@@ -160,7 +148,6 @@ struct Step<'a> {
     options: &'a DdOptions,
     warm: Vec<Option<WarmStart>>,
     pcg2_iterations: Vec<usize>,
-    newton_iterations: Vec<usize>,
     coarse_residual: f64,
     qp_iterations: usize,
     scon_time: f64,
@@ -209,49 +196,6 @@ impl Step<'_> {
         self.pcg2_time += t.elapsed().as_secs_f64();
         self.pcg2_iterations.push(out.iterations);
         self.coarse_residual = self.coarse_residual.max(out.coarse_residual);
-        Ok(out.x)
-    }
-}
-
-impl Step<'_> {
-    /// One active-set Newton step from U: the clusters linearised at their local solutions for
-    /// U (from [`Step::rhs`]), then (S0 + Σ linearised) V = F0 + Σ linearised loads by PCG.
-    fn newton(&mut self, u: &[f64]) -> Result<Vec<f64>, DdError> {
-        self.rhs(u)?;
-        let t = Instant::now();
-        let dec = self.dec;
-        let linear: Vec<_> = dec
-            .clusters
-            .par_iter()
-            .zip(&self.warm)
-            .enumerate()
-            .map(|(c, (cl, warm))| {
-                let x = warm.as_ref().map(|w| w.x.as_slice()).unwrap_or_default();
-                cl.linearised(
-                    x,
-                    dec.cluster_rho[c].clone(),
-                    dec.cluster_candidates[c].as_ref(),
-                )
-                .map_err(|reason| DdError::Cluster { cluster: c, reason })
-            })
-            .collect::<Result<_, _>>()?;
-        let mut b = self.f0.clone();
-        for lb in &linear {
-            for (&g, v) in lb.gamma.iter().zip(lb.condensed_load()) {
-                b[g] += v;
-            }
-        }
-        let op = Balancing::new(dec.blocks.iter().chain(&linear).collect(), b.len())?;
-        let out = pcg(
-            &op,
-            &b,
-            u.to_vec(),
-            self.options.pcg1_tol,
-            self.options.max_pcg,
-            "PCG (active-set Newton)",
-        )?;
-        self.newton_iterations.push(out.iterations);
-        self.pcg2_time += t.elapsed().as_secs_f64();
         Ok(out.x)
     }
 }
@@ -310,33 +254,28 @@ fn iterate(
         options,
         warm: vec![None; dec.clusters.len()],
         pcg2_iterations: Vec::new(),
-        newton_iterations: Vec::new(),
         coarse_residual: 0.0,
         qp_iterations: 0,
         scon_time: 0.0,
         pcg2_time: 0.0,
     };
     let mut u = first.x;
-    let mut newton = options.force_acceleration && options.newton;
-    if newton {
-        report.acceleration = Some("active-set Newton from the first step (forced)".into());
+    let mut anderson = Anderson::new(options.anderson_depth);
+    let mut accelerated = options.force_acceleration && options.anderson_depth > 0;
+    if accelerated {
+        report.acceleration = Some("Anderson mixing from the first step (forced)".into());
     }
     let mut high = 0;
     let mut converged = false;
     for k in 0..options.max_outer {
-        let mut switched = false;
-        let tu = if newton {
-            step.newton(&u)?
-        } else {
-            step.apply(&u)?
-        };
+        let tu = step.apply(&u)?;
         let diff: Vec<f64> = tu.iter().zip(&u).map(|(a, b)| a - b).collect();
         let r = norm(&diff);
         let scale = norm(&tu).max(f64::MIN_POSITIVE);
         if let Some(&prev) = report.outer_residuals.last() {
             let q = if prev > 0.0 { r / prev } else { 0.0 };
             report.contraction.push(q);
-            if !newton {
+            if !accelerated {
                 high = if q >= 1.0 {
                     2
                 } else if q > options.stagnation {
@@ -344,11 +283,11 @@ fn iterate(
                 } else {
                     0
                 };
-                if high >= 2 && options.newton {
-                    newton = true;
-                    switched = true;
+                if high >= 2 && options.anderson_depth > 0 {
+                    accelerated = true;
                     report.acceleration = Some(format!(
-                        "active-set Newton from outer step {k}: observed contraction {q:.3} (the contraction condition 2β² < 1 of D05 Cor. 7.1 fails)"
+                        "Anderson mixing (depth {}) from outer step {k}: observed contraction {q:.3}",
+                        options.anderson_depth
                     ));
                 }
             }
@@ -363,12 +302,12 @@ fn iterate(
         if !r.is_finite() {
             break;
         }
-        // The step that revealed divergence is not taken: Newton starts from the last iterate.
-        if !switched {
-            u = tu;
-        }
+        u = if accelerated {
+            anderson.next(&u, &tu)
+        } else {
+            tu
+        };
     }
-    report.newton_pcg_iterations = step.newton_iterations.clone();
     report.pcg2_iterations = step.pcg2_iterations.iter().sum();
     report.pcg2_per_outer = step.pcg2_iterations.clone();
     report.coarse_residual[1] = step.coarse_residual;
@@ -417,4 +356,71 @@ fn iterate(
     report.qp_iterations = step.qp_iterations;
     times.recovery = t.elapsed().as_secs_f64();
     Ok((full, multipliers, times))
+}
+
+/// Anderson mixing (type II) for U = T(U): U_{k+1} = T(U_k) − ΔT γ, γ = argmin ‖f_k − ΔF γ‖,
+/// f = T(U) − U (Walker & Ni, SIAM J. Numer. Anal. 49 (2011)).
+struct Anderson {
+    depth: usize,
+    u: Vec<Vec<f64>>,
+    t: Vec<Vec<f64>>,
+}
+
+impl Anderson {
+    fn new(depth: usize) -> Anderson {
+        Anderson {
+            depth,
+            u: Vec::new(),
+            t: Vec::new(),
+        }
+    }
+
+    fn next(&mut self, u: &[f64], tu: &[f64]) -> Vec<f64> {
+        self.u.push(u.to_vec());
+        self.t.push(tu.to_vec());
+        if self.u.len() > self.depth + 1 {
+            self.u.remove(0);
+            self.t.remove(0);
+        }
+        let m = self.u.len() - 1;
+        if m == 0 {
+            return tu.to_vec();
+        }
+        let f = |i: usize| -> Vec<f64> {
+            self.t[i]
+                .iter()
+                .zip(&self.u[i])
+                .map(|(a, b)| a - b)
+                .collect()
+        };
+        let fk = f(m);
+        let df: Vec<Vec<f64>> = (0..m)
+            .map(|i| f(i + 1).iter().zip(f(i)).map(|(a, b)| a - b).collect())
+            .collect();
+        // Normal equations with a relative Tikhonov term (the columns may be nearly dependent).
+        let a = Mat::from_fn(m, m, |i, j| {
+            let v: f64 = df[i].iter().zip(&df[j]).map(|(x, y)| x * y).sum();
+            if i == j {
+                v * (1.0 + 1e-10)
+            } else {
+                v
+            }
+        });
+        let rhs = Mat::from_fn(m, 1, |i, _| df[i].iter().zip(&fk).map(|(x, y)| x * y).sum());
+        let gamma = match a.llt(faer::Side::Lower) {
+            Ok(llt) => {
+                use faer::linalg::solvers::Solve;
+                llt.solve(&rhs)
+            }
+            Err(_) => return tu.to_vec(),
+        };
+        let mut next = tu.to_vec();
+        for i in 0..m {
+            let g = gamma[(i, 0)];
+            for (j, x) in next.iter_mut().enumerate() {
+                *x -= g * (self.t[i + 1][j] - self.t[i][j]);
+            }
+        }
+        next
+    }
 }

@@ -133,7 +133,7 @@ fn dd_equals_direct_on_two_blocks_frictionless_partial_slip_and_stick() {
 #[test]
 fn divergent_successive_approximations_are_detected_and_accelerated() {
     // A thin contact band in a full-width contact: ρ(S0⁻¹ S_CON') > 1, the plain fixed point
-    // diverges (the papers' contraction condition fails); active-set Newton recovers it.
+    // diverges (the papers' contraction condition fails); Anderson mixing recovers it.
     let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let reference = direct(&problem);
     let sol = solve(&problem, &options(8, 2), None).expect("dd");
@@ -142,7 +142,7 @@ fn divergent_successive_approximations_are_detected_and_accelerated() {
     assert!(rel(&sol.u, &reference.u) <= 1e-8);
     // Without acceleration: divergence is reported, and the direct fallback is used and said.
     let plain = DdOptions {
-        newton: false,
+        anderson_depth: 0,
         max_outer: 15,
         ..options(8, 2)
     };
