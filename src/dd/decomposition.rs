@@ -176,7 +176,7 @@ impl Decomposition {
             let r = find(&mut parent, node_sub[pair.nodes[0]]);
             cluster_pairs[cluster_of[r]].push(i);
         }
-        let built: Vec<(ContactCluster, LinearBlock, bool, LocalDofs)> = members
+        let built: Vec<BuiltCluster> = members
             .par_iter()
             .zip(&cluster_pairs)
             .enumerate()
@@ -189,11 +189,11 @@ impl Decomposition {
         let mut tied = Vec::new();
         let mut full_stick = Vec::new();
         let mut cluster_dofs = Vec::new();
-        for (c, t, f, d) in built {
-            clusters.push(c);
-            tied.push(t);
-            full_stick.push(f);
-            cluster_dofs.push(d);
+        for b in built {
+            clusters.push(b.cluster);
+            tied.push(b.tied);
+            full_stick.push(b.full_stick);
+            cluster_dofs.push(b.dofs);
         }
         Ok(Decomposition {
             partition,
@@ -230,6 +230,13 @@ fn local_row(row: &ContactRow, local: &[usize], n_interior: usize) -> Result<Loc
     })
 }
 
+struct BuiltCluster {
+    cluster: ContactCluster,
+    tied: LinearBlock,
+    full_stick: bool,
+    dofs: LocalDofs,
+}
+
 fn build_cluster(
     problem: &DdProblem,
     elements: &[Vec<usize>],
@@ -237,7 +244,7 @@ fn build_cluster(
     rho: &[f64],
     members: &[usize],
     pairs: &[usize],
-) -> Result<(ContactCluster, LinearBlock, bool, LocalDofs), String> {
+) -> Result<BuiltCluster, String> {
     let n = problem.n_dofs();
     // (global, member) for interior and interface DOFs.
     let mut interior: Vec<(usize, usize)> = Vec::new();
@@ -288,12 +295,17 @@ fn build_cluster(
         cand.subrows(0, ni),
     )?;
     let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
-    let (tied, full) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
+    let (tied, full_stick) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
         Ok(t) => (t, false),
         Err(first) => match cluster.tied(|_| true, rho_gamma, cand.as_ref()) {
             Ok(t) => (t, true),
             Err(_) => return Err(first),
         },
     };
-    Ok((cluster, tied, full, dofs))
+    Ok(BuiltCluster {
+        cluster,
+        tied,
+        full_stick,
+        dofs,
+    })
 }

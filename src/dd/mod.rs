@@ -19,6 +19,7 @@
 //!   with contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38), Anderson acceleration and a
 //!   direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
+//! - [`scene`]: the scene-level entry used by the state layer (`solver.kind = "dd"`).
 //! - [`bench`]: scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
@@ -31,6 +32,7 @@ pub mod pair;
 pub mod partition;
 pub mod pcg;
 pub mod report;
+pub mod scene;
 pub mod subdomain;
 pub mod successive;
 

@@ -163,7 +163,8 @@ impl ContactCluster {
         })
     }
 
-    /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated). `rho` and
+    /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated), except rows
+    /// without free DOFs. `rho` and
     /// `candidates` (rows: all local DOFs) as for [`LinearBlock::new`].
     pub fn tied(
         &self,
@@ -171,8 +172,21 @@ impl ContactCluster {
         rho: Vec<f64>,
         candidates: MatRef<'_, f64>,
     ) -> Result<LinearBlock, String> {
+        self.tied_with_load(tie, &self.f_interior, rho, candidates)
+    }
+
+    fn tied_with_load(
+        &self,
+        tie: impl Fn(usize) -> bool,
+        f_interior: &[f64],
+        rho: Vec<f64>,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<LinearBlock, String> {
         let n = self.k.dim();
-        let tied: Vec<usize> = (0..self.rows.len()).filter(|&r| tie(r)).collect();
+        // Rows on prescribed DOFs only (a pair on a clamped boundary) tie nothing.
+        let tied: Vec<usize> = (0..self.rows.len())
+            .filter(|&r| tie(r) && self.rows[r].entries.iter().any(|e| e.1 != 0.0))
+            .collect();
         let mut uses = vec![0usize; n];
         for &r in &tied {
             for &(p, a) in &self.rows[r].entries {
@@ -232,7 +246,7 @@ impl ContactCluster {
             }
         }
         let mut h = vec![0.0; n];
-        h[..self.n_interior].copy_from_slice(&self.f_interior);
+        h[..self.n_interior].copy_from_slice(f_interior);
         let mt0: Vec<f64> = t0.iter().map(|v| -v).collect();
         self.k.mul_block((0, n), (0, n), &mt0, &mut h);
         let mut trips = Vec::new();

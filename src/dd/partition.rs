@@ -15,6 +15,9 @@ use std::collections::HashMap;
 
 use super::{DdError, DdProblem};
 
+/// Default width of the contact bands, in element layers.
+pub const CONTACT_LAYERS: usize = 2;
+
 /// How to partition.
 #[derive(Debug, Clone, PartialEq)]
 pub enum PartitionRequest {

@@ -10,7 +10,7 @@ use super::decomposition::Decomposition;
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Times {
     /// Partition, local assembly and factorisations, condensed contact operators.
     pub setup: f64,
@@ -26,7 +26,7 @@ pub struct Times {
 }
 
 /// Report of one DD solve.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct DdReport {
     pub n_dofs: usize,
     pub n_interface: usize,

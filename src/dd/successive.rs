@@ -51,7 +51,7 @@ impl Default for DdOptions {
         DdOptions {
             partition: PartitionRequest::Automatic {
                 subdomains: 12,
-                contact_layers: 2,
+                contact_layers: super::partition::CONTACT_LAYERS,
             },
             pcg1_tol: 1e-10,
             pcg2_tol: 1e-12,

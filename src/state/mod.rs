@@ -19,13 +19,14 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::contact::direct::{DirectContact, StiffnessFactor};
+use crate::contact::direct::{ContactSolution, DirectContact, StiffnessFactor};
 use crate::contact::qp::WarmStart;
 use crate::criteria::CriteriaGeometry;
+use crate::dd::DirectAnswer;
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, HeatProblem, Par};
 use crate::mesh::Mesh;
-use crate::scene::{BoundaryValue, Criterion, Data, Scene};
+use crate::scene::{BoundaryValue, Criterion, Data, Scene, SolverKind};
 use memo::Memo;
 
 /// What a solve must compute.
@@ -208,25 +209,24 @@ impl StateProblem {
         report
             .warnings
             .extend(locking_warnings(&coefficients, elastic.mesh()));
-        let t0 = Instant::now();
-        let key = memo::key(coefficients.iter().flatten().copied());
-        let (factor, reused) = self.factors.get_or_try(key, || {
-            self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
-            self.contact
-                .factor(elastic, &coefficients, options.par)
-                .map(Arc::new)
-        })?;
-        report.reused_factorisation = reused;
-        report.timings.factor = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
-        let sol =
-            self.contact
-                .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
-        report.timings.contact = t1.elapsed().as_secs_f64();
+        self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
+        let t1 = Instant::now();
+        let sol = if self.scene.solver.kind == SolverKind::Dd {
+            self.solve_dd(data, &coefficients, &rhs, &fixed, options, report)?
+        } else {
+            let (factor, reused) = self.stiffness_factor(&coefficients, options.par)?;
+            report.reused_factorisation = reused;
+            report.timings.factor = t1.elapsed().as_secs_f64();
+            let t1 = Instant::now();
+            let sol =
+                self.contact
+                    .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
+            report.timings.contact = t1.elapsed().as_secs_f64();
+            sol
+        };
         let t2 = Instant::now();
         let u = elastic.dofs().expand(&sol.u_free, &fixed);
         let u_scale = u
@@ -257,6 +257,68 @@ impl StateProblem {
         solution.contact = nodes;
         report.timings.post = t2.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// The stiffness factorisation of the direct solver for the coefficients (memoised), and
+    /// whether it was reused.
+    fn stiffness_factor(
+        &self,
+        coefficients: &[[f64; 2]],
+        par: Par,
+    ) -> Result<(Arc<StiffnessFactor>, bool), WsmError> {
+        let key = memo::key(coefficients.iter().flatten().copied());
+        self.factors.get_or_try(key, || {
+            self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
+            self.contact
+                .factor(&self.elastic, coefficients, par)
+                .map(Arc::new)
+        })
+    }
+
+    /// The elastic contact solve by domain decomposition (SPEC §3.2); the direct solver is the
+    /// fallback, used (and reported in `report.dd.fallback`) only when DD fails.
+    fn solve_dd(
+        &self,
+        data: &Data,
+        coefficients: &[[f64; 2]],
+        rhs: &[f64],
+        fixed: &[f64],
+        options: &SolveOptions,
+        report: &mut SolveReport,
+    ) -> Result<ContactSolution, WsmError> {
+        let elastic = &self.elastic;
+        let direct = || -> Result<DirectAnswer, String> {
+            let (factor, _) = self
+                .stiffness_factor(coefficients, options.par)
+                .map_err(|e| e.to_string())?;
+            let sol = self
+                .contact
+                .solve(&factor, elastic, rhs, fixed, data, options.warm.as_ref())
+                .map_err(|e| e.to_string())?;
+            Ok(DirectAnswer {
+                u: sol.u_free,
+                multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
+            })
+        };
+        let dd_options = crate::dd::scene::options(&self.scene.solver);
+        let (sol, dd) = crate::dd::scene::solve_elastic(
+            elastic,
+            &self.contact.geometry,
+            data,
+            coefficients,
+            rhs,
+            fixed,
+            &dd_options,
+            Some(&direct),
+        )
+        .map_err(|e| WsmError::Contact(format!("domain decomposition: {e}")))?;
+        report.solver = "dd".into();
+        report.timings.contact = dd.report.times.total;
+        report.dd = serde_json::to_value(&dd.report).ok();
+        if let Some(fallback) = &dd.report.fallback {
+            report.warnings.push(format!("DD: {fallback}"));
+        }
+        Ok(sol)
     }
 
     /// The temperature field of the data (reused when the thermal data did not change).
