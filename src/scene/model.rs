@@ -431,7 +431,8 @@ pub enum SolverKind {
 pub struct SolverSettings {
     #[serde(default)]
     pub kind: SolverKind,
-    /// Requested number of subdomains per body for the DD solver (0 = automatic).
+    /// Requested total number of subdomains for the DD solver (0 = automatic, about 800
+    /// elements each).
     #[serde(default)]
     pub subdomains: usize,
     /// Relative tolerance of the DD iterations.

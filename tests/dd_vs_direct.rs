@@ -1,0 +1,92 @@
+//! The domain-decomposition solver against the exact direct solver on bundled scenes with
+//! contact (issue "Domain decomposition"): same displacement to 1e-8 relative, same contact
+//! states, DD converged by itself (no fallback), partition of unity and coarse orthogonality.
+
+use serde_json::{json, Value};
+use wsm::scene::{parse, SolverKind};
+use wsm::state::{Needs, Solution, SolveOptions, StateProblem};
+
+fn solve(scene: &Value, kind: SolverKind) -> (StateProblem, Solution) {
+    let mut scene = parse(&scene.to_string()).unwrap();
+    scene.solver.kind = kind;
+    scene.solver.tolerance = 1e-12;
+    let problem = StateProblem::new(scene).unwrap();
+    let options = SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: wsm::fem::Par::Seq,
+        warm: None,
+    };
+    let sol = problem.solve(&problem.nominal, &options).unwrap();
+    (problem, sol)
+}
+
+fn compare(name: &str, scene: Value) {
+    let (_, direct) = solve(&scene, SolverKind::Direct);
+    let (_, dd) = solve(&scene, SolverKind::Dd);
+    assert_eq!(dd.report.solver, "dd");
+    let report = dd.report.dd.as_ref().expect("DD report");
+    assert!(
+        report["fallback"].is_null(),
+        "{name}: DD fell back: {}",
+        report["fallback"]
+    );
+    for e in report["partition_of_unity_error"].as_array().unwrap() {
+        assert!(
+            e.as_f64().unwrap() <= 1e-14,
+            "{name}: partition of unity {e}"
+        );
+    }
+    for r in report["coarse_residual"].as_array().unwrap() {
+        assert!(
+            r.as_f64().unwrap() <= 1e-12,
+            "{name}: residual not orthogonal to the coarse space"
+        );
+    }
+    let norm = direct
+        .displacement
+        .iter()
+        .map(|u| u[0] * u[0] + u[1] * u[1])
+        .sum::<f64>()
+        .sqrt();
+    let diff = direct
+        .displacement
+        .iter()
+        .zip(&dd.displacement)
+        .map(|(a, b)| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    println!(
+        "{name}: ‖u_dd − u_direct‖/‖u‖ = {:.2e}, outer {}, PCG1 {}, PCG2 {}",
+        diff / norm,
+        report["outer_iterations"],
+        report["pcg1_iterations"],
+        report["pcg2_iterations"]
+    );
+    assert!(
+        diff <= 1e-8 * norm,
+        "{name}: relative difference {}",
+        diff / norm
+    );
+    for (a, b) in direct.contact.iter().zip(&dd.contact) {
+        assert_eq!(
+            a.state, b.state,
+            "{name}: contact state at {:?}",
+            a.position
+        );
+    }
+}
+
+#[test]
+fn block_on_base_dd_equals_direct() {
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    scene["mesh"] = json!({"max_size": 0.08});
+    compare("block-on-base", scene);
+}
+
+#[test]
+fn hertz_dd_equals_direct() {
+    let mut scene: Value = serde_json::from_str(wsm::examples::example("hertz").unwrap()).unwrap();
+    scene["mesh"]["refine"][0]["max_size"] = json!(0.02);
+    compare("hertz", scene);
+}
