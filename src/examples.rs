@@ -9,6 +9,7 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ),
     ("heated-plate", include_str!("../scenes/heated-plate.json")),
     ("hertz", include_str!("../scenes/hertz.json")),
+    ("knee", include_str!("../scenes/knee.json")),
     ("loaded-block", include_str!("../scenes/loaded-block.json")),
     (
         "thick-cylinder",
