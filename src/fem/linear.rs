@@ -132,12 +132,7 @@ impl Symbolic {
         })
     }
 
-    /// Number of DOFs ordered last by [`Symbolic::analyse_with_trailing`].
-    pub fn trailing(&self) -> usize {
-        self.trailing
-    }
-
-    /// Boundaries 0 = b₀ < b₁ < … < b_k = `trailing()` of the finest diagonal blocks of L₂₂
+    /// Boundaries 0 = b₀ < b₁ < … < b_k = (number of trailing DOFs) of the finest diagonal blocks of L₂₂
     /// (structurally block diagonal: no nonzero below a block in the columns of that block;
     /// e.g. one block per body when K is block diagonal over bodies).
     pub fn trailing_blocks(&self) -> Vec<usize> {
@@ -250,8 +245,8 @@ impl Factor {
     }
 
     /// The diagonal block L₂₂[range, range] (dense, lower triangular, zero above the diagonal)
-    /// of the trailing block of L, `range` in the trailing numbering 0..`trailing()` (the
-    /// order given to [`Symbolic::analyse_with_trailing`]).
+    /// of the trailing block of L, `range` in the trailing numbering (the order given to
+    /// [`Symbolic::analyse_with_trailing`]).
     pub fn trailing_block(&self, range: std::ops::Range<usize>) -> Result<Mat<f64>, FemError> {
         let t = self.symbolic.trailing;
         if range.start > range.end || range.end > t {
@@ -296,5 +291,53 @@ impl Factor {
         let mut x = Mat::<f64>::from_fn(b.len(), 1, |i, _| b[i]);
         self.solve_in_place(x.as_mut());
         x.col(0).iter().copied().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::{SparseColMat, Triplet};
+
+    /// Lower triangle of two decoupled chains 0..4 and 4..8 (2 on the diagonal, −1 off it,
+    /// plus i/10 on the diagonal to break symmetries).
+    fn two_chains() -> SparseColMat<usize, f64> {
+        let mut t = Vec::new();
+        for i in 0..8 {
+            t.push(Triplet::new(i, i, 2.0 + i as f64 / 10.0));
+            if i % 4 != 3 {
+                t.push(Triplet::new(i + 1, i, -1.0));
+            }
+        }
+        SparseColMat::try_new_from_triplets(8, 8, &t).unwrap()
+    }
+
+    #[test]
+    fn trailing_block_gives_the_inverse_on_the_trailing_dofs() {
+        let k = two_chains();
+        let trailing = [1, 2, 6];
+        let symbolic = Symbolic::analyse_with_trailing(k.symbolic(), &trailing).unwrap();
+        assert_eq!(
+            symbolic.trailing_blocks(),
+            vec![0, 2, 3],
+            "one block per chain"
+        );
+        let factor = symbolic.factorize(k.as_ref(), Par::Seq).unwrap();
+        let l = factor.trailing_block(0..3).unwrap();
+        assert_eq!(l[(2, 0)], 0.0);
+        // (K⁻¹)_cc (L₂₂ L₂₂ᵀ) = I.
+        let s = &l * l.transpose();
+        for (j, &dj) in trailing.iter().enumerate() {
+            let mut e = vec![0.0; 8];
+            e[dj] = 1.0;
+            let x = factor.solve(&e);
+            for i in 0..3 {
+                let v: f64 = (0..3).map(|k| x[trailing[k]] * s[(k, i)]).sum();
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!((v - expected).abs() < 1e-14, "({i}, {j}): {v}");
+            }
+        }
+        assert!(factor.trailing_block(2..4).is_err());
+        assert!(Symbolic::analyse_with_trailing(k.symbolic(), &[1, 1]).is_err());
     }
 }
