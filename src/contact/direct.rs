@@ -11,24 +11,30 @@
 //! DOFs as it has rigid motions (chosen so that the pinned rows of R are well conditioned).
 //! Infeasible G λ = e within the box means the loads cannot be balanced by contact and friction:
 //! the solve is refused with the body and the unbalanced motion named.
+//!
+//! Forming C: B only touches the contact DOFs c (free DOFs of contact nodes), so
+//! C = B_c (K⁺)_cc B_cᵀ. K is analysed once per scene with c ordered last, grouped body by body
+//! ([`Symbolic::analyse_with_trailing`]); with the trailing factor block L₂₂,
+//! (K⁻¹)_cc = (L₂₂ L₂₂ᵀ)⁻¹, so C = Wᵀ W with W = L₂₂⁻¹ B_cᵀ: one dense triangular solve and one
+//! dense product per diagonal block of L₂₂ (one per body, K being block diagonal over bodies)
+//! instead of m sparse solves. A pinned DOF has an identity row and column in the pinned K and a
+//! zero entry in K⁺, so its column of B_c is zeroed.
 
+use faer::linalg::matmul::triangular::{matmul, BlockStructure};
 use faer::linalg::solvers::DenseSolveCore;
-use faer::{Mat, Par};
-use rayon::prelude::*;
+use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
+use faer::{Accum, Mat, Par};
 
 use super::pairs::ContactGeometry;
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use crate::error::WsmError;
-use crate::fem::{ElasticProblem, Factor, RigidModes};
+use crate::fem::{ElasticProblem, Factor, RigidModes, Symbolic};
 use crate::scene::Data;
 
 /// Relative size (to the largest displacement) of the gap defect that triggers a refinement.
 const REFINE_TOL: f64 = 1e-12;
 /// Refinements of the condensed problem at most.
 const MAX_REFINEMENTS: usize = 3;
-
-/// Columns of Bᵀ solved at once when forming C.
-const CHUNK: usize = 32;
 
 /// Floating-body kernel on the free DOFs and the DOFs pinned to factorise K.
 #[derive(Debug, Clone)]
@@ -67,12 +73,24 @@ impl Kernel {
     }
 }
 
-/// The contact problem of a scene: geometry, floating-body kernel and G = RᵀBᵀ.
+/// One diagonal block of L₂₂ (module doc): its trailing DOFs `range`, the contact rows that
+/// touch them and the dense B_cᵀ restricted to both (pinned DOFs zeroed).
+#[derive(Debug, Clone)]
+struct SchurBlock {
+    range: std::ops::Range<usize>,
+    rows: Vec<usize>,
+    bt: Mat<f64>,
+}
+
+/// The contact problem of a scene: geometry, floating-body kernel and G = RᵀBᵀ, and the
+/// symbolic analysis of K with the contact DOFs last.
 #[derive(Debug, Clone)]
 pub struct DirectContact {
     pub geometry: ContactGeometry,
     kernel: Kernel,
     g: Mat<f64>,
+    symbolic: Symbolic,
+    blocks: Vec<SchurBlock>,
 }
 
 /// K (with pinned DOFs) factorised for one stiffness data set, with C = B K⁺ Bᵀ.
@@ -157,6 +175,7 @@ impl DirectContact {
                 })?
                 .inverse()
         };
+        let (symbolic, blocks) = schur_structure(elastic, &geometry, &pinned)?;
         Ok(DirectContact {
             geometry,
             kernel: Kernel {
@@ -166,6 +185,8 @@ impl DirectContact {
                 gram_inverse,
             },
             g,
+            symbolic,
+            blocks,
         })
     }
 
@@ -193,8 +214,8 @@ impl DirectContact {
         let values = op.assemble(coefficients)?;
         let mut pinned_values = values.clone();
         pin(op.pattern(), &mut pinned_values, &self.kernel.pinned);
-        let factor = op.symbolic().factorize(op.matrix(&pinned_values), par)?;
-        let c = self.schur(&factor, op.n_free());
+        let factor = self.symbolic.factorize(op.matrix(&pinned_values), par)?;
+        let c = self.schur(&factor, par)?;
         let c = self.project_hessian(&factor, c);
         Ok(StiffnessFactor {
             coefficients: coefficients.to_vec(),
@@ -262,58 +283,39 @@ impl DirectContact {
         c
     }
 
-    /// C = B K⁺ Bᵀ by chunks of columns, in parallel.
-    fn schur(&self, factor: &Factor, n: usize) -> Mat<f64> {
+    /// C = Σ_blocks Wᵀ W with W = L₂₂⁻¹ B_cᵀ on each diagonal block of L₂₂ (module doc);
+    /// only the lower triangle of each Wᵀ W is computed and mirrored, so C is exactly symmetric.
+    fn schur(&self, factor: &Factor, par: Par) -> Result<Mat<f64>, WsmError> {
         let m = self.geometry.dim();
-        let rows = &self.geometry.rows;
-        let chunks: Vec<(usize, Mat<f64>)> = (0..m.div_ceil(CHUNK))
-            .into_par_iter()
-            .map(|chunk| {
-                let start = chunk * CHUNK;
-                let width = CHUNK.min(m - start);
-                let mut y = Mat::<f64>::zeros(n, width);
-                for j in 0..width {
-                    for &(i, c) in &rows[start + j].free {
-                        y[(i, j)] += c;
-                    }
-                }
-                for &p in &self.kernel.pinned {
-                    for j in 0..width {
-                        y[(p, j)] = 0.0;
-                    }
-                }
-                factor.solve_in_place(y.as_mut());
-                for &p in &self.kernel.pinned {
-                    for j in 0..width {
-                        y[(p, j)] = 0.0;
-                    }
-                }
-                let mut block = Mat::<f64>::zeros(m, width);
-                for (r, row) in rows.iter().enumerate() {
-                    for j in 0..width {
-                        block[(r, j)] = row.free.iter().map(|&(i, c)| c * y[(i, j)]).sum();
-                    }
-                }
-                (start, block)
-            })
-            .collect();
         let mut c = Mat::<f64>::zeros(m, m);
-        for (start, block) in chunks {
-            for j in 0..block.ncols() {
-                for r in 0..m {
-                    c[(r, start + j)] = block[(r, j)];
+        for block in &self.blocks {
+            let l = factor.trailing_block(block.range.clone())?;
+            let mut w = block.bt.clone();
+            solve_lower_triangular_in_place(l.as_ref(), w.as_mut(), par);
+            let k = block.rows.len();
+            let mut wtw = Mat::<f64>::zeros(k, k);
+            matmul(
+                wtw.as_mut(),
+                BlockStructure::TriangularLower,
+                Accum::Replace,
+                w.transpose(),
+                BlockStructure::Rectangular,
+                w.as_ref(),
+                BlockStructure::Rectangular,
+                1.0,
+                par,
+            );
+            for (j, &rj) in block.rows.iter().enumerate() {
+                for (i, &ri) in block.rows.iter().enumerate().skip(j) {
+                    let v = wtw[(i, j)];
+                    c[(ri, rj)] += v;
+                    if ri != rj {
+                        c[(rj, ri)] += v;
+                    }
                 }
             }
         }
-        // Symmetrise (rounding) so that the QP's symmetry check sees an exact Hessian.
-        for j in 0..m {
-            for r in 0..j {
-                let v = 0.5 * (c[(r, j)] + c[(j, r)]);
-                c[(r, j)] = v;
-                c[(j, r)] = v;
-            }
-        }
-        c
+        Ok(c)
     }
 
     /// Solve the contact problem for the reduced right-hand side `rhs` (loads and lifting) and
@@ -454,6 +456,71 @@ impl DirectContact {
     }
 }
 
+/// The contact DOFs (free DOFs with a nonzero in a row of B) grouped body by body, the symbolic
+/// analysis of K with them ordered last, and the diagonal blocks of L₂₂ with their dense B_cᵀ.
+/// Without contact the plain AMD analysis of the operator is shared.
+fn schur_structure(
+    elastic: &ElasticProblem,
+    geometry: &ContactGeometry,
+    pinned: &[usize],
+) -> Result<(Symbolic, Vec<SchurBlock>), WsmError> {
+    let op = elastic.operator();
+    let (mesh, dofs) = (elastic.mesh(), elastic.dofs());
+    let mut body_of = vec![usize::MAX; op.n_free()];
+    for pair in &geometry.pairs {
+        for &node in &pair.nodes {
+            for slot in dofs.slots(node) {
+                if let crate::fem::Slot::Free(i) = slot {
+                    body_of[i] = mesh.node_body[node];
+                }
+            }
+        }
+    }
+    let mut contact: Vec<usize> = geometry
+        .rows
+        .iter()
+        .flat_map(|row| row.free.iter().map(|&(i, _)| i))
+        .collect();
+    contact.sort_unstable_by_key(|&i| (body_of[i], i));
+    contact.dedup();
+    if contact.is_empty() {
+        return Ok((op.symbolic().clone(), Vec::new()));
+    }
+    let symbolic = Symbolic::analyse_with_trailing(op.pattern(), &contact)?;
+    let mut position = vec![usize::MAX; op.n_free()];
+    for (k, &i) in contact.iter().enumerate() {
+        position[i] = k;
+    }
+    let bounds = symbolic.trailing_blocks();
+    let blocks = bounds
+        .windows(2)
+        .map(|w| {
+            let range = w[0]..w[1];
+            let inside =
+                |i: usize| range.contains(&position[i]) && pinned.binary_search(&i).is_err();
+            let rows: Vec<usize> = (0..geometry.dim())
+                .filter(|&r| {
+                    geometry.rows[r]
+                        .free
+                        .iter()
+                        .any(|&(i, c)| c != 0.0 && inside(i))
+                })
+                .collect();
+            let mut bt = Mat::<f64>::zeros(range.len(), rows.len());
+            for (j, &r) in rows.iter().enumerate() {
+                for &(i, c) in &geometry.rows[r].free {
+                    if inside(i) {
+                        bt[(position[i] - range.start, j)] += c;
+                    }
+                }
+            }
+            SchurBlock { range, rows, bt }
+        })
+        .filter(|b| !b.rows.is_empty())
+        .collect();
+    Ok((symbolic, blocks))
+}
+
 /// A human description of a rigid motion a (1,0) + b (0,1) + c rotation.
 fn describe_motion(tx: f64, ty: f64, rot: f64) -> String {
     let scale = tx.abs().max(ty.abs()).max(rot.abs()).max(f64::MIN_POSITIVE);
@@ -537,5 +604,83 @@ fn pin(
                 values[p] = if r == c { diag } else { 0.0 };
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::state::StateProblem;
+
+    /// C = B K⁺ Bᵀ the direct way: one pseudo-solve per column of Bᵀ.
+    fn schur_by_solves(contact: &DirectContact, factor: &Factor) -> Mat<f64> {
+        let rows = &contact.geometry.rows;
+        let n = factor.dim();
+        let mut c = Mat::<f64>::zeros(rows.len(), rows.len());
+        for (j, row) in rows.iter().enumerate() {
+            let mut y = vec![0.0; n];
+            for &(i, v) in &row.free {
+                y[i] += v;
+            }
+            contact.pseudo_solve(factor, &mut y);
+            for (r, other) in rows.iter().enumerate() {
+                c[(r, j)] = other.dot(&y);
+            }
+        }
+        c
+    }
+
+    fn relative_difference(a: &Mat<f64>, b: &Mat<f64>) -> f64 {
+        let scale = b.norm_max().max(f64::MIN_POSITIVE);
+        (a - b).norm_max() / scale
+    }
+
+    fn block_on_base() -> StateProblem {
+        let text = crate::examples::example("block-on-base").expect("example exists");
+        let scene = crate::scene::parse(text).expect("example parses");
+        StateProblem::new(scene).expect("example builds")
+    }
+
+    #[test]
+    fn schur_from_trailing_factor_matches_solves() {
+        let problem = block_on_base();
+        let contact = &problem.contact;
+        assert!(contact.kernel_dim() > 0, "the block floats");
+        assert!(
+            contact.blocks.len() >= 2,
+            "one block of L22 per body: {}",
+            contact.blocks.len()
+        );
+        let coefficients = problem.elastic.coefficients(&problem.nominal).unwrap();
+        for par in [Par::Seq, Par::rayon(2)] {
+            let f = contact
+                .factor(&problem.elastic, &coefficients, par)
+                .unwrap();
+            let diff = relative_difference(&f.c, &schur_by_solves(contact, &f.factor));
+            assert!(diff < 1e-12, "relative difference {diff:e}");
+            assert_eq!(f.c, f.c.transpose().to_owned(), "C exactly symmetric");
+        }
+    }
+
+    #[test]
+    fn pinned_contact_dof_contributes_nothing() {
+        let problem = block_on_base();
+        let mut contact = problem.contact.clone();
+        // Pin also a contact DOF of the floating block (K⁺ then has a zero row and column there).
+        let block = contact.blocks.last().unwrap();
+        let row = &contact.geometry.rows[block.rows[0]];
+        let extra = row.free.iter().map(|&(i, _)| i).max().unwrap();
+        contact.kernel.pinned.push(extra);
+        contact.kernel.pinned.sort_unstable();
+        contact.kernel.pinned.dedup();
+        let (symbolic, blocks) =
+            schur_structure(&problem.elastic, &contact.geometry, &contact.kernel.pinned).unwrap();
+        (contact.symbolic, contact.blocks) = (symbolic, blocks);
+        let coefficients = problem.elastic.coefficients(&problem.nominal).unwrap();
+        let f = contact
+            .factor(&problem.elastic, &coefficients, Par::Seq)
+            .unwrap();
+        let diff = relative_difference(&f.c, &schur_by_solves(&contact, &f.factor));
+        assert!(diff < 1e-12, "relative difference {diff:e}");
     }
 }
