@@ -280,6 +280,14 @@ impl DirectContact {
                 c[(r, j)] += correction[(r, j)] - xmg[(r, j)] - xmg[(j, r)];
             }
         }
+        // Exact symmetry (the QP checks it): average the rounding of the two triangles.
+        for j in 0..m {
+            for r in 0..j {
+                let v = 0.5 * (c[(r, j)] + c[(j, r)]);
+                c[(r, j)] = v;
+                c[(j, r)] = v;
+            }
+        }
         c
     }
 
@@ -612,7 +620,7 @@ mod tests {
     use super::*;
     use crate::state::StateProblem;
 
-    /// C = B K⁺ Bᵀ the direct way: one pseudo-solve per column of Bᵀ.
+    /// C' = B P K⁺ P Bᵀ the direct way: one projected solve per column of Bᵀ.
     fn schur_by_solves(contact: &DirectContact, factor: &Factor) -> Mat<f64> {
         let rows = &contact.geometry.rows;
         let n = factor.dim();
@@ -622,7 +630,7 @@ mod tests {
             for &(i, v) in &row.free {
                 y[i] += v;
             }
-            contact.pseudo_solve(factor, &mut y);
+            contact.projected_solve(factor, &mut y);
             for (r, other) in rows.iter().enumerate() {
                 c[(r, j)] = other.dot(&y);
             }
