@@ -140,9 +140,81 @@ pub fn contact_benchmark(
     })
 }
 
+/// One row of the FEM pipeline benchmark (no contact: the linear elastic solve).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct FemRow {
+    pub unknowns: usize,
+    pub mesh: f64,
+    /// Per-zone matrices on the shared pattern, unit loads, DOF map (symbolic excluded).
+    pub assembly: f64,
+    pub symbolic: f64,
+    pub numeric: f64,
+    pub solve: f64,
+}
+
+/// Time meshing, assembly, symbolic and numeric factorisation and the solve of the linear
+/// elastic tunnel problem; the numeric refactorisation + solve is what a new (λ, μ) costs.
+pub fn fem_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<FemRow, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
+    let scene = scaled_scene(example, factor)?;
+    let data = crate::scene::Data::from_scene(&scene);
+    let mut samples = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+    let mut n = 0;
+    for _ in 0..runs.max(1) {
+        let (mesh, t_mesh) = time(|| crate::mesh::generate(&scene));
+        let mesh = mesh?;
+        let (elastic, t_build) = time(|| crate::fem::ElasticProblem::new(&mesh, &data));
+        let elastic = elastic?;
+        let (symbolic, t_symbolic) =
+            time(|| crate::fem::Symbolic::analyse(elastic.operator().pattern()));
+        symbolic?;
+        let coefficients = elastic.coefficients(&data)?;
+        let (f, t_numeric) = time(|| elastic.operator().factor(&coefficients, Par::rayon(0)));
+        let f = f?;
+        let rhs = elastic.rhs(&data, None)?;
+        let (_, t_solve) = time(|| f.factor.solve(&rhs));
+        n = elastic.dofs().n_free();
+        for (v, t) in
+            samples
+                .iter_mut()
+                .zip([t_mesh, t_build - t_symbolic, t_symbolic, t_numeric, t_solve])
+        {
+            v.push(t);
+        }
+    }
+    let [mesh, assembly, symbolic, numeric, solve] = samples.map(median);
+    Ok(FemRow {
+        unknowns: n,
+        mesh,
+        assembly,
+        symbolic,
+        numeric,
+        solve,
+    })
+}
+
 /// `wsm bench`: the tables as Markdown.
-pub fn run(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
+pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
     let mut out = String::from(
+        "Linear elastic tunnel (FEM pipeline):\n\n| unknowns | mesh [s] | assembly [s] | symbolic [s] | numeric [s] | solve [s] | (numeric+solve)/first |\n|---|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let r = fem_benchmark("tunnel-fault", n, runs)?;
+        let first = r.assembly + r.symbolic + r.numeric + r.solve;
+        out.push_str(&format!(
+            "| {} | {:.3} | {:.3} | {:.3} | {:.4} | {:.4} | {:.2} |\n",
+            r.unknowns,
+            r.mesh,
+            r.assembly,
+            r.symbolic,
+            r.numeric,
+            r.solve,
+            (r.numeric + r.solve) / first
+        ));
+    }
+    out.push_str("\nContact (direct solver) on the tunnel:\n\n");
+    out.push_str(
         "| unknowns | pairs | setup [s] | linear factor+solve [s] | contact first solve [s] | ratio | warm re-solve [s] | warm/first | QP it. first / warm |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     for &n in sizes {
@@ -160,6 +232,12 @@ pub fn run(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
             r.qp_iterations_first,
             r.qp_iterations_warm
         ));
+    }
+    if dd {
+        let mut buffer = Vec::new();
+        crate::dd::bench::scalability(&mut buffer).map_err(|e| WsmError::Contact(e.to_string()))?;
+        out.push_str("\nDomain decomposition:\n\n");
+        out.push_str(&String::from_utf8_lossy(&buffer));
     }
     Ok(out)
 }

@@ -72,6 +72,9 @@ enum Command {
         /// Runs per measurement (the median is reported).
         #[arg(long, default_value_t = 3)]
         runs: usize,
+        /// Also print the domain-decomposition scalability tables (slow).
+        #[arg(long)]
+        dd: bool,
     },
     /// Print a bundled example scene, or list them.
     Example {
@@ -107,7 +110,7 @@ fn main() -> ExitCode {
             out,
         } => app::load_scene(scene.as_deref(), example.as_deref())
             .and_then(|s| app::worst(s, &criteria, budget, seed, out.as_deref())),
-        Command::Bench { sizes, runs } => wsm::bench::run(&sizes, runs),
+        Command::Bench { sizes, runs, dd } => wsm::bench::run(&sizes, runs, dd),
         Command::Example { name, list } => app::example(name.as_deref(), list),
     };
     match result {
