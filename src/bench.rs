@@ -115,16 +115,8 @@ pub fn contact_benchmark(
                 *v *= 1.01;
             }
         }
-        let start = crate::contact::qp::WarmStart {
-            x: sol
-                .contact
-                .iter()
-                .zip(&problem.contact.geometry.pairs)
-                .flat_map(|(c, p)| [c.pressure * p.weight, c.shear * p.weight])
-                .collect(),
-            alpha: Vec::new(),
-        };
-        let (sol2, t_warm) = time(|| problem.solve(&changed, &options(Some(start))));
+        let start = sol.warm_start.clone();
+        let (sol2, t_warm) = time(|| problem.solve(&changed, &options(start)));
         it_warm = sol2?.report.qp_iterations;
         warm.push(t_warm);
     }

@@ -7,8 +7,36 @@ use std::sync::atomic::AtomicBool;
 use serde_json::{json, Value};
 use wsm::scenario::search::EvalCache;
 use wsm::scenario::worst::{prepare, run, ScenarioEvaluator, WorstResult, WorstSettings};
+use wsm::scene::params::Parameter;
 use wsm::scene::{parse, Criterion};
+use wsm::state::StateProblem;
 
+/// Run the search on a prepared problem (fresh cache, never cancelled).
+fn search(
+    problem: &StateProblem,
+    params: &[Parameter],
+    criteria: &[Criterion],
+    budget: usize,
+    seed: u64,
+) -> WorstResult {
+    let settings = WorstSettings {
+        criteria: criteria.to_vec(),
+        budget,
+        seed,
+        max_seconds: None,
+    };
+    run(
+        problem,
+        params,
+        &settings,
+        &mut EvalCache::new(),
+        &AtomicBool::new(false),
+        &|_| {},
+    )
+    .unwrap()
+}
+
+/// Prepare and search; also return (heat solves, factorisations, elastic solves).
 fn worst(
     scene: &Value,
     criteria: &[Criterion],
@@ -16,21 +44,7 @@ fn worst(
 ) -> (WorstResult, (usize, usize, usize)) {
     let scene = parse(&scene.to_string()).unwrap();
     let (problem, params) = prepare(scene).unwrap();
-    let settings = WorstSettings {
-        criteria: criteria.to_vec(),
-        budget,
-        seed: 7,
-        max_seconds: None,
-    };
-    let result = run(
-        &problem,
-        &params,
-        &settings,
-        &mut EvalCache::new(),
-        &AtomicBool::new(false),
-        &|_| {},
-    )
-    .unwrap();
+    let result = search(&problem, &params, criteria, budget, 7);
     (result, problem.counters.snapshot())
 }
 
@@ -100,21 +114,7 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
         }
     }
     let budget = 1681 / 5;
-    let settings = WorstSettings {
-        criteria: criteria.to_vec(),
-        budget,
-        seed: 3,
-        max_seconds: None,
-    };
-    let r = run(
-        &problem,
-        &params,
-        &settings,
-        &mut EvalCache::new(),
-        &AtomicBool::new(false),
-        &|_| {},
-    )
-    .unwrap();
+    let r = search(&problem, &params, &criteria, budget, 3);
     let found = r.criteria[0].worst.value.unwrap();
     assert!(r.evaluations <= budget);
     assert!(

@@ -85,15 +85,7 @@ impl<'a> ScenarioEvaluator<'a> {
         };
         if needs.elastic && problem.contact.geometry.dim() > 0 {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
-            evaluator.warm = Some(WarmStart {
-                x: nominal
-                    .contact
-                    .iter()
-                    .zip(&problem.contact.geometry.pairs)
-                    .flat_map(|(c, p)| [c.pressure * p.weight, c.shear * p.weight])
-                    .collect(),
-                alpha: Vec::new(),
-            });
+            evaluator.warm = nominal.warm_start;
         }
         Ok(evaluator)
     }

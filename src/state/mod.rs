@@ -255,6 +255,10 @@ impl StateProblem {
         solution.stresses = elastic.stresses(data, &u, temperature)?;
         solution.displacement = u;
         solution.contact = nodes;
+        solution.warm_start = Some(WarmStart {
+            x: sol.multipliers.clone(),
+            alpha: sol.rigid.clone(),
+        });
         report.timings.post = t2.elapsed().as_secs_f64();
         Ok(())
     }

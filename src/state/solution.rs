@@ -5,6 +5,7 @@ use serde::Serialize;
 
 use crate::contact::direct::ContactSolution;
 use crate::contact::pairs::ContactGeometry;
+use crate::contact::qp::WarmStart;
 use crate::fem::ElementStress;
 use crate::scene::{piecewise_linear, Data};
 
@@ -110,6 +111,8 @@ pub struct Solution {
     /// Element strains and stresses (empty when not needed).
     pub stresses: Vec<ElementStress>,
     pub contact: Vec<ContactNode>,
+    /// Contact multipliers and rigid amplitudes, to warm-start a nearby solve.
+    pub warm_start: Option<WarmStart>,
     /// Φ1..Φ6 (None when not requested or not defined for the scene).
     pub criteria: [Option<f64>; 6],
     pub report: SolveReport,
