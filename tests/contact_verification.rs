@@ -243,3 +243,44 @@ fn every_example_solves_with_small_kkt_residuals() {
         assert_eq!(data.slip.len(), problem.scene.contacts.len());
     }
 }
+
+#[test]
+fn contact_resultants_balance_the_applied_loads() {
+    // block-on-base: the floating block carries 1e6 Pa on its 1 m top plus its weight
+    // 2.45e4 N/m³ × 0.5 m², and is pushed by 4e5 Pa on its 0.5 m side.
+    let scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    let (problem, sol) = solve_value(&scene).unwrap();
+    let zones = wsm::state::zone_summaries(
+        &["joint".to_string()],
+        &problem.contact.geometry,
+        &sol.contact,
+    );
+    let z = &zones[0];
+    assert!(
+        (z.normal_force - 1_012_250.0).abs() <= 1e-8 * 1_012_250.0,
+        "{z:?}"
+    );
+    assert!(
+        (z.tangential_force.abs() - 2.0e5).abs() <= 1e-8 * 2.0e5,
+        "{z:?}"
+    );
+    assert!((z.mean_pressure - 1_012_250.0).abs() <= 1e-8 * 1_012_250.0);
+}
+
+#[test]
+fn mean_contact_pressure_on_a_contact_piece() {
+    let p = 3.0e6;
+    let mut scene = stacked_blocks(p, 1.0e5, 0.1);
+    scene["criteria"] = json!({"boundary_pieces": [
+        {"name": "middle", "segment": "upper_bottom", "from": [0.25, 0.5], "to": [0.75, 0.5]}]});
+    let (problem, sol) = solve_value(&scene).unwrap();
+    let pieces = wsm::state::piece_pressures(
+        &problem.criteria.pieces,
+        &problem.contact.geometry,
+        &sol.contact,
+        problem.mesh().nodes.len(),
+    );
+    let mean = pieces[0].1.expect("the piece lies on the contact zone");
+    assert!((mean - p).abs() <= 1e-8 * p, "mean pressure {mean}");
+}

@@ -5,7 +5,7 @@ use serde_json::{json, Value};
 
 use super::vtu::{write_vtu, Field};
 use crate::scene::Criterion;
-use crate::state::{ContactState, Solution, StateProblem};
+use crate::state::{piece_pressures, zone_summaries, ContactState, Solution, StateProblem};
 
 /// Criteria as a JSON object `{"phi1": value or null, ...}`.
 pub fn criteria_json(values: &[Option<f64>; 6]) -> Value {
@@ -31,6 +31,20 @@ pub fn summary(problem: &StateProblem, solution: &Solution) -> Value {
             "contact_pairs": solution.report.contact_pairs,
         },
         "criteria": criteria_json(&solution.criteria),
+        "contact_zones": zone_summaries(
+            &problem.scene.contacts.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+            &problem.contact.geometry,
+            &solution.contact,
+        ),
+        "piece_contact_pressure": piece_pressures(
+            &problem.criteria.pieces,
+            &problem.contact.geometry,
+            &solution.contact,
+            problem.mesh().nodes.len(),
+        )
+        .into_iter()
+        .filter_map(|(name, p)| p.map(|p| (name, json!(p))))
+        .collect::<serde_json::Map<String, Value>>(),
         "report": solution.report,
         "setup_seconds": problem.setup_seconds,
     })

@@ -189,3 +189,92 @@ pub fn contact_results(
     }
     (nodes, kkt)
 }
+
+/// Resultants and statistics of one contact zone.
+#[derive(Debug, Clone, Serialize)]
+pub struct ZoneSummary {
+    pub name: String,
+    /// Σ normal force / Σ nodal length [Pa].
+    pub mean_pressure: f64,
+    pub max_pressure: f64,
+    /// Resultant normal and tangential forces [N/m].
+    pub normal_force: f64,
+    pub tangential_force: f64,
+    pub open: usize,
+    pub stick: usize,
+    pub slip: usize,
+}
+
+/// Per contact zone: mean and peak pressure, resultants and state counts.
+pub fn zone_summaries(
+    names: &[String],
+    geometry: &ContactGeometry,
+    nodes: &[ContactNode],
+) -> Vec<ZoneSummary> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(z, name)| {
+            let mut s = ZoneSummary {
+                name: name.clone(),
+                mean_pressure: 0.0,
+                max_pressure: 0.0,
+                normal_force: 0.0,
+                tangential_force: 0.0,
+                open: 0,
+                stick: 0,
+                slip: 0,
+            };
+            let mut length = 0.0;
+            for (c, p) in nodes
+                .iter()
+                .zip(&geometry.pairs)
+                .filter(|(c, _)| c.zone == z)
+            {
+                s.normal_force += c.pressure * p.weight;
+                s.tangential_force += c.shear * p.weight;
+                s.max_pressure = s.max_pressure.max(c.pressure);
+                length += p.weight;
+                match c.state {
+                    ContactState::Open => s.open += 1,
+                    ContactState::Stick => s.stick += 1,
+                    ContactState::Slip => s.slip += 1,
+                }
+            }
+            s.mean_pressure = if length > 0.0 {
+                s.normal_force / length
+            } else {
+                0.0
+            };
+            s
+        })
+        .collect()
+}
+
+/// Mean contact pressure over each boundary piece G'_r that lies on a contact segment (the P1
+/// trace of the nodal pressures; SPEC §4.2, the contact-pressure form of Φ6). `None` for pieces
+/// off the contact zones.
+pub fn piece_pressures(
+    pieces: &[crate::criteria::PieceRegion],
+    geometry: &ContactGeometry,
+    nodes: &[ContactNode],
+    n_nodes: usize,
+) -> Vec<(String, Option<f64>)> {
+    let mut pressure = vec![None; n_nodes];
+    for (c, p) in nodes.iter().zip(&geometry.pairs) {
+        for node in p.nodes {
+            pressure[node] = Some(c.pressure);
+        }
+    }
+    pieces
+        .iter()
+        .map(|piece| {
+            let mean = piece
+                .node_weights
+                .iter()
+                .map(|&(i, w)| pressure[i].map(|p| w * p))
+                .sum::<Option<f64>>();
+            (piece.name.clone(), mean)
+        })
+        .collect()
+}
