@@ -181,24 +181,21 @@ impl Step<'_> {
         Ok(b)
     }
 
-    /// T(U): solve S0 V = F − S_CON(U) from V = U.
-    fn apply(&mut self, u: &[f64]) -> Result<Vec<f64>, DdError> {
+    /// T(U): solve S0 V = F − S_CON(U) from V = U to the relative residual `tol`.
+    fn apply(&mut self, u: &[f64], tol: f64) -> Result<Vec<f64>, DdError> {
         let b = self.rhs(u)?;
         let t = Instant::now();
-        let out = pcg(
-            &self.s0,
-            &b,
-            u.to_vec(),
-            self.options.pcg2_tol,
-            self.options.max_pcg,
-            "PCG2",
-        )?;
+        let out = pcg(&self.s0, &b, u.to_vec(), tol, self.options.max_pcg, "PCG2")?;
         self.pcg2_time += t.elapsed().as_secs_f64();
         self.pcg2_iterations.push(out.iterations);
         self.coarse_residual = self.coarse_residual.max(out.coarse_residual);
         Ok(out.x)
     }
 }
+
+/// PCG2 tolerance = FORCING × (relative outer residual of the previous step), at most FORCING_MAX.
+const FORCING: f64 = 0.1;
+const FORCING_MAX: f64 = 1e-2;
 
 type Outcome = (Vec<f64>, Vec<[f64; 2]>, Times);
 
@@ -267,8 +264,12 @@ fn iterate(
     }
     let mut high = 0;
     let mut converged = false;
+    // Inexact PCG2 (Eisenstat–Walker style): the inner tolerance follows the relative outer
+    // residual of the previous step, never looser than FORCING_MAX nor tighter than pcg2_tol.
+    let mut pcg2_tol = FORCING_MAX.max(options.pcg2_tol);
     for k in 0..options.max_outer {
-        let tu = step.apply(&u)?;
+        let used = pcg2_tol;
+        let tu = step.apply(&u, used)?;
         let diff: Vec<f64> = tu.iter().zip(&u).map(|(a, b)| a - b).collect();
         let r = norm(&diff);
         let scale = norm(&tu).max(f64::MIN_POSITIVE);
@@ -294,10 +295,17 @@ fn iterate(
         }
         report.outer_residuals.push(r);
         report.outer_iterations = k + 1;
+        pcg2_tol = (FORCING * r / scale).clamp(options.pcg2_tol, FORCING_MAX.max(options.pcg2_tol));
         if r <= options.outer_tol * scale {
+            // Converged only if T(U) was evaluated with the full PCG2 accuracy.
+            let exact = used <= options.pcg2_tol;
             u = tu;
-            converged = true;
-            break;
+            if exact {
+                converged = true;
+                break;
+            }
+            pcg2_tol = options.pcg2_tol;
+            continue;
         }
         if !r.is_finite() {
             break;
