@@ -13,10 +13,15 @@
 //!   gives an ordinary [`LinearBlock`] with matrix TᵀKT. If the tie leaves the interior floating
 //!   (a body that could slide along the tied zone), the tangential rows are tied as well.
 
-use faer::{Mat, MatRef};
+use faer::linalg::solvers::{Llt, Solve};
+use faer::{Mat, MatRef, Side};
 
 use super::subdomain::{Csr, KernelFactor, LinearBlock};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, QpSolution, WarmStart};
+
+/// Relative margin (to the largest multiplier) by which a multiplier must lie inside its bounds
+/// for its row to count as active in [`ContactCluster::tangent`].
+const ACTIVE_TOL: f64 = 1e-9;
 
 /// A contact row on the cluster's interior DOFs.
 #[derive(Debug, Clone)]
@@ -36,6 +41,18 @@ pub struct ClusterState {
     pub reaction: Vec<f64>,
     /// QP solution (multipliers x in row order, rigid amplitudes α).
     pub qp: QpSolution,
+}
+
+/// The generalised derivative of the cluster's part of S_CON at one local solution (the
+/// semismooth Newton step of [`super::newton`]): rows whose multiplier lies strictly inside its
+/// bounds (pressed normals, sticking tangentials) are held as equalities B_A u_I = 0, the others
+/// keep their multiplier and drop out. Its action y ↦ K_ΓΓ y + K_ΓI u_I with
+/// u_I = argmin{½u_IᵀK_IIu_I + u_IᵀK_IΓ y : B_A u_I = 0} is the Schur complement of the cluster
+/// tied on the active rows (D05 4.44–4.46 with Γ_c0 = the active set).
+pub struct ClusterTangent {
+    rows: Vec<usize>,
+    /// Cholesky factor of C_AA = B_A K_II⁻¹ B_Aᵀ.
+    c: Option<Llt<f64>>,
 }
 
 /// A contact cluster with its condensed contact operator.
@@ -161,6 +178,61 @@ impl ContactCluster {
             reaction,
             qp: sol,
         })
+    }
+
+    /// The tangent at the multipliers `x` of a local solution (row order); `None` when the cluster
+    /// has floating members (its local problem is semi-coercive) or the active rows are dependent.
+    pub fn tangent(&self, x: &[f64]) -> Option<ClusterTangent> {
+        if self.n_floating_modes() > 0 {
+            return None;
+        }
+        let scale = x.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        let eps = ACTIVE_TOL * scale.max(f64::MIN_POSITIVE);
+        let rows: Vec<usize> = (0..self.rows.len())
+            .filter(|&r| {
+                let row = &self.rows[r];
+                x[r] > row.lower + eps
+                    && x[r] < row.upper - eps
+                    && row.entries.iter().any(|e| e.1 != 0.0)
+            })
+            .collect();
+        let c = if rows.is_empty() {
+            None
+        } else {
+            let m = rows.len();
+            let caa = Mat::from_fn(m, m, |i, j| self.c[(rows[i], rows[j])]);
+            Some(caa.llt(Side::Lower).ok()?)
+        };
+        Some(ClusterTangent { rows, c })
+    }
+
+    /// The tangent's action on interface values `y`.
+    pub fn tangent_apply(&self, t: &ClusterTangent, y: &[f64]) -> Vec<f64> {
+        let (ri, rg) = self.ranges();
+        let my: Vec<f64> = y.iter().map(|v| -v).collect();
+        let mut rhs = vec![0.0; self.n_interior];
+        self.k.mul_block(ri, rg, &my, &mut rhs);
+        let mut u = self.interior.solve(&rhs);
+        if let Some(c) = &t.c {
+            let d = Mat::from_fn(t.rows.len(), 1, |i, _| {
+                self.rows[t.rows[i]]
+                    .entries
+                    .iter()
+                    .map(|&(p, a)| a * u[p])
+                    .sum::<f64>()
+            });
+            let lam = c.solve(&d);
+            for (i, &r) in t.rows.iter().enumerate() {
+                let l = lam[(i, 0)];
+                for (p, up) in u.iter_mut().enumerate() {
+                    *up -= self.x[(p, r)] * l;
+                }
+            }
+        }
+        let mut reaction = vec![0.0; self.gamma.len()];
+        self.k.mul_block(rg, rg, y, &mut reaction);
+        self.k.mul_block(rg, ri, &u, &mut reaction);
+        reaction
     }
 
     /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated), except rows

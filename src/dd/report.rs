@@ -57,6 +57,10 @@ pub struct DdReport {
     /// Rigid modes of floating bodies handled inside the clusters.
     pub floating_modes: usize,
     pub qp_iterations: usize,
+    /// Safeguarded semismooth Newton steps taken after Anderson stagnated, and their PCG
+    /// iterations in total.
+    pub newton_steps: usize,
+    pub newton_pcg_iterations: usize,
     pub acceleration: Option<String>,
     pub fallback: Option<String>,
     pub threads: usize,
