@@ -1,5 +1,5 @@
 //! What a DD solve did (SPEC §3.2 "Report per solve"): sizes, coarse dimensions, PCG1 / outer /
-//! PCG2 iteration counts, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
+//! PCG2 iteration counts, Newton steps, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
 //! 7.1, FGCS 3.37), the a-priori error bound of D05 Cor. 7.1 / FGCS 3.38
 //! ‖U^k − U‖ ≤ q^k / (1 − q) ‖U⁰ − U¹‖ with the observed q, checks (partition of unity, residual
 //! orthogonality to the coarse spaces), acceleration / fallback, and times per phase.
@@ -121,8 +121,12 @@ impl fmt::Display for DdReport {
         )?;
         writeln!(
             f,
-            "  iterations: PCG1 {}, outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39)",
-            self.pcg1_iterations, self.outer_iterations, self.pcg2_iterations
+            "  iterations: PCG1 {}, outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
+            self.pcg1_iterations,
+            self.outer_iterations,
+            self.pcg2_iterations,
+            self.newton_steps,
+            self.newton_pcg_iterations
         )?;
         let qs: Vec<String> = self.contraction.iter().map(|q| format!("{q:.3}")).collect();
         writeln!(f, "  contraction q_k: [{}]", qs.join(", "))?;

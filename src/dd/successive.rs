@@ -259,7 +259,7 @@ const LINE_SEARCH_EVALS: usize = 12;
 
 /// Anderson counts as stagnating when its best residual has not dropped by 10 % for this many
 /// steps; the Newton steps take over.
-const STALL: usize = 10;
+const STALL: usize = 1;
 
 /// PCG2 tolerance = FORCING × (relative outer residual of the previous step), at most FORCING_MAX.
 const FORCING: f64 = 0.1;
