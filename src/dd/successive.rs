@@ -370,9 +370,16 @@ fn iterate(
         report.outer_residuals.push(r);
         report.outer_iterations = k + 1;
         pcg2_tol = (FORCING * r / scale).clamp(options.pcg2_tol, FORCING_MAX.max(options.pcg2_tol));
+        // Converged only if T(U) was evaluated with the full PCG2 accuracy; also when that PCG2
+        // needed no iteration: S0 U − F + S_CON(U) is then below the inner tolerance and no
+        // inner solve can tell U from T(U) (a tight outer_tol at the rounding floor).
+        let exact = used <= options.pcg2_tol;
+        if exact && step.pcg2_iterations.last() == Some(&0) {
+            u = tu;
+            converged = true;
+            break;
+        }
         if r <= options.outer_tol * scale {
-            // Converged only if T(U) was evaluated with the full PCG2 accuracy.
-            let exact = used <= options.pcg2_tol;
             u = tu;
             if exact {
                 converged = true;
