@@ -16,7 +16,8 @@ pub struct Times {
     pub setup: f64,
     /// Auxiliary problem (coarse operator + PCG1).
     pub pcg1: f64,
-    /// Successive approximations in total, of which S_CON evaluations and PCG2.
+    /// Successive approximations in total, of which S_CON evaluations and PCG2 (with the Newton
+    /// steps' PCG).
     pub outer: f64,
     pub scon: f64,
     pub pcg2: f64,

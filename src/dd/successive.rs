@@ -238,7 +238,7 @@ impl Step<'_> {
         let (d_s0u, d_s0d) = (dot(&delta, &s0u), dot(&delta, &s0d));
         let d0 = -dot(&delta, &mg);
         self.pcg2_time += t.elapsed().as_secs_f64();
-        if !(d0 < 0.0) {
+        if d0.is_nan() || d0 >= 0.0 {
             return Ok(None);
         }
         let at = |t: f64| -> Vec<f64> { u.iter().zip(&delta).map(|(a, d)| a + t * d).collect() };
