@@ -100,6 +100,6 @@ fn tunnel_fault_dd_equals_direct() {
     let scene: Value =
         serde_json::from_str(wsm::examples::example("tunnel-fault").unwrap()).unwrap();
     compare("tunnel-fault", scene);
-    // Measured: outer 10, PCG1 136, PCG2 65, 6 Newton steps with 123 PCG iterations (the paper
+    // Measured: outer 10, PCG1 84, PCG2 65, 6 Newton steps with 123 PCG iterations (the paper
     // reports 21 / 15 / 39 with plain successive approximations on its own mesh).
 }
