@@ -22,7 +22,7 @@
 //!   Anderson acceleration, Newton steps ([`newton`]) and a direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
 //! - [`scene`]: the scene-level entry used by the state layer (`solver.kind = "dd"`).
-//! - [`bench`]: scalability tables for `wsm bench dd`.
+//! - [`mod@bench`]: scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
 //! rotated nodal bases); [`DdProblem::from_elastic`] builds the input from it.

@@ -2,7 +2,7 @@
 //! subdomain touches several zones).
 //!
 //! - Frictional local problem (D05 4.27–4.28, FGCS 3.7–3.8, 3.14): with Dirichlet data y on the
-//!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_[l,u](B u_I − e). Condensed
+//!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_\[l,u\](B u_I − e). Condensed
 //!   on the contact multipliers once per factorisation, C = B K_II⁺ Bᵀ, and solved per evaluation
 //!   by [`solve_box_qp`] with warm start; the interface reaction K_ΓI u_I + K_ΓΓ y is the cluster's
 //!   part of S_CON(y) + (its part of F) (reference notes §2.11). A floating member without

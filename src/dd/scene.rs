@@ -21,7 +21,7 @@ const AUTO_ELEMENTS: usize = 800;
 /// (hertz: 4.6e-10 after 500 iterations).
 const PCG_FLOOR: f64 = 1e-9;
 
-/// DD options of a scene: `subdomains` is the total count (0: about [`AUTO_ELEMENTS`] elements
+/// DD options of a scene: `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements
 /// per subdomain), `tolerance` the relative stopping tolerance of the successive approximations
 /// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
 /// U⁰).
