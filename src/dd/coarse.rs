@@ -16,8 +16,100 @@ use faer::linalg::solvers::{Llt, Solve};
 use faer::{Mat, Side};
 use rayon::prelude::*;
 
+use super::pcg::Interface;
 use super::subdomain::LinearBlock;
 use super::DdError;
+
+/// A coarse space W (orthonormal-ish columns) for an operator A, with A W and the coarse
+/// matrix G = Wᵀ A W factored: the A-orthogonal projection and the coarse start of D05
+/// 5.12–5.15, shared by [`Balancing`] and the Newton operator of [`super::newton`].
+pub struct CoarseSpace {
+    w: Mat<f64>,
+    aw: Mat<f64>,
+    llt: Option<Llt<f64>>,
+}
+
+impl CoarseSpace {
+    /// `w` (n × d) and `aw` = A W.
+    pub fn new(w: Mat<f64>, aw: Mat<f64>) -> Result<CoarseSpace, DdError> {
+        let llt = if w.ncols() > 0 {
+            let g = w.transpose() * &aw;
+            let g = Mat::from_fn(g.nrows(), g.ncols(), |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
+            Some(g.llt(Side::Lower).map_err(|_| {
+                DdError::Coarse(
+                    "WᵀSW is not positive definite: the interface operator is singular on the \
+                     coarse space (a part of a body is held by nothing but contact)"
+                        .into(),
+                )
+            })?)
+        } else {
+            None
+        };
+        Ok(CoarseSpace { w, aw, llt })
+    }
+
+    pub fn dim(&self) -> usize {
+        self.w.ncols()
+    }
+
+    pub fn basis(&self) -> &Mat<f64> {
+        &self.w
+    }
+
+    /// Mᵀ v for the columns of M.
+    fn tdot(m: &Mat<f64>, v: &[f64]) -> Vec<f64> {
+        (0..m.ncols())
+            .map(|j| (0..m.nrows()).map(|i| m[(i, j)] * v[i]).sum())
+            .collect()
+    }
+
+    fn solve(&self, rhs: Vec<f64>) -> Vec<f64> {
+        match &self.llt {
+            Some(llt) => {
+                let b = Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
+                let x = llt.solve(&b);
+                (0..rhs.len()).map(|i| x[(i, 0)]).collect()
+            }
+            None => rhs,
+        }
+    }
+
+    /// z ← (I − P_Z) z, P_Z = W G⁻¹ (AW)ᵀ.
+    pub fn project(&self, z: &mut [f64]) {
+        if self.dim() == 0 {
+            return;
+        }
+        let a = self.solve(Self::tdot(&self.aw, z));
+        for (i, zi) in z.iter_mut().enumerate() {
+            *zi -= (0..a.len()).map(|j| self.w[(i, j)] * a[j]).sum::<f64>();
+        }
+    }
+
+    /// x ← x + W G⁻¹ Wᵀ r, r ← r − AW G⁻¹ Wᵀ r for the residual r = b − A x.
+    pub fn start(&self, x: &mut [f64], r: &mut [f64]) {
+        if self.dim() == 0 {
+            return;
+        }
+        let a = self.solve(Self::tdot(&self.w, r));
+        for i in 0..x.len() {
+            let (mut dx, mut ds) = (0.0, 0.0);
+            for (j, aj) in a.iter().enumerate() {
+                dx += self.w[(i, j)] * aj;
+                ds += self.aw[(i, j)] * aj;
+            }
+            x[i] += dx;
+            r[i] -= ds;
+        }
+    }
+
+    /// max_j |w_jᵀ r| (columns of W have unit norm).
+    pub fn residual(&self, r: &[f64]) -> f64 {
+        Self::tdot(&self.w, r)
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max)
+    }
+}
 
 /// The interface operator and its balancing preconditioner over a set of blocks.
 pub struct Balancing<'a> {
@@ -25,9 +117,7 @@ pub struct Balancing<'a> {
     /// D_s diagonal per block (local interface order).
     weights: Vec<Vec<f64>>,
     n: usize,
-    w: Mat<f64>,
-    sw: Mat<f64>,
-    coarse: Option<Llt<f64>>,
+    coarse: CoarseSpace,
     unity_error: f64,
 }
 
@@ -85,29 +175,22 @@ impl<'a> Balancing<'a> {
             blocks,
             weights,
             n,
-            sw: Mat::zeros(n, 0),
-            w,
-            coarse: None,
+            coarse: CoarseSpace::new(Mat::zeros(n, 0), Mat::zeros(n, 0))?,
             unity_error,
         };
-        if bal.w.ncols() > 0 {
-            bal.sw = bal.apply_mat(&bal.w);
-            let g = bal.w.transpose() * &bal.sw;
-            let g = Mat::from_fn(g.nrows(), g.ncols(), |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
-            bal.coarse = Some(g.llt(Side::Lower).map_err(|_| {
-                DdError::Coarse(
-                    "WᵀSW is not positive definite: the interface operator is singular on the \
-                     coarse space (a part of a body is held by nothing but contact)"
-                        .into(),
-                )
-            })?);
-        }
+        let sw = bal.apply_mat(&w);
+        bal.coarse = CoarseSpace::new(w, sw)?;
         Ok(bal)
     }
 
     /// Dimension of the coarse space.
     pub fn coarse_dim(&self) -> usize {
-        self.w.ncols()
+        self.coarse.dim()
+    }
+
+    /// The coarse basis W.
+    pub fn coarse_basis(&self) -> &Mat<f64> {
+        self.coarse.basis()
     }
 
     /// max |Σ_s D_s R_s − 1| over the interface DOFs (D05 5.8).
@@ -165,26 +248,8 @@ impl<'a> Balancing<'a> {
         y
     }
 
-    /// Wᵀ v.
-    fn wt(&self, v: &[f64]) -> Vec<f64> {
-        (0..self.w.ncols())
-            .map(|j| (0..self.n).map(|i| self.w[(i, j)] * v[i]).sum())
-            .collect()
-    }
-
-    fn coarse_solve(&self, rhs: Vec<f64>) -> Vec<f64> {
-        match &self.coarse {
-            Some(llt) => {
-                let b = Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-                let x = llt.solve(&b);
-                (0..rhs.len()).map(|i| x[(i, 0)]).collect()
-            }
-            None => rhs,
-        }
-    }
-
-    /// M⁻¹ r = (I − P_Z) Σ D_s S_s⁺ D_sᵀ r, for r ⊥ V_H.
-    pub fn precondition(&self, r: &[f64]) -> Vec<f64> {
+    /// The Neumann–Neumann sum Σ D_s S_s⁺ D_sᵀ r (D05 5.9).
+    pub fn neumann_sum(&self, r: &[f64]) -> Vec<f64> {
         let parts: Vec<Vec<f64>> = self
             .blocks
             .par_iter()
@@ -194,42 +259,30 @@ impl<'a> Balancing<'a> {
                 b.neumann(&g).iter().zip(w).map(|(x, wi)| x * wi).collect()
             })
             .collect();
-        let mut z = self.accumulate(parts);
-        if self.w.ncols() > 0 {
-            let swz: Vec<f64> = (0..self.w.ncols())
-                .map(|j| (0..self.n).map(|i| self.sw[(i, j)] * z[i]).sum())
-                .collect();
-            let a = self.coarse_solve(swz);
-            for (i, zi) in z.iter_mut().enumerate() {
-                *zi -= (0..a.len()).map(|j| self.w[(i, j)] * a[j]).sum::<f64>();
-            }
-        }
+        self.accumulate(parts)
+    }
+}
+
+impl Interface for Balancing<'_> {
+    fn apply(&self, x: &[f64]) -> Vec<f64> {
+        Balancing::apply(self, x)
+    }
+
+    /// M⁻¹ r = (I − P_Z) Σ D_s S_s⁺ D_sᵀ r, for r ⊥ V_H.
+    fn precondition(&self, r: &[f64]) -> Vec<f64> {
+        let mut z = self.neumann_sum(r);
+        self.coarse.project(&mut z);
         z
     }
 
-    /// x + W G⁻¹ Wᵀ (b − S x) and its residual b − S x_new (⊥ V_H).
-    pub fn coarse_start(&self, x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    fn coarse_start(&self, mut x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let sx = self.apply(&x);
         let mut r: Vec<f64> = b.iter().zip(&sx).map(|(b, s)| b - s).collect();
-        if self.w.ncols() == 0 {
-            return (x, r);
-        }
-        let a = self.coarse_solve(self.wt(&r));
-        let mut x = x;
-        for i in 0..self.n {
-            let (mut dx, mut ds) = (0.0, 0.0);
-            for (j, aj) in a.iter().enumerate() {
-                dx += self.w[(i, j)] * aj;
-                ds += self.sw[(i, j)] * aj;
-            }
-            x[i] += dx;
-            r[i] -= ds;
-        }
+        self.coarse.start(&mut x, &mut r);
         (x, r)
     }
 
-    /// max_j |w_jᵀ r| (columns of W have unit norm).
-    pub fn coarse_residual(&self, r: &[f64]) -> f64 {
-        self.wt(r).iter().map(|v| v.abs()).fold(0.0, f64::max)
+    fn coarse_residual(&self, r: &[f64]) -> f64 {
+        self.coarse.residual(r)
     }
 }

@@ -15,12 +15,14 @@
 //!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
 //!   V_0H for S0 (D05 6.4–6.8).
 //! - [`pcg`]: PCG1 / PCG2 (D05 §5, §6).
+//! - [`newton`]: safeguarded semismooth Newton steps on S0 U + S_CON(U) = F for when the
+//!   successive approximations do not contract (2β² ≥ 1) and Anderson mixing stagnates.
 //! - [`successive`]: successive approximations S0 U^k = F − S_CON(U^{k−1}) (D05 4.37 / 6.1–6.3)
-//!   with contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38), Anderson acceleration and a
-//!   direct fallback.
+//!   with inexact warm-started PCG2, contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38),
+//!   Anderson acceleration, Newton steps ([`newton`]) and a direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
 //! - [`scene`]: the scene-level entry used by the state layer (`solver.kind = "dd"`).
-//! - [`bench`]: scalability tables for `wsm bench dd`.
+//! - [`mod@bench`]: scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
 //! rotated nodal bases); [`DdProblem::from_elastic`] builds the input from it.
@@ -28,6 +30,7 @@
 pub mod bench;
 pub mod coarse;
 pub mod decomposition;
+pub mod newton;
 pub mod pair;
 pub mod partition;
 pub mod pcg;

@@ -2,7 +2,7 @@
 //! subdomain touches several zones).
 //!
 //! - Frictional local problem (D05 4.27–4.28, FGCS 3.7–3.8, 3.14): with Dirichlet data y on the
-//!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_[l,u](B u_I − e). Condensed
+//!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_\[l,u\](B u_I − e). Condensed
 //!   on the contact multipliers once per factorisation, C = B K_II⁺ Bᵀ, and solved per evaluation
 //!   by [`solve_box_qp`] with warm start; the interface reaction K_ΓI u_I + K_ΓΓ y is the cluster's
 //!   part of S_CON(y) + (its part of F) (reference notes §2.11). A floating member without
@@ -13,10 +13,18 @@
 //!   gives an ordinary [`LinearBlock`] with matrix TᵀKT. If the tie leaves the interior floating
 //!   (a body that could slide along the tied zone), the tangential rows are tied as well.
 
-use faer::{Mat, MatRef};
+use faer::linalg::solvers::{Llt, Solve};
+use faer::{Mat, MatRef, Side};
 
 use super::subdomain::{Csr, KernelFactor, LinearBlock};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, QpSolution, WarmStart};
+
+/// Relative margin (to the largest multiplier) by which a multiplier must lie inside its bounds
+/// for its row to count as active in [`ContactCluster::tangent`].
+const ACTIVE_TOL: f64 = 1e-9;
+
+/// Relative eigenvalue cut of the pseudo-inverse H⁺ in [`ContactCluster::tangent`].
+const PINV_TOL: f64 = 1e-10;
 
 /// A contact row on the cluster's interior DOFs.
 #[derive(Debug, Clone)]
@@ -36,6 +44,21 @@ pub struct ClusterState {
     pub reaction: Vec<f64>,
     /// QP solution (multipliers x in row order, rigid amplitudes α).
     pub qp: QpSolution,
+}
+
+/// The generalised derivative of the cluster's part of S_CON at one local solution (the
+/// semismooth Newton step of [`super::newton`]): rows whose multiplier lies strictly inside its
+/// bounds (pressed normals, sticking tangentials) are held as equalities B_A u_I = 0, the others
+/// keep their multiplier and drop out. Its action y ↦ K_ΓΓ y + K_ΓI u_I with
+/// u_I = argmin{½u_IᵀK_IIu_I + u_IᵀK_IΓ y : B_A u_I = 0} is the Schur complement of the cluster
+/// tied on the active rows (D05 4.44–4.46 with Γ_c0 = the active set).
+pub struct ClusterTangent {
+    rows: Vec<usize>,
+    /// Cholesky factor of C_AA = B_A K_II⁺ B_Aᵀ.
+    c: Llt<f64>,
+    /// G_A = (B_A R)ᵀ and H⁺ for floating members (r × m, r × r; r = 0 otherwise).
+    ga: Mat<f64>,
+    h_pinv: Mat<f64>,
 }
 
 /// A contact cluster with its condensed contact operator.
@@ -161,6 +184,94 @@ impl ContactCluster {
             reaction,
             qp: sol,
         })
+    }
+
+    /// The tangent at the multipliers `x` of a local solution (row order); `None` when the active
+    /// rows are dependent (C_AA singular).
+    pub fn tangent(&self, x: &[f64]) -> Option<ClusterTangent> {
+        let scale = x.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        let eps = ACTIVE_TOL * scale.max(f64::MIN_POSITIVE);
+        let rows: Vec<usize> = (0..self.rows.len())
+            .filter(|&r| {
+                let row = &self.rows[r];
+                x[r] > row.lower + eps
+                    && x[r] < row.upper - eps
+                    && row.entries.iter().any(|e| e.1 != 0.0)
+            })
+            .collect();
+        let (m, r) = (rows.len(), self.n_floating_modes());
+        let c = Mat::from_fn(m, m, |i, j| self.c[(rows[i], rows[j])])
+            .llt(Side::Lower)
+            .ok()?;
+        // Floating members: H = G_A C_AA⁻¹ G_Aᵀ on the rigid amplitudes, pseudo-inverted (modes
+        // the active rows do not hold stay free and do not reach the interface).
+        let ga = Mat::from_fn(r, m, |a, j| self.g[(a, rows[j])]);
+        let cg = c.solve(ga.transpose());
+        let h = &ga * &cg;
+        let h = Mat::from_fn(r, r, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
+        let mut h_pinv = Mat::<f64>::zeros(r, r);
+        if r > 0 {
+            let eig = h.self_adjoint_eigen(Side::Lower).ok()?;
+            let (vals, vecs) = (eig.S(), eig.U());
+            let top = (0..r).map(|k| vals[k].abs()).fold(0.0, f64::max);
+            for k in 0..r {
+                if vals[k] > PINV_TOL * top {
+                    for i in 0..r {
+                        for j in 0..r {
+                            h_pinv[(i, j)] += vecs[(i, k)] * vecs[(j, k)] / vals[k];
+                        }
+                    }
+                }
+            }
+        }
+        Some(ClusterTangent {
+            rows,
+            c,
+            ga,
+            h_pinv,
+        })
+    }
+
+    /// The tangent's action on interface values `y`: with w = K_II⁺(−K_IΓ y), d = B_A w and
+    /// e = Rᵀ(−K_IΓ y), the amplitudes α = H⁺(e − G_A C_AA⁻¹ d), multipliers
+    /// λ = C_AA⁻¹(d + G_Aᵀ α), u_I = w − K_II⁺B_Aᵀ λ + R α.
+    pub fn tangent_apply(&self, t: &ClusterTangent, y: &[f64]) -> Vec<f64> {
+        let (ri, rg) = self.ranges();
+        let my: Vec<f64> = y.iter().map(|v| -v).collect();
+        let mut rhs = vec![0.0; self.n_interior];
+        self.k.mul_block(ri, rg, &my, &mut rhs);
+        let mut u = self.interior.solve(&rhs);
+        let m = t.rows.len();
+        let d = Mat::from_fn(m, 1, |i, _| {
+            self.rows[t.rows[i]]
+                .entries
+                .iter()
+                .map(|&(p, a)| a * u[p])
+                .sum::<f64>()
+        });
+        let kernel = self.interior.kernel();
+        let e = Mat::from_fn(kernel.ncols(), 1, |a, _| {
+            (0..self.n_interior)
+                .map(|i| kernel[(i, a)] * rhs[i])
+                .sum::<f64>()
+        });
+        let alpha = &t.h_pinv * (e - &t.ga * t.c.solve(&d));
+        let lam = t.c.solve(d + t.ga.transpose() * &alpha);
+        for (i, &r) in t.rows.iter().enumerate() {
+            let l = lam[(i, 0)];
+            for (p, up) in u.iter_mut().enumerate() {
+                *up -= self.x[(p, r)] * l;
+            }
+        }
+        for a in 0..kernel.ncols() {
+            for (i, up) in u.iter_mut().enumerate() {
+                *up += kernel[(i, a)] * alpha[(a, 0)];
+            }
+        }
+        let mut reaction = vec![0.0; self.gamma.len()];
+        self.k.mul_block(rg, rg, y, &mut reaction);
+        self.k.mul_block(rg, ri, &u, &mut reaction);
+        reaction
     }
 
     /// The tied auxiliary block: rows with `tie(row)` become equalities (eliminated), except rows

@@ -1,10 +1,22 @@
 //! PCG1 / PCG2 (D05 §5 algorithm PCG1, §6 PCG2; D03 §4): conjugate gradients on the interface
-//! with the balancing preconditioner of [`Balancing`]. The start vector is coarse-corrected (D05
+//! with the balancing preconditioner of [`super::coarse::Balancing`] (or, for the Newton steps,
+//! of [`super::newton::NewtonOperator`]). The start vector is coarse-corrected (D05
 //! 5.15 / 6.8), so every residual stays orthogonal to the coarse space (Lemma 5.1 / 6.1); the
 //! largest coarse component seen is returned as a check.
 
-use super::coarse::Balancing;
 use super::DdError;
+
+/// An SPD interface operator with a balancing preconditioner and a coarse space (D05 §5–6).
+pub trait Interface {
+    /// A x.
+    fn apply(&self, x: &[f64]) -> Vec<f64>;
+    /// M⁻¹ r for a residual r orthogonal to the coarse space.
+    fn precondition(&self, r: &[f64]) -> Vec<f64>;
+    /// The coarse-corrected start x (D05 5.15 / 6.8) and its residual b − A x.
+    fn coarse_start(&self, x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>);
+    /// max_j |w_jᵀ r| over the (unit) coarse basis vectors.
+    fn coarse_residual(&self, r: &[f64]) -> f64;
+}
 
 /// Result of one PCG solve.
 #[derive(Debug, Clone)]
@@ -23,7 +35,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Solve S x = b from `x0` to ‖r‖ ≤ tol ‖b‖.
 pub fn pcg(
-    op: &Balancing,
+    op: &impl Interface,
     b: &[f64],
     x0: Vec<f64>,
     tol: f64,

@@ -1,5 +1,5 @@
 //! What a DD solve did (SPEC §3.2 "Report per solve"): sizes, coarse dimensions, PCG1 / outer /
-//! PCG2 iteration counts, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
+//! PCG2 iteration counts, Newton steps, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
 //! 7.1, FGCS 3.37), the a-priori error bound of D05 Cor. 7.1 / FGCS 3.38
 //! ‖U^k − U‖ ≤ q^k / (1 − q) ‖U⁰ − U¹‖ with the observed q, checks (partition of unity, residual
 //! orthogonality to the coarse spaces), acceleration / fallback, and times per phase.
@@ -16,7 +16,8 @@ pub struct Times {
     pub setup: f64,
     /// Auxiliary problem (coarse operator + PCG1).
     pub pcg1: f64,
-    /// Successive approximations in total, of which S_CON evaluations and PCG2.
+    /// Successive approximations in total, of which S_CON evaluations and PCG2 (with the Newton
+    /// steps' PCG).
     pub outer: f64,
     pub scon: f64,
     pub pcg2: f64,
@@ -57,6 +58,10 @@ pub struct DdReport {
     /// Rigid modes of floating bodies handled inside the clusters.
     pub floating_modes: usize,
     pub qp_iterations: usize,
+    /// Safeguarded semismooth Newton steps taken after Anderson stagnated, and their PCG
+    /// iterations in total.
+    pub newton_steps: usize,
+    pub newton_pcg_iterations: usize,
     pub acceleration: Option<String>,
     pub fallback: Option<String>,
     pub threads: usize,
@@ -117,8 +122,12 @@ impl fmt::Display for DdReport {
         )?;
         writeln!(
             f,
-            "  iterations: PCG1 {}, outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39)",
-            self.pcg1_iterations, self.outer_iterations, self.pcg2_iterations
+            "  iterations: PCG1 {}, outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
+            self.pcg1_iterations,
+            self.outer_iterations,
+            self.pcg2_iterations,
+            self.newton_steps,
+            self.newton_pcg_iterations
         )?;
         let qs: Vec<String> = self.contraction.iter().map(|q| format!("{q:.3}")).collect();
         writeln!(f, "  contraction q_k: [{}]", qs.join(", "))?;

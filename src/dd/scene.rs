@@ -6,7 +6,7 @@
 //! criteria stay shared between the two solvers.
 
 use super::partition::CONTACT_LAYERS;
-use super::successive::{solve, DdOptions, DdSolution, Fallback};
+use super::successive::{solve, DdOptions, DdSolution, Fallback, PCG1_TOL};
 use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
 use crate::contact::direct::ContactSolution;
 use crate::contact::pairs::ContactGeometry;
@@ -21,9 +21,10 @@ const AUTO_ELEMENTS: usize = 800;
 /// (hertz: 4.6e-10 after 500 iterations).
 const PCG_FLOOR: f64 = 1e-9;
 
-/// DD options of a scene: `subdomains` is the total count (0: about [`AUTO_ELEMENTS`] elements
+/// DD options of a scene: `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements
 /// per subdomain), `tolerance` the relative stopping tolerance of the successive approximations
-/// (the PCG tolerances are kept tighter so that they do not limit it).
+/// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
+/// U⁰).
 pub fn options(settings: &SolverSettings) -> DdOptions {
     let layers = CONTACT_LAYERS;
     let partition = match settings.subdomains {
@@ -40,7 +41,7 @@ pub fn options(settings: &SolverSettings) -> DdOptions {
     DdOptions {
         partition,
         outer_tol: tol,
-        pcg1_tol: (tol * 1e-1).max(PCG_FLOOR),
+        pcg1_tol: PCG1_TOL.max(tol * 1e-1),
         pcg2_tol: (tol * 1e-1).max(PCG_FLOOR),
         ..DdOptions::default()
     }

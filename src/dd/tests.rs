@@ -133,7 +133,8 @@ fn dd_equals_direct_on_two_blocks_frictionless_partial_slip_and_stick() {
 #[test]
 fn divergent_successive_approximations_are_detected_and_accelerated() {
     // A thin contact band in a full-width contact: ρ(S0⁻¹ S_CON') > 1, the plain fixed point
-    // diverges (the papers' contraction condition fails); Anderson mixing recovers it.
+    // diverges (the papers' contraction condition fails); Anderson mixing and, when that
+    // stagnates, the safeguarded Newton steps recover it.
     let problem = two_blocks(24, 8.0, 0.003).expect("problem");
     let reference = direct(&problem);
     let sol = solve(&problem, &options(8, 2), None).expect("dd");
