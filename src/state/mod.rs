@@ -305,7 +305,7 @@ impl StateProblem {
             })
         };
         let dd_options = crate::dd::scene::options(&self.scene.solver);
-        let (sol, dd) = crate::dd::scene::solve_elastic(
+        let outcome = crate::dd::scene::solve_elastic(
             elastic,
             &self.contact.geometry,
             data,
@@ -314,8 +314,28 @@ impl StateProblem {
             fixed,
             &dd_options,
             Some(&direct),
-        )
-        .map_err(|e| WsmError::Contact(format!("domain decomposition: {e}")))?;
+        );
+        let (sol, dd) = match outcome {
+            Ok(done) => done,
+            Err(e) => {
+                // DD cannot be set up for this scene (e.g. a cluster with an unsupported
+                // floating part): answer with the direct solver and say why.
+                report.solver = "direct (DD unavailable)".into();
+                report.warnings.push(format!(
+                    "domain decomposition: {e}; solved by the direct solver"
+                ));
+                let (factor, reused) = self.stiffness_factor(coefficients, options.par)?;
+                report.reused_factorisation = reused;
+                return self.contact.solve(
+                    &factor,
+                    elastic,
+                    rhs,
+                    fixed,
+                    data,
+                    options.warm.as_ref(),
+                );
+            }
+        };
         report.solver = "dd".into();
         report.timings.contact = dd.report.times.total;
         report.dd = serde_json::to_value(&dd.report).ok();
