@@ -139,38 +139,35 @@ pub fn scalability(out: &mut impl Write) -> Result<(), DdError> {
         "DOFs", "subdomains", "PCG1", "outer", "PCG2", "time [s]"
     )
     .map_err(io)?;
-    for nx in [32, 64, 128] {
-        let r = run(
-            nx,
+    let requests = [
+        (
+            "",
             PartitionRequest::BySize {
                 elements: 512,
                 contact_layers: 2,
             },
-            2,
-        )?;
-        writeln!(
-            out,
-            "{:>8} {:>11} {:>6} {:>6} {:>6} {:>9.3}",
-            r[0], r[4], r[1], r[2], r[3], r[5]
-        )
-        .map_err(io)?;
-    }
-    writeln!(out, "PCG1 vs H/h at 16 subdomains").map_err(io)?;
-    for nx in [32, 64, 128] {
-        let r = run(
-            nx,
+        ),
+        (
+            "PCG1 vs H/h at 16 subdomains",
             PartitionRequest::Automatic {
                 subdomains: 16,
                 contact_layers: 2,
             },
-            2,
-        )?;
-        writeln!(
-            out,
-            "{:>8} {:>11} {:>6} {:>6} {:>6} {:>9.3}",
-            r[0], r[4], r[1], r[2], r[3], r[5]
-        )
-        .map_err(io)?;
+        ),
+    ];
+    for (title, request) in requests {
+        if !title.is_empty() {
+            writeln!(out, "{title}").map_err(io)?;
+        }
+        for nx in [32, 64, 128] {
+            let r = run(nx, request.clone(), 2)?;
+            writeln!(
+                out,
+                "{:>8} {:>11} {:>6} {:>6} {:>6} {:>9.3}",
+                r[0], r[4], r[1], r[2], r[3], r[5]
+            )
+            .map_err(io)?;
+        }
     }
     writeln!(out, "threads: DD time on 1 and 2 threads").map_err(io)?;
     for nx in [96, 288] {
