@@ -485,18 +485,23 @@ impl LinearBlock {
 mod tests {
     use super::*;
 
-    /// 1D chain of springs (Laplacian), free at both ends: kernel = constants.
+    /// Triplets of a 1D chain of unit springs (Laplacian), free at both ends.
+    fn chain_triplets(n: usize) -> Vec<(usize, usize, f64)> {
+        (0..n - 1)
+            .flat_map(|i| {
+                [
+                    (i, i, 1.0),
+                    (i + 1, i + 1, 1.0),
+                    (i, i + 1, -1.0),
+                    (i + 1, i, -1.0),
+                ]
+            })
+            .collect()
+    }
+
+    /// 1D chain of springs free at both ends: kernel = constants.
     fn chain(n: usize) -> Csr {
-        let mut t = Vec::new();
-        for i in 0..n - 1 {
-            t.extend([
-                (i, i, 1.0),
-                (i + 1, i + 1, 1.0),
-                (i, i + 1, -1.0),
-                (i + 1, i, -1.0),
-            ]);
-        }
-        Csr::from_triplets(n, t)
+        Csr::from_triplets(n, chain_triplets(n))
     }
 
     #[test]
@@ -521,14 +526,7 @@ mod tests {
         // Interior 0..4, interface {4, 5}: springs 0–1–2–3 dangling, 3–4 and 4–5 present.
         let n = 6;
         let mut t = vec![(0, 0, 1.0)];
-        for i in 0..n - 1 {
-            t.extend([
-                (i, i, 1.0),
-                (i + 1, i + 1, 1.0),
-                (i, i + 1, -1.0),
-                (i + 1, i, -1.0),
-            ]);
-        }
+        t.extend(chain_triplets(n));
         let k = Csr::from_triplets(n, t);
         let none = Mat::<f64>::zeros(n, 0);
         let block = LinearBlock::new(

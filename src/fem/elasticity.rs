@@ -15,9 +15,7 @@ use crate::mesh::Mesh;
 use crate::scene::{BoundaryValue, Data, Scene};
 
 use super::dofs::DofMap;
-use super::geometry::{
-    check_mesh, element_gradients, segment_load, zone_weights, SegmentLoad, TriangleGradients,
-};
+use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{element_stresses, internal_forces, ElementStress, ZoneMaterial};
@@ -30,10 +28,8 @@ pub struct ElasticProblem {
     dofs: DofMap,
     operator: ZonedOperator<2>,
     gradients: Vec<TriangleGradients>,
-    /// ∫ φ_i dx per node, per zone (body force F gives F·w_i).
-    zone_weights: Vec<Vec<(usize, f64)>>,
-    /// Per boundary condition.
-    segment_loads: Vec<SegmentLoad>,
+    /// Load weights per zone and per boundary condition.
+    unit_loads: UnitLoads,
     floating: Vec<usize>,
 }
 
@@ -47,12 +43,7 @@ impl ElasticProblem {
         let operator = build_operator(mesh, &dofs, &gradients)?;
         let floating = floating_bodies(mesh, &dofs)?;
         Ok(ElasticProblem {
-            zone_weights: zone_weights(mesh, &gradients),
-            segment_loads: data
-                .boundary
-                .iter()
-                .map(|bc| segment_load(mesh, bc.segment))
-                .collect(),
+            unit_loads: UnitLoads::new(mesh, &data.boundary, &gradients),
             mesh: mesh.clone(),
             dofs,
             operator,
@@ -182,7 +173,7 @@ impl ElasticProblem {
     }
 
     fn add_body_forces(&self, data: &Data, f: &mut [[f64; 2]]) -> Result<(), FemError> {
-        for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
+        for (zone, weights) in self.mesh.zones.iter().zip(&self.unit_loads.zones) {
             let force = material_of(data, zone)?.force();
             for &(node, w) in weights {
                 f[node][0] += w * force[0];
@@ -196,9 +187,9 @@ impl ElasticProblem {
         expect_len(
             "boundary conditions",
             data.boundary.len(),
-            self.segment_loads.len(),
+            self.unit_loads.segments.len(),
         )?;
-        for (bc, load) in data.boundary.iter().zip(&self.segment_loads) {
+        for (bc, load) in data.boundary.iter().zip(&self.unit_loads.segments) {
             match bc.value {
                 BoundaryValue::Traction(p) => {
                     for &(node, w) in &load.weights {

@@ -4,6 +4,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::mesh::{Mesh, MeshSegment};
+use crate::scene::BoundaryData;
 
 use super::FemError;
 
@@ -156,6 +157,30 @@ pub fn zone_weights(mesh: &Mesh, gradients: &[TriangleGradients]) -> Vec<Vec<(us
         .into_iter()
         .map(|m| m.into_iter().collect())
         .collect()
+}
+
+/// The load weights shared by elasticity and heat: per zone ∫ φ_i dx (body force, source) and
+/// per boundary condition ∫ φ_i ds, ∫ φ_i n ds on its segment (traction, pressure, flux).
+#[derive(Debug, Clone)]
+pub struct UnitLoads {
+    pub zones: Vec<Vec<(usize, f64)>>,
+    pub segments: Vec<SegmentLoad>,
+}
+
+impl UnitLoads {
+    pub fn new(
+        mesh: &Mesh,
+        boundary: &[BoundaryData],
+        gradients: &[TriangleGradients],
+    ) -> UnitLoads {
+        UnitLoads {
+            zones: zone_weights(mesh, gradients),
+            segments: boundary
+                .iter()
+                .map(|bc| segment_load(mesh, bc.segment))
+                .collect(),
+        }
+    }
 }
 
 /// ∫ φ_i ds and ∫ φ_i n ds on a segment (exact for P1 on straight edges).

@@ -12,9 +12,7 @@ use faer::Par;
 use crate::mesh::Mesh;
 use crate::scene::{BoundaryValue, Data, Scene};
 
-use super::geometry::{
-    check_mesh, element_gradients, segment_load, zone_weights, SegmentLoad, TriangleGradients,
-};
+use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::{expect_len, material_of, FemError};
 
@@ -58,8 +56,8 @@ pub struct HeatProblem {
     /// Per fixed unknown: a node of it and the `Temperature` conditions prescribing it.
     fixed_sources: Vec<(usize, Vec<usize>)>,
     operator: ZonedOperator<1>,
-    zone_weights: Vec<Vec<(usize, f64)>>,
-    segment_loads: Vec<SegmentLoad>,
+    /// Load weights per zone and per boundary condition.
+    unit_loads: UnitLoads,
 }
 
 impl HeatProblem {
@@ -75,12 +73,7 @@ impl HeatProblem {
         let n_fixed = fixed_sources.len();
         let operator = build_operator(mesh, &unknown_of, &slots, n_fixed, &gradients)?;
         Ok(HeatProblem {
-            zone_weights: zone_weights(mesh, &gradients),
-            segment_loads: data
-                .boundary
-                .iter()
-                .map(|bc| segment_load(mesh, bc.segment))
-                .collect(),
+            unit_loads: UnitLoads::new(mesh, &data.boundary, &gradients),
             mesh: mesh.clone(),
             unknown_of,
             slots,
@@ -137,16 +130,16 @@ impl HeatProblem {
         expect_len(
             "boundary conditions",
             data.boundary.len(),
-            self.segment_loads.len(),
+            self.unit_loads.segments.len(),
         )?;
         let mut f = vec![0.0; self.mesh.nodes.len()];
-        for (zone, weights) in self.mesh.zones.iter().zip(&self.zone_weights) {
+        for (zone, weights) in self.mesh.zones.iter().zip(&self.unit_loads.zones) {
             let w = material_of(data, zone)?.heat_source;
             for &(node, weight) in weights {
                 f[node] += w * weight;
             }
         }
-        for (bc, load) in data.boundary.iter().zip(&self.segment_loads) {
+        for (bc, load) in data.boundary.iter().zip(&self.unit_loads.segments) {
             if let BoundaryValue::HeatFlux(q) = bc.value {
                 for &(node, weight) in &load.weights {
                     f[node] += q * weight;
