@@ -103,3 +103,39 @@ fn tunnel_fault_dd_equals_direct() {
     // Measured: outer 10, PCG1 84, PCG2 65, 6 Newton steps with 123 PCG iterations (the paper
     // reports 21 / 15 / 39 with plain successive approximations on its own mesh).
 }
+
+#[test]
+fn knee_dd_equals_direct() {
+    // Three bodies, one cluster holding the insert and the whole floating femur; the femur's
+    // frictionless sliding is determined by nothing (interior kernel of the cluster without
+    // interface trace): both solvers report the displacement with no component along it.
+    let scene: Value = serde_json::from_str(wsm::examples::example("knee").unwrap()).unwrap();
+    compare("knee", scene);
+}
+
+#[test]
+fn knee_reports_the_undetermined_sliding_with_either_solver() {
+    let scene: Value = serde_json::from_str(wsm::examples::example("knee").unwrap()).unwrap();
+    for kind in [SolverKind::Direct, SolverKind::Dd] {
+        let (problem, sol) = solve(&scene, kind);
+        assert_eq!(sol.report.undetermined_modes, 1, "{kind:?}");
+        // Zero mean horizontal displacement of the femur's nodes (the normal form).
+        let mesh = problem.elastic.mesh();
+        let femur = mesh.bodies.iter().position(|b| b == "femur").unwrap();
+        let (sum, count) = sol
+            .displacement
+            .iter()
+            .zip(&mesh.node_body)
+            .filter(|(_, &b)| b == femur)
+            .fold((0.0, 0usize), |(s, c), (u, _)| (s + u[0], c + 1));
+        let scale = sol
+            .displacement
+            .iter()
+            .fold(0.0_f64, |m, u| m.max(u[0].abs()).max(u[1].abs()));
+        assert!(
+            (sum / count as f64).abs() <= 1e-10 * scale,
+            "{kind:?}: mean femur u_x {} vs scale {scale}",
+            sum / count as f64
+        );
+    }
+}

@@ -25,7 +25,7 @@ use faer::linalg::solvers::DenseSolveCore;
 use faer::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::{Accum, Mat, Par};
 
-use super::pairs::ContactGeometry;
+use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, Factor, RigidModes, Symbolic};
@@ -49,7 +49,80 @@ struct Kernel {
     gram_inverse: Mat<f64>,
 }
 
+/// Cosine |B_r · R_j| / (‖B_r‖ ‖R_j‖) below which a contact row does not see a rigid mode.
+const FREE_MOTION_TOL: f64 = 1e-10;
+
 impl Kernel {
+    /// Orthonormal basis (n_free × z) of the free motions {R α : B_A R α = 0} over the rows A
+    /// whose multiplier is not fixed by its bounds (a zero slip limit fixes the tangential one):
+    /// rigid motions that no contact row sees, e.g. frictionless sliding along a straight zone.
+    /// Energy, gaps and forces do not depend on them. Computed from the right singular vectors
+    /// of the row- and column-normalised B_A R with singular values ≤ [`FREE_MOTION_TOL`].
+    fn free_motions(
+        &self,
+        geometry: &ContactGeometry,
+        lower: &[f64],
+        upper: &[f64],
+    ) -> Result<Mat<f64>, WsmError> {
+        let modes = &self.modes;
+        let (n, k) = (modes.nrows(), modes.ncols());
+        if k == 0 {
+            return Ok(Mat::zeros(n, 0));
+        }
+        let rows: Vec<&ContactRow> = geometry
+            .rows
+            .iter()
+            .zip(lower.iter().zip(upper))
+            .filter(|(_, (l, u))| l < u)
+            .map(|(row, _)| row)
+            .collect();
+        let col_norm: Vec<f64> = (0..k)
+            .map(|j| (0..n).map(|i| modes[(i, j)].powi(2)).sum::<f64>().sqrt())
+            .collect();
+        // At least k rows (zero padding) so that the thin SVD has all k right singular vectors.
+        let br = Mat::<f64>::from_fn(rows.len().max(k), k, |r, j| {
+            let Some(row) = rows.get(r) else {
+                return 0.0;
+            };
+            let norm = row.free.iter().map(|&(_, c)| c * c).sum::<f64>().sqrt();
+            if norm == 0.0 {
+                return 0.0;
+            }
+            let dot: f64 = row.free.iter().map(|&(i, c)| c * modes[(i, j)]).sum();
+            dot / (norm * col_norm[j])
+        });
+        let svd = br
+            .thin_svd()
+            .map_err(|e| WsmError::Contact(format!("free-motion SVD: {e:?}")))?;
+        let (s, v) = (svd.S().column_vector(), svd.V());
+        let free: Vec<usize> = (0..k).filter(|&c| s[c] <= FREE_MOTION_TOL).collect();
+        let mut z = Mat::<f64>::zeros(n, free.len());
+        for (col, &c) in free.iter().enumerate() {
+            for j in 0..k {
+                let w = v[(j, c)] / col_norm[j];
+                for i in 0..n {
+                    z[(i, col)] += w * modes[(i, j)];
+                }
+            }
+        }
+        // Orthonormalise (modified Gram–Schmidt twice; the columns are independent).
+        for c in 0..z.ncols() {
+            for _ in 0..2 {
+                for p in 0..c {
+                    let d: f64 = (0..n).map(|i| z[(i, p)] * z[(i, c)]).sum();
+                    for i in 0..n {
+                        z[(i, c)] -= d * z[(i, p)];
+                    }
+                }
+            }
+            let norm = (0..n).map(|i| z[(i, c)].powi(2)).sum::<f64>().sqrt();
+            for i in 0..n {
+                z[(i, c)] /= norm;
+            }
+        }
+        Ok(z)
+    }
+
     /// v ← P v: remove the rigid-mode components (least squares).
     fn project(&self, v: &mut [f64]) {
         let k = self.modes.ncols();
@@ -119,6 +192,9 @@ pub struct ContactSolution {
     pub qp: Option<QpSolution>,
     /// ‖K u − f + Bᵀλ‖ / ‖f‖ on the free DOFs.
     pub equilibrium_residual: f64,
+    /// Rigid motions no contact row determines; `u_free` has no component along them
+    /// ([`DirectContact::normalise_free_motions`]).
+    pub free_motions: usize,
 }
 
 impl DirectContact {
@@ -201,6 +277,25 @@ impl DirectContact {
     /// Number of rigid motions left to the contact (sum over floating bodies).
     pub fn kernel_dim(&self) -> usize {
         self.kernel.labels.len()
+    }
+
+    /// Put a displacement on the free DOFs into the solver-independent normal form: no
+    /// (Euclidean) component along any rigid motion that neither the energy nor a contact row
+    /// with free multiplier determines ([`Kernel::free_motions`]). Returns how many there are.
+    pub fn normalise_free_motions(
+        &self,
+        u_free: &mut [f64],
+        data: &Data,
+    ) -> Result<usize, WsmError> {
+        let (lower, upper) = self.geometry.bounds(data);
+        let z = self.kernel.free_motions(&self.geometry, &lower, &upper)?;
+        for j in 0..z.ncols() {
+            let d: f64 = u_free.iter().enumerate().map(|(i, x)| z[(i, j)] * x).sum();
+            for (i, x) in u_free.iter_mut().enumerate() {
+                *x -= d * z[(i, j)];
+            }
+        }
+        Ok(z.ncols())
     }
 
     /// Assemble K for the coefficients, pin the floating DOFs, factorise, and form C.
@@ -345,6 +440,7 @@ impl DirectContact {
         self.add_offsets(fixed, &mut d);
         let mut start = warm.cloned();
         let mut refinements = 0;
+        let mut free_motions;
         let (qp, multipliers, rigid, u_free, gaps) = loop {
             let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
                 (None, Vec::new(), Vec::new())
@@ -362,7 +458,8 @@ impl DirectContact {
                 let (x, alpha) = (sol.x.clone(), sol.alpha.clone());
                 (Some(sol), x, alpha)
             };
-            let u_free = self.recover(factor, rhs, &multipliers, &rigid);
+            let mut u_free = self.recover(factor, rhs, &multipliers, &rigid);
+            free_motions = self.normalise_free_motions(&mut u_free, data)?;
             let mut gaps: Vec<f64> = geometry.rows.iter().map(|row| row.dot(&u_free)).collect();
             self.add_offsets(fixed, &mut gaps);
             // Iterative refinement of the condensed problem: the QP saw w = d − Cλ + Gᵀα with C
@@ -397,6 +494,7 @@ impl DirectContact {
             rigid,
             gaps,
             qp,
+            free_motions,
         })
     }
 

@@ -20,6 +20,10 @@ use super::pcg::Interface;
 use super::subdomain::LinearBlock;
 use super::DdError;
 
+/// Singular value of a block's weighted kernel traces (the kernel basis is orthonormal) below
+/// which a direction is rounding of a motion that does not reach the interface.
+const TRACE_TOL: f64 = 1e-10;
+
 /// A coarse space W (orthonormal-ish columns) for an operator A, with A W and the coarse
 /// matrix G = Wᵀ A W factored: the A-orthogonal projection and the coarse start of D05
 /// 5.12–5.15, shared by [`Balancing`] and the Newton operator of [`super::newton`].
@@ -35,6 +39,7 @@ impl CoarseSpace {
         let llt = if w.ncols() > 0 {
             let g = w.transpose() * &aw;
             let g = Mat::from_fn(g.nrows(), g.ncols(), |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
+
             Some(g.llt(Side::Lower).map_err(|_| {
                 DdError::Coarse(
                     "WᵀSW is not positive definite: the interface operator is singular on the \
@@ -113,8 +118,10 @@ impl CoarseSpace {
 
 /// The interface operator and its balancing preconditioner over a set of blocks.
 pub struct Balancing<'a> {
+    /// Operator blocks; the first `preconditioning` of them also precondition.
     blocks: Vec<&'a LinearBlock>,
-    /// D_s diagonal per block (local interface order).
+    preconditioning: usize,
+    /// D_s diagonal per preconditioning block (local interface order).
     weights: Vec<Vec<f64>>,
     n: usize,
     coarse: CoarseSpace,
@@ -122,20 +129,32 @@ pub struct Balancing<'a> {
 }
 
 impl<'a> Balancing<'a> {
-    /// Build the weights and the coarse problem on an interface of size `n`.
+    /// Build the weights and the coarse problem on an interface of size `n`; every block both
+    /// enters the operator and preconditions (D05 §5 for S, §6 for S0).
     pub fn new(blocks: Vec<&'a LinearBlock>, n: usize) -> Result<Balancing<'a>, DdError> {
+        Balancing::with_operator_only(blocks, Vec::new(), n)
+    }
+
+    /// Like [`Balancing::new`], with `operator_only` blocks that enter the operator S but not
+    /// the preconditioner: the reduced balancing preconditioner of D05 §6 (injections D̊, coarse
+    /// space V_0H) applied to S = S0 + Σ tied clusters (see [`super::successive::Pcg1Preconditioner`]).
+    pub fn with_operator_only(
+        preconditioning: Vec<&'a LinearBlock>,
+        operator_only: Vec<&'a LinearBlock>,
+        n: usize,
+    ) -> Result<Balancing<'a>, DdError> {
         let mut total = vec![0.0; n];
-        for b in &blocks {
+        for b in &preconditioning {
             for (&g, &r) in b.gamma.iter().zip(&b.rho) {
                 total[g] += r;
             }
         }
         if let Some(g) = total.iter().position(|&t| t <= 0.0) {
             return Err(DdError::Coarse(format!(
-                "interface DOF {g} belongs to none of the blocks of this operator"
+                "interface DOF {g} belongs to none of the preconditioning blocks"
             )));
         }
-        let weights: Vec<Vec<f64>> = blocks
+        let weights: Vec<Vec<f64>> = preconditioning
             .iter()
             .map(|b| {
                 b.gamma
@@ -146,33 +165,23 @@ impl<'a> Balancing<'a> {
             })
             .collect();
         let mut sum = vec![0.0; n];
-        for (b, w) in blocks.iter().zip(&weights) {
+        for (b, w) in preconditioning.iter().zip(&weights) {
             for (&g, &wi) in b.gamma.iter().zip(w) {
                 sum[g] += wi;
             }
         }
         let unity_error = sum.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
         let mut cols: Vec<Vec<f64>> = Vec::new();
-        for (b, w) in blocks.iter().zip(&weights) {
-            let z = b.kernel();
-            for j in 0..z.ncols() {
-                let mut col = vec![0.0; n];
-                let mut norm = 0.0;
-                for (i, (&g, &wi)) in b.gamma.iter().zip(w).enumerate() {
-                    let v = wi * z[(b.n_interior + i, j)];
-                    col[g] = v;
-                    norm += v * v;
-                }
-                if norm > 0.0 {
-                    let norm = norm.sqrt();
-                    col.iter_mut().for_each(|v| *v /= norm);
-                    cols.push(col);
-                }
-            }
+        for (b, w) in preconditioning.iter().zip(&weights) {
+            cols.extend(weighted_kernel_traces(b, w, n)?);
         }
         let w = Mat::from_fn(n, cols.len(), |i, j| cols[j][i]);
+        let n_pre = preconditioning.len();
+        let mut blocks = preconditioning;
+        blocks.extend(operator_only);
         let mut bal = Balancing {
             blocks,
+            preconditioning: n_pre,
             weights,
             n,
             coarse: CoarseSpace::new(Mat::zeros(n, 0), Mat::zeros(n, 0))?,
@@ -202,7 +211,8 @@ impl<'a> Balancing<'a> {
         b.gamma.iter().map(|&g| x[g]).collect()
     }
 
-    /// Sum block contributions in block order (bit-for-bit independent of the thread count).
+    /// Sum block contributions in block order (bit-for-bit independent of the thread count);
+    /// `parts` may cover only the leading blocks.
     fn accumulate(&self, parts: Vec<Vec<f64>>) -> Vec<f64> {
         let mut y = vec![0.0; self.n];
         for (b, part) in self.blocks.iter().zip(parts) {
@@ -250,8 +260,7 @@ impl<'a> Balancing<'a> {
 
     /// The Neumann–Neumann sum Σ D_s S_s⁺ D_sᵀ r (D05 5.9).
     pub fn neumann_sum(&self, r: &[f64]) -> Vec<f64> {
-        let parts: Vec<Vec<f64>> = self
-            .blocks
+        let parts: Vec<Vec<f64>> = self.blocks[..self.preconditioning]
             .par_iter()
             .zip(&self.weights)
             .map(|(b, w)| {
@@ -261,6 +270,43 @@ impl<'a> Balancing<'a> {
             .collect();
         self.accumulate(parts)
     }
+}
+
+/// Orthonormal basis of the weighted interface traces {D_s γ z : z ∈ Ker A_s} of one block,
+/// scattered to the interface of size `n` (D05 5.11). Rank-revealing: a kernel motion that does
+/// not reach the interface (a floating part inside a cluster) makes the traces dependent, and
+/// only singular directions above [`TRACE_TOL`] (the kernel basis is orthonormal) are kept.
+fn weighted_kernel_traces(
+    b: &LinearBlock,
+    weights: &[f64],
+    n: usize,
+) -> Result<Vec<Vec<f64>>, DdError> {
+    let z = b.kernel();
+    if z.ncols() == 0 {
+        return Ok(Vec::new());
+    }
+    let ng = b.gamma.len();
+    let trace = Mat::from_fn(ng.max(z.ncols()), z.ncols(), |i, j| {
+        if i < ng {
+            weights[i] * z[(b.n_interior + i, j)]
+        } else {
+            0.0
+        }
+    });
+    let svd = trace
+        .thin_svd()
+        .map_err(|e| DdError::Coarse(format!("coarse trace SVD: {e:?}")))?;
+    let (s, u) = (svd.S().column_vector(), svd.U());
+    Ok((0..z.ncols())
+        .filter(|&c| s[c] > TRACE_TOL)
+        .map(|c| {
+            let mut col = vec![0.0; n];
+            for (i, &g) in b.gamma.iter().enumerate() {
+                col[g] = u[(i, c)];
+            }
+            col
+        })
+        .collect())
 }
 
 impl Interface for Balancing<'_> {

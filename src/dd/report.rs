@@ -7,6 +7,7 @@
 use std::fmt;
 
 use super::decomposition::Decomposition;
+use super::successive::Pcg1Preconditioner;
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.
@@ -37,6 +38,8 @@ pub struct DdReport {
     pub n_pairs: usize,
     /// Clusters whose auxiliary tie needed the tangential rows too (a sliding mode was left).
     pub auxiliary_full_stick: usize,
+    /// The preconditioner PCG1 used.
+    pub pcg1_preconditioner: Pcg1Preconditioner,
     pub coarse_dim_pcg1: usize,
     pub coarse_dim_pcg2: usize,
     pub pcg1_iterations: usize,
@@ -122,8 +125,9 @@ impl fmt::Display for DdReport {
         )?;
         writeln!(
             f,
-            "  iterations: PCG1 {}, outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
+            "  iterations: PCG1 {} ({:?} preconditioner), outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
             self.pcg1_iterations,
+            self.pcg1_preconditioner,
             self.outer_iterations,
             self.pcg2_iterations,
             self.newton_steps,

@@ -8,8 +8,7 @@
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdOptions, DdSolution, Fallback, PCG1_TOL};
 use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
-use crate::contact::direct::ContactSolution;
-use crate::contact::pairs::ContactGeometry;
+use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::fem::ElasticProblem;
 use crate::scene::{Data, SolverSettings};
 
@@ -48,11 +47,12 @@ pub fn options(settings: &SolverSettings) -> DdOptions {
 }
 
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
-/// values) by DD; `fallback` is the direct solver, used only when DD fails (and reported).
+/// values) by DD on the contact rows of `direct`; `fallback` is the direct solver, used only when
+/// DD fails (and reported). Undetermined rigid motions get the direct solver's normal form.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_elastic(
     elastic: &ElasticProblem,
-    geometry: &ContactGeometry,
+    direct: &DirectContact,
     data: &Data,
     coefficients: &[[f64; 2]],
     rhs: &[f64],
@@ -60,9 +60,13 @@ pub fn solve_elastic(
     options: &DdOptions,
     fallback: Option<Fallback>,
 ) -> Result<(ContactSolution, DdSolution), DdError> {
+    let geometry = &direct.geometry;
     let pairs = contact_pairs(geometry, data, fixed);
     let problem = DdProblem::from_elastic(elastic, coefficients, rhs.to_vec(), pairs)?;
-    let sol = solve(&problem, options, fallback)?;
+    let mut sol = solve(&problem, options, fallback)?;
+    let free_motions = direct
+        .normalise_free_motions(&mut sol.u, data)
+        .map_err(|e| DdError::Input(e.to_string()))?;
     let multipliers: Vec<f64> = sol.multipliers.iter().flatten().copied().collect();
     let gaps = geometry
         .rows
@@ -92,6 +96,7 @@ pub fn solve_elastic(
         rigid: Vec::new(),
         gaps,
         qp: None,
+        free_motions,
     };
     Ok((contact, sol))
 }

@@ -345,6 +345,46 @@ pub fn assemble(
     t
 }
 
+/// Relative size of K_ΓI z (to the largest diagonal entry) and of zᵀ f_I (to ‖f_I‖) below which
+/// an interior kernel vector z counts as decoupled from the interface and balanced.
+const DECOUPLED_TOL: f64 = 1e-9;
+
+/// An interior kernel Z of K_II (a floating part that touches no interface, e.g. a body held
+/// only by a frictionless tie) is admissible when K_ΓI Z = 0: then K_II x = b − K_IΓ y is solvable
+/// for every y as soon as Zᵀ f_I = 0, the Schur complement does not depend on the chosen
+/// particular solution, and the part's motion along Z is left to the global normal form
+/// ([`crate::contact::direct::DirectContact::normalise_free_motions`]).
+fn check_interior_kernel(
+    k: &Csr,
+    n_interior: usize,
+    z: MatRef<'_, f64>,
+    f_interior: &[f64],
+) -> Result<(), String> {
+    let n = k.dim();
+    let scale = k.max_diag(n);
+    let f_norm = f_interior.iter().map(|v| v * v).sum::<f64>().sqrt();
+    for j in 0..z.ncols() {
+        let col: Vec<f64> = (0..n_interior).map(|i| z[(i, j)]).collect();
+        let mut coupling = vec![0.0; n - n_interior];
+        k.mul_block((n_interior, n), (0, n_interior), &col, &mut coupling);
+        if coupling.iter().any(|c| c.abs() > DECOUPLED_TOL * scale) {
+            return Err(
+                "the interior problem has a rigid motion that moves interface DOFs (a floating \
+                 part glued to the interface at a vertex)"
+                    .into(),
+            );
+        }
+        let work: f64 = col.iter().zip(f_interior).map(|(a, b)| a * b).sum();
+        if work.abs() > DECOUPLED_TOL * f_norm {
+            return Err(format!(
+                "a floating part without interface is loaded along one of its free rigid motions \
+                 (work {work:.3e} of a load of norm {f_norm:.3e}); nothing can balance it"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// A linear subdomain (or tied cluster): local matrix ordered [interior; interface].
 #[derive(Debug, Clone)]
 pub struct LinearBlock {
@@ -375,12 +415,7 @@ impl LinearBlock {
         candidates: MatRef<'_, f64>,
     ) -> Result<LinearBlock, String> {
         let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
-        if dirichlet.kernel().ncols() > 0 {
-            return Err(format!(
-                "the interior problem has {} rigid motions left (a floating part without interface)",
-                dirichlet.kernel().ncols()
-            ));
-        }
+        check_interior_kernel(&k, n_interior, dirichlet.kernel(), &f_interior)?;
         let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
         Ok(LinearBlock {
             n_interior,
@@ -461,13 +496,17 @@ impl LinearBlock {
         s
     }
 
-    /// Interior displacement for interface values y: K_II⁻¹ (f_I − K_IΓ y).
+    /// Interior displacement for interface values y: K_II⁺ (f_I − K_IΓ y), with no component
+    /// along an interior kernel (a floating part without interface, see
+    /// [`check_interior_kernel`]).
     pub fn interior(&self, y: &[f64]) -> Vec<f64> {
         let (ri, rg) = self.ranges();
         let mut b = self.f_interior.clone();
         let my: Vec<f64> = y.iter().map(|v| -v).collect();
         self.k.mul_block(ri, rg, &my, &mut b);
-        self.dirichlet.solve(&b)
+        let mut x = self.dirichlet.solve(&b);
+        self.dirichlet.project(&mut x);
+        x
     }
 
     /// Interface trace of the Neumann solution φ⁰ ∈ Q of A φ = [0; g] (g must annihilate the

@@ -180,19 +180,37 @@ fn coarse_dimensions_equal_the_counted_kernels() {
     let n = dec.n_interface();
     let s0 = Balancing::new(dec.blocks.iter().collect(), n).expect("S0");
     let s = Balancing::new(dec.blocks.iter().chain(&dec.tied).collect(), n).expect("S");
+    let s_reduced =
+        Balancing::with_operator_only(dec.blocks.iter().collect(), dec.tied.iter().collect(), n)
+            .expect("S, reduced preconditioner");
     assert_eq!(s0.coarse_dim(), kernels);
     assert_eq!(s.coarse_dim(), kernels + tied);
-    assert!(s0.partition_of_unity_error() <= 1e-14 && s.partition_of_unity_error() <= 1e-14);
+    assert_eq!(s_reduced.coarse_dim(), kernels);
+    for op in [&s0, &s, &s_reduced] {
+        assert!(op.partition_of_unity_error() <= 1e-14);
+    }
     let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin()).collect();
-    for op in [&s0, &s] {
+    for op in [&s0, &s, &s_reduced] {
         let out = pcg::pcg(op, &b, vec![0.0; n], 1e-12, 500, "test").expect("pcg");
         assert!(out.coarse_residual <= 1e-13, "{}", out.coarse_residual);
         assert!(rel(&op.apply(&out.x), &b) <= 1e-11);
     }
-    let sol = solve(&problem, &options(20, 2), None).expect("dd");
-    assert_eq!(sol.report.coarse_dim_pcg2, kernels);
-    assert_eq!(sol.report.coarse_dim_pcg1, kernels + tied);
-    assert!(rel(&sol.u, &direct(&problem).u) <= 1e-8);
+    // The operators S of the two PCG1 variants are the same.
+    assert!(rel(&s_reduced.apply(&b), &s.apply(&b)) <= 1e-14);
+    let reference = direct(&problem);
+    for (preconditioner, coarse) in [
+        (Pcg1Preconditioner::Reduced, kernels),
+        (Pcg1Preconditioner::Full, kernels + tied),
+    ] {
+        let opts = DdOptions {
+            pcg1_preconditioner: preconditioner,
+            ..options(20, 2)
+        };
+        let sol = solve(&problem, &opts, None).expect("dd");
+        assert_eq!(sol.report.coarse_dim_pcg2, kernels);
+        assert_eq!(sol.report.coarse_dim_pcg1, coarse);
+        assert!(rel(&sol.u, &reference.u) <= 1e-8);
+    }
 }
 
 #[test]

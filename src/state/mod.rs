@@ -245,12 +245,13 @@ impl StateProblem {
             report.qp_fallback_iterations = qp.fallback_iterations;
             report.active_set_changes = qp.active_set_changes;
             report.undetermined_modes = qp.undetermined_modes;
-            if qp.undetermined_modes > 0 {
-                report.warnings.push(format!(
-                    "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the minimum-norm motion is reported",
-                    qp.undetermined_modes
-                ));
-            }
+        }
+        report.undetermined_modes = report.undetermined_modes.max(sol.free_motions);
+        if report.undetermined_modes > 0 {
+            report.warnings.push(format!(
+                "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the displacement with no component along them is reported",
+                report.undetermined_modes
+            ));
         }
         solution.stresses = elastic.stresses(data, &u, temperature)?;
         solution.displacement = u;
@@ -307,7 +308,7 @@ impl StateProblem {
         let dd_options = crate::dd::scene::options(&self.scene.solver);
         let outcome = crate::dd::scene::solve_elastic(
             elastic,
-            &self.contact.geometry,
+            &self.contact,
             data,
             coefficients,
             rhs,

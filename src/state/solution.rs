@@ -83,7 +83,8 @@ pub struct SolveReport {
     pub contact_pairs: usize,
     /// Rigid motions of floating bodies fixed by contact (semi-coercive case).
     pub floating_modes: usize,
-    /// Rigid motions that contact does not determine (set to minimum norm).
+    /// Rigid motions that contact does not determine (reported with no displacement component
+    /// along the motions no contact row sees).
     pub undetermined_modes: usize,
     pub qp_iterations: usize,
     pub qp_fallback_iterations: usize,
