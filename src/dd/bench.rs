@@ -7,7 +7,7 @@
 use std::io::Write;
 use std::time::Instant;
 
-use super::successive::{solve, DdOptions};
+use super::successive::{solve, CoarseKind, DdOptions, Pcg1Preconditioner};
 use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
 use crate::fem::{ElasticProblem, Slot};
 use crate::mesh::structured::stacked_blocks;
@@ -101,10 +101,20 @@ pub fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> Result<DdProble
 }
 
 /// One DD solve of the two-block problem; returns (DOFs, PCG1, outer, PCG2, subdomains, seconds).
-fn run(nx: usize, request: PartitionRequest, threads: usize) -> Result<[f64; 6], DdError> {
+fn run(
+    nx: usize,
+    subdomains: usize,
+    variant: (Pcg1Preconditioner, CoarseKind),
+    threads: usize,
+) -> Result<[f64; 6], DdError> {
     let problem = two_blocks(nx, 0.0, 0.003)?;
     let options = DdOptions {
-        partition: request,
+        partition: PartitionRequest::Automatic {
+            subdomains,
+            contact_layers: super::partition::CONTACT_LAYERS,
+        },
+        pcg1_preconditioner: variant.0,
+        coarse: variant.1,
         outer_tol: 1e-6,
         ..DdOptions::default()
     };
@@ -125,46 +135,61 @@ fn run(nx: usize, request: PartitionRequest, threads: usize) -> Result<[f64; 6],
     ])
 }
 
-/// Print the scalability tables.
+/// Our defaults and the papers' preconditioners as printed (D05 §5 / §6).
+const DEFAULT: (Pcg1Preconditioner, CoarseKind) = (Pcg1Preconditioner::Reduced, CoarseKind::Rigid);
+const PAPER: (Pcg1Preconditioner, CoarseKind) = (Pcg1Preconditioner::Full, CoarseKind::Kernels);
+
+/// Print the scalability tables: PCG1 / PCG2 iterations of our default preconditioners and of
+/// the papers' as the subdomain count grows at fixed H/h (mesh refined with the count: about 384
+/// elements per subdomain) and as H/h grows at 16 subdomains, with (1 + ln(H/h))² for
+/// comparison; then DD times on 1 and 2 threads.
 pub fn scalability(out: &mut impl Write) -> Result<(), DdError> {
     let io = |e: std::io::Error| DdError::Input(e.to_string());
-    writeln!(
-        out,
-        "PCG1 vs subdomain count at fixed H/h (about 32 elements per subdomain side)"
-    )
-    .map_err(io)?;
-    writeln!(
-        out,
-        "{:>8} {:>11} {:>6} {:>6} {:>6} {:>9}",
-        "DOFs", "subdomains", "PCG1", "outer", "PCG2", "time [s]"
-    )
-    .map_err(io)?;
-    let requests = [
+    let header = |out: &mut dyn Write, first: &str| {
+        writeln!(
+            out,
+            "{first:>11} {:>8} {:>10} {:>5} {:>5} {:>5} {:>8} {:>11} {:>11}",
+            "DOFs", "subdomains", "PCG1", "PCG2", "outer", "time [s]", "PCG1 paper", "PCG2 paper"
+        )
+    };
+    // Total subdomain count, and non-contact subdomains (the contact band is one tied cluster of
+    // two more subdomains), both at about 384 elements per subdomain.
+    let series_count = [(32, 4), (64, 16), (128, 64), (256, 256)];
+    let series_noncontact = [(32, 6), (64, 18), (128, 66), (256, 258)];
+    let series_size = [(32, 16), (64, 16), (128, 16), (256, 16)];
+    for (title, first, series) in [
         (
-            "",
-            PartitionRequest::BySize {
-                elements: 512,
-                contact_layers: 2,
-            },
+            "Iterations vs subdomain count at fixed H/h",
+            "requested",
+            &series_count[..],
         ),
         (
-            "PCG1 vs H/h at 16 subdomains",
-            PartitionRequest::Automatic {
-                subdomains: 16,
-                contact_layers: 2,
-            },
+            "Same with 4 / 16 / 64 / 256 non-contact subdomains (+ 2 forming the contact cluster)",
+            "requested",
+            &series_noncontact[..],
         ),
-    ];
-    for (title, request) in requests {
-        if !title.is_empty() {
-            writeln!(out, "{title}").map_err(io)?;
-        }
-        for nx in [32, 64, 128] {
-            let r = run(nx, request.clone(), 2)?;
+        (
+            "Iterations vs H/h at 16 subdomains",
+            "(1+ln H/h)²",
+            &series_size[..],
+        ),
+    ] {
+        writeln!(out, "{title}").map_err(io)?;
+        header(out, first).map_err(io)?;
+        for &(nx, count) in series {
+            let ours = run(nx, count, DEFAULT, 2)?;
+            let paper = run(nx, count, PAPER, 2)?;
+            let first = if first == "requested" {
+                format!("{count}")
+            } else {
+                // H/h: cells per subdomain side (≈ DOFs / 2 squares of two triangles).
+                let h_over_h = (ours[0] / 2.0 / count as f64).sqrt();
+                format!("{:.1}", (1.0 + h_over_h.ln()).powi(2))
+            };
             writeln!(
                 out,
-                "{:>8} {:>11} {:>6} {:>6} {:>6} {:>9.3}",
-                r[0], r[4], r[1], r[2], r[3], r[5]
+                "{first:>11} {:>8} {:>10} {:>5} {:>5} {:>5} {:>8.3} {:>11} {:>11}",
+                ours[0], ours[4], ours[1], ours[3], ours[2], ours[5], paper[1], paper[3]
             )
             .map_err(io)?;
         }
@@ -172,14 +197,7 @@ pub fn scalability(out: &mut impl Write) -> Result<(), DdError> {
     writeln!(out, "threads: DD time on 1 and 2 threads").map_err(io)?;
     for nx in [96, 288] {
         for threads in [1, 2] {
-            let r = run(
-                nx,
-                PartitionRequest::Automatic {
-                    subdomains: 16,
-                    contact_layers: 2,
-                },
-                threads,
-            )?;
+            let r = run(nx, 16, DEFAULT, threads)?;
             writeln!(
                 out,
                 "{:>8} DOFs, {threads} thread(s): {:.3} s ({} outer)",

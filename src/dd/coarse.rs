@@ -20,26 +20,83 @@ use super::pcg::Interface;
 use super::subdomain::LinearBlock;
 use super::DdError;
 
-/// Singular value of a block's weighted kernel traces (the kernel basis is orthonormal) below
-/// which a direction is rounding of a motion that does not reach the interface.
+/// Singular value of a block's weighted coarse traces, relative to the largest, below which a
+/// direction is rounding of a motion that does not reach the interface.
 const TRACE_TOL: f64 = 1e-10;
 
-/// A coarse space W (orthonormal-ish columns) for an operator A, with A W and the coarse
-/// matrix G = Wᵀ A W factored: the A-orthogonal projection and the coarse start of D05
-/// 5.12–5.15, shared by [`Balancing`] and the Newton operator of [`super::newton`].
+/// Columns of an n-row matrix stored sparse (sorted row indices): coarse bases and their images
+/// are supported on one subdomain's interface (and its neighbours'), so dense storage would
+/// grow like n × (3 · subdomains).
+#[derive(Debug, Clone, Default)]
+pub struct SparseColumns {
+    pub n: usize,
+    pub cols: Vec<Vec<(usize, f64)>>,
+}
+
+impl SparseColumns {
+    pub fn ncols(&self) -> usize {
+        self.cols.len()
+    }
+
+    /// The nonzeros of a dense column.
+    pub fn sparsify(v: &[f64]) -> Vec<(usize, f64)> {
+        v.iter()
+            .enumerate()
+            .filter(|(_, x)| **x != 0.0)
+            .map(|(i, &x)| (i, x))
+            .collect()
+    }
+
+    pub fn dense(&self, j: usize) -> Vec<f64> {
+        let mut v = vec![0.0; self.n];
+        for &(i, x) in &self.cols[j] {
+            v[i] = x;
+        }
+        v
+    }
+
+    fn dot(col: &[(usize, f64)], v: &[f64]) -> f64 {
+        col.iter().map(|&(i, x)| x * v[i]).sum()
+    }
+
+    /// Mᵀ v.
+    fn tdot(&self, v: &[f64]) -> Vec<f64> {
+        self.cols.iter().map(|c| Self::dot(c, v)).collect()
+    }
+
+    /// y −= M a.
+    fn sub_mul(&self, a: &[f64], y: &mut [f64]) {
+        for (col, &aj) in self.cols.iter().zip(a) {
+            for &(i, x) in col {
+                y[i] -= x * aj;
+            }
+        }
+    }
+}
+
+/// A coarse space W (unit columns) for an operator A, with A W and the coarse matrix
+/// G = Wᵀ A W factored: the A-orthogonal projection and the coarse start of D05 5.12–5.15,
+/// shared by [`Balancing`] and the Newton operator of [`super::newton`].
 pub struct CoarseSpace {
-    w: Mat<f64>,
-    aw: Mat<f64>,
+    w: SparseColumns,
+    aw: SparseColumns,
     llt: Option<Llt<f64>>,
 }
 
 impl CoarseSpace {
     /// `w` (n × d) and `aw` = A W.
-    pub fn new(w: Mat<f64>, aw: Mat<f64>) -> Result<CoarseSpace, DdError> {
-        let llt = if w.ncols() > 0 {
-            let g = w.transpose() * &aw;
-            let g = Mat::from_fn(g.nrows(), g.ncols(), |i, j| 0.5 * (g[(i, j)] + g[(j, i)]));
-
+    pub fn new(w: SparseColumns, aw: SparseColumns) -> Result<CoarseSpace, DdError> {
+        let d = w.ncols();
+        let llt = if d > 0 {
+            // G column by column: scatter (AW)_j once, dot with every column of W.
+            let cols: Vec<Vec<f64>> = (0..d)
+                .into_par_iter()
+                .map(|j| {
+                    let awj = aw.dense(j);
+                    w.cols.iter().map(|c| SparseColumns::dot(c, &awj)).collect()
+                })
+                .collect();
+            let g = Mat::from_fn(d, d, |i, j| 0.5 * (cols[j][i] + cols[i][j]));
             Some(g.llt(Side::Lower).map_err(|_| {
                 DdError::Coarse(
                     "WᵀSW is not positive definite: the interface operator is singular on the \
@@ -57,15 +114,8 @@ impl CoarseSpace {
         self.w.ncols()
     }
 
-    pub fn basis(&self) -> &Mat<f64> {
+    pub fn basis(&self) -> &SparseColumns {
         &self.w
-    }
-
-    /// Mᵀ v for the columns of M.
-    fn tdot(m: &Mat<f64>, v: &[f64]) -> Vec<f64> {
-        (0..m.ncols())
-            .map(|j| (0..m.nrows()).map(|i| m[(i, j)] * v[i]).sum())
-            .collect()
     }
 
     fn solve(&self, rhs: Vec<f64>) -> Vec<f64> {
@@ -84,10 +134,8 @@ impl CoarseSpace {
         if self.dim() == 0 {
             return;
         }
-        let a = self.solve(Self::tdot(&self.aw, z));
-        for (i, zi) in z.iter_mut().enumerate() {
-            *zi -= (0..a.len()).map(|j| self.w[(i, j)] * a[j]).sum::<f64>();
-        }
+        let a = self.solve(self.aw.tdot(z));
+        self.w.sub_mul(&a, z);
     }
 
     /// x ← x + W G⁻¹ Wᵀ r, r ← r − AW G⁻¹ Wᵀ r for the residual r = b − A x.
@@ -95,24 +143,15 @@ impl CoarseSpace {
         if self.dim() == 0 {
             return;
         }
-        let a = self.solve(Self::tdot(&self.w, r));
-        for i in 0..x.len() {
-            let (mut dx, mut ds) = (0.0, 0.0);
-            for (j, aj) in a.iter().enumerate() {
-                dx += self.w[(i, j)] * aj;
-                ds += self.aw[(i, j)] * aj;
-            }
-            x[i] += dx;
-            r[i] -= ds;
-        }
+        let a = self.solve(self.w.tdot(r));
+        let minus: Vec<f64> = a.iter().map(|v| -v).collect();
+        self.w.sub_mul(&minus, x);
+        self.aw.sub_mul(&a, r);
     }
 
     /// max_j |w_jᵀ r| (columns of W have unit norm).
     pub fn residual(&self, r: &[f64]) -> f64 {
-        Self::tdot(&self.w, r)
-            .iter()
-            .map(|v| v.abs())
-            .fold(0.0, f64::max)
+        self.w.tdot(r).iter().map(|v| v.abs()).fold(0.0, f64::max)
     }
 }
 
@@ -124,6 +163,8 @@ pub struct Balancing<'a> {
     /// D_s diagonal per preconditioning block (local interface order).
     weights: Vec<Vec<f64>>,
     n: usize,
+    /// Blocks (in order) holding each interface DOF.
+    dof_blocks: Vec<Vec<usize>>,
     coarse: CoarseSpace,
     unity_error: f64,
 }
@@ -132,15 +173,18 @@ impl<'a> Balancing<'a> {
     /// Build the weights and the coarse problem on an interface of size `n`; every block both
     /// enters the operator and preconditions (D05 §5 for S, §6 for S0).
     pub fn new(blocks: Vec<&'a LinearBlock>, n: usize) -> Result<Balancing<'a>, DdError> {
-        Balancing::with_operator_only(blocks, Vec::new(), n)
+        Balancing::with_operator_only(blocks, Vec::new(), &[], n)
     }
 
     /// Like [`Balancing::new`], with `operator_only` blocks that enter the operator S but not
     /// the preconditioner: the reduced balancing preconditioner of D05 §6 (injections D̊, coarse
     /// space V_0H) applied to S = S0 + Σ tied clusters (see [`super::successive::Pcg1Preconditioner`]).
+    /// `enrich[s]`, when given, adds the weighted traces of these local interface vectors of
+    /// preconditioning block s (n_Γ,s × k) to the coarse space.
     pub fn with_operator_only(
         preconditioning: Vec<&'a LinearBlock>,
         operator_only: Vec<&'a LinearBlock>,
+        enrich: &[Option<Mat<f64>>],
         n: usize,
     ) -> Result<Balancing<'a>, DdError> {
         let mut total = vec![0.0; n];
@@ -171,20 +215,28 @@ impl<'a> Balancing<'a> {
             }
         }
         let unity_error = sum.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
-        let mut cols: Vec<Vec<f64>> = Vec::new();
-        for (b, w) in preconditioning.iter().zip(&weights) {
-            cols.extend(weighted_kernel_traces(b, w, n)?);
+        let mut cols: Vec<Vec<(usize, f64)>> = Vec::new();
+        for (s, (b, w)) in preconditioning.iter().zip(&weights).enumerate() {
+            let extra = enrich.get(s).and_then(|e| e.as_ref());
+            cols.extend(weighted_traces(b, extra, w)?);
         }
-        let w = Mat::from_fn(n, cols.len(), |i, j| cols[j][i]);
+        let w = SparseColumns { n, cols };
         let n_pre = preconditioning.len();
         let mut blocks = preconditioning;
         blocks.extend(operator_only);
+        let mut dof_blocks = vec![Vec::new(); n];
+        for (s, b) in blocks.iter().enumerate() {
+            for &g in &b.gamma {
+                dof_blocks[g].push(s);
+            }
+        }
         let mut bal = Balancing {
             blocks,
             preconditioning: n_pre,
             weights,
             n,
-            coarse: CoarseSpace::new(Mat::zeros(n, 0), Mat::zeros(n, 0))?,
+            dof_blocks,
+            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default())?,
             unity_error,
         };
         let sw = bal.apply_mat(&w);
@@ -198,7 +250,7 @@ impl<'a> Balancing<'a> {
     }
 
     /// The coarse basis W.
-    pub fn coarse_basis(&self) -> &Mat<f64> {
+    pub fn coarse_basis(&self) -> &SparseColumns {
         self.coarse.basis()
     }
 
@@ -233,29 +285,60 @@ impl<'a> Balancing<'a> {
         self.accumulate(parts)
     }
 
-    /// S X for the columns of X (only the columns touching a block are solved there).
-    pub fn apply_mat(&self, x: &Mat<f64>) -> Mat<f64> {
-        let parts: Vec<(Vec<usize>, Mat<f64>)> = self
-            .blocks
-            .par_iter()
-            .map(|b| {
-                let cols: Vec<usize> = (0..x.ncols())
-                    .filter(|&j| b.gamma.iter().any(|&g| x[(g, j)] != 0.0))
-                    .collect();
-                let local =
-                    Mat::from_fn(b.gamma.len(), cols.len(), |i, j| x[(b.gamma[i], cols[j])]);
-                (cols, b.schur_mat(local.as_ref()))
-            })
-            .collect();
-        let mut y = Mat::<f64>::zeros(self.n, x.ncols());
-        for (b, (cols, s)) in self.blocks.iter().zip(parts) {
-            for (jl, &j) in cols.iter().enumerate() {
-                for (i, &g) in b.gamma.iter().enumerate() {
-                    y[(g, j)] += s[(i, jl)];
-                }
+    /// S X for the sparse columns of X: each block solves only the columns that touch it; the
+    /// contributions are summed in block order (bit-for-bit independent of the thread count).
+    pub fn apply_mat(&self, x: &SparseColumns) -> SparseColumns {
+        let mut block_cols: Vec<Vec<usize>> = vec![Vec::new(); self.blocks.len()];
+        for (j, col) in x.cols.iter().enumerate() {
+            let mut touched: Vec<usize> = col
+                .iter()
+                .flat_map(|&(g, _)| self.dof_blocks[g].iter().copied())
+                .collect();
+            touched.sort_unstable();
+            touched.dedup();
+            for s in touched {
+                block_cols[s].push(j);
             }
         }
-        y
+        let parts: Vec<Mat<f64>> = self
+            .blocks
+            .par_iter()
+            .zip(&block_cols)
+            .map(|(b, cols)| {
+                let local: std::collections::HashMap<usize, usize> =
+                    b.gamma.iter().enumerate().map(|(i, &g)| (g, i)).collect();
+                let mut m = Mat::<f64>::zeros(b.gamma.len(), cols.len());
+                for (jl, &j) in cols.iter().enumerate() {
+                    for &(g, v) in &x.cols[j] {
+                        if let Some(&i) = local.get(&g) {
+                            m[(i, jl)] = v;
+                        }
+                    }
+                }
+                b.schur_mat(m.as_ref())
+            })
+            .collect();
+        let mut out: Vec<Vec<(usize, f64)>> = vec![Vec::new(); x.ncols()];
+        for ((b, cols), s) in self.blocks.iter().zip(&block_cols).zip(parts) {
+            for (jl, &j) in cols.iter().enumerate() {
+                out[j].extend(b.gamma.iter().enumerate().map(|(i, &g)| (g, s[(i, jl)])));
+            }
+        }
+        let cols = out
+            .into_par_iter()
+            .map(|mut col| {
+                col.sort_by_key(|e| e.0);
+                let mut merged: Vec<(usize, f64)> = Vec::with_capacity(col.len());
+                for (g, v) in col {
+                    match merged.last_mut() {
+                        Some(last) if last.0 == g => last.1 += v,
+                        _ => merged.push((g, v)),
+                    }
+                }
+                merged
+            })
+            .collect();
+        SparseColumns { n: self.n, cols }
     }
 
     /// The Neumann–Neumann sum Σ D_s S_s⁺ D_sᵀ r (D05 5.9).
@@ -272,23 +355,40 @@ impl<'a> Balancing<'a> {
     }
 }
 
-/// Orthonormal basis of the weighted interface traces {D_s γ z : z ∈ Ker A_s} of one block,
-/// scattered to the interface of size `n` (D05 5.11). Rank-revealing: a kernel motion that does
-/// not reach the interface (a floating part inside a cluster) makes the traces dependent, and
-/// only singular directions above [`TRACE_TOL`] (the kernel basis is orthonormal) are kept.
-fn weighted_kernel_traces(
+/// Orthonormal basis of the weighted interface traces {D_s γ z : z ∈ Ker A_s} of one block
+/// (D05 5.11) and of D_s times the columns of `extra` (local interface vectors), as sparse
+/// interface columns. Rank-revealing: a kernel motion that does not reach the interface
+/// (a floating part inside a cluster) makes the traces dependent, and only singular directions
+/// above [`TRACE_TOL`] (relative to the largest) are kept.
+fn weighted_traces(
     b: &LinearBlock,
+    extra: Option<&Mat<f64>>,
     weights: &[f64],
-    n: usize,
-) -> Result<Vec<Vec<f64>>, DdError> {
+) -> Result<Vec<Vec<(usize, f64)>>, DdError> {
     let z = b.kernel();
-    if z.ncols() == 0 {
+    let ng = b.gamma.len();
+    let n_extra = extra.map_or(0, |e| e.ncols());
+    let k = z.ncols() + n_extra;
+    if k == 0 {
         return Ok(Vec::new());
     }
-    let ng = b.gamma.len();
-    let trace = Mat::from_fn(ng.max(z.ncols()), z.ncols(), |i, j| {
+    // Columns: kernel traces (the kernel basis is orthonormal), then unit-norm extra vectors.
+    let extra_norm: Vec<f64> = (0..n_extra)
+        .map(|j| {
+            let e = extra.map_or(0.0, |e| (0..ng).map(|i| e[(i, j)].powi(2)).sum::<f64>());
+            e.sqrt().max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    let value = |i: usize, j: usize| -> f64 {
+        match (j < z.ncols(), extra) {
+            (true, _) => z[(b.n_interior + i, j)],
+            (false, Some(e)) => e[(i, j - z.ncols())] / extra_norm[j - z.ncols()],
+            (false, None) => 0.0,
+        }
+    };
+    let trace = Mat::from_fn(ng.max(k), k, |i, j| {
         if i < ng {
-            weights[i] * z[(b.n_interior + i, j)]
+            weights[i] * value(i, j)
         } else {
             0.0
         }
@@ -297,13 +397,17 @@ fn weighted_kernel_traces(
         .thin_svd()
         .map_err(|e| DdError::Coarse(format!("coarse trace SVD: {e:?}")))?;
     let (s, u) = (svd.S().column_vector(), svd.U());
-    Ok((0..z.ncols())
-        .filter(|&c| s[c] > TRACE_TOL)
+    let top = (0..k).map(|c| s[c]).fold(0.0, f64::max);
+    Ok((0..k)
+        .filter(|&c| s[c] > TRACE_TOL * top)
         .map(|c| {
-            let mut col = vec![0.0; n];
-            for (i, &g) in b.gamma.iter().enumerate() {
-                col[g] = u[(i, c)];
-            }
+            let mut col: Vec<(usize, f64)> = b
+                .gamma
+                .iter()
+                .enumerate()
+                .map(|(i, &g)| (g, u[(i, c)]))
+                .collect();
+            col.sort_by_key(|e| e.0);
             col
         })
         .collect())

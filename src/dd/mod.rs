@@ -45,7 +45,9 @@ use crate::scene::Data;
 
 pub use partition::{Partition, PartitionRequest};
 pub use report::DdReport;
-pub use successive::{solve, DdOptions, DdSolution, DirectAnswer, Fallback, Pcg1Preconditioner};
+pub use successive::{
+    solve, CoarseKind, DdOptions, DdSolution, DirectAnswer, Fallback, Pcg1Preconditioner,
+};
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.

@@ -18,9 +18,7 @@
 //!   φ'(t) = δᵀ G(U + tδ), each value one S_CON evaluation), so that J decreases at every step and
 //!   the active-set cycling of undamped Newton cannot occur.
 
-use faer::Mat;
-
-use super::coarse::{Balancing, CoarseSpace};
+use super::coarse::{Balancing, CoarseSpace, SparseColumns};
 use super::pair::{ClusterTangent, ContactCluster};
 use super::pcg::Interface;
 use super::DdError;
@@ -40,15 +38,25 @@ impl<'a> NewtonOperator<'a> {
         let mut op = NewtonOperator {
             s0,
             tangents,
-            coarse: CoarseSpace::new(Mat::zeros(0, 0), Mat::zeros(0, 0))?,
+            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default())?,
         };
         let w = s0.coarse_basis().clone();
         let mut aw = s0.apply_mat(&w);
-        for j in 0..w.ncols() {
-            let col: Vec<f64> = (0..w.nrows()).map(|i| w[(i, j)]).collect();
-            for (i, v) in op.tangent_part(&col).into_iter().enumerate() {
-                aw[(i, j)] += v;
+        let mut on_cluster = vec![false; w.n];
+        for (cl, _) in &op.tangents {
+            for &g in &cl.gamma {
+                on_cluster[g] = true;
             }
+        }
+        for j in 0..w.ncols() {
+            if !w.cols[j].iter().any(|&(g, _)| on_cluster[g]) {
+                continue;
+            }
+            let mut col = aw.dense(j);
+            for (c, v) in col.iter_mut().zip(op.tangent_part(&w.dense(j))) {
+                *c += v;
+            }
+            aw.cols[j] = SparseColumns::sparsify(&col);
         }
         op.coarse = CoarseSpace::new(w, aw)?;
         Ok(op)
@@ -59,6 +67,9 @@ impl<'a> NewtonOperator<'a> {
         let mut y = vec![0.0; x.len()];
         for (cl, t) in &self.tangents {
             let local: Vec<f64> = cl.gamma.iter().map(|&g| x[g]).collect();
+            if local.iter().all(|&v| v == 0.0) {
+                continue;
+            }
             for (&g, v) in cl.gamma.iter().zip(cl.tangent_apply(t, &local)) {
                 y[g] += v;
             }

@@ -7,7 +7,7 @@
 use std::fmt;
 
 use super::decomposition::Decomposition;
-use super::successive::Pcg1Preconditioner;
+use super::successive::{CoarseKind, Pcg1Preconditioner};
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.
@@ -38,8 +38,9 @@ pub struct DdReport {
     pub n_pairs: usize,
     /// Clusters whose auxiliary tie needed the tangential rows too (a sliding mode was left).
     pub auxiliary_full_stick: usize,
-    /// The preconditioner PCG1 used.
+    /// The preconditioner PCG1 used and the coarse space of all balancing preconditioners.
     pub pcg1_preconditioner: Pcg1Preconditioner,
+    pub coarse: CoarseKind,
     pub coarse_dim_pcg1: usize,
     pub coarse_dim_pcg2: usize,
     pub pcg1_iterations: usize,
@@ -115,7 +116,8 @@ impl fmt::Display for DdReport {
         )?;
         writeln!(
             f,
-            "  coarse dimension: PCG1 {}, PCG2 {}; partition of unity error {:.1e} / {:.1e}; coarse residual {:.1e} / {:.1e}",
+            "  coarse dimension ({:?}): PCG1 {}, PCG2 {}; partition of unity error {:.1e} / {:.1e}; coarse residual {:.1e} / {:.1e}",
+            self.coarse,
             self.coarse_dim_pcg1,
             self.coarse_dim_pcg2,
             self.partition_of_unity_error[0],

@@ -31,6 +31,7 @@ use super::newton::{line_search, NewtonOperator};
 use super::partition::{Partition, PartitionRequest};
 use super::pcg::pcg;
 use super::report::{DdReport, Times};
+use super::subdomain::rigid_candidates;
 use super::{DdError, DdProblem};
 use crate::contact::qp::{QpOptions, WarmStart};
 
@@ -59,11 +60,29 @@ pub enum Pcg1Preconditioner {
     Reduced,
 }
 
+/// The coarse space of the balancing preconditioners (PCG1, PCG2 and the Newton steps).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoarseKind {
+    /// D05 5.11 / 6.7: the weighted traces of the floating subdomains' kernels (the balancing
+    /// minimum). A subdomain that touches the Dirichlet boundary along a short piece only is
+    /// nearly floating; its soft rigid motions stay in the one-level part and the iteration
+    /// count grows with the number of subdomains.
+    Kernels,
+    /// The weighted traces of the plane rigid motions of EVERY non-contact subdomain (which
+    /// contain the kernels, so the balancing of D05 Lemma 5.1 / 6.1 still holds): piecewise
+    /// rigid coarse functions at the subdomain scale, the classical remedy for nearly floating
+    /// subdomains, 3 coarse unknowns per subdomain.
+    #[default]
+    Rigid,
+}
+
 /// Solver options.
 #[derive(Debug, Clone)]
 pub struct DdOptions {
     pub partition: PartitionRequest,
     pub pcg1_preconditioner: Pcg1Preconditioner,
+    pub coarse: CoarseKind,
     /// Relative residual of PCG1 (auxiliary) and PCG2 (per outer step; the tightest one, see
     /// [`FORCING`]). U⁰ only starts the outer iteration, so PCG1 need not be tight
     /// ([`PCG1_TOL`]).
@@ -90,6 +109,7 @@ impl Default for DdOptions {
                 contact_layers: super::partition::CONTACT_LAYERS,
             },
             pcg1_preconditioner: Pcg1Preconditioner::Reduced,
+            coarse: CoarseKind::Rigid,
             pcg1_tol: PCG1_TOL,
             pcg2_tol: 1e-12,
             max_pcg: 500,
@@ -288,6 +308,18 @@ impl Step<'_> {
     }
 }
 
+/// The plane rigid motions on the interface of every non-contact subdomain (coarse enrichment,
+/// [`CoarseKind::Rigid`]).
+fn rigid_traces(problem: &DdProblem, dec: &Decomposition) -> Vec<Option<Mat<f64>>> {
+    dec.blocks
+        .iter()
+        .map(|b| {
+            let dofs: Vec<usize> = b.gamma.iter().map(|&g| dec.interface[g]).collect();
+            Some(rigid_candidates(problem, &dofs, &vec![0; dofs.len()]))
+        })
+        .collect()
+}
+
 /// Line search of the Newton steps: |φ'(t)| ≤ LINE_SEARCH_REL |φ'(0)|, at most
 /// LINE_SEARCH_EVALS S_CON evaluations besides t = 1.
 const LINE_SEARCH_REL: f64 = 0.1;
@@ -327,17 +359,26 @@ fn iterate(
             aux[g] += v;
         }
     }
+    let enrich = match options.coarse {
+        CoarseKind::Kernels => Vec::new(),
+        CoarseKind::Rigid => rigid_traces(problem, dec),
+    };
     let s_op = match options.pcg1_preconditioner {
-        Pcg1Preconditioner::Full => {
-            Balancing::new(dec.blocks.iter().chain(&dec.tied).collect(), n)?
-        }
+        Pcg1Preconditioner::Full => Balancing::with_operator_only(
+            dec.blocks.iter().chain(&dec.tied).collect(),
+            Vec::new(),
+            &enrich,
+            n,
+        )?,
         Pcg1Preconditioner::Reduced => Balancing::with_operator_only(
             dec.blocks.iter().collect(),
             dec.tied.iter().collect(),
+            &enrich,
             n,
         )?,
     };
     report.pcg1_preconditioner = options.pcg1_preconditioner;
+    report.coarse = options.coarse;
     report.coarse_dim_pcg1 = s_op.coarse_dim();
     report.partition_of_unity_error[0] = s_op.partition_of_unity_error();
     let first = pcg(
@@ -354,7 +395,7 @@ fn iterate(
     times.pcg1 = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let s0 = Balancing::new(dec.blocks.iter().collect(), n)?;
+    let s0 = Balancing::with_operator_only(dec.blocks.iter().collect(), Vec::new(), &enrich, n)?;
     report.coarse_dim_pcg2 = s0.coarse_dim();
     report.partition_of_unity_error[1] = s0.partition_of_unity_error();
     let mut step = Step {

@@ -180,9 +180,13 @@ fn coarse_dimensions_equal_the_counted_kernels() {
     let n = dec.n_interface();
     let s0 = Balancing::new(dec.blocks.iter().collect(), n).expect("S0");
     let s = Balancing::new(dec.blocks.iter().chain(&dec.tied).collect(), n).expect("S");
-    let s_reduced =
-        Balancing::with_operator_only(dec.blocks.iter().collect(), dec.tied.iter().collect(), n)
-            .expect("S, reduced preconditioner");
+    let s_reduced = Balancing::with_operator_only(
+        dec.blocks.iter().collect(),
+        dec.tied.iter().collect(),
+        &[],
+        n,
+    )
+    .expect("S, reduced preconditioner");
     assert_eq!(s0.coarse_dim(), kernels);
     assert_eq!(s.coarse_dim(), kernels + tied);
     assert_eq!(s_reduced.coarse_dim(), kernels);
@@ -198,17 +202,45 @@ fn coarse_dimensions_equal_the_counted_kernels() {
     // The operators S of the two PCG1 variants are the same.
     assert!(rel(&s_reduced.apply(&b), &s.apply(&b)) <= 1e-14);
     let reference = direct(&problem);
-    for (preconditioner, coarse) in [
-        (Pcg1Preconditioner::Reduced, kernels),
-        (Pcg1Preconditioner::Full, kernels + tied),
+    // Papers' coarse spaces: kernels only; ours adds the rigid motions of every non-contact
+    // subdomain (3 each, which contain the kernels).
+    let rigid = 3 * dec.blocks.len();
+    for (preconditioner, coarse, pcg1, pcg2) in [
+        (
+            Pcg1Preconditioner::Reduced,
+            CoarseKind::Kernels,
+            kernels,
+            kernels,
+        ),
+        (
+            Pcg1Preconditioner::Full,
+            CoarseKind::Kernels,
+            kernels + tied,
+            kernels,
+        ),
+        (Pcg1Preconditioner::Reduced, CoarseKind::Rigid, rigid, rigid),
+        (
+            Pcg1Preconditioner::Full,
+            CoarseKind::Rigid,
+            rigid + tied,
+            rigid,
+        ),
     ] {
         let opts = DdOptions {
             pcg1_preconditioner: preconditioner,
+            coarse,
             ..options(20, 2)
         };
         let sol = solve(&problem, &opts, None).expect("dd");
-        assert_eq!(sol.report.coarse_dim_pcg2, kernels);
-        assert_eq!(sol.report.coarse_dim_pcg1, coarse);
+        assert_eq!(
+            sol.report.coarse_dim_pcg1, pcg1,
+            "{preconditioner:?} {coarse:?}"
+        );
+        assert_eq!(
+            sol.report.coarse_dim_pcg2, pcg2,
+            "{preconditioner:?} {coarse:?}"
+        );
+        assert!(sol.report.coarse_residual.iter().all(|&r| r <= 1e-12));
         assert!(rel(&sol.u, &reference.u) <= 1e-8);
     }
 }
@@ -293,4 +325,30 @@ fn floating_upper_block_is_solved_inside_its_cluster_and_satisfies_the_kkt_condi
     let f = problem.rhs.iter().map(|x| x * x).sum::<f64>().sqrt();
     let res = r.iter().map(|x| x * x).sum::<f64>().sqrt() / f;
     assert!(res <= 1e-9, "equilibrium residual {res:.3e}");
+}
+
+#[test]
+fn pcg1_iterations_stay_bounded_as_the_subdomain_count_grows() {
+    // Two-block benchmark at fixed H/h (≈ 384 elements per subdomain) with 4 → 16 → 64
+    // non-contact subdomains plus the two of the contact cluster: balancing NN theory bounds the
+    // PCG1 count independently of the number of subdomains (issue: within a factor 1.5).
+    let counts: Vec<usize> = [(32, 6), (64, 18), (128, 66)]
+        .iter()
+        .map(|&(nx, subdomains)| {
+            let problem = two_blocks(nx, 0.0, 0.003).expect("problem");
+            let opts = DdOptions {
+                outer_tol: 1e-6,
+                ..options(subdomains, 2)
+            };
+            solve(&problem, &opts, None)
+                .expect("dd")
+                .report
+                .pcg1_iterations
+        })
+        .collect();
+    let (lo, hi) = (counts.iter().min().unwrap(), counts.iter().max().unwrap());
+    assert!(
+        *hi as f64 <= 1.5 * *lo as f64,
+        "PCG1 iterations {counts:?} grow by more than 1.5"
+    );
 }
