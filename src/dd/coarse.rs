@@ -74,6 +74,10 @@ impl SparseColumns {
     }
 }
 
+/// Smallest Cholesky pivot of the coarse matrix, relative to its diagonal entry, accepted as
+/// nonsingular.
+const PIVOT_TOL: f64 = 1e-10;
+
 /// A coarse space W (unit columns) for an operator A, with A W and the coarse matrix
 /// G = Wᵀ A W factored: the A-orthogonal projection and the coarse start of D05 5.12–5.15,
 /// shared by [`Balancing`] and the Newton operator of [`super::newton`].
@@ -97,13 +101,21 @@ impl CoarseSpace {
                 })
                 .collect();
             let g = Mat::from_fn(d, d, |i, j| 0.5 * (cols[j][i] + cols[i][j]));
-            Some(g.llt(Side::Lower).map_err(|_| {
+            let singular = || {
                 DdError::Coarse(
                     "WᵀSW is not positive definite: the interface operator is singular on the \
                      coarse space (a part of a body is held by nothing but contact)"
                         .into(),
                 )
-            })?)
+            };
+            let llt = g.llt(Side::Lower).map_err(|_| singular())?;
+            // A pivot that lost all but 1e-10 of its diagonal: numerically singular (a
+            // mechanism of the operator in the coarse space), which would wreck the projection.
+            let l = llt.L();
+            if (0..d).any(|i| l[(i, i)] * l[(i, i)] < PIVOT_TOL * g[(i, i)]) {
+                return Err(singular());
+            }
+            Some(llt)
         } else {
             None
         };

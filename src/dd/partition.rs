@@ -200,6 +200,7 @@ fn automatic(problem: &DdProblem, target: Target, layers: usize) -> Vec<usize> {
             components.push(list);
         }
     }
+    let components = absorb_floating_pockets(problem, &edges, components, &mut sub);
     let rest: usize = components.iter().map(Vec::len).sum();
     let parts = allot(&components, &target, next, rest);
     let first_rest = next;
@@ -209,6 +210,49 @@ fn automatic(problem: &DdProblem, target: Target, layers: usize) -> Vec<usize> {
     make_connected(&edges, &mut sub, first_rest);
     renumber(&mut sub);
     sub
+}
+
+/// A component of the non-contact rest with no prescribed DOF (a pocket cut off by contact
+/// bands, e.g. a few elements between a band and a free boundary) would float in S0, which
+/// excludes the contact subdomains: S0 singular, the PCG2 coarse matrix too (D05 Lemma 7.1 needs
+/// ⟨S0 u, u⟩ to be a norm). Such pockets join the contact subdomain they share most edges with
+/// (or nodes, when they touch it at vertices only); the other components are returned.
+fn absorb_floating_pockets(
+    problem: &DdProblem,
+    edges: &[Vec<usize>],
+    components: Vec<Vec<usize>>,
+    sub: &mut [usize],
+) -> Vec<Vec<usize>> {
+    let node_elements = node_elements(problem);
+    let mut kept = Vec::with_capacity(components.len());
+    for list in components {
+        let anchored = list
+            .iter()
+            .any(|&e| problem.elements[e].dofs.iter().any(Option::is_none));
+        let mut count: HashMap<usize, usize> = HashMap::new();
+        for &e in &list {
+            for &f in &edges[e] {
+                if sub[f] != UNSET {
+                    *count.entry(sub[f]).or_default() += 2 * problem.elements.len();
+                }
+            }
+            for &n in &problem.elements[e].nodes {
+                for &f in &node_elements[n] {
+                    if sub[f] != UNSET {
+                        *count.entry(sub[f]).or_default() += 1;
+                    }
+                }
+            }
+        }
+        let best = count
+            .into_iter()
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)));
+        match best {
+            Some((s, _)) if !anchored => list.iter().for_each(|&e| sub[e] = s),
+            _ => kept.push(list),
+        }
+    }
+    kept
 }
 
 /// Number of parts for each component (largest remainder, at least 1 each).
@@ -397,5 +441,61 @@ fn flood(
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dd::bench::two_blocks;
+
+    #[test]
+    fn floating_pockets_join_the_contact_subdomain_they_touch() {
+        // Two blocks, lower clamped at its bottom, upper pushed at its top; the bands of the
+        // contact zone are subdomains 0 (lower body) and 1 (upper body).
+        let problem = two_blocks(16, 0.0, 0.0).expect("problem");
+        let ne = problem.elements.len();
+        let node_elements = node_elements(&problem);
+        let edges = edge_neighbours(&problem);
+        let mut sub = vec![UNSET; ne];
+        let mut front: Vec<usize> = problem.pairs.iter().flat_map(|p| p.nodes).collect();
+        let mut band = vec![false; ne];
+        for _ in 0..2 {
+            let mut nodes = Vec::new();
+            for &n in &front {
+                for &e in &node_elements[n] {
+                    if !band[e] {
+                        band[e] = true;
+                        nodes.extend(problem.elements[e].nodes);
+                    }
+                }
+            }
+            front = nodes;
+        }
+        for e in 0..ne {
+            if band[e] {
+                sub[e] = problem.element_body(e);
+            }
+        }
+        // A pocket: the free-standing rest elements of the upper body right above its band
+        // (no prescribed DOF); an anchored component: everything else.
+        let anchored = |e: usize| problem.elements[e].dofs.iter().any(Option::is_none);
+        let pocket: Vec<usize> = (0..ne)
+            .filter(|&e| {
+                sub[e] == UNSET
+                    && problem.element_body(e) == 1
+                    && !anchored(e)
+                    && edges[e].iter().any(|&f| band[f])
+            })
+            .take(5)
+            .collect();
+        assert!(!pocket.is_empty());
+        let rest: Vec<usize> = (0..ne)
+            .filter(|&e| sub[e] == UNSET && !pocket.contains(&e))
+            .collect();
+        assert!(rest.iter().any(|&e| anchored(e)));
+        let kept = absorb_floating_pockets(&problem, &edges, vec![pocket.clone(), rest.clone()], &mut sub);
+        assert_eq!(kept, vec![rest]);
+        assert!(pocket.iter().all(|&e| sub[e] == 1));
     }
 }
