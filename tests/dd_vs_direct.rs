@@ -189,3 +189,44 @@ fn tunnel_at_the_papers_size_converges_to_1e_6() {
     // 84 on the bundled mesh).
     assert!(pcg1 <= 42, "PCG1 {pcg1}");
 }
+
+#[test]
+fn block_on_base_with_an_explicit_partition_equals_direct() {
+    // Scene-fixed partition: the floating block and the base under it in one polygon (its two
+    // bodies make two subdomains: the contact pair), the base's lower left in another; the rest
+    // of the base falls into two edge-disconnected pieces (left strip, right part), which become
+    // two subdomains.
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    scene["mesh"] = json!({"max_size": 0.08});
+    scene["solver"]["partition"] = json!([
+        [[0.3, 0.3], [1.7, 0.3], [1.7, 1.1], [0.3, 1.1]],
+        [[0.0, 0.0], [1.0, 0.0], [1.0, 0.3], [0.0, 0.3]]
+    ]);
+    let (_, dd) = solve(&scene, SolverKind::Dd);
+    assert_eq!(dd.report.dd.as_ref().unwrap()["n_subdomains"], 5);
+    compare("block-on-base, explicit partition", scene);
+}
+
+#[test]
+fn an_explicit_partition_that_cuts_a_contact_zone_is_refused_naming_the_field() {
+    let mut scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    scene["mesh"] = json!({"max_size": 0.08});
+    scene["solver"] =
+        json!({"kind": "dd", "partition": [[[0.0, 0.0], [1.0, 0.0], [1.0, 1.1], [0.0, 1.1]]]});
+    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let options = SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: wsm::fem::Par::Seq,
+        warm: None,
+    };
+    let err = problem
+        .solve(&problem.nominal, &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("solver.partition") && err.contains("contact zone"),
+        "{err}"
+    );
+}

@@ -245,3 +245,19 @@ fn non_finite_number_is_refused() {
     let err = parse(&text).unwrap_err();
     assert!(err.path.starts_with("mesh.max_size"), "{err}");
 }
+
+#[test]
+fn dd_partition_polygon_needs_three_points() {
+    refused(
+        |s| s["solver"] = json!({"kind": "dd", "partition": [[[0, 0], [1, 0]]]}),
+        "solver.partition[0]",
+    );
+}
+
+#[test]
+fn dd_partition_polygon_must_be_finite() {
+    refused(
+        |s| s["solver"] = json!({"kind": "dd", "partition": [[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 0], ["x", 1]]]}),
+        "solver.partition[1]",
+    );
+}

@@ -12,8 +12,9 @@
 //! - the coarse start x ← x + W G⁻¹ Wᵀ (b − S x), which makes the residual orthogonal to V_H
 //!   (D05 5.15, Lemma 5.1 / 6.1).
 
-use faer::linalg::solvers::{Llt, Solve};
-use faer::{Mat, Side};
+use faer::Mat;
+
+use super::dense::Cholesky;
 use rayon::prelude::*;
 
 use super::pcg::Interface;
@@ -84,7 +85,7 @@ const PIVOT_TOL: f64 = 1e-10;
 pub struct CoarseSpace {
     w: SparseColumns,
     aw: SparseColumns,
-    llt: Option<Llt<f64>>,
+    llt: Option<Cholesky>,
 }
 
 impl CoarseSpace {
@@ -108,10 +109,10 @@ impl CoarseSpace {
                         .into(),
                 )
             };
-            let llt = g.llt(Side::Lower).map_err(|_| singular())?;
+            let llt = Cholesky::new(g.as_ref()).ok_or_else(singular)?;
             // A pivot that lost all but 1e-10 of its diagonal: numerically singular (a
             // mechanism of the operator in the coarse space), which would wreck the projection.
-            let l = llt.L();
+            let l = llt.l();
             if (0..d).any(|i| l[(i, i)] * l[(i, i)] < PIVOT_TOL * g[(i, i)]) {
                 return Err(singular());
             }
@@ -132,11 +133,7 @@ impl CoarseSpace {
 
     fn solve(&self, rhs: Vec<f64>) -> Vec<f64> {
         match &self.llt {
-            Some(llt) => {
-                let b = Mat::from_fn(rhs.len(), 1, |i, _| rhs[i]);
-                let x = llt.solve(&b);
-                (0..rhs.len()).map(|i| x[(i, 0)]).collect()
-            }
+            Some(llt) => llt.solve_vec(&rhs),
             None => rhs,
         }
     }

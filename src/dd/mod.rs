@@ -11,6 +11,7 @@
 //! - [`pair`]: contact clusters — the tied auxiliary problem (D05 4.35–4.46, normal tie by
 //!   master/slave elimination) and the frictional local problem S_CON (D05 4.27–4.28), condensed
 //!   on the contact multipliers and solved by [`crate::contact::qp::solve_box_qp`].
+//! - [`dense`]: sequential dense Cholesky and products (results independent of the thread count).
 //! - [`coarse`]: balancing Neumann–Neumann preconditioner: injections D (D05 5.5–5.8), coarse space
 //!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
 //!   V_0H for S0 (D05 6.4–6.8).
@@ -30,6 +31,7 @@
 pub mod bench;
 pub mod coarse;
 pub mod decomposition;
+pub mod dense;
 pub mod newton;
 pub mod pair;
 pub mod partition;

@@ -13,9 +13,9 @@
 //!   gives an ordinary [`LinearBlock`] with matrix TᵀKT. If the tie leaves the interior floating
 //!   (a body that could slide along the tied zone), the tangential rows are tied as well.
 
-use faer::linalg::solvers::{Llt, Solve};
 use faer::{Mat, MatRef, Side};
 
+use super::dense::{mul, Cholesky};
 use super::subdomain::{Csr, KernelFactor, LinearBlock};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, QpSolution, WarmStart};
 
@@ -55,7 +55,7 @@ pub struct ClusterState {
 pub struct ClusterTangent {
     rows: Vec<usize>,
     /// Cholesky factor of C_AA = B_A K_II⁺ B_Aᵀ.
-    c: Llt<f64>,
+    c: Cholesky,
     /// G_A = (B_A R)ᵀ and H⁺ for floating members (r × m, r × r; r = 0 otherwise).
     ga: Mat<f64>,
     h_pinv: Mat<f64>,
@@ -200,14 +200,12 @@ impl ContactCluster {
             })
             .collect();
         let (m, r) = (rows.len(), self.n_floating_modes());
-        let c = Mat::from_fn(m, m, |i, j| self.c[(rows[i], rows[j])])
-            .llt(Side::Lower)
-            .ok()?;
+        let c = Cholesky::new(Mat::from_fn(m, m, |i, j| self.c[(rows[i], rows[j])]).as_ref())?;
         // Floating members: H = G_A C_AA⁻¹ G_Aᵀ on the rigid amplitudes, pseudo-inverted (modes
         // the active rows do not hold stay free and do not reach the interface).
         let ga = Mat::from_fn(r, m, |a, j| self.g[(a, rows[j])]);
         let cg = c.solve(ga.transpose());
-        let h = &ga * &cg;
+        let h = mul(ga.as_ref(), cg.as_ref());
         let h = Mat::from_fn(r, r, |i, j| 0.5 * (h[(i, j)] + h[(j, i)]));
         let mut h_pinv = Mat::<f64>::zeros(r, r);
         if r > 0 {
@@ -255,8 +253,13 @@ impl ContactCluster {
                 .map(|i| kernel[(i, a)] * rhs[i])
                 .sum::<f64>()
         });
-        let alpha = &t.h_pinv * (e - &t.ga * t.c.solve(&d));
-        let lam = t.c.solve(d + t.ga.transpose() * &alpha);
+        let cd = t.c.solve(d.as_ref());
+        let alpha = mul(
+            t.h_pinv.as_ref(),
+            (e - mul(t.ga.as_ref(), cd.as_ref())).as_ref(),
+        );
+        let lam =
+            t.c.solve((d + mul(t.ga.transpose(), alpha.as_ref())).as_ref());
         for (i, &r) in t.rows.iter().enumerate() {
             let l = lam[(i, 0)];
             for (p, up) in u.iter_mut().enumerate() {

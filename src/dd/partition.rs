@@ -32,7 +32,7 @@ pub enum PartitionRequest {
         elements: usize,
         contact_layers: usize,
     },
-    /// Subdomain of every element.
+    /// Subdomain of every element (edge-disconnected pieces become subdomains of their own).
     Explicit(Vec<usize>),
 }
 
@@ -57,7 +57,7 @@ impl Partition {
                 elements,
                 contact_layers,
             } => automatic(problem, Target::Size(*elements), *contact_layers),
-            PartitionRequest::Explicit(list) => list.clone(),
+            PartitionRequest::Explicit(list) => split_disconnected(problem, list),
         };
         Partition::validate(problem, element_subdomain)
     }
@@ -91,9 +91,11 @@ impl Partition {
                 match node_subdomains[node].as_slice() {
                     [s] => contact[*s] = true,
                     _ => {
+                        let [x, y] = problem.nodes[node];
                         return Err(DdError::Partition(format!(
-                        "contact node {node} lies on a subdomain interface (Γ ∩ Γc must be empty)"
-                    )))
+                            "contact node {node} at ({x:.6}, {y:.6}) lies on a subdomain interface \
+                             (interfaces must not cut a contact zone)"
+                        )));
                     }
                 }
             }
@@ -111,6 +113,36 @@ impl Partition {
             contact,
         })
     }
+}
+
+/// Renumber so that every edge-connected piece of a subdomain is a subdomain of its own (a
+/// piece glued to the rest at a vertex or not at all would bring extra kernel modes), numbered
+/// in order of first appearance. Lists of the wrong length are left to the validation.
+fn split_disconnected(problem: &DdProblem, element_subdomain: &[usize]) -> Vec<usize> {
+    if element_subdomain.len() != problem.elements.len() {
+        return element_subdomain.to_vec();
+    }
+    let edges = edge_neighbours(problem);
+    let mut out = vec![UNSET; element_subdomain.len()];
+    let mut next = 0;
+    for start in 0..out.len() {
+        if out[start] != UNSET {
+            continue;
+        }
+        let s = element_subdomain[start];
+        out[start] = next;
+        let mut stack = vec![start];
+        while let Some(e) = stack.pop() {
+            for &f in &edges[e] {
+                if out[f] == UNSET && element_subdomain[f] == s {
+                    out[f] = next;
+                    stack.push(f);
+                }
+            }
+        }
+        next += 1;
+    }
+    out
 }
 
 /// Sorted subdomains of the elements around each node.
@@ -494,7 +526,12 @@ mod tests {
             .filter(|&e| sub[e] == UNSET && !pocket.contains(&e))
             .collect();
         assert!(rest.iter().any(|&e| anchored(e)));
-        let kept = absorb_floating_pockets(&problem, &edges, vec![pocket.clone(), rest.clone()], &mut sub);
+        let kept = absorb_floating_pockets(
+            &problem,
+            &edges,
+            vec![pocket.clone(), rest.clone()],
+            &mut sub,
+        );
         assert_eq!(kept, vec![rest]);
         assert!(pocket.iter().all(|&e| sub[e] == 1));
     }

@@ -1,15 +1,19 @@
 //! DD for a scene's elastic contact problem (SPEC §3.2 wired into the state layer): the scene's
 //! solver settings become [`DdOptions`], the contact rows come from the direct solver's
-//! [`ContactGeometry`] (same discrete problem), and the answer is returned in the direct
+//! [`crate::contact::pairs::ContactGeometry`] (same discrete problem), and the answer is returned in the direct
 //! solver's [`ContactSolution`] form (gaps B u + B_d u_d − g0, equilibrium residual
 //! ‖K u − f + Bᵀλ‖ / ‖f‖ checked on the assembled K), so that contact results, stresses and
 //! criteria stay shared between the two solvers.
+
+use std::collections::HashMap;
 
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdOptions, DdSolution, Fallback, PCG1_TOL};
 use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::fem::ElasticProblem;
+use crate::mesh::geom::point_in_ring;
+use crate::mesh::Mesh;
 use crate::scene::{Data, SolverSettings};
 
 /// Elements per subdomain when the scene asks for an automatic count (`subdomains: 0`): about
@@ -20,13 +24,17 @@ const AUTO_ELEMENTS: usize = 800;
 /// (hertz: 4.6e-10 after 500 iterations).
 const PCG_FLOOR: f64 = 1e-9;
 
-/// DD options of a scene: `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements
-/// per subdomain), `tolerance` the relative stopping tolerance of the successive approximations
+/// DD options of a scene: `partition` polygons fix the subdomains ([`explicit_partition`]),
+/// otherwise `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements per
+/// subdomain); `tolerance` is the relative stopping tolerance of the successive approximations
 /// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
 /// U⁰).
-pub fn options(settings: &SolverSettings) -> DdOptions {
+pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
     let layers = CONTACT_LAYERS;
     let partition = match settings.subdomains {
+        _ if !settings.partition.is_empty() => {
+            PartitionRequest::Explicit(explicit_partition(&settings.partition, mesh))
+        }
         0 => PartitionRequest::BySize {
             elements: AUTO_ELEMENTS,
             contact_layers: layers,
@@ -44,6 +52,29 @@ pub fn options(settings: &SolverSettings) -> DdOptions {
         pcg2_tol: (tol * 1e-1).max(PCG_FLOOR),
         ..DdOptions::default()
     }
+}
+
+/// The subdomain of every triangle for the scene's partition polygons: the first polygon that
+/// contains the centroid, per body; triangles in no polygon form one subdomain per body.
+/// Subdomains are numbered in order of first appearance.
+pub fn explicit_partition(polygons: &[Vec<[f64; 2]>], mesh: &Mesh) -> Vec<usize> {
+    let mut ids: HashMap<(usize, usize), usize> = HashMap::new();
+    mesh.triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let body = mesh.zones[mesh.triangle_zone[t]].body;
+            let c = tri.iter().fold([0.0, 0.0], |c, &n| {
+                [c[0] + mesh.nodes[n][0] / 3.0, c[1] + mesh.nodes[n][1] / 3.0]
+            });
+            let region = polygons
+                .iter()
+                .position(|p| point_in_ring(c, p))
+                .unwrap_or(polygons.len());
+            let next = ids.len();
+            *ids.entry((region, body)).or_insert(next)
+        })
+        .collect()
 }
 
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed

@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use super::coarse::Balancing;
 use super::decomposition::Decomposition;
+use super::dense::Cholesky;
 use super::newton::{line_search, NewtonOperator};
 use super::partition::{Partition, PartitionRequest};
 use super::pcg::pcg;
@@ -603,12 +604,8 @@ impl Anderson {
             }
         });
         let rhs = Mat::from_fn(m, 1, |i, _| df[i].iter().zip(&fk).map(|(x, y)| x * y).sum());
-        let gamma = match a.llt(faer::Side::Lower) {
-            Ok(llt) => {
-                use faer::linalg::solvers::Solve;
-                llt.solve(&rhs)
-            }
-            Err(_) => return tu.to_vec(),
+        let Some(gamma) = Cholesky::new(a.as_ref()).map(|c| c.solve(rhs.as_ref())) else {
+            return tu.to_vec();
         };
         let mut next = tu.to_vec();
         for i in 0..m {

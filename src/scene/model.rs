@@ -438,6 +438,11 @@ pub struct SolverSettings {
     /// Relative tolerance of the DD iterations.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
+    /// An explicit DD partition instead of the automatic one: every element goes to the first
+    /// polygon that contains its centroid (one subdomain per polygon and body), the elements in
+    /// no polygon to one subdomain per body. No interface may cut a contact zone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub partition: Vec<Vec<Point>>,
 }
 
 fn default_tolerance() -> f64 {
@@ -450,6 +455,7 @@ impl Default for SolverSettings {
             kind: SolverKind::Direct,
             subdomains: 0,
             tolerance: default_tolerance(),
+            partition: Vec::new(),
         }
     }
 }

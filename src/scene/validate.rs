@@ -600,5 +600,8 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
     if !(scene.solver.tolerance > 0.0 && scene.solver.tolerance < 1.0) {
         return Err(SceneError::new("solver.tolerance", "must lie in (0, 1)"));
     }
+    for (k, polygon) in scene.solver.partition.iter().enumerate() {
+        check_polygon(&format!("solver.partition[{k}]"), polygon)?;
+    }
     Ok(())
 }

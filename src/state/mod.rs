@@ -26,7 +26,7 @@ use crate::dd::DirectAnswer;
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, HeatProblem, Par};
 use crate::mesh::Mesh;
-use crate::scene::{BoundaryValue, Criterion, Data, Scene, SolverKind};
+use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
 use memo::Memo;
 
 /// What a solve must compute.
@@ -305,7 +305,7 @@ impl StateProblem {
                 multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
             })
         };
-        let dd_options = crate::dd::scene::options(&self.scene.solver);
+        let dd_options = crate::dd::scene::options(&self.scene.solver, elastic.mesh());
         let outcome = crate::dd::scene::solve_elastic(
             elastic,
             &self.contact,
@@ -318,6 +318,12 @@ impl StateProblem {
         );
         let (sol, dd) = match outcome {
             Ok(done) => done,
+            // A partition the user fixed is bad input, not a reason to switch solvers.
+            Err(crate::dd::DdError::Partition(reason))
+                if !self.scene.solver.partition.is_empty() =>
+            {
+                return Err(SceneError::new("solver.partition", reason).into());
+            }
             Err(e) => {
                 // DD cannot be set up for this scene (e.g. a cluster with an unsupported
                 // floating part): answer with the direct solver and say why.
