@@ -7,9 +7,11 @@
 //! contact subdomains' share of the energy) — except for a floating body in contact, which becomes
 //! one contact subdomain as a whole (its local problem is then semi-coercive, D05 Thm 2.1). Bands
 //! of one body that touch are merged, so that every interface DOF belongs to a non-contact
-//! subdomain (S0 regular). The rest of each body is cut by recursive inertial bisection of the
-//! element centroids (balanced, compact), then made edge-connected (a subdomain glued at a vertex
-//! would have extra kernel modes).
+//! subdomain (S0 regular). Pockets of the rest without any prescribed DOF (cut off by bands) join
+//! their contact subdomain, since they would float in S0. The rest of each body is cut by
+//! recursive inertial bisection of the element centroids (balanced, compact), then made
+//! edge-connected (a subdomain glued at a vertex would have extra kernel modes). Explicit
+//! partitions are split into edge-connected pieces and validated by the same rules.
 
 use std::collections::HashMap;
 
