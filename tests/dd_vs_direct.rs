@@ -230,3 +230,12 @@ fn an_explicit_partition_that_cuts_a_contact_zone_is_refused_naming_the_field() 
         "{err}"
     );
 }
+
+#[test]
+fn thick_cylinder_without_contact_dd_equals_direct() {
+    // No contact: DD is plain balancing Neumann–Neumann. The automatic partition is a chain of
+    // three subdomains, whose rigid coarse traces are dependent (dropped, not refused).
+    let scene: Value =
+        serde_json::from_str(wsm::examples::example("thick-cylinder").unwrap()).unwrap();
+    compare("thick-cylinder", scene);
+}

@@ -12,7 +12,7 @@
 //! - the coarse start x ← x + W G⁻¹ Wᵀ (b − S x), which makes the residual orthogonal to V_H
 //!   (D05 5.15, Lemma 5.1 / 6.1).
 
-use faer::Mat;
+use faer::{Mat, MatRef};
 
 use super::dense::Cholesky;
 use rayon::prelude::*;
@@ -85,42 +85,68 @@ const PIVOT_TOL: f64 = 1e-10;
 pub struct CoarseSpace {
     w: SparseColumns,
     aw: SparseColumns,
+    /// Factor of G = WᵀAW (`None` for an empty coarse space).
     llt: Option<Cholesky>,
 }
 
 impl CoarseSpace {
-    /// `w` (n × d) and `aw` = A W.
-    pub fn new(w: SparseColumns, aw: SparseColumns) -> Result<CoarseSpace, DdError> {
-        let d = w.ncols();
-        let llt = if d > 0 {
-            // G column by column: scatter (AW)_j once, dot with every column of W.
-            let cols: Vec<Vec<f64>> = (0..d)
-                .into_par_iter()
-                .map(|j| {
-                    let awj = aw.dense(j);
-                    w.cols.iter().map(|c| SparseColumns::dot(c, &awj)).collect()
-                })
-                .collect();
-            let g = Mat::from_fn(d, d, |i, j| 0.5 * (cols[j][i] + cols[i][j]));
-            let singular = || {
-                DdError::Coarse(
-                    "WᵀSW is not positive definite: the interface operator is singular on the \
-                     coarse space (a part of a body is held by nothing but contact)"
-                        .into(),
-                )
-            };
-            let llt = Cholesky::new(g.as_ref()).ok_or_else(singular)?;
-            // A pivot that lost all but 1e-10 of its diagonal: numerically singular (a
-            // mechanism of the operator in the coarse space), which would wreck the projection.
-            let l = llt.l();
-            if (0..d).any(|i| l[(i, i)] * l[(i, i)] < PIVOT_TOL * g[(i, i)]) {
-                return Err(singular());
-            }
-            Some(llt)
-        } else {
-            None
+    /// `w` (n × d) and `aw` = A W; the first `required` columns must stay (the floating kernels
+    /// that balance the Neumann problems), the others (enrichment) are dropped where they depend
+    /// on earlier ones (e.g. the rigid traces of the middle subdomain of a chain).
+    pub fn new(
+        w: SparseColumns,
+        aw: SparseColumns,
+        required: usize,
+    ) -> Result<CoarseSpace, DdError> {
+        let g = Self::gram(&w, &aw);
+        if let Some(llt) = Self::factor(&g) {
+            return Ok(CoarseSpace { w, aw, llt });
+        }
+        let keep = independent_columns(&g);
+        if (0..required).any(|j| !keep.contains(&j)) {
+            return Err(DdError::Coarse(
+                "WᵀSW is not positive definite: the interface operator is singular on the \
+                 coarse space (a part of a body is held by nothing but contact)"
+                    .into(),
+            ));
+        }
+        let pick = |m: SparseColumns| SparseColumns {
+            n: m.n,
+            cols: keep.iter().map(|&j| m.cols[j].clone()).collect(),
         };
+        let (w, aw) = (pick(w), pick(aw));
+        let g = Mat::from_fn(keep.len(), keep.len(), |i, j| g[(keep[i], keep[j])]);
+        let llt = Self::factor(&g).ok_or_else(|| {
+            DdError::Coarse(
+                "the coarse matrix stays singular after dropping dependent columns".into(),
+            )
+        })?;
         Ok(CoarseSpace { w, aw, llt })
+    }
+
+    /// G = Wᵀ A W, symmetrised; column by column: scatter (AW)_j once, dot with every column of W.
+    fn gram(w: &SparseColumns, aw: &SparseColumns) -> Mat<f64> {
+        let d = w.ncols();
+        let cols: Vec<Vec<f64>> = (0..d)
+            .into_par_iter()
+            .map(|j| {
+                let awj = aw.dense(j);
+                w.cols.iter().map(|c| SparseColumns::dot(c, &awj)).collect()
+            })
+            .collect();
+        Mat::from_fn(d, d, |i, j| 0.5 * (cols[j][i] + cols[i][j]))
+    }
+
+    /// Cholesky of G, `None` when a pivot is not positive or lost all but [`PIVOT_TOL`] of its
+    /// diagonal (numerically singular: it would wreck the projection). Empty G: an empty factor.
+    fn factor(g: &Mat<f64>) -> Option<Option<Cholesky>> {
+        if g.nrows() == 0 {
+            return Some(None);
+        }
+        let llt = Cholesky::new(g.as_ref())?;
+        let l = llt.l();
+        let ok = (0..g.nrows()).all(|i| l[(i, i)] * l[(i, i)] >= PIVOT_TOL * g[(i, i)]);
+        ok.then_some(Some(llt))
     }
 
     pub fn dim(&self) -> usize {
@@ -225,10 +251,15 @@ impl<'a> Balancing<'a> {
         }
         let unity_error = sum.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
         let mut cols: Vec<Vec<(usize, f64)>> = Vec::new();
+        let mut optional: Vec<Vec<(usize, f64)>> = Vec::new();
         for (s, (b, w)) in preconditioning.iter().zip(&weights).enumerate() {
             let extra = enrich.get(s).and_then(|e| e.as_ref());
-            cols.extend(weighted_traces(b, extra, w)?);
+            let (req, opt) = weighted_traces(b, extra, w)?;
+            cols.extend(req);
+            optional.extend(opt);
         }
+        let required = cols.len();
+        cols.extend(optional);
         let w = SparseColumns { n, cols };
         let n_pre = preconditioning.len();
         let mut blocks = preconditioning;
@@ -245,11 +276,11 @@ impl<'a> Balancing<'a> {
             weights,
             n,
             dof_blocks,
-            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default())?,
+            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default(), 0)?,
             unity_error,
         };
         let sw = bal.apply_mat(&w);
-        bal.coarse = CoarseSpace::new(w, sw)?;
+        bal.coarse = CoarseSpace::new(w, sw, required)?;
         Ok(bal)
     }
 
@@ -364,62 +395,105 @@ impl<'a> Balancing<'a> {
     }
 }
 
-/// Orthonormal basis of the weighted interface traces {D_s γ z : z ∈ Ker A_s} of one block
-/// (D05 5.11) and of D_s times the columns of `extra` (local interface vectors), as sparse
-/// interface columns. Rank-revealing: a kernel motion that does not reach the interface
-/// (a floating part inside a cluster) makes the traces dependent, and only singular directions
-/// above [`TRACE_TOL`] (relative to the largest) are kept.
+/// The weighted interface traces of one block as sparse interface columns: an orthonormal basis
+/// of {D_s γ z : z ∈ Ker A_s} (D05 5.11; required for the balancing), and an orthonormal basis of
+/// the part of D_s × (columns of `extra`) orthogonal to it (optional enrichment). Rank-revealing:
+/// a kernel motion that does not reach the interface (a floating part inside a cluster) makes
+/// the traces dependent; only singular directions above [`TRACE_TOL`] (relative to the largest
+/// of their group) are kept.
 fn weighted_traces(
     b: &LinearBlock,
     extra: Option<&Mat<f64>>,
     weights: &[f64],
-) -> Result<Vec<Vec<(usize, f64)>>, DdError> {
+) -> Result<(Vec<Vec<(usize, f64)>>, Vec<Vec<(usize, f64)>>), DdError> {
     let z = b.kernel();
     let ng = b.gamma.len();
-    let n_extra = extra.map_or(0, |e| e.ncols());
-    let k = z.ncols() + n_extra;
-    if k == 0 {
-        return Ok(Vec::new());
-    }
-    // Columns: kernel traces (the kernel basis is orthonormal), then unit-norm extra vectors.
-    let extra_norm: Vec<f64> = (0..n_extra)
-        .map(|j| {
-            let e = extra.map_or(0.0, |e| (0..ng).map(|i| e[(i, j)].powi(2)).sum::<f64>());
-            e.sqrt().max(f64::MIN_POSITIVE)
-        })
-        .collect();
-    let value = |i: usize, j: usize| -> f64 {
-        match (j < z.ncols(), extra) {
-            (true, _) => z[(b.n_interior + i, j)],
-            (false, Some(e)) => e[(i, j - z.ncols())] / extra_norm[j - z.ncols()],
-            (false, None) => 0.0,
+    let kernel = Mat::from_fn(ng, z.ncols(), |i, j| weights[i] * z[(b.n_interior + i, j)]);
+    let required = orthonormal_range(kernel.as_ref(), 0.0)?;
+    let optional = match extra {
+        Some(e) => {
+            let mut t = Mat::from_fn(ng, e.ncols(), |i, j| weights[i] * e[(i, j)]);
+            let scale = t
+                .col_iter()
+                .map(|c| c.iter().map(|v| v * v).sum::<f64>().sqrt())
+                .fold(0.0, f64::max);
+            // Remove the kernel directions (twice, for rounding).
+            for _ in 0..2 {
+                for q in required.col_iter() {
+                    for mut c in t.col_iter_mut() {
+                        let d: f64 = (0..ng).map(|i| q[i] * c[i]).sum();
+                        for i in 0..ng {
+                            c[i] -= d * q[i];
+                        }
+                    }
+                }
+            }
+            orthonormal_range(t.as_ref(), scale)?
         }
+        None => Mat::zeros(ng, 0),
     };
-    let trace = Mat::from_fn(ng.max(k), k, |i, j| {
-        if i < ng {
-            weights[i] * value(i, j)
-        } else {
-            0.0
+    let scatter = |m: &Mat<f64>| -> Vec<Vec<(usize, f64)>> {
+        m.col_iter()
+            .map(|c| {
+                let mut col: Vec<(usize, f64)> = b
+                    .gamma
+                    .iter()
+                    .enumerate()
+                    .map(|(i, &g)| (g, c[i]))
+                    .collect();
+                col.sort_by_key(|e| e.0);
+                col
+            })
+            .collect()
+    };
+    Ok((scatter(&required), scatter(&optional)))
+}
+
+/// Columns of the symmetric positive semidefinite G kept by a Cholesky factorisation that skips
+/// every column whose pivot falls below [`PIVOT_TOL`] times its diagonal (it depends on the
+/// columns kept before it). O(d³) in plain loops: only used when the fast factorisation fails.
+fn independent_columns(g: &Mat<f64>) -> Vec<usize> {
+    let d = g.nrows();
+    let mut l = Mat::<f64>::zeros(d, d);
+    let mut keep = Vec::with_capacity(d);
+    for j in 0..d {
+        let mut col: Vec<f64> = (j..d).map(|i| g[(i, j)]).collect();
+        for &k in &keep {
+            let ljk = l[(j, k)];
+            if ljk != 0.0 {
+                for (c, i) in col.iter_mut().zip(j..d) {
+                    *c -= l[(i, k)] * ljk;
+                }
+            }
         }
-    });
-    let svd = trace
+        if col[0] < PIVOT_TOL * g[(j, j)] || col[0] <= 0.0 {
+            continue;
+        }
+        let p = col[0].sqrt();
+        for (c, i) in col.iter().zip(j..d) {
+            l[(i, j)] = c / p;
+        }
+        keep.push(j);
+    }
+    keep
+}
+
+/// Orthonormal basis of the range of `a` (n × k): left singular vectors with singular values
+/// above [`TRACE_TOL`] times the largest or times `scale` (the size of `a` before a projection
+/// removed its known part), whichever is larger.
+fn orthonormal_range(a: MatRef<'_, f64>, scale: f64) -> Result<Mat<f64>, DdError> {
+    let (n, k) = (a.nrows(), a.ncols());
+    if k == 0 {
+        return Ok(Mat::zeros(n, 0));
+    }
+    let padded = Mat::from_fn(n.max(k), k, |i, j| if i < n { a[(i, j)] } else { 0.0 });
+    let svd = padded
         .thin_svd()
         .map_err(|e| DdError::Coarse(format!("coarse trace SVD: {e:?}")))?;
     let (s, u) = (svd.S().column_vector(), svd.U());
-    let top = (0..k).map(|c| s[c]).fold(0.0, f64::max);
-    Ok((0..k)
-        .filter(|&c| s[c] > TRACE_TOL * top)
-        .map(|c| {
-            let mut col: Vec<(usize, f64)> = b
-                .gamma
-                .iter()
-                .enumerate()
-                .map(|(i, &g)| (g, u[(i, c)]))
-                .collect();
-            col.sort_by_key(|e| e.0);
-            col
-        })
-        .collect())
+    let top = (0..k).map(|c| s[c]).fold(scale, f64::max);
+    let keep: Vec<usize> = (0..k).filter(|&c| s[c] > TRACE_TOL * top).collect();
+    Ok(Mat::from_fn(n, keep.len(), |i, j| u[(i, keep[j])]))
 }
 
 impl Interface for Balancing<'_> {
@@ -443,5 +517,24 @@ impl Interface for Balancing<'_> {
 
     fn coarse_residual(&self, r: &[f64]) -> f64 {
         self.coarse.residual(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dependent_coarse_columns_are_dropped_in_order() {
+        // Columns 0, 1 independent; column 2 = column 0 + column 1; column 3 independent.
+        let v = [
+            [1.0, 0.0, 1.0, 0.0],
+            [0.0, 1.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+            [1.0, 1.0, 2.0, 1.0],
+        ];
+        let a = Mat::from_fn(4, 4, |i, j| v[i][j]);
+        let g = a.transpose() * &a;
+        assert_eq!(independent_columns(&g), vec![0, 1, 3]);
     }
 }

@@ -38,7 +38,7 @@ impl<'a> NewtonOperator<'a> {
         let mut op = NewtonOperator {
             s0,
             tangents,
-            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default())?,
+            coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default(), 0)?,
         };
         let w = s0.coarse_basis().clone();
         let mut aw = s0.apply_mat(&w);
@@ -58,7 +58,9 @@ impl<'a> NewtonOperator<'a> {
             }
             aw.cols[j] = SparseColumns::sparsify(&col);
         }
-        op.coarse = CoarseSpace::new(w, aw)?;
+        // The S0 basis is already free of dependent columns; all of it stays.
+        let required = w.ncols();
+        op.coarse = CoarseSpace::new(w, aw, required)?;
         Ok(op)
     }
 
