@@ -31,8 +31,11 @@ const TRACE_TOL: f64 = 1e-10;
 #[derive(Debug, Clone, Default)]
 pub struct SparseColumns {
     pub n: usize,
-    pub cols: Vec<Vec<(usize, f64)>>,
+    pub cols: Vec<SparseColumn>,
 }
+
+/// One sparse column: (row, value) with sorted rows.
+pub type SparseColumn = Vec<(usize, f64)>;
 
 impl SparseColumns {
     pub fn ncols(&self) -> usize {
@@ -40,7 +43,7 @@ impl SparseColumns {
     }
 
     /// The nonzeros of a dense column.
-    pub fn sparsify(v: &[f64]) -> Vec<(usize, f64)> {
+    pub fn sparsify(v: &[f64]) -> SparseColumn {
         v.iter()
             .enumerate()
             .filter(|(_, x)| **x != 0.0)
@@ -250,8 +253,8 @@ impl<'a> Balancing<'a> {
             }
         }
         let unity_error = sum.iter().map(|s| (s - 1.0).abs()).fold(0.0, f64::max);
-        let mut cols: Vec<Vec<(usize, f64)>> = Vec::new();
-        let mut optional: Vec<Vec<(usize, f64)>> = Vec::new();
+        let mut cols: Vec<SparseColumn> = Vec::new();
+        let mut optional: Vec<SparseColumn> = Vec::new();
         for (s, (b, w)) in preconditioning.iter().zip(&weights).enumerate() {
             let extra = enrich.get(s).and_then(|e| e.as_ref());
             let (req, opt) = weighted_traces(b, extra, w)?;
@@ -405,7 +408,7 @@ fn weighted_traces(
     b: &LinearBlock,
     extra: Option<&Mat<f64>>,
     weights: &[f64],
-) -> Result<(Vec<Vec<(usize, f64)>>, Vec<Vec<(usize, f64)>>), DdError> {
+) -> Result<(Vec<SparseColumn>, Vec<SparseColumn>), DdError> {
     let z = b.kernel();
     let ng = b.gamma.len();
     let kernel = Mat::from_fn(ng, z.ncols(), |i, j| weights[i] * z[(b.n_interior + i, j)]);
@@ -432,7 +435,7 @@ fn weighted_traces(
         }
         None => Mat::zeros(ng, 0),
     };
-    let scatter = |m: &Mat<f64>| -> Vec<Vec<(usize, f64)>> {
+    let scatter = |m: &Mat<f64>| -> Vec<SparseColumn> {
         m.col_iter()
             .map(|c| {
                 let mut col: Vec<(usize, f64)> = b
