@@ -1,11 +1,12 @@
-//! Dense kernels of the DD solver with explicitly sequential faer calls. `Mat::llt` and
-//! `Mat * Mat` follow faer's global (rayon) parallelism, whose blocking and summation order depend
+//! Dense kernels of the DD solver with explicitly sequential faer calls. `Mat::llt`,
+//! `Mat::thin_svd` and `Mat * Mat` follow faer's global (rayon) parallelism, whose blocking and summation order depend
 //! on the thread count; the DD results must be bit-for-bit independent of it (the parallelism of
 //! the solver is over subdomains instead).
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::{factor, solve};
 use faer::linalg::matmul::matmul;
+use faer::linalg::svd;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
 /// A dense Cholesky factor L (lower) of a symmetric positive definite matrix.
@@ -70,6 +71,38 @@ impl Cholesky {
     }
 }
 
+/// Thin SVD A = U diag(s) Vᵀ of an m × k matrix, sequentially: (s, U, V) with all k singular
+/// values in non-increasing order. A wide matrix (m < k) is padded with zero rows first (same s
+/// and V; U then has k rows, the last k − m of them zero).
+pub fn thin_svd(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>), String> {
+    let k = a.ncols();
+    let m = a.nrows().max(k);
+    let a = Mat::from_fn(m, k, |i, j| if i < a.nrows() { a[(i, j)] } else { 0.0 });
+    let a = a.as_ref();
+    let mut s = Mat::<f64>::zeros(k, 1);
+    let mut u = Mat::<f64>::zeros(m, k);
+    let mut v = Mat::<f64>::zeros(k, k);
+    let mut buffer = MemBuffer::new(svd::svd_scratch::<f64>(
+        m,
+        k,
+        svd::ComputeSvdVectors::Thin,
+        svd::ComputeSvdVectors::Thin,
+        Par::Seq,
+        Default::default(),
+    ));
+    svd::svd(
+        a,
+        s.as_mut().col_mut(0).as_diagonal_mut(),
+        Some(u.as_mut()),
+        Some(v.as_mut()),
+        Par::Seq,
+        MemStack::new(&mut buffer),
+        Default::default(),
+    )
+    .map_err(|e| format!("SVD: {e:?}"))?;
+    Ok(((0..k).map(|i| s[(i, 0)]).collect(), u, v))
+}
+
 /// A B, sequentially.
 pub fn mul(a: MatRef<'_, f64>, b: MatRef<'_, f64>) -> Mat<f64> {
     let mut c = Mat::<f64>::zeros(a.nrows(), b.ncols());
@@ -94,5 +127,19 @@ mod tests {
         assert_eq!(l[(0, 1)], 0.0);
         let indefinite = Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 2.0 });
         assert!(Cholesky::new(indefinite.as_ref()).is_none());
+    }
+
+    #[test]
+    fn thin_svd_reconstructs_the_matrix() {
+        let a = Mat::from_fn(5, 3, |i, j| ((i * 3 + j) as f64).sin());
+        let (s, u, v) = thin_svd(a.as_ref()).expect("svd");
+        let us = Mat::from_fn(5, 3, |i, j| u[(i, j)] * s[j]);
+        let back = mul(us.as_ref(), v.transpose());
+        for i in 0..5 {
+            for j in 0..3 {
+                assert!((back[(i, j)] - a[(i, j)]).abs() < 1e-13);
+            }
+        }
+        assert!(s.windows(2).all(|w| w[0] >= w[1]));
     }
 }

@@ -14,6 +14,7 @@
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatRef, Par};
 
+use super::dense::thin_svd;
 use super::DdProblem;
 use crate::fem::{Factor, Symbolic};
 
@@ -222,9 +223,8 @@ fn kernel(a: &Csr, m: usize, candidates: MatRef<'_, f64>) -> Result<Mat<f64>, St
         }
     }
     // SVD of A Q itself (not of the Gram matrix, which would square the rounding level).
-    let svd = aq.thin_svd().map_err(|e| format!("kernel SVD: {e:?}"))?;
+    let (s, _, u) = thin_svd(aq.as_ref())?;
     let tol = KERNEL_TOL * a.max_diag(m);
-    let (s, u) = (svd.S().column_vector(), svd.V());
     let cols: Vec<usize> = (0..q.ncols()).filter(|&k| s[k] <= tol).collect();
     let mut z = Mat::<f64>::zeros(m, cols.len());
     for (jn, &k) in cols.iter().enumerate() {

@@ -247,7 +247,7 @@ fn coarse_dimensions_equal_the_counted_kernels() {
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
-    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
+    let problem = two_blocks(96, 8.0, 0.003).expect("problem");
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
