@@ -14,7 +14,7 @@
 
 use faer::{Mat, MatRef};
 
-use super::dense::{thin_svd, Cholesky};
+use super::dense::{thin_svd, Cholesky, ThinSvd};
 use rayon::prelude::*;
 
 use super::pcg::Interface;
@@ -489,7 +489,7 @@ fn orthonormal_range(a: MatRef<'_, f64>, scale: f64) -> Result<Mat<f64>, DdError
     if k == 0 {
         return Ok(Mat::zeros(n, 0));
     }
-    let (s, u, _) = thin_svd(a).map_err(DdError::Coarse)?;
+    let ThinSvd { s, u, .. } = thin_svd(a).map_err(DdError::Coarse)?;
     let top = (0..k).map(|c| s[c]).fold(scale, f64::max);
     let keep: Vec<usize> = (0..k).filter(|&c| s[c] > TRACE_TOL * top).collect();
     Ok(Mat::from_fn(n, keep.len(), |i, j| u[(i, keep[j])]))

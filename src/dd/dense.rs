@@ -71,10 +71,18 @@ impl Cholesky {
     }
 }
 
-/// Thin SVD A = U diag(s) Vᵀ of an m × k matrix, sequentially: (s, U, V) with all k singular
-/// values in non-increasing order. A wide matrix (m < k) is padded with zero rows first (same s
-/// and V; U then has k rows, the last k − m of them zero).
-pub fn thin_svd(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>), String> {
+/// A thin singular value decomposition A = U diag(s) Vᵀ.
+#[derive(Debug, Clone)]
+pub struct ThinSvd {
+    /// All k singular values, non-increasing.
+    pub s: Vec<f64>,
+    pub u: Mat<f64>,
+    pub v: Mat<f64>,
+}
+
+/// Thin SVD of an m × k matrix, sequentially. A wide matrix (m < k) is padded with zero rows
+/// first (same s and V; U then has k rows, the last k − m of them zero).
+pub fn thin_svd(a: MatRef<'_, f64>) -> Result<ThinSvd, String> {
     let k = a.ncols();
     let m = a.nrows().max(k);
     let a = Mat::from_fn(m, k, |i, j| if i < a.nrows() { a[(i, j)] } else { 0.0 });
@@ -100,7 +108,11 @@ pub fn thin_svd(a: MatRef<'_, f64>) -> Result<(Vec<f64>, Mat<f64>, Mat<f64>), St
         Default::default(),
     )
     .map_err(|e| format!("SVD: {e:?}"))?;
-    Ok(((0..k).map(|i| s[(i, 0)]).collect(), u, v))
+    Ok(ThinSvd {
+        s: (0..k).map(|i| s[(i, 0)]).collect(),
+        u,
+        v,
+    })
 }
 
 /// A B, sequentially.
@@ -132,7 +144,7 @@ mod tests {
     #[test]
     fn thin_svd_reconstructs_the_matrix() {
         let a = Mat::from_fn(5, 3, |i, j| ((i * 3 + j) as f64).sin());
-        let (s, u, v) = thin_svd(a.as_ref()).expect("svd");
+        let ThinSvd { s, u, v } = thin_svd(a.as_ref()).expect("svd");
         let us = Mat::from_fn(5, 3, |i, j| u[(i, j)] * s[j]);
         let back = mul(us.as_ref(), v.transpose());
         for i in 0..5 {

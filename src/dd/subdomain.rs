@@ -14,7 +14,7 @@
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatRef, Par};
 
-use super::dense::thin_svd;
+use super::dense::{thin_svd, ThinSvd};
 use super::DdProblem;
 use crate::fem::{Factor, Symbolic};
 
@@ -223,7 +223,7 @@ fn kernel(a: &Csr, m: usize, candidates: MatRef<'_, f64>) -> Result<Mat<f64>, St
         }
     }
     // SVD of A Q itself (not of the Gram matrix, which would square the rounding level).
-    let (s, _, u) = thin_svd(aq.as_ref())?;
+    let ThinSvd { s, v: u, .. } = thin_svd(aq.as_ref())?;
     let tol = KERNEL_TOL * a.max_diag(m);
     let cols: Vec<usize> = (0..q.ncols()).filter(|&k| s[k] <= tol).collect();
     let mut z = Mat::<f64>::zeros(m, cols.len());
