@@ -281,7 +281,7 @@ impl DirectContact {
 
     /// Put a displacement on the free DOFs into the solver-independent normal form: no
     /// (Euclidean) component along any rigid motion that neither the energy nor a contact row
-    /// with free multiplier determines ([`Kernel::free_motions`]). Returns how many there are.
+    /// with free multiplier determines (see `Kernel::free_motions`). Returns how many there are.
     pub fn normalise_free_motions(
         &self,
         u_free: &mut [f64],

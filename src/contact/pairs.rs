@@ -21,13 +21,13 @@ pub struct ContactPair {
     pub normal: [f64; 2],
     /// Unit tangent (−n_y, n_x).
     pub tangent: [f64; 2],
-    /// Nodal share of the contact length [m].
+    /// Nodal share of the contact length \[m\].
     pub weight: f64,
     /// Arc-length fraction along the zone (for g(s)).
     pub fraction: f64,
     /// Tied normal, frictionless.
     pub bilateral: bool,
-    /// Initial normal gap g0 ≥ 0 [m].
+    /// Initial normal gap g0 ≥ 0 \[m\].
     pub gap: f64,
 }
 

@@ -27,7 +27,7 @@ pub struct AreaRegion {
     pub name: String,
     /// Body holding (most of) the region; only its triangles contribute.
     pub body: usize,
-    /// Area of the region inside that body [m²].
+    /// Area of the region inside that body \[m²\].
     pub area: f64,
     /// (node, weight): mean of a P1 field f = Σ w_i f_i; the weights sum to 1.
     pub node_weights: Vec<(usize, f64)>,
@@ -38,7 +38,7 @@ pub struct AreaRegion {
     pub normal: Option<[f64; 2]>,
     /// Nearest contact zone (index into `Mesh::contacts`) with a segment on the region's body.
     pub contact: Option<usize>,
-    /// Distance from the region to that contact zone [m] (infinite when there is none).
+    /// Distance from the region to that contact zone \[m\] (infinite when there is none).
     pub contact_distance: f64,
 }
 
@@ -49,7 +49,7 @@ pub struct PieceRegion {
     /// Index into `Mesh::segments`.
     pub segment: usize,
     pub body: usize,
-    /// Length of the piece [m].
+    /// Length of the piece \[m\].
     pub length: f64,
     /// (node, weight): mean of the P1 trace of a field over the piece; the weights sum to 1.
     pub node_weights: Vec<(usize, f64)>,

@@ -2,21 +2,25 @@
 //!
 //! Over a set of [`LinearBlock`]s with interface restrictions R_s:
 //! - S = Σ R_sᵀ S_s R_s (D05 4.33 / Def. 4.4), applied block-parallel with a fixed summation order;
-//! - injections D_s = diag(ρ_s / Σ_{t ∋ dof} ρ_t) (D05 5.5–5.8); over the non-contact subdomains
-//!   only this is the reduced D̊ of D05 6.4–6.6 with the cross-point fix of the reference notes
-//!   (weight 1 where one non-contact subdomain carries a contact-pair interface DOF). Σ D_s R_s = I
-//!   is checked ([`Balancing::partition_of_unity_error`]);
-//! - coarse space V_H = span{D_s γ z : z ∈ Ker A_s} (D05 5.11 / 6.7), W its basis, G = WᵀSW;
+//!   blocks may enter S only (the tied clusters under the reduced PCG1 preconditioner,
+//!   [`Balancing::with_operator_only`]);
+//! - injections D_s = diag(ρ_s / Σ_{t ∋ dof} ρ_t) over the preconditioning blocks (D05 5.5–5.8);
+//!   over the non-contact subdomains only this is the reduced D̊ of D05 6.4–6.6 with the
+//!   cross-point fix of the reference notes (weight 1 where one non-contact subdomain carries a
+//!   contact-pair interface DOF). Σ D_s R_s = I is checked
+//!   ([`Balancing::partition_of_unity_error`]);
+//! - coarse space V_H = span{D_s γ z : z ∈ Ker A_s} (D05 5.11 / 6.7), optionally enriched with the
+//!   weighted rigid-motion traces of every preconditioning block (dependent enrichment dropped),
+//!   W its sparse basis, G = WᵀSW;
 //! - M⁻¹ r = (I − P_Z) Σ D_s S_s⁺ D_sᵀ r with P_Z v = W G⁻¹ (SW)ᵀ v, the S-orthogonal projection
 //!   onto V_H (D05 5.12–5.14);
 //! - the coarse start x ← x + W G⁻¹ Wᵀ (b − S x), which makes the residual orthogonal to V_H
 //!   (D05 5.15, Lemma 5.1 / 6.1).
 
 use faer::{Mat, MatRef};
-
-use super::dense::{thin_svd, Cholesky, ThinSvd};
 use rayon::prelude::*;
 
+use super::dense::{thin_svd, Cholesky, ThinSvd};
 use super::pcg::Interface;
 use super::subdomain::LinearBlock;
 use super::DdError;

@@ -1,9 +1,9 @@
 //! Domain decomposition solver for multibody contact with Tresca friction: the papers' method
 //! (D03, D05 §4–7, FGCS §3; SPEC §3.2), in the matrix form of the reference notes §2.11.
 //!
-//! - [`partition`]: bodies → subdomains; interfaces never cut a contact zone (D05 4.4), each contact
-//!   zone's two subdomains form one nonlinear cluster (D05 §4.1, D03 Ω*_j), kept small (FGCS
-//!   Remark 3.1).
+//! - [`partition`]: bodies → subdomains (automatic, or fixed by the scene); interfaces never cut a
+//!   contact zone (D05 4.4), each contact zone's two subdomains form one nonlinear cluster (D05
+//!   §4.1, D03 Ω*_j), kept small (FGCS Remark 3.1).
 //! - [`decomposition`]: interface numbering, blocks and clusters built from a partition.
 //! - [`subdomain`]: local matrices, Dirichlet factors of K_II (Schur complements S_i = K_ΓΓ −
 //!   K_ΓI K_II⁻¹ K_IΓ, D05 4.24, applied matrix-free) and Neumann factors with the rigid-mode
@@ -14,7 +14,9 @@
 //! - [`dense`]: sequential dense Cholesky and products (results independent of the thread count).
 //! - [`coarse`]: balancing Neumann–Neumann preconditioner: injections D (D05 5.5–5.8), coarse space
 //!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
-//!   V_0H for S0 (D05 6.4–6.8).
+//!   V_0H for S0 (D05 6.4–6.8), also used for PCG1 by default, and the rigid-motion coarse
+//!   enrichment that keeps the iteration counts bounded in the subdomain count
+//!   ([`successive::Pcg1Preconditioner`], [`successive::CoarseKind`]).
 //! - [`pcg`]: PCG1 / PCG2 (D05 §5, §6).
 //! - [`newton`]: safeguarded semismooth Newton steps on S0 U + S_CON(U) = F for when the
 //!   successive approximations do not contract (2β² ≥ 1) and Anderson mixing stagnates.

@@ -498,7 +498,7 @@ impl LinearBlock {
 
     /// Interior displacement for interface values y: K_II⁺ (f_I − K_IΓ y), with no component
     /// along an interior kernel (a floating part without interface, see
-    /// [`check_interior_kernel`]).
+    /// `check_interior_kernel`).
     pub fn interior(&self, y: &[f64]) -> Vec<f64> {
         let (ri, rg) = self.ranges();
         let mut b = self.f_interior.clone();

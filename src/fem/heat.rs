@@ -91,7 +91,7 @@ impl HeatProblem {
         &self.mesh
     }
 
-    /// The reduced operator K_ff(κ) with coefficient [κ_z] per zone.
+    /// The reduced operator K_ff(κ) with coefficient \[κ_z\] per zone.
     pub fn operator(&self) -> &ZonedOperator<1> {
         &self.operator
     }

@@ -311,7 +311,7 @@ fn locate(p: P, geo: &Geometry, scene: &Scene) -> Result<Option<usize>, SceneErr
 pub struct MeshStats {
     pub nodes: usize,
     pub triangles: usize,
-    /// Smallest interior angle [deg].
+    /// Smallest interior angle \[deg\].
     pub min_angle_deg: f64,
     /// Largest circumradius / (2 × inradius) (1 for an equilateral triangle).
     pub max_aspect_ratio: f64,

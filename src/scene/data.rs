@@ -10,9 +10,9 @@ use super::model::{BoundaryCondition, Material, Scene, SlipLimit};
 /// Elastic constants as the user gave them; converted to Lamé constants on use.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Elastic {
-    /// Young's modulus E [Pa] and Poisson's ratio ν.
+    /// Young's modulus E \[Pa\] and Poisson's ratio ν.
     Young { e: f64, nu: f64 },
-    /// Lamé constants λ, μ [Pa].
+    /// Lamé constants λ, μ \[Pa\].
     Lame { lambda: f64, mu: f64 },
 }
 

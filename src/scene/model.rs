@@ -114,16 +114,16 @@ impl Segment {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
-    /// Young's modulus [Pa].
+    /// Young's modulus \[Pa\].
     #[serde(rename = "E", default, skip_serializing_if = "Option::is_none")]
     pub young: Option<f64>,
     /// Poisson's ratio [-].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nu: Option<f64>,
-    /// Lamé's first parameter λ [Pa].
+    /// Lamé's first parameter λ \[Pa\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lambda: Option<f64>,
-    /// Shear modulus μ [Pa].
+    /// Shear modulus μ \[Pa\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu: Option<f64>,
     /// Specific weight ρg [N/m³]: body force (0, −specific_weight).
@@ -151,19 +151,19 @@ pub struct Material {
 #[serde(deny_unknown_fields)]
 pub struct BoundaryCondition {
     pub segment: String,
-    /// Prescribed displacement [m] per component; `null` leaves the component free.
+    /// Prescribed displacement \[m\] per component; `null` leaves the component free.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub displacement: Option<[Option<f64>; 2]>,
-    /// Surface traction [Pa] (force per area, global x/y components).
+    /// Surface traction \[Pa\] (force per area, global x/y components).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub traction: Option<[f64; 2]>,
-    /// Normal pressure [Pa]: traction −p·n with n the outward normal.
+    /// Normal pressure \[Pa\]: traction −p·n with n the outward normal.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pressure: Option<f64>,
     /// Bilateral contact with a rigid foundation (Γo): u·d = 0, zero tangential traction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roller: Option<Roller>,
-    /// Prescribed temperature T1 [K].
+    /// Prescribed temperature T1 \[K\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature: Option<f64>,
     /// Prescribed inward heat flux [W/m²] (0 is the default insulated boundary).
@@ -199,7 +199,7 @@ pub struct Contact {
     pub between: [String; 2],
     #[serde(default)]
     pub kind: ContactKind,
-    /// Tresca slip limit g [Pa]; 0 means frictionless.
+    /// Tresca slip limit g \[Pa\]; 0 means frictionless.
     #[serde(default)]
     pub slip_limit: SlipLimit,
     /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
@@ -227,7 +227,7 @@ pub enum SlipLimit {
     PiecewiseLinear {
         /// Knot positions, fractions 0..1 of the arc length along body k's segment, increasing.
         knots: Vec<f64>,
-        /// g at the knots [Pa].
+        /// g at the knots \[Pa\].
         values: Vec<f64>,
         /// Optional bound C on |dg/ds| [Pa/m] (FGCS 4.15).
         #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -245,7 +245,7 @@ impl Default for SlipLimit {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Thermal {
-    /// Reference temperature T0 [K] of the stress-free state.
+    /// Reference temperature T0 \[K\] of the stress-free state.
     #[serde(default)]
     pub reference_temperature: f64,
 }
@@ -254,12 +254,12 @@ pub struct Thermal {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshControls {
-    /// Maximal element edge length [m].
+    /// Maximal element edge length \[m\].
     pub max_size: f64,
     /// Local refinement near segments or inside polygons.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<Refinement>,
-    /// Minimal angle of the quality refinement [deg] (≤ 30).
+    /// Minimal angle of the quality refinement \[deg\] (≤ 30).
     #[serde(default = "default_min_angle")]
     pub min_angle: f64,
     /// Import a Gmsh .msh 4.1 (ASCII) file instead of meshing the polygons. Physical names of
@@ -393,7 +393,7 @@ pub struct SearchSettings {
     pub budget: usize,
     #[serde(default = "default_seed")]
     pub seed: u64,
-    /// Wall-time limit [s].
+    /// Wall-time limit \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_seconds: Option<f64>,
 }

@@ -94,7 +94,7 @@ pub struct StateProblem {
     factors: Memo<Arc<StiffnessFactor>>,
     temperatures: Memo<Arc<Vec<f64>>>,
     pub counters: Counters,
-    /// Time to build the problem [s].
+    /// Time to build the problem \[s\].
     pub setup_seconds: f64,
 }
 

@@ -23,13 +23,13 @@ pub enum ContactState {
 pub struct ContactNode {
     pub zone: usize,
     pub position: [f64; 2],
-    /// Normal contact pressure [Pa] (≥ 0 in unilateral contact).
+    /// Normal contact pressure \[Pa\] (≥ 0 in unilateral contact).
     pub pressure: f64,
-    /// Tangential contact stress [Pa] along the tangent t = (−n_y, n_x).
+    /// Tangential contact stress \[Pa\] along the tangent t = (−n_y, n_x).
     pub shear: f64,
-    /// Normal separation [m] (≥ 0; 0 when closed).
+    /// Normal separation \[m\] (≥ 0; 0 when closed).
     pub gap: f64,
-    /// Relative tangential displacement t·(u^k − u^l) [m].
+    /// Relative tangential displacement t·(u^k − u^l) \[m\].
     pub slip: f64,
     pub state: ContactState,
 }
@@ -63,7 +63,7 @@ impl ContactKkt {
     }
 }
 
-/// Timings [s] of the phases of a solve.
+/// Timings \[s\] of the phases of a solve.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Timings {
     pub heat: f64,
@@ -195,7 +195,7 @@ pub fn contact_results(
 #[derive(Debug, Clone, Serialize)]
 pub struct ZoneSummary {
     pub name: String,
-    /// Σ normal force / Σ nodal length [Pa].
+    /// Σ normal force / Σ nodal length \[Pa\].
     pub mean_pressure: f64,
     pub max_pressure: f64,
     /// Resultant normal and tangential forces [N/m].
