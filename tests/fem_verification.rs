@@ -4,6 +4,7 @@
 
 use std::f64::consts::PI;
 
+use wsm::fem::stress::element_displacements;
 use wsm::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
 use wsm::mesh::structured::{perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks};
 use wsm::mesh::{Mesh, MeshSegment};
@@ -254,14 +255,7 @@ fn elastic_errors(ms: &Manufactured, n: usize) -> (f64, f64) {
     for t in 0..mesh.triangles.len() {
         let tri = mesh.triangles[t];
         let g = TriangleGradients::of(&mesh, t);
-        let v = [
-            u[tri[0]][0],
-            u[tri[0]][1],
-            u[tri[1]][0],
-            u[tri[1]][1],
-            u[tri[2]][0],
-            u[tri[2]][1],
-        ];
+        let v = element_displacements(&u, tri);
         let eh = g.strain(&v);
         for (x, l, w) in points(&mesh, t) {
             let ue = ms.u(x);

@@ -53,6 +53,12 @@ pub fn plane_strain_stress(m: &ZoneMaterial, strain: [f64; 3], delta_t: f64) -> 
 }
 
 /// Element strains and stresses; `thermal` is the nodal temperature and T0.
+/// The six nodal displacement components of a triangle, node-major (u₁ₓ, u₁ᵧ, u₂ₓ, …).
+pub fn element_displacements(u: &[[f64; 2]], tri: [usize; 3]) -> [f64; 6] {
+    let [a, b, c] = tri;
+    [u[a][0], u[a][1], u[b][0], u[b][1], u[c][0], u[c][1]]
+}
+
 pub fn element_stresses(
     mesh: &Mesh,
     gradients: &[TriangleGradients],
@@ -64,14 +70,7 @@ pub fn element_stresses(
         .iter()
         .enumerate()
         .map(|(t, tri)| {
-            let v = [
-                u[tri[0]][0],
-                u[tri[0]][1],
-                u[tri[1]][0],
-                u[tri[1]][1],
-                u[tri[2]][0],
-                u[tri[2]][1],
-            ];
+            let v = element_displacements(u, *tri);
             let [e11, e22, gamma] = gradients[t].strain(&v);
             let strain = [e11, e22, gamma / 2.0];
             let delta_t = thermal.map_or(0.0, |(temp, t0)| {
