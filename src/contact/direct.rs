@@ -52,6 +52,16 @@ struct Kernel {
 /// Cosine |B_r · R_j| / (‖B_r‖ ‖R_j‖) below which a contact row does not see a rigid mode.
 const FREE_MOTION_TOL: f64 = 1e-10;
 
+/// v ← v − Z Zᵀ v for orthonormal columns Z.
+fn remove_components(z: &Mat<f64>, v: &mut [f64]) {
+    for j in 0..z.ncols() {
+        let d: f64 = v.iter().enumerate().map(|(i, x)| z[(i, j)] * x).sum();
+        for (i, x) in v.iter_mut().enumerate() {
+            *x -= d * z[(i, j)];
+        }
+    }
+}
+
 impl Kernel {
     /// Orthonormal basis (n_free × z) of the free motions {R α : B_A R α = 0} over the rows A
     /// whose multiplier is not fixed by its bounds (a zero slip limit fixes the tangential one):
@@ -289,12 +299,7 @@ impl DirectContact {
     ) -> Result<usize, WsmError> {
         let (lower, upper) = self.geometry.bounds(data);
         let z = self.kernel.free_motions(&self.geometry, &lower, &upper)?;
-        for j in 0..z.ncols() {
-            let d: f64 = u_free.iter().enumerate().map(|(i, x)| z[(i, j)] * x).sum();
-            for (i, x) in u_free.iter_mut().enumerate() {
-                *x -= d * z[(i, j)];
-            }
-        }
+        remove_components(&z, u_free);
         Ok(z.ncols())
     }
 
@@ -440,15 +445,15 @@ impl DirectContact {
         self.add_offsets(fixed, &mut d);
         let mut start = warm.cloned();
         let mut refinements = 0;
-        let mut free_motions;
+        let (lower, upper) = geometry.bounds(data);
+        let free_motions = self.kernel.free_motions(geometry, &lower, &upper)?;
         let (qp, multipliers, rigid, u_free, gaps) = loop {
             let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
                 (None, Vec::new(), Vec::new())
             } else {
                 let (g, e) = self.equilibrium(rhs);
-                let (lower, upper) = geometry.bounds(data);
-                let problem =
-                    BoxQp::new(factor.c.clone(), d.clone(), lower, upper).with_equalities(g, e);
+                let problem = BoxQp::new(factor.c.clone(), d.clone(), lower.clone(), upper.clone())
+                    .with_equalities(g, e);
                 let options = QpOptions {
                     parallel: false,
                     ..QpOptions::default()
@@ -459,7 +464,7 @@ impl DirectContact {
                 (Some(sol), x, alpha)
             };
             let mut u_free = self.recover(factor, rhs, &multipliers, &rigid);
-            free_motions = self.normalise_free_motions(&mut u_free, data)?;
+            remove_components(&free_motions, &mut u_free);
             let mut gaps: Vec<f64> = geometry.rows.iter().map(|row| row.dot(&u_free)).collect();
             self.add_offsets(fixed, &mut gaps);
             // Iterative refinement of the condensed problem: the QP saw w = d − Cλ + Gᵀα with C
@@ -494,7 +499,7 @@ impl DirectContact {
             rigid,
             gaps,
             qp,
-            free_motions,
+            free_motions: free_motions.ncols(),
         })
     }
 
