@@ -3,7 +3,7 @@
 //! Over a set of [`LinearBlock`]s with interface restrictions R_s:
 //! - S = Σ R_sᵀ S_s R_s (D05 4.33 / Def. 4.4), applied block-parallel with a fixed summation order;
 //!   blocks may enter S only (the tied clusters under the reduced PCG1 preconditioner,
-//!   [`Balancing::with_operator_only`]);
+//!   [`Balancing::new`]);
 //! - injections D_s = diag(ρ_s / Σ_{t ∋ dof} ρ_t) over the preconditioning blocks (D05 5.5–5.8);
 //!   over the non-contact subdomains only this is the reduced D̊ of D05 6.4–6.6 with the
 //!   cross-point fix of the reference notes (weight 1 where one non-contact subdomain carries a
@@ -212,18 +212,15 @@ pub struct Balancing<'a> {
 }
 
 impl<'a> Balancing<'a> {
-    /// Build the weights and the coarse problem on an interface of size `n`; every block both
-    /// enters the operator and preconditions (D05 §5 for S, §6 for S0).
-    pub fn new(blocks: Vec<&'a LinearBlock>, n: usize) -> Result<Balancing<'a>, DdError> {
-        Balancing::with_operator_only(blocks, Vec::new(), &[], n)
-    }
-
-    /// Like [`Balancing::new`], with `operator_only` blocks that enter the operator S but not
-    /// the preconditioner: the reduced balancing preconditioner of D05 §6 (injections D̊, coarse
-    /// space V_0H) applied to S = S0 + Σ tied clusters (see [`super::successive::Pcg1Preconditioner`]).
-    /// `enrich[s]`, when given, adds the weighted traces of these local interface vectors of
-    /// preconditioning block s (n_Γ,s × k) to the coarse space.
-    pub fn with_operator_only(
+    /// The operator S = Σ R_sᵀ S_s R_s over `preconditioning` and `operator_only` blocks, with the
+    /// weights and the coarse problem on an interface of size `n`. The `preconditioning` blocks
+    /// carry the Neumann–Neumann part (D05 §5 for S, §6 for S0); `operator_only` blocks enter S
+    /// but not the preconditioner: the reduced balancing preconditioner of D05 §6 (injections D̊,
+    /// coarse space V_0H) applied to S = S0 + Σ tied clusters (see
+    /// [`super::successive::Pcg1Preconditioner`]). `enrich[s]`, when given, adds the weighted
+    /// traces of these local interface vectors of preconditioning block s (n_Γ,s × k) to the
+    /// coarse space.
+    pub fn new(
         preconditioning: Vec<&'a LinearBlock>,
         operator_only: Vec<&'a LinearBlock>,
         enrich: &[Option<Mat<f64>>],

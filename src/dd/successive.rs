@@ -365,13 +365,13 @@ fn iterate(
         CoarseKind::Rigid => rigid_traces(problem, dec),
     };
     let s_op = match options.pcg1_preconditioner {
-        Pcg1Preconditioner::Full => Balancing::with_operator_only(
+        Pcg1Preconditioner::Full => Balancing::new(
             dec.blocks.iter().chain(&dec.tied).collect(),
             Vec::new(),
             &enrich,
             n,
         )?,
-        Pcg1Preconditioner::Reduced => Balancing::with_operator_only(
+        Pcg1Preconditioner::Reduced => Balancing::new(
             dec.blocks.iter().collect(),
             dec.tied.iter().collect(),
             &enrich,
@@ -396,7 +396,7 @@ fn iterate(
     times.pcg1 = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let s0 = Balancing::with_operator_only(dec.blocks.iter().collect(), Vec::new(), &enrich, n)?;
+    let s0 = Balancing::new(dec.blocks.iter().collect(), Vec::new(), &enrich, n)?;
     report.coarse_dim_pcg2 = s0.coarse_dim();
     report.partition_of_unity_error[1] = s0.partition_of_unity_error();
     let mut step = Step {

@@ -178,9 +178,15 @@ fn coarse_dimensions_equal_the_counted_kernels() {
     // Tied full-width pair: joint rigid motions + relative sliding.
     assert_eq!(tied, 4);
     let n = dec.n_interface();
-    let s0 = Balancing::new(dec.blocks.iter().collect(), n).expect("S0");
-    let s = Balancing::new(dec.blocks.iter().chain(&dec.tied).collect(), n).expect("S");
-    let s_reduced = Balancing::with_operator_only(
+    let s0 = Balancing::new(dec.blocks.iter().collect(), Vec::new(), &[], n).expect("S0");
+    let s = Balancing::new(
+        dec.blocks.iter().chain(&dec.tied).collect(),
+        Vec::new(),
+        &[],
+        n,
+    )
+    .expect("S");
+    let s_reduced = Balancing::new(
         dec.blocks.iter().collect(),
         dec.tied.iter().collect(),
         &[],
