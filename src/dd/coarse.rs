@@ -501,22 +501,12 @@ impl Interface for Balancing<'_> {
         Balancing::apply(self, x)
     }
 
-    /// M⁻¹ r = (I − P_Z) Σ D_s S_s⁺ D_sᵀ r, for r ⊥ V_H.
-    fn precondition(&self, r: &[f64]) -> Vec<f64> {
-        let mut z = self.neumann_sum(r);
-        self.coarse.project(&mut z);
-        z
+    fn neumann_sum(&self, r: &[f64]) -> Vec<f64> {
+        Balancing::neumann_sum(self, r)
     }
 
-    fn coarse_start(&self, mut x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let sx = self.apply(&x);
-        let mut r: Vec<f64> = b.iter().zip(&sx).map(|(b, s)| b - s).collect();
-        self.coarse.start(&mut x, &mut r);
-        (x, r)
-    }
-
-    fn coarse_residual(&self, r: &[f64]) -> f64 {
-        self.coarse.residual(r)
+    fn coarse(&self) -> &CoarseSpace {
+        &self.coarse
     }
 }
 

@@ -89,22 +89,14 @@ impl Interface for NewtonOperator<'_> {
         y
     }
 
-    /// (I − W G_A⁻¹ (AW)ᵀ) Σ D_s S_s⁺ D_sᵀ r.
-    fn precondition(&self, r: &[f64]) -> Vec<f64> {
-        let mut z = self.s0.neumann_sum(r);
-        self.coarse.project(&mut z);
-        z
+    /// The Neumann–Neumann sum of S0 (the tangent's cluster part is not preconditioned).
+    fn neumann_sum(&self, r: &[f64]) -> Vec<f64> {
+        self.s0.neumann_sum(r)
     }
 
-    fn coarse_start(&self, mut x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let ax = self.apply(&x);
-        let mut r: Vec<f64> = b.iter().zip(&ax).map(|(b, s)| b - s).collect();
-        self.coarse.start(&mut x, &mut r);
-        (x, r)
-    }
-
-    fn coarse_residual(&self, r: &[f64]) -> f64 {
-        self.coarse.residual(r)
+    /// W of S0 with the Newton operator's own A W and G_A.
+    fn coarse(&self) -> &CoarseSpace {
+        &self.coarse
     }
 }
 

@@ -4,18 +4,40 @@
 //! 5.15 / 6.8), so every residual stays orthogonal to the coarse space (Lemma 5.1 / 6.1); the
 //! largest coarse component seen is returned as a check.
 
+use super::coarse::CoarseSpace;
 use super::DdError;
 
-/// An SPD interface operator with a balancing preconditioner and a coarse space (D05 §5–6).
+/// An SPD interface operator with a balancing preconditioner and a coarse space (D05 §5–6):
+/// implementors give A, the Neumann–Neumann sum and the coarse space; the balanced
+/// preconditioner, the coarse start and the coarse check follow from them.
 pub trait Interface {
     /// A x.
     fn apply(&self, x: &[f64]) -> Vec<f64>;
-    /// M⁻¹ r for a residual r orthogonal to the coarse space.
-    fn precondition(&self, r: &[f64]) -> Vec<f64>;
+    /// The one-level Neumann–Neumann sum Σ D_s S_s⁺ D_sᵀ r (D05 5.9).
+    fn neumann_sum(&self, r: &[f64]) -> Vec<f64>;
+    /// The coarse space with A W and the factored G = Wᵀ A W.
+    fn coarse(&self) -> &CoarseSpace;
+
+    /// M⁻¹ r = (I − P_Z) Σ D_s S_s⁺ D_sᵀ r for a residual r orthogonal to the coarse space
+    /// (D05 5.14).
+    fn precondition(&self, r: &[f64]) -> Vec<f64> {
+        let mut z = self.neumann_sum(r);
+        self.coarse().project(&mut z);
+        z
+    }
+
     /// The coarse-corrected start x (D05 5.15 / 6.8) and its residual b − A x.
-    fn coarse_start(&self, x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>);
+    fn coarse_start(&self, mut x: Vec<f64>, b: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let ax = self.apply(&x);
+        let mut r: Vec<f64> = b.iter().zip(&ax).map(|(b, s)| b - s).collect();
+        self.coarse().start(&mut x, &mut r);
+        (x, r)
+    }
+
     /// max_j |w_jᵀ r| over the (unit) coarse basis vectors.
-    fn coarse_residual(&self, r: &[f64]) -> f64;
+    fn coarse_residual(&self, r: &[f64]) -> f64 {
+        self.coarse().residual(r)
+    }
 }
 
 /// Result of one PCG solve.
