@@ -28,6 +28,7 @@ use faer::{Accum, Mat, Par};
 use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use crate::error::WsmError;
+use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
 use crate::fem::{ElasticProblem, Factor, RigidModes, Symbolic};
 use crate::scene::Data;
 
@@ -51,16 +52,6 @@ struct Kernel {
 
 /// Cosine |B_r · R_j| / (‖B_r‖ ‖R_j‖) below which a contact row does not see a rigid mode.
 const FREE_MOTION_TOL: f64 = 1e-10;
-
-/// v ← v − Z Zᵀ v for orthonormal columns Z.
-fn remove_components(z: &Mat<f64>, v: &mut [f64]) {
-    for j in 0..z.ncols() {
-        let d: f64 = v.iter().enumerate().map(|(i, x)| z[(i, j)] * x).sum();
-        for (i, x) in v.iter_mut().enumerate() {
-            *x -= d * z[(i, j)];
-        }
-    }
-}
 
 impl Kernel {
     /// Orthonormal basis (n_free × z) of the free motions {R α : B_A R α = 0} over the rows A
@@ -115,22 +106,7 @@ impl Kernel {
                 }
             }
         }
-        // Orthonormalise (modified Gram–Schmidt twice; the columns are independent).
-        for c in 0..z.ncols() {
-            for _ in 0..2 {
-                for p in 0..c {
-                    let d: f64 = (0..n).map(|i| z[(i, p)] * z[(i, c)]).sum();
-                    for i in 0..n {
-                        z[(i, c)] -= d * z[(i, p)];
-                    }
-                }
-            }
-            let norm = (0..n).map(|i| z[(i, c)].powi(2)).sum::<f64>().sqrt();
-            for i in 0..n {
-                z[(i, c)] /= norm;
-            }
-        }
-        Ok(z)
+        Ok(orthonormal_columns(z.as_ref()))
     }
 
     /// v ← P v: remove the rigid-mode components (least squares).
@@ -242,7 +218,7 @@ impl DirectContact {
                 labels.push((elastic.mesh().bodies[rm.body].clone(), rm.coefficients[j]));
                 col += 1;
             }
-            pinned.extend(pick_pinned(&rm.modes));
+            pinned.extend(pick_pinned(rm.modes.as_ref()));
         }
         pinned.sort_unstable();
         let mut g = Mat::<f64>::zeros(k, geometry.dim());
@@ -299,7 +275,7 @@ impl DirectContact {
     ) -> Result<usize, WsmError> {
         let (lower, upper) = self.geometry.bounds(data);
         let z = self.kernel.free_motions(&self.geometry, &lower, &upper)?;
-        remove_components(&z, u_free);
+        remove_components(z.as_ref(), u_free);
         Ok(z.ncols())
     }
 
@@ -464,7 +440,7 @@ impl DirectContact {
                 (Some(sol), x, alpha)
             };
             let mut u_free = self.recover(factor, rhs, &multipliers, &rigid);
-            remove_components(&free_motions, &mut u_free);
+            remove_components(free_motions.as_ref(), &mut u_free);
             let mut gaps: Vec<f64> = geometry.rows.iter().map(|row| row.dot(&u_free)).collect();
             self.add_offsets(fixed, &mut gaps);
             // Iterative refinement of the condensed problem: the QP saw w = d − Cλ + Gᵀα with C
@@ -651,40 +627,6 @@ fn describe_motion(tx: f64, ty: f64, rot: f64) -> String {
         );
     }
     parts.join(" with ")
-}
-
-/// Per floating body: as many DOFs as modes, greedily chosen so that the pinned rows of the
-/// modes are as independent as possible (pivoted Gram–Schmidt on the rows).
-fn pick_pinned(modes: &Mat<f64>) -> Vec<usize> {
-    let (n, k) = (modes.nrows(), modes.ncols());
-    let mut basis: Vec<Vec<f64>> = Vec::new();
-    let mut chosen = Vec::new();
-    for _ in 0..k {
-        let mut best = (0.0, usize::MAX, Vec::new());
-        for i in 0..n {
-            if chosen.contains(&i) {
-                continue;
-            }
-            let mut r: Vec<f64> = (0..k).map(|j| modes[(i, j)]).collect();
-            for b in &basis {
-                let dot: f64 = r.iter().zip(b).map(|(x, y)| x * y).sum();
-                for (x, y) in r.iter_mut().zip(b) {
-                    *x -= dot * y;
-                }
-            }
-            let norm = r.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm > best.0 {
-                best = (norm, i, r);
-            }
-        }
-        if best.1 == usize::MAX {
-            break;
-        }
-        let (norm, i, r) = best;
-        basis.push(r.into_iter().map(|x| x / norm).collect());
-        chosen.push(i);
-    }
-    chosen
 }
 
 /// Replace the rows and columns of `pinned` DOFs by the identity scaled to the mean diagonal.

@@ -16,6 +16,7 @@ use faer::{Mat, MatRef, Par};
 
 use super::dense::{thin_svd, ThinSvd};
 use super::DdProblem;
+use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
 use crate::fem::{Factor, Symbolic};
 
 /// Relative size ‖A z‖ / max diag(A) below which a unit rigid motion z counts as a kernel vector.
@@ -197,13 +198,7 @@ impl KernelFactor {
 
     /// x ← x − Z Zᵀ x (projection onto the complement Q of the kernel).
     pub fn project(&self, x: &mut [f64]) {
-        let z = &self.kernel;
-        for j in 0..z.ncols() {
-            let s: f64 = (0..self.n).map(|i| z[(i, j)] * x[i]).sum();
-            for (i, xi) in x.iter_mut().enumerate() {
-                *xi -= s * z[(i, j)];
-            }
-        }
+        remove_components(self.kernel.as_ref(), x);
     }
 }
 
@@ -236,56 +231,6 @@ fn kernel(a: &Csr, m: usize, candidates: MatRef<'_, f64>) -> Result<Mat<f64>, St
         }
     }
     Ok(orthonormal_columns(z.as_ref()))
-}
-
-/// Modified Gram–Schmidt (twice), dropping columns that are numerically dependent.
-fn orthonormal_columns(a: MatRef<'_, f64>) -> Mat<f64> {
-    let n = a.nrows();
-    let mut cols: Vec<Vec<f64>> = Vec::new();
-    for j in 0..a.ncols() {
-        let mut v: Vec<f64> = (0..n).map(|i| a[(i, j)]).collect();
-        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if norm0 == 0.0 {
-            continue;
-        }
-        for _ in 0..2 {
-            for c in &cols {
-                let s: f64 = c.iter().zip(&v).map(|(a, b)| a * b).sum();
-                v.iter_mut().zip(c).for_each(|(x, y)| *x -= s * y);
-            }
-        }
-        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if norm > 1e-8 * norm0 {
-            v.iter_mut().for_each(|x| *x /= norm);
-            cols.push(v);
-        }
-    }
-    Mat::from_fn(n, cols.len(), |i, j| cols[j][i])
-}
-
-/// Rows (DOFs) on which the kernel restricted is nonsingular: greedy pivoting on the rows of Z.
-fn pick_pinned(z: MatRef<'_, f64>) -> Vec<usize> {
-    let (n, r) = (z.nrows(), z.ncols());
-    let mut rows: Vec<Vec<f64>> = (0..n)
-        .map(|i| (0..r).map(|j| z[(i, j)]).collect())
-        .collect();
-    let mut pinned = Vec::with_capacity(r);
-    for _ in 0..r {
-        let best = (0..n).filter(|i| !pinned.contains(i)).max_by(|&a, &b| {
-            let na: f64 = rows[a].iter().map(|x| x * x).sum();
-            let nb: f64 = rows[b].iter().map(|x| x * x).sum();
-            na.total_cmp(&nb).then(b.cmp(&a))
-        });
-        let Some(p) = best else { break };
-        let norm = rows[p].iter().map(|x| x * x).sum::<f64>().sqrt();
-        let dir: Vec<f64> = rows[p].iter().map(|x| x / norm).collect();
-        for row in rows.iter_mut() {
-            let s: f64 = row.iter().zip(&dir).map(|(a, b)| a * b).sum();
-            row.iter_mut().zip(&dir).for_each(|(x, d)| *x -= s * d);
-        }
-        pinned.push(p);
-    }
-    pinned
 }
 
 /// The three plane rigid motions (translations, rotation about the group centroid scaled by the

@@ -5,7 +5,7 @@
 //! (every prescribed local DOF of the motion is zero): then K_ff is singular. The kernel of K_ff
 //! on that body is exactly those motions, expressed here on the free DOFs.
 
-use faer::{Mat, Side};
+use faer::{Mat, MatRef, Side};
 
 use super::dofs::DofMap;
 use super::operator::Slot;
@@ -146,4 +146,65 @@ pub fn floating_bodies(mesh: &Mesh, dofs: &DofMap) -> Result<Vec<usize>, FemErro
         }
     }
     Ok(floating)
+}
+
+/// x ← x − Z Zᵀ x for orthonormal columns Z (remove the components along a kernel basis).
+pub fn remove_components(z: MatRef<'_, f64>, x: &mut [f64]) {
+    for j in 0..z.ncols() {
+        let d: f64 = x.iter().enumerate().map(|(i, v)| z[(i, j)] * v).sum();
+        for (i, v) in x.iter_mut().enumerate() {
+            *v -= d * z[(i, j)];
+        }
+    }
+}
+
+/// Modified Gram–Schmidt (twice), dropping columns that are numerically dependent.
+pub fn orthonormal_columns(a: MatRef<'_, f64>) -> Mat<f64> {
+    let n = a.nrows();
+    let mut cols: Vec<Vec<f64>> = Vec::new();
+    for j in 0..a.ncols() {
+        let mut v: Vec<f64> = (0..n).map(|i| a[(i, j)]).collect();
+        let norm0 = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm0 == 0.0 {
+            continue;
+        }
+        for _ in 0..2 {
+            for c in &cols {
+                let s: f64 = c.iter().zip(&v).map(|(a, b)| a * b).sum();
+                v.iter_mut().zip(c).for_each(|(x, y)| *x -= s * y);
+            }
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-8 * norm0 {
+            v.iter_mut().for_each(|x| *x /= norm);
+            cols.push(v);
+        }
+    }
+    Mat::from_fn(n, cols.len(), |i, j| cols[j][i])
+}
+
+/// Rows (DOFs) to pin for a generalised inverse: as many as Z has columns, on which Z restricted
+/// is nonsingular and as well conditioned as greedy pivoting on the rows of Z makes it.
+pub fn pick_pinned(z: MatRef<'_, f64>) -> Vec<usize> {
+    let (n, r) = (z.nrows(), z.ncols());
+    let mut rows: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..r).map(|j| z[(i, j)]).collect())
+        .collect();
+    let mut pinned = Vec::with_capacity(r);
+    for _ in 0..r {
+        let best = (0..n).filter(|i| !pinned.contains(i)).max_by(|&a, &b| {
+            let na: f64 = rows[a].iter().map(|x| x * x).sum();
+            let nb: f64 = rows[b].iter().map(|x| x * x).sum();
+            na.total_cmp(&nb).then(b.cmp(&a))
+        });
+        let Some(p) = best else { break };
+        let norm = rows[p].iter().map(|x| x * x).sum::<f64>().sqrt();
+        let dir: Vec<f64> = rows[p].iter().map(|x| x / norm).collect();
+        for row in rows.iter_mut() {
+            let s: f64 = row.iter().zip(&dir).map(|(a, b)| a * b).sum();
+            row.iter_mut().zip(&dir).for_each(|(x, d)| *x -= s * d);
+        }
+        pinned.push(p);
+    }
+    pinned
 }
