@@ -164,6 +164,11 @@ impl CoarseSpace {
         &self.w
     }
 
+    /// A W.
+    pub fn image(&self) -> &SparseColumns {
+        &self.aw
+    }
+
     fn solve(&self, rhs: Vec<f64>) -> Vec<f64> {
         match &self.llt {
             Some(llt) => llt.solve_vec(&rhs),
@@ -291,11 +296,6 @@ impl<'a> Balancing<'a> {
     /// Dimension of the coarse space.
     pub fn coarse_dim(&self) -> usize {
         self.coarse.dim()
-    }
-
-    /// The coarse basis W.
-    pub fn coarse_basis(&self) -> &SparseColumns {
-        self.coarse.basis()
     }
 
     /// max |Σ_s D_s R_s − 1| over the interface DOFs (D05 5.8).

@@ -40,8 +40,9 @@ impl<'a> NewtonOperator<'a> {
             tangents,
             coarse: CoarseSpace::new(SparseColumns::default(), SparseColumns::default(), 0)?,
         };
-        let w = s0.coarse_basis().clone();
-        let mut aw = s0.apply_mat(&w);
+        // W and S0 W of the S0 coarse space (computed once with S0), plus the tangent part.
+        let w = s0.coarse().basis().clone();
+        let mut aw = s0.coarse().image().clone();
         let mut on_cluster = vec![false; w.n];
         for (cl, _) in &op.tangents {
             for &g in &cl.gamma {
