@@ -441,8 +441,7 @@ impl DirectContact {
             };
             let mut u_free = self.recover(factor, rhs, &multipliers, &rigid);
             remove_components(free_motions.as_ref(), &mut u_free);
-            let mut gaps: Vec<f64> = geometry.rows.iter().map(|row| row.dot(&u_free)).collect();
-            self.add_offsets(fixed, &mut gaps);
+            let gaps = self.gaps(&u_free, fixed);
             // Iterative refinement of the condensed problem: the QP saw w = d − Cλ + Gᵀα with C
             // and d from solves with K; for an ill-conditioned K they differ from the true gaps
             // B u − g0 by rounding. Shift d by the defect and re-solve from the same active set.
@@ -461,15 +460,14 @@ impl DirectContact {
             start = Some(WarmStart::from(sol));
             refinements += 1;
         };
-        let mut residual = elastic.operator().apply(&factor.values, &u_free);
-        geometry.add_transpose(&multipliers, &mut residual);
-        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        for (r, b) in residual.iter_mut().zip(rhs) {
-            *r -= b;
-        }
-        let scale = norm(rhs).max(f64::MIN_POSITIVE);
         Ok(ContactSolution {
-            equilibrium_residual: norm(&residual) / scale,
+            equilibrium_residual: self.equilibrium_residual(
+                elastic,
+                &factor.values,
+                &u_free,
+                &multipliers,
+                rhs,
+            ),
             u_free,
             multipliers,
             rigid,
@@ -477,6 +475,31 @@ impl DirectContact {
             qp,
             free_motions: free_motions.ncols(),
         })
+    }
+
+    /// Relative gap and slip B u + B_d u_d − g0 of a free-DOF displacement.
+    pub fn gaps(&self, u_free: &[f64], fixed: &[f64]) -> Vec<f64> {
+        let mut gaps = self.geometry.apply(u_free);
+        self.add_offsets(fixed, &mut gaps);
+        gaps
+    }
+
+    /// ‖K u − f + Bᵀλ‖ / ‖f‖ on the free DOFs, with K assembled from `values`.
+    pub fn equilibrium_residual(
+        &self,
+        elastic: &ElasticProblem,
+        values: &[f64],
+        u_free: &[f64],
+        multipliers: &[f64],
+        rhs: &[f64],
+    ) -> f64 {
+        let mut residual = elastic.operator().apply(values, u_free);
+        self.geometry.add_transpose(multipliers, &mut residual);
+        let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for (r, b) in residual.iter_mut().zip(rhs) {
+            *r -= b;
+        }
+        norm(&residual) / norm(rhs).max(f64::MIN_POSITIVE)
     }
 
     /// Add B_d u_d − g0 (prescribed values on contact nodes, initial gaps on normal rows).

@@ -1,9 +1,9 @@
 //! DD for a scene's elastic contact problem (SPEC §3.2 wired into the state layer): the scene's
 //! solver settings become [`DdOptions`], the contact rows come from the direct solver's
-//! [`crate::contact::pairs::ContactGeometry`] (same discrete problem), and the answer is returned in the direct
-//! solver's [`ContactSolution`] form (gaps B u + B_d u_d − g0, equilibrium residual
-//! ‖K u − f + Bᵀλ‖ / ‖f‖ checked on the assembled K), so that contact results, stresses and
-//! criteria stay shared between the two solvers.
+//! [`crate::contact::pairs::ContactGeometry`] (same discrete problem), and the answer is returned
+//! in the direct solver's [`ContactSolution`] form, with gaps and equilibrium residual from the
+//! same [`DirectContact`] functions, so that contact results, stresses and criteria stay shared
+//! between the two solvers.
 
 use std::collections::HashMap;
 
@@ -99,33 +99,15 @@ pub fn solve_elastic(
         .normalise_free_motions(&mut sol.u, data)
         .map_err(|e| DdError::Input(e.to_string()))?;
     let multipliers: Vec<f64> = sol.multipliers.iter().flatten().copied().collect();
-    let gaps = geometry
-        .rows
-        .iter()
-        .enumerate()
-        .map(|(r, row)| {
-            let gap = if r % 2 == 0 {
-                geometry.pairs[r / 2].gap
-            } else {
-                0.0
-            };
-            row.dot(&sol.u) + row.dot_fixed(fixed) - gap
-        })
-        .collect();
-    let op = elastic.operator();
-    let values = op.assemble(coefficients)?;
-    let mut residual = op.apply(&values, &sol.u);
-    geometry.add_transpose(&multipliers, &mut residual);
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    for (r, b) in residual.iter_mut().zip(rhs) {
-        *r -= b;
-    }
+    let values = elastic.operator().assemble(coefficients)?;
+    let equilibrium_residual =
+        direct.equilibrium_residual(elastic, &values, &sol.u, &multipliers, rhs);
     let contact = ContactSolution {
-        equilibrium_residual: norm(&residual) / norm(rhs).max(f64::MIN_POSITIVE),
+        equilibrium_residual,
+        gaps: direct.gaps(&sol.u, fixed),
         u_free: sol.u.clone(),
         multipliers,
         rigid: Vec::new(),
-        gaps,
         qp: None,
         free_motions,
     };
