@@ -113,7 +113,8 @@ impl CoarseSpace {
         if (0..required).any(|j| !keep.contains(&j)) {
             return Err(DdError::Coarse(
                 "WᵀSW is not positive definite: the interface operator is singular on the \
-                 coarse space (a part of a body is held by nothing but contact)"
+                 coarse space (a part of a body held by nothing but contact, or a subdomain \
+                 floating in the non-contact part)"
                     .into(),
             ));
         }

@@ -20,13 +20,17 @@ use crate::scene::{Data, SolverSettings};
 /// the paper's tunnel (9676 elements on 12 subdomains).
 const AUTO_ELEMENTS: usize = 800;
 
+/// Fewest elements per requested subdomain: a larger `subdomains` count is capped (subdomains of
+/// a few elements make nearly dependent coarse directions and gain nothing).
+const MIN_ELEMENTS: usize = 16;
+
 /// Tightest relative PCG residual asked for: below it rounding stalls PCG on the bundled scenes
 /// (hertz: 4.6e-10 after 500 iterations).
 const PCG_FLOOR: f64 = 1e-9;
 
 /// DD options of a scene: `partition` polygons fix the subdomains ([`explicit_partition`]),
 /// otherwise `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements per
-/// subdomain); `tolerance` is the relative stopping tolerance of the successive approximations
+/// subdomain; at most one per `MIN_ELEMENTS` elements); `tolerance` is the relative stopping tolerance of the successive approximations
 /// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
 /// U⁰).
 pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
@@ -40,7 +44,7 @@ pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
             contact_layers: layers,
         },
         n => PartitionRequest::Automatic {
-            subdomains: n,
+            subdomains: n.min(mesh.triangles.len() / MIN_ELEMENTS).max(1),
             contact_layers: layers,
         },
     };
