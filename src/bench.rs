@@ -23,9 +23,9 @@ fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
 
 /// The tunnel example with all mesh sizes scaled by `factor`.
 pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
-    let text = crate::examples::example(example)
-        .ok_or_else(|| WsmError::Io(format!("no example '{example}'")))?;
-    let mut v: Value = serde_json::from_str(text).map_err(|e| WsmError::Io(e.to_string()))?;
+    let text = crate::examples::find(example)?;
+    let mut v: Value =
+        serde_json::from_str(text).map_err(|e| WsmError::io(format!("example {example}"), e))?;
     let scale = |x: &mut Value| {
         if let Some(s) = x.as_f64() {
             *x = Value::from(s * factor);
@@ -227,7 +227,8 @@ pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
     }
     if dd {
         let mut buffer = Vec::new();
-        crate::dd::bench::scalability(&mut buffer).map_err(|e| WsmError::Contact(e.to_string()))?;
+        crate::dd::bench::scalability(&mut buffer)
+            .map_err(|e| WsmError::io("DD scalability benchmark", e))?;
         out.push_str("\nDomain decomposition:\n\n");
         out.push_str(&String::from_utf8_lossy(&buffer));
     }

@@ -23,6 +23,19 @@ pub fn example(name: &str) -> Option<&'static str> {
     EXAMPLES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
 }
 
+/// The JSON text of a bundled example, or an error naming the unknown name.
+pub fn find(name: &str) -> Result<&'static str, crate::error::WsmError> {
+    example(name).ok_or_else(|| crate::error::WsmError::NotFound {
+        what: "bundled example",
+        name: name.to_string(),
+    })
+}
+
+/// The names of the bundled examples.
+pub fn names() -> impl Iterator<Item = &'static str> {
+    EXAMPLES.iter().map(|(n, _)| *n)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

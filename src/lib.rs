@@ -3,10 +3,13 @@
 //! The pipeline, one module each: `scene` (the JSON document) → `mesh` (P1 triangles, contact
 //! node pairs) → `fem` (elasticity and heat operators, loads, stresses) → `contact` (the exact
 //! direct contact solver) → `dd` (the papers' domain decomposition solver) → `state` (one state
-//! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `app` (what the
-//! command line and the service do).
+//! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `run` (the front
+//! door: typed requests, outcomes, progress, cancellation and evaluation logs, shared by the
+//! command line, the service and workers) → `jobs` (the durable job queue and its workers) →
+//! `api` (the HTTP API) → `server` (`wsm serve`). The numerical core (everything up to `run`)
+//! never imports the service modules.
 
-pub mod app;
+pub mod api;
 pub mod bench;
 pub mod contact;
 pub mod criteria;
@@ -14,8 +17,11 @@ pub mod dd;
 pub mod error;
 pub mod examples;
 pub mod fem;
+pub mod jobs;
 pub mod mesh;
 pub mod output;
+pub mod run;
 pub mod scenario;
 pub mod scene;
+pub mod server;
 pub mod state;

@@ -1,12 +1,15 @@
 //! The `wsm` command line: solve a scene, run a worst-scenario search, print bundled examples,
-//! run benchmarks. Every error ends in one line on stderr and a non-zero exit status.
+//! run benchmarks. Every error ends in one line on stderr and a non-zero exit status (see
+//! `cli::exit_code`).
+
+mod cli;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use wsm::app;
+use wsm::run::{SolveRequest, WorstRequest};
 
 #[derive(Parser)]
 #[command(
@@ -60,10 +63,57 @@ enum Command {
         /// Random seed (default: the scene's).
         #[arg(long)]
         seed: Option<u64>,
+        /// Wall-time limit of the run [s]; the partial result is returned with status time_limit.
+        #[arg(long)]
+        max_seconds: Option<f64>,
+        /// Threads of the run's own pool (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
         /// Write the full result as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Write every evaluation, as it completes, to a new JSON-lines log.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// Replay a log written by --log (recomputing nothing stored), then continue it.
+        #[arg(long)]
+        resume: Option<PathBuf>,
+        /// Write one CSV row per evaluation (parameters, criteria, KKT residual, time).
+        #[arg(long)]
+        table: Option<PathBuf>,
     },
+    /// Run the HTTP service and dashboard on an embedded SQLite job store.
+    Serve {
+        /// Address to listen on (port 0: any free port, printed on start).
+        #[arg(long, default_value = "127.0.0.1:8080")]
+        addr: String,
+        /// SQLite database file (created and migrated on start).
+        #[arg(long, default_value = "wsm.db")]
+        db: String,
+        /// Jobs run at once.
+        #[arg(long, default_value_t = 1)]
+        workers: usize,
+        /// Threads of each job (default: all cores).
+        #[arg(long)]
+        threads_per_job: Option<usize>,
+        /// A running job whose lease is not renewed for this long is resumed by another worker [s].
+        #[arg(long, default_value_t = 30.0)]
+        lease_seconds: f64,
+        /// Largest inner-solve budget a job may ask for.
+        #[arg(long, default_value_t = 100_000)]
+        max_budget: usize,
+        /// Queued and running jobs at once (beyond: 503 with Retry-After).
+        #[arg(long, default_value_t = 1000)]
+        max_active_jobs: usize,
+        /// Largest estimated mesh of a job [triangles].
+        #[arg(long, default_value_t = 2_000_000)]
+        max_triangles: usize,
+        /// Largest request body [bytes].
+        #[arg(long, default_value_t = 4 << 20)]
+        max_body_bytes: usize,
+    },
+    /// Print the OpenAPI 3.1 document of the HTTP API.
+    Openapi,
     /// Timing benchmarks of the inner solvers (not part of the test suite).
     Bench {
         /// Target numbers of unknowns.
@@ -94,12 +144,15 @@ fn main() -> ExitCode {
             out,
             vtu,
         } => {
-            let solver = solver.map(|s| match s {
-                SolverArg::Direct => wsm::scene::SolverKind::Direct,
-                SolverArg::Dd => wsm::scene::SolverKind::Dd,
-            });
-            app::load_scene(scene.as_deref(), example.as_deref())
-                .and_then(|s| app::solve(s, solver, out.as_deref(), vtu.as_deref()))
+            let request = SolveRequest {
+                solver: solver.map(|s| match s {
+                    SolverArg::Direct => wsm::scene::SolverKind::Direct,
+                    SolverArg::Dd => wsm::scene::SolverKind::Dd,
+                }),
+                fields: false,
+            };
+            cli::load_scene(scene.as_deref(), example.as_deref())
+                .and_then(|s| cli::solve(s, request, out.as_deref(), vtu.as_deref()))
         }
         Command::Worst {
             scene,
@@ -107,11 +160,60 @@ fn main() -> ExitCode {
             criteria,
             budget,
             seed,
+            max_seconds,
+            threads,
             out,
-        } => app::load_scene(scene.as_deref(), example.as_deref())
-            .and_then(|s| app::worst(s, &criteria, budget, seed, out.as_deref())),
+            log,
+            resume,
+            table,
+        } => cli::load_scene(scene.as_deref(), example.as_deref()).and_then(|s| {
+            let request = WorstRequest {
+                criteria: cli::parse_criteria(&criteria)?,
+                budget,
+                seed,
+                max_seconds,
+                threads,
+            };
+            let files = cli::WorstFiles {
+                out,
+                log,
+                resume,
+                table,
+            };
+            cli::worst(s, request, files)
+        }),
+        Command::Serve {
+            addr,
+            db,
+            workers,
+            threads_per_job,
+            lease_seconds,
+            max_budget,
+            max_active_jobs,
+            max_triangles,
+            max_body_bytes,
+        } => cli::serve(wsm::server::ServeConfig {
+            addr,
+            db,
+            workers,
+            threads_per_job,
+            lease_seconds,
+            limits: wsm::api::Limits {
+                max_budget,
+                max_active_jobs,
+                max_triangles,
+                max_body_bytes,
+                ..wsm::api::Limits::default()
+            },
+            token: std::env::var("WSM_API_TOKEN")
+                .ok()
+                .filter(|t| !t.is_empty()),
+        }),
+        Command::Openapi => wsm::api::openapi_json()
+            .map(|t| t.trim_end().to_string())
+            .map_err(|e| wsm::error::WsmError::io("OpenAPI document", e)),
         Command::Bench { sizes, runs, dd } => wsm::bench::run(&sizes, runs, dd),
-        Command::Example { name, list } => app::example(name.as_deref(), list),
+        Command::Example { name, list } => cli::example(name.as_deref(), list),
     };
     match result {
         Ok(text) => {
@@ -120,7 +222,7 @@ fn main() -> ExitCode {
         }
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            cli::exit_code(&e)
         }
     }
 }

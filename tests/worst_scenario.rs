@@ -1,51 +1,24 @@
-//! Worst-scenario engine acceptance (issue "Worst-scenario engine"): known worst cases, a
-//! two-parameter contact case against a dense grid, a thermal case that needs only the heat
-//! solve, and bad admissible sets refused before any solve.
-
-use std::sync::atomic::AtomicBool;
+//! Worst-scenario engine acceptance, through the front door (`wsm::run::worst`): known worst
+//! cases, a two-parameter contact case against a dense grid, a thermal case that needs only the
+//! heat solve, and bad admissible sets refused before any solve.
 
 use serde_json::{json, Value};
-use wsm::scenario::search::EvalCache;
-use wsm::scenario::worst::{prepare, run, ScenarioEvaluator, WorstResult, WorstSettings};
-use wsm::scene::params::Parameter;
+use wsm::run::{worst as run_worst, RunControl, WorstOutcome, WorstRequest};
+use wsm::scenario::evaluator::ScenarioEvaluator;
+use wsm::scene::params::parameters;
 use wsm::scene::{parse, Criterion};
 use wsm::state::StateProblem;
 
-/// Run the search on a prepared problem (fresh cache, never cancelled).
-fn search(
-    problem: &StateProblem,
-    params: &[Parameter],
-    criteria: &[Criterion],
-    budget: usize,
-    seed: u64,
-) -> WorstResult {
-    let settings = WorstSettings {
-        criteria: criteria.to_vec(),
-        budget,
-        seed,
-        max_seconds: None,
-    };
-    run(
-        problem,
-        params,
-        &settings,
-        &mut EvalCache::new(),
-        &AtomicBool::new(false),
-        &|_| {},
-    )
-    .unwrap()
-}
-
-/// Prepare and search; also return (heat solves, factorisations, elastic solves).
-fn worst(
-    scene: &Value,
-    criteria: &[Criterion],
-    budget: usize,
-) -> (WorstResult, (usize, usize, usize)) {
+/// Search a scene for the given criteria (fresh run, never cancelled).
+fn worst(scene: &Value, criteria: &[Criterion], budget: usize, seed: u64) -> WorstOutcome {
     let scene = parse(&scene.to_string()).unwrap();
-    let (problem, params) = prepare(scene).unwrap();
-    let result = search(&problem, &params, criteria, budget, 7);
-    (result, problem.counters.snapshot())
+    let request = WorstRequest {
+        criteria: Some(criteria.to_vec()),
+        budget: Some(budget),
+        seed: Some(seed),
+        ..WorstRequest::default()
+    };
+    run_worst(scene, &request, &RunControl::new()).unwrap()
 }
 
 /// One clamped block under a top pressure p ∈ [1, 2] MPa with E ∈ [5, 10] GPa.
@@ -68,28 +41,32 @@ fn loaded_block() -> Value {
     })
 }
 
+fn point(o: &wsm::run::ObjectiveResult) -> Vec<f64> {
+    o.best_point.clone().expect("a best point")
+}
+
 #[test]
 fn monotone_displacement_criterion_worst_is_the_max_load_min_stiffness_vertex() {
-    let (r, _) = worst(&loaded_block(), &[Criterion::Phi3], 40);
+    let r = worst(&loaded_block(), &[Criterion::Phi3], 40, 7);
     let c = &r.criteria[0];
-    assert_eq!(c.worst.data[0].1, -2.0e6, "{:?}", c.worst.data);
-    assert_eq!(c.worst.data[1].1, 5.0e9, "{:?}", c.worst.data);
-    assert_eq!(c.best.data[0].1, -1.0e6);
-    assert_eq!(c.best.data[1].1, 1.0e10);
+    assert_eq!(point(&c.worst), vec![-2.0e6, 5.0e9]);
+    assert_eq!(point(&c.best), vec![-1.0e6, 1.0e10]);
     assert!(c.worst.vertex_optimal && c.best.vertex_optimal);
+    assert_eq!(r.parameters[0].name, "load");
+    assert_eq!(r.parameters[1].field, "materials.m.E");
     // Linear elasticity: Φ3 ∝ load / E, so worst/best = (2/5)/(1/10) = 4.
-    let ratio = c.worst.value.unwrap() / c.best.value.unwrap();
+    let ratio = c.worst.best_value.unwrap() / c.best.best_value.unwrap();
     assert!((ratio - 4.0).abs() < 1e-9, "ratio {ratio}");
 }
 
 #[test]
 fn monotone_stress_criterion_worst_is_the_max_load() {
-    let (r, _) = worst(&loaded_block(), &[Criterion::Phi5], 40);
+    let r = worst(&loaded_block(), &[Criterion::Phi5], 40, 7);
     let c = &r.criteria[0];
-    assert_eq!(c.worst.data[0].1, -2.0e6);
-    assert_eq!(c.best.data[0].1, -1.0e6);
+    assert_eq!(point(&c.worst)[0], -2.0e6);
+    assert_eq!(point(&c.best)[0], -1.0e6);
     // Stress does not depend on E here (one material, force boundary data): I2² ∝ load².
-    let ratio = c.worst.value.unwrap() / c.best.value.unwrap();
+    let ratio = c.worst.best_value.unwrap() / c.best.best_value.unwrap();
     assert!((ratio - 4.0).abs() < 1e-9, "ratio {ratio}");
 }
 
@@ -103,19 +80,20 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
         {"field": "materials.rock.E", "interval": [8.0e9, 1.2e10]}
     ]);
     let parsed = parse(&scene.to_string()).unwrap();
-    let (problem, params) = prepare(parsed).unwrap();
+    let params = parameters(&parsed).unwrap();
+    let problem = StateProblem::new(parsed).unwrap();
     let criteria = [Criterion::Phi6];
     let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
     let mut grid_max = f64::NEG_INFINITY;
     for i in 0..41 {
         for j in 0..41 {
             let theta = [4.0e5 * i as f64 / 40.0, 8.0e9 + 4.0e9 * j as f64 / 40.0];
-            grid_max = grid_max.max(evaluator.evaluate_one(&theta).unwrap()[0]);
+            grid_max = grid_max.max(evaluator.evaluate_one(&theta).values.unwrap()[0]);
         }
     }
     let budget = 1681 / 5;
-    let r = search(&problem, &params, &criteria, budget, 3);
-    let found = r.criteria[0].worst.value.unwrap();
+    let r = worst(&scene, &criteria, budget, 3);
+    let found = r.criteria[0].worst.best_value.unwrap();
     assert!(r.evaluations <= budget);
     assert!(
         found >= grid_max * (1.0 - 1e-6),
@@ -127,19 +105,15 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
 fn thermal_criteria_use_the_heat_solve_only() {
     let scene: Value =
         serde_json::from_str(wsm::examples::example("heated-plate").unwrap()).unwrap();
-    let (r, (heat, factorisations, elastic)) =
-        worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30);
-    assert!(heat > 0);
+    let r = worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30, 7);
+    assert!(r.inner.heat_solves > 0);
     assert_eq!(
-        (factorisations, elastic),
+        (r.inner.factorisations, r.inner.elastic_solves),
         (0, 0),
         "no elastic work for Φ1/Φ2"
     );
     // Φ1 grows with the heat source and the rim temperature and falls with conductivity.
-    let w = &r.criteria[0].worst.data;
-    assert_eq!(w[0].1, 2.5e4);
-    assert_eq!(w[1].1, 2.5);
-    assert_eq!(w[2].1, 25.0);
+    assert_eq!(point(&r.criteria[0].worst), vec![2.5e4, 2.5, 25.0]);
 }
 
 #[test]
@@ -151,10 +125,10 @@ fn changing_only_loads_and_slip_limits_never_refactorises() {
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 4.0e5]},
         {"field": "contacts[0].slip_limit", "interval": [2.5e5, 4.0e5]}
     ]);
-    let (r, (_, factorisations, elastic)) = worst(&scene, &[Criterion::Phi6], 30);
-    assert!(elastic >= 20, "{elastic} solves");
+    let r = worst(&scene, &[Criterion::Phi6], 30, 7);
+    assert!(r.inner.elastic_solves >= 20, "{:?}", r.inner);
     assert_eq!(
-        factorisations, 1,
+        r.inner.factorisations, 1,
         "one factorisation serves every load and slip-limit change"
     );
     assert!(r.inner.max_kkt_residual <= 1e-9);
@@ -171,7 +145,9 @@ fn unbalanced_vertex_is_refused_before_any_solve() {
         {"field": "contacts[0].slip_limit", "interval": [2.5e5, 4.0e5]}
     ]);
     let parsed = parse(&scene.to_string()).unwrap();
-    let err = prepare(parsed).err().expect("must be refused");
+    let err = run_worst(parsed, &WorstRequest::default(), &RunControl::new())
+        .expect_err("must be refused");
+    assert_eq!(err.kind(), wsm::error::ErrorKind::BadInput);
     let msg = err.to_string();
     assert!(
         msg.starts_with("uncertain") && msg.contains("block"),

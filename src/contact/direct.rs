@@ -94,7 +94,7 @@ impl Kernel {
         });
         let svd = br
             .thin_svd()
-            .map_err(|e| WsmError::Contact(format!("free-motion SVD: {e:?}")))?;
+            .map_err(|e| WsmError::contact(format!("free-motion SVD: {e:?}")))?;
         let (s, v) = (svd.S().column_vector(), svd.V());
         let free: Vec<usize> = (0..k).filter(|&c| s[c] <= FREE_MOTION_TOL).collect();
         let mut z = Mat::<f64>::zeros(n, free.len());
@@ -232,9 +232,7 @@ impl DirectContact {
             Mat::zeros(0, 0)
         } else {
             gram.llt(faer::Side::Lower)
-                .map_err(|_| {
-                    WsmError::Contact("rigid modes of the floating bodies are dependent".into())
-                })?
+                .map_err(|_| WsmError::contact("rigid modes of the floating bodies are dependent"))?
                 .inverse()
         };
         let (symbolic, blocks) = schur_structure(elastic, &geometry, &pinned)?;
@@ -561,7 +559,7 @@ impl DirectContact {
                     motion: describe_motion(tx, ty, rot),
                 }
             }
-            other => WsmError::Contact(other.to_string()),
+            other => WsmError::contact(other.to_string()),
         }
     }
 }

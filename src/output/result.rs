@@ -1,69 +1,152 @@
-//! JSON and VTU renderings of a state solution: a short summary (criteria, sizes, report) for
-//! stdout and the full result (fields, contact results) for files.
+//! Typed renderings of a state solution: a short summary (criteria, mesh sizes, contact zones,
+//! solver report) and the full result (nodal and element fields, contact results), both plain
+//! serde types, and VTU files for ParaView.
 
-use serde_json::{json, Value};
+use std::collections::BTreeMap;
+
+use serde::Serialize;
 
 use super::vtu::{write_vtu, Field};
 use crate::scene::Criterion;
-use crate::state::{piece_pressures, zone_summaries, ContactState, Solution, StateProblem};
+use crate::state::{
+    piece_pressures, zone_summaries, ContactNode, ContactState, Solution, SolveReport,
+    StateProblem, ZoneSummary,
+};
 
-/// Criteria as a JSON object `{"phi1": value or null, ...}`.
-pub fn criteria_json(values: &[Option<f64>; 6]) -> Value {
-    Value::Object(
-        Criterion::ALL
-            .iter()
-            .zip(values)
-            .map(|(c, v)| (c.name().to_string(), json!(v)))
-            .collect(),
-    )
+/// Φ1–Φ6 of one solve (`None`: not requested, or the scene has no region for it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize, utoipa::ToSchema)]
+pub struct CriteriaValues {
+    /// Mean temperature over G1 \[K\].
+    pub phi1: Option<f64>,
+    /// Max over regions of the mean temperature \[K\].
+    pub phi2: Option<f64>,
+    /// Mean displacement along the region normal \[m\].
+    pub phi3: Option<f64>,
+    /// Max over regions of the mean normal displacement \[m\].
+    pub phi4: Option<f64>,
+    /// Mean shear-stress intensity I2² over the region \[Pa²\].
+    pub phi5: Option<f64>,
+    /// Mean contact pressure over a boundary piece \[Pa\].
+    pub phi6: Option<f64>,
 }
 
-/// The summary printed by `wsm solve`.
-pub fn summary(problem: &StateProblem, solution: &Solution) -> Value {
+impl CriteriaValues {
+    pub fn new(values: &[Option<f64>; 6]) -> CriteriaValues {
+        CriteriaValues {
+            phi1: values[0],
+            phi2: values[1],
+            phi3: values[2],
+            phi4: values[3],
+            phi5: values[4],
+            phi6: values[5],
+        }
+    }
+
+    pub fn get(&self, criterion: Criterion) -> Option<f64> {
+        [
+            self.phi1, self.phi2, self.phi3, self.phi4, self.phi5, self.phi6,
+        ][criterion as usize]
+    }
+}
+
+/// Sizes of the mesh and the algebraic problem.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct MeshSummary {
+    pub nodes: usize,
+    pub triangles: usize,
+    /// Smallest interior angle \[deg\].
+    pub min_angle_deg: f64,
+    pub unknowns: usize,
+    pub contact_pairs: usize,
+}
+
+/// The summary of one solve (what `wsm solve` prints).
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct SolveSummary {
+    pub scene: String,
+    pub mesh: MeshSummary,
+    pub criteria: CriteriaValues,
+    pub contact_zones: Vec<ZoneSummary>,
+    /// Mean contact pressure over each criteria boundary piece on a contact zone \[Pa\].
+    pub piece_contact_pressure: BTreeMap<String, f64>,
+    /// Solver report: iterations, KKT residuals (relative), warnings, timings \\[s\\].
+    #[schema(value_type = Object)]
+    pub report: SolveReport,
+    /// Meshing and operator set-up \[s\].
+    pub setup_seconds: f64,
+}
+
+/// Nodal and element fields of one solve.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct SolveFields {
+    /// Node coordinates \[m\].
+    pub nodes: Vec<[f64; 2]>,
+    /// Node indices of each triangle (counter-clockwise).
+    pub triangles: Vec<[usize; 3]>,
+    /// Zone index of each triangle.
+    pub triangle_zone: Vec<usize>,
+    /// Nodal displacement \[m\] (empty when no elastic solve was needed).
+    pub displacement: Vec<[f64; 2]>,
+    /// Nodal temperature \[K\] (when the heat problem was solved).
+    pub temperature: Option<Vec<f64>>,
+    /// Element stresses (τ11, τ22, τ12, τ33) \[Pa\].
+    pub stress: Vec<[f64; 4]>,
+    /// Element shear-stress intensity I2² \[Pa²\].
+    pub i2_squared: Vec<f64>,
+    /// Per contact node pair: pressure, shear, gap, slip and state.
+    pub contact: Vec<ContactNode>,
+}
+
+/// The summary of a solve.
+pub fn summary(problem: &StateProblem, solution: &Solution) -> SolveSummary {
     let stats = crate::mesh::stats(problem.mesh());
-    json!({
-        "scene": problem.scene.name,
-        "mesh": {
-            "nodes": stats.nodes,
-            "triangles": stats.triangles,
-            "min_angle_deg": stats.min_angle_deg,
-            "unknowns": solution.report.unknowns,
-            "contact_pairs": solution.report.contact_pairs,
+    SolveSummary {
+        scene: problem.scene.name.clone(),
+        mesh: MeshSummary {
+            nodes: stats.nodes,
+            triangles: stats.triangles,
+            min_angle_deg: stats.min_angle_deg,
+            unknowns: solution.report.unknowns,
+            contact_pairs: solution.report.contact_pairs,
         },
-        "criteria": criteria_json(&solution.criteria),
-        "contact_zones": zone_summaries(
-            &problem.scene.contacts.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+        criteria: CriteriaValues::new(&solution.criteria),
+        contact_zones: zone_summaries(
+            &problem
+                .scene
+                .contacts
+                .iter()
+                .map(|c| c.name.clone())
+                .collect::<Vec<_>>(),
             &problem.contact.geometry,
             &solution.contact,
         ),
-        "piece_contact_pressure": piece_pressures(
+        piece_contact_pressure: piece_pressures(
             &problem.criteria.pieces,
             &problem.contact.geometry,
             &solution.contact,
             problem.mesh().nodes.len(),
         )
         .into_iter()
-        .filter_map(|(name, p)| p.map(|p| (name, json!(p))))
-        .collect::<serde_json::Map<String, Value>>(),
-        "report": solution.report,
-        "setup_seconds": problem.setup_seconds,
-    })
+        .filter_map(|(name, p)| p.map(|p| (name, p)))
+        .collect(),
+        report: solution.report.clone(),
+        setup_seconds: problem.setup_seconds,
+    }
 }
 
-/// The full result: summary plus nodal and element fields and contact results.
-pub fn full(problem: &StateProblem, solution: &Solution) -> Value {
-    let mut out = summary(problem, solution);
+/// The fields of a solve.
+pub fn fields(problem: &StateProblem, solution: &Solution) -> SolveFields {
     let mesh = problem.mesh();
-    out["fields"] = json!({
-        "nodes": mesh.nodes,
-        "triangles": mesh.triangles,
-        "displacement": solution.displacement,
-        "temperature": solution.temperature,
-        "stress": solution.stresses.iter().map(|s| s.stress).collect::<Vec<_>>(),
-        "i2_squared": solution.stresses.iter().map(|s| s.i2_squared()).collect::<Vec<_>>(),
-    });
-    out["contact"] = json!(solution.contact);
-    out
+    SolveFields {
+        nodes: mesh.nodes.clone(),
+        triangles: mesh.triangles.clone(),
+        triangle_zone: mesh.triangle_zone.clone(),
+        displacement: solution.displacement.clone(),
+        temperature: solution.temperature.clone(),
+        stress: solution.stresses.iter().map(|s| s.stress).collect(),
+        i2_squared: solution.stresses.iter().map(|s| s.i2_squared()).collect(),
+        contact: solution.contact.clone(),
+    }
 }
 
 /// A VTU file with displacement, temperature, stresses, I2², zones and contact results.

@@ -32,10 +32,12 @@ fn affects_balance(target: ParamTarget) -> bool {
     )
 }
 
-/// Refuse the admissible set if some vertex leaves a floating body unbalanced.
+/// Refuse the admissible set if some vertex leaves a floating body unbalanced. `stop` is asked
+/// before each vertex; when it answers true the check ends with [`WsmError::Cancelled`].
 pub fn check_balance_on_vertices(
     problem: &StateProblem,
     params: &[Parameter],
+    stop: &dyn Fn() -> bool,
 ) -> Result<(), WsmError> {
     let contact = &problem.contact;
     if contact.kernel_dim() == 0 {
@@ -48,6 +50,9 @@ pub fn check_balance_on_vertices(
     let count = if n < 12 { 1usize << n } else { MAX_VERTICES };
     let mid: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
     for v in 0..count {
+        if stop() {
+            return Err(WsmError::Cancelled);
+        }
         // Vertex bits: exhaustive below 2^12, else a fixed pseudo-random sequence of vertices.
         let bits = if n < 12 { v as u64 } else { splitmix(v as u64) };
         let mut theta = mid.clone();

@@ -1,33 +1,26 @@
-//! The worst-scenario engine (SPEC §4, FGCS 4.35–4.36): maps the admissible set U_ad of the
-//! scene (`scene::params`) onto a box, evaluates the requested criteria Φ_i(θ) by state solves
-//! (only what the criteria need; one solve serves all criteria), and runs the outer search for
-//! max and min of each criterion.
+//! The worst-scenario engine (SPEC §4, FGCS 4.35–4.36): runs the outer search for the max and
+//! min of each requested criterion Φ_i over the box of the admissible set U_ad (`scene::params`),
+//! with the physics evaluator of `evaluator`, and assembles the outcome: worst and best value and
+//! data per criterion, sensitivities, history, and the inner-solver statistics.
 //!
-//! Evaluations of a generation run in parallel (rayon, sequential factorisations inside); each
-//! warm-starts its contact solve from the nominal solution, so results do not depend on the
-//! thread count or the evaluation order.
+//! The phases before the search (meshing, the admissible-set check of `admissible`, the nominal
+//! solve) are run by the caller (`crate::run`), which reports them as progress.
 
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
-use std::sync::Mutex;
 use std::time::Instant;
 
-use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use super::admissible::check_balance_on_vertices;
+use super::evaluator::{InnerSummary, ScenarioEvaluator};
 use super::search::{
-    search, ActiveBound, EvalCache, Evaluator, Objective, Progress, SearchControl, SearchProblem,
-    Sense, Status,
+    search, EvalCache, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense, Status,
 };
-use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
-use crate::fem::Par;
-use crate::scene::params::{apply, parameters, Parameter};
-use crate::scene::{Criterion, Scene};
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::scene::params::Parameter;
+use crate::scene::{Criterion, Scene, SceneError};
+use crate::state::StateProblem;
 
 /// Settings of one worst-scenario run (defaults from the scene's `search`).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct WorstSettings {
     pub criteria: Vec<Criterion>,
     pub budget: usize,
@@ -44,281 +37,172 @@ impl WorstSettings {
             max_seconds: scene.search.max_seconds,
         }
     }
-}
 
-/// Inner-solver statistics accumulated over the evaluations.
-#[derive(Debug, Default)]
-struct InnerStats {
-    solves: AtomicUsize,
-    failures: AtomicUsize,
-    reused_factorisations: AtomicUsize,
-    qp_iterations: AtomicUsize,
-    nanos: AtomicU64,
-    max_kkt: Mutex<f64>,
-}
-
-/// The criteria of a scene as a black box for the search.
-pub struct ScenarioEvaluator<'a> {
-    problem: &'a StateProblem,
-    params: &'a [Parameter],
-    criteria: &'a [Criterion],
-    needs: Needs,
-    warm: Option<WarmStart>,
-    stats: InnerStats,
-}
-
-impl<'a> ScenarioEvaluator<'a> {
-    /// Prepare: the nominal solve gives the warm start of every contact solve.
-    pub fn new(
-        problem: &'a StateProblem,
-        params: &'a [Parameter],
-        criteria: &'a [Criterion],
-    ) -> Result<ScenarioEvaluator<'a>, WsmError> {
-        let needs = Needs::for_criteria(&problem.scene, criteria);
-        let mut evaluator = ScenarioEvaluator {
-            problem,
-            params,
-            criteria,
-            needs,
-            warm: None,
-            stats: InnerStats::default(),
-        };
-        if needs.elastic && problem.contact.geometry.dim() > 0 {
-            let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
-            evaluator.warm = nominal.warm_start;
-        }
-        Ok(evaluator)
-    }
-
-    fn options(&self, par: Par) -> SolveOptions {
-        SolveOptions {
-            needs: self.needs,
-            par,
-            warm: self.warm.clone(),
-        }
-    }
-
-    /// The requested criteria at θ.
-    pub fn evaluate_one(&self, theta: &[f64]) -> Result<Vec<f64>, String> {
-        let start = Instant::now();
-        let data = apply(
-            &self.problem.scene,
-            &self.problem.nominal,
-            self.params,
-            theta,
-        );
-        let result = self.problem.solve(&data, &self.options(Par::Seq));
-        self.stats
-            .nanos
-            .fetch_add(start.elapsed().as_nanos() as u64, Ordering::Relaxed);
-        self.stats.solves.fetch_add(1, Ordering::Relaxed);
-        let solution = result.map_err(|e| {
-            self.stats.failures.fetch_add(1, Ordering::Relaxed);
-            e.to_string()
-        })?;
-        let report = &solution.report;
-        if report.reused_factorisation {
-            self.stats
-                .reused_factorisations
-                .fetch_add(1, Ordering::Relaxed);
-        }
-        self.stats
-            .qp_iterations
-            .fetch_add(report.qp_iterations, Ordering::Relaxed);
-        if let Ok(mut m) = self.stats.max_kkt.lock() {
-            *m = m.max(report.kkt.max());
-        }
-        self.criteria
-            .iter()
-            .map(|c| {
-                solution.criteria[*c as usize]
-                    .ok_or_else(|| format!("{} is not defined for this scene", c.name()))
+    /// The objectives of the search: max then min of each criterion, in request order.
+    pub fn objectives(&self) -> Vec<Objective> {
+        (0..self.criteria.len())
+            .flat_map(|criterion| {
+                [Sense::Max, Sense::Min].map(|sense| Objective { criterion, sense })
             })
             .collect()
     }
 }
 
-impl Evaluator for ScenarioEvaluator<'_> {
-    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>> {
-        points.par_iter().map(|p| self.evaluate_one(p)).collect()
-    }
-}
-
-/// One extremum of one criterion.
-#[derive(Debug, Clone, Serialize)]
-pub struct Extremum {
-    pub value: Option<f64>,
-    /// Parameter name → value.
-    pub data: Vec<(String, f64)>,
-    pub active_bounds: Vec<String>,
-    pub sensitivities: Vec<Option<f64>>,
-    pub at_vertex: bool,
-    pub vertex_optimal: bool,
-    pub several_optima: bool,
-    pub status: String,
-    /// (evaluation index, best value so far).
-    pub history: Vec<(usize, f64)>,
-}
-
-/// Worst and best of one criterion.
-#[derive(Debug, Clone, Serialize)]
-pub struct CriterionResult {
+/// Worst (max) and best (min) of one criterion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct CriterionOutcome {
     pub criterion: Criterion,
-    pub worst: Extremum,
-    pub best: Extremum,
-}
-
-/// Inner-solver statistics of a run.
-#[derive(Debug, Clone, Serialize)]
-pub struct InnerSummary {
-    pub solves: usize,
-    pub failures: usize,
-    pub reused_factorisations: usize,
-    pub mean_qp_iterations: f64,
-    pub solver_seconds: f64,
-    pub max_kkt_residual: f64,
-}
-
-/// The result of `wsm worst`.
-#[derive(Debug, Clone, Serialize)]
-pub struct WorstResult {
-    pub scene: String,
-    pub parameters: Vec<ParameterInfo>,
-    pub criteria: Vec<CriterionResult>,
-    pub status: String,
-    pub evaluations: usize,
-    pub new_evaluations: usize,
-    pub wall_seconds: f64,
-    pub evaluations_per_second: f64,
-    /// Share of the wall time spent in inner solves (summed over threads / wall / threads).
-    pub inner_time_share: f64,
-    pub setup_seconds: f64,
-    pub inner: InnerSummary,
+    pub worst: ObjectiveResult,
+    pub best: ObjectiveResult,
 }
 
 /// A parameter of the admissible set.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ParameterInfo {
+    /// The parameter's name (the scene's `uncertain[i].name`, else its field path).
     pub name: String,
+    /// The JSON path of the scene number it varies.
+    pub field: String,
+    /// Admissible interval \[lo, hi\] (units of the field).
     pub interval: [f64; 2],
 }
 
-/// Validate the admissible set and build the state problem.
-pub fn prepare(scene: Scene) -> Result<(StateProblem, Vec<Parameter>), WsmError> {
-    let params = parameters(&scene)?;
-    let problem = StateProblem::new(scene)?;
-    check_balance_on_vertices(&problem, &params)?;
-    Ok((problem, params))
+impl ParameterInfo {
+    pub fn list(scene: &Scene, params: &[Parameter]) -> Vec<ParameterInfo> {
+        params
+            .iter()
+            .zip(&scene.uncertain)
+            .map(|(p, u)| ParameterInfo {
+                name: p.name.clone(),
+                field: u.field.clone(),
+                interval: [p.lo, p.hi],
+            })
+            .collect()
+    }
 }
 
-/// Run the search for max and min of each requested criterion.
+/// The outcome of a worst-scenario run (complete or partial: see `status`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct WorstOutcome {
+    pub scene: String,
+    /// Stable hash of everything that determines an evaluation's value (scene and criteria).
+    pub run_hash: String,
+    pub status: Status,
+    pub parameters: Vec<ParameterInfo>,
+    /// Per criterion; the `best_point` of each extremum is aligned with `parameters`.
+    pub criteria: Vec<CriterionOutcome>,
+    pub budget: usize,
+    /// Distinct points used, including those replayed from a log.
+    pub evaluations: usize,
+    /// Points solved by this run.
+    pub new_evaluations: usize,
+    /// Wall time of the search \[s\].
+    pub wall_seconds: f64,
+    /// Meshing and operator set-up \[s\].
+    pub setup_seconds: f64,
+    pub evaluations_per_second: f64,
+    /// Share of the wall time spent in inner solves (summed over threads / wall / threads).
+    pub inner_time_share: f64,
+    pub inner: InnerSummary,
+}
+
+impl WorstOutcome {
+    /// A run that stopped (cancel or time limit) before its search began: no values yet.
+    pub fn unstarted(
+        scene: &Scene,
+        params: &[Parameter],
+        settings: &WorstSettings,
+        status: Status,
+    ) -> WorstOutcome {
+        let n = params.len();
+        let objective = |criterion, sense| ObjectiveResult::empty(criterion, sense, status, n);
+        WorstOutcome {
+            scene: scene.name.clone(),
+            run_hash: String::new(),
+            status,
+            parameters: ParameterInfo::list(scene, params),
+            criteria: settings
+                .criteria
+                .iter()
+                .enumerate()
+                .map(|(i, &criterion)| CriterionOutcome {
+                    criterion,
+                    worst: objective(i, Sense::Max),
+                    best: objective(i, Sense::Min),
+                })
+                .collect(),
+            budget: settings.budget,
+            evaluations: 0,
+            new_evaluations: 0,
+            wall_seconds: 0.0,
+            setup_seconds: 0.0,
+            evaluations_per_second: 0.0,
+            inner_time_share: 0.0,
+            inner: InnerSummary {
+                solves: 0,
+                failures: 0,
+                reused_factorisations: 0,
+                mean_qp_iterations: 0.0,
+                solver_seconds: 0.0,
+                max_kkt_residual: 0.0,
+                heat_solves: 0,
+                factorisations: 0,
+                elastic_solves: 0,
+            },
+        }
+    }
+}
+
+/// Run the search for max and min of each requested criterion, evaluating through `cache`
+/// (pre-loaded to resume). A cancelled or timed-out search returns its partial outcome.
 pub fn run(
     problem: &StateProblem,
     params: &[Parameter],
     settings: &WorstSettings,
+    evaluator: &ScenarioEvaluator,
     cache: &mut EvalCache,
-    cancel: &AtomicBool,
-    on_progress: &(dyn Fn(&Progress) + Sync),
-) -> Result<WorstResult, WsmError> {
+    control: SearchControl<'_>,
+) -> Result<WorstOutcome, WsmError> {
     if settings.criteria.is_empty() {
-        return Err(
-            crate::scene::SceneError::new("search.criteria", "no criterion requested").into(),
-        );
+        return Err(SceneError::new("search.criteria", "no criterion requested").into());
     }
     let start = Instant::now();
-    let evaluator = ScenarioEvaluator::new(problem, params, &settings.criteria)?;
-    let objectives: Vec<Objective> = (0..settings.criteria.len())
-        .flat_map(|criterion| [Sense::Max, Sense::Min].map(|sense| Objective { criterion, sense }))
-        .collect();
     let search_problem = SearchProblem {
         bounds: params.iter().map(|p| [p.lo, p.hi]).collect(),
-        objectives,
+        objectives: settings.objectives(),
         budget: settings.budget,
         max_seconds: settings.max_seconds,
         seed: settings.seed,
     };
-    let control = SearchControl {
-        cancel,
-        on_progress,
-    };
-    let result = search(&search_problem, &evaluator, cache, control)
-        .map_err(|e| WsmError::Contact(format!("search: {e}")))?;
-    if cancel.load(Ordering::Relaxed) && result.status == Status::Cancelled {
-        return Err(WsmError::Cancelled);
-    }
-    let extremum = |k: usize| {
-        let o = &result.objectives[k];
-        Extremum {
-            value: o.best_value,
-            data: o
-                .best_point
-                .as_ref()
-                .map(|p| {
-                    params
-                        .iter()
-                        .zip(p)
-                        .map(|(q, v)| (q.name.clone(), *v))
-                        .collect()
-                })
-                .unwrap_or_default(),
-            active_bounds: o
-                .active_bounds
-                .iter()
-                .map(|b| match b {
-                    ActiveBound::None => "interior",
-                    ActiveBound::Lower => "lower",
-                    ActiveBound::Upper => "upper",
-                    ActiveBound::Fixed => "fixed",
-                })
-                .map(str::to_string)
-                .collect(),
-            sensitivities: o.sensitivities.clone(),
-            at_vertex: o.at_vertex,
-            vertex_optimal: o.vertex_optimal,
-            several_optima: o.several_optima,
-            status: format!("{:?}", o.status),
-            history: o.history.clone(),
-        }
-    };
+    let result = search(&search_problem, evaluator, cache, control)?;
+    let mut objectives = result.objectives.into_iter();
     let criteria = settings
         .criteria
         .iter()
-        .enumerate()
-        .map(|(i, &criterion)| CriterionResult {
-            criterion,
-            worst: extremum(2 * i),
-            best: extremum(2 * i + 1),
+        .filter_map(|&criterion| {
+            Some(CriterionOutcome {
+                criterion,
+                worst: objectives.next()?,
+                best: objectives.next()?,
+            })
         })
         .collect();
     let wall = start.elapsed().as_secs_f64();
-    let stats = &evaluator.stats;
-    let solves = stats.solves.load(Ordering::Relaxed);
-    let solver_seconds = stats.nanos.load(Ordering::Relaxed) as f64 * 1e-9;
-    Ok(WorstResult {
+    let inner = evaluator.summary();
+    Ok(WorstOutcome {
         scene: problem.scene.name.clone(),
-        parameters: params
-            .iter()
-            .map(|p| ParameterInfo {
-                name: p.name.clone(),
-                interval: [p.lo, p.hi],
-            })
-            .collect(),
+        run_hash: String::new(),
+        status: result.status,
+        parameters: ParameterInfo::list(&problem.scene, params),
         criteria,
-        status: format!("{:?}", result.status),
+        budget: settings.budget,
         evaluations: result.evaluations,
         new_evaluations: result.new_evaluations,
         wall_seconds: wall,
         evaluations_per_second: result.new_evaluations as f64 / wall.max(1e-9),
-        inner_time_share: solver_seconds / (wall.max(1e-9) * rayon::current_num_threads() as f64),
+        inner_time_share: inner.solver_seconds
+            / (wall.max(1e-9) * rayon::current_num_threads() as f64),
         setup_seconds: problem.setup_seconds,
-        inner: InnerSummary {
-            solves,
-            failures: stats.failures.load(Ordering::Relaxed),
-            reused_factorisations: stats.reused_factorisations.load(Ordering::Relaxed),
-            mean_qp_iterations: stats.qp_iterations.load(Ordering::Relaxed) as f64
-                / solves.max(1) as f64,
-            solver_seconds,
-            max_kkt_residual: stats.max_kkt.lock().map(|m| *m).unwrap_or(0.0),
-        },
+        inner,
     })
 }

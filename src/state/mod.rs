@@ -345,17 +345,20 @@ impl StateProblem {
         };
         report.solver = "dd".into();
         report.timings.contact = dd.report.times.total;
-        report.dd = serde_json::to_value(&dd.report).ok();
         if let Some(fallback) = &dd.report.fallback {
             report.warnings.push(format!("DD: {fallback}"));
         }
+        report.dd = Some(Box::new(dd.report));
         Ok(sol)
     }
 
     /// The temperature field of the data (reused when the thermal data did not change).
     fn temperature(&self, data: &Data, par: Par) -> Result<Arc<Vec<f64>>, WsmError> {
         let Some(heat) = &self.heat else {
-            return Err(WsmError::Contact("the scene has no thermal part".into()));
+            return Err(WsmError::Solver {
+                stage: crate::error::SolverStage::Heat,
+                reason: "the scene has no thermal part".into(),
+            });
         };
         let thermal_numbers = data
             .materials

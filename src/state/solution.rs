@@ -10,7 +10,7 @@ use crate::fem::ElementStress;
 use crate::scene::{piecewise_linear, Data};
 
 /// Contact status of a node pair.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, utoipa::ToSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactState {
     Open,
@@ -19,7 +19,7 @@ pub enum ContactState {
 }
 
 /// Results at one contact node pair.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct ContactNode {
     pub zone: usize,
     pub position: [f64; 2],
@@ -98,7 +98,7 @@ pub struct SolveReport {
     pub warnings: Vec<String>,
     /// Solver-specific details (DD iteration counts etc.).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub dd: Option<serde_json::Value>,
+    pub dd: Option<Box<crate::dd::DdReport>>,
     pub timings: Timings,
 }
 
@@ -192,7 +192,7 @@ pub fn contact_results(
 }
 
 /// Resultants and statistics of one contact zone.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct ZoneSummary {
     pub name: String,
     /// Σ normal force / Σ nodal length \[Pa\].

@@ -40,6 +40,8 @@ mod space;
 pub use cache::{EvalCache, Outcome};
 pub use driver::search;
 
+use serde::{Deserialize, Serialize};
+
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
@@ -53,7 +55,8 @@ pub trait Evaluator: Sync {
 }
 
 /// Whether a criterion is to be maximised (the worst scenario) or minimised (the best one).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
 pub enum Sense {
     Max,
     Min,
@@ -127,7 +130,20 @@ impl Default for SearchControl<'static> {
 
 /// Why a search (or one objective of it) ended. Ordered by precedence: the status of a whole
 /// search is the greatest of its objectives' statuses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    Serialize,
+    Deserialize,
+    utoipa::ToSchema,
+)]
+#[serde(rename_all = "snake_case")]
 pub enum Status {
     /// The fine polish of the best point converged: its step fell below 1e-8 of the unit box,
     /// or a poll around it was flat within 1e-9 relative.
@@ -144,9 +160,11 @@ pub enum Status {
 }
 
 /// Which bound a parameter sits on at an optimum.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
 pub enum ActiveBound {
     /// Strictly inside its interval (farther than 1e-9 of the range from both ends).
+    #[serde(rename = "interior")]
     None,
     Lower,
     Upper,
@@ -155,13 +173,15 @@ pub enum ActiveBound {
 }
 
 /// The extremum found for one objective.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ObjectiveResult {
+    /// Index of the criterion in the criteria vector.
     pub criterion: usize,
     pub sense: Sense,
-    /// Best criterion value (`None` if no feasible point was evaluated).
+    /// Best criterion value (`None` if no feasible point was evaluated), in the criterion's
+    /// unit (K for Φ1–Φ2, m for Φ3–Φ4, Pa² for Φ5, Pa for Φ6).
     pub best_value: Option<f64>,
-    /// Physical parameters of the best value.
+    /// Physical parameters of the best value (units of each parameter's field).
     pub best_point: Option<Vec<f64>>,
     pub status: Status,
     /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
@@ -180,7 +200,28 @@ pub struct ObjectiveResult {
     /// box. `None` for fixed parameters, when Φ = 0, or when the step was not evaluated.
     pub sensitivities: Vec<Option<f64>>,
     /// (number of evaluations so far, best value so far) at every improvement.
+    #[schema(value_type = Vec<Vec<f64>>)]
     pub history: Vec<(usize, f64)>,
+}
+
+impl ObjectiveResult {
+    /// Nothing found yet (a run stopped before its search), for `n` parameters.
+    pub fn empty(criterion: usize, sense: Sense, status: Status, n: usize) -> ObjectiveResult {
+        ObjectiveResult {
+            criterion,
+            sense,
+            best_value: None,
+            best_point: None,
+            status,
+            at_vertex: false,
+            vertex_optimal: false,
+            several_optima: false,
+            optima: Vec::new(),
+            active_bounds: Vec::new(),
+            sensitivities: vec![None; n],
+            history: Vec::new(),
+        }
+    }
 }
 
 /// The outcome of [`search`].

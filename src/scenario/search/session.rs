@@ -18,6 +18,9 @@ use std::sync::atomic::Ordering;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
+/// Points per thread evaluated between two checks of cancellation and the time limit.
+const CHUNK_PER_THREAD: usize = 2;
+
 /// A batch was refused: the budget cannot take it, or the run is halted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("search stopped: {0:?}")]
@@ -198,16 +201,18 @@ impl<'a> Session<'a> {
             .filter(|&&j| ledger.cache.get(&physical[j]).is_none())
             .map(|&j| physical[j].clone())
             .collect();
-        self.fill_cache(&mut ledger, missing);
+        // A batch halted part-way still records the points it evaluated (a partial result).
+        let filled = self.fill_cache(&mut ledger, missing);
         for &j in &new {
-            let criteria = ledger
-                .cache
-                .get(&physical[j])
-                .and_then(|o| sanitize(o.clone()).ok());
+            let Some(outcome) = ledger.cache.get(&physical[j]).cloned() else {
+                continue;
+            };
+            let criteria = sanitize(outcome).ok();
             self.record(&mut ledger, units[j].as_ref().to_vec(), criteria);
             let index = ledger.trace.len() - 1;
             ledger.seen.insert(keys[j].clone(), index);
         }
+        filled?;
         let indices = keys
             .iter()
             .filter_map(|k| ledger.seen.get(k).copied())
@@ -223,19 +228,28 @@ impl<'a> Session<'a> {
         Ok((indices, progress))
     }
 
-    /// Evaluate `points` (distinct, not in the cache) as one batch and cache the answers.
-    fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) {
-        if points.is_empty() {
-            return;
+    /// Evaluate `points` (distinct, not in the cache) and cache the answers, in chunks of a few
+    /// points per thread so that cancellation and the time limit are honoured within a large
+    /// batch.
+    fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) -> Result<(), Stop> {
+        let chunk = CHUNK_PER_THREAD * rayon::current_num_threads().max(1);
+        for (i, part) in points.chunks(chunk).enumerate() {
+            if i > 0 {
+                Self::update_halt(ledger, self);
+                if let Some(halt) = ledger.halt {
+                    return Err(Stop(halt));
+                }
+            }
+            let mut answers = self.evaluator.evaluate(part).into_iter();
+            ledger.fresh += part.len();
+            for point in part {
+                let answer = answers.next().unwrap_or_else(|| {
+                    Err("the evaluator returned fewer results than points".to_string())
+                });
+                ledger.cache.insert(point.clone(), sanitize(answer));
+            }
         }
-        let mut answers = self.evaluator.evaluate(&points).into_iter();
-        ledger.fresh += points.len();
-        for point in points {
-            let answer = answers.next().unwrap_or_else(|| {
-                Err("the evaluator returned fewer results than points".to_string())
-            });
-            ledger.cache.insert(point, sanitize(answer));
-        }
+        Ok(())
     }
 
     /// Append a visit to the trace and update every objective's best and history.

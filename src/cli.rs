@@ -1,0 +1,193 @@
+//! What the `wsm` commands do, as a thin layer over the front door (`wsm::run`): reading scene
+//! files, a progress bar on stderr, writing result files, and one-line errors with an exit code
+//! per error kind.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use wsm::error::{ErrorKind, WsmError};
+use wsm::run::{
+    self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
+    SolveRequest, WorstOutcome, WorstRequest,
+};
+use wsm::scene::{parse, Criterion, Scene, SceneError};
+
+/// Exit status of an error: 2 bad input or unknown name, 3 unsolvable, 4 solver failure,
+/// 5 files and logs, 6 cancelled.
+pub fn exit_code(error: &WsmError) -> ExitCode {
+    ExitCode::from(match error.kind() {
+        ErrorKind::BadInput | ErrorKind::NotFound => 2,
+        ErrorKind::Unsolvable => 3,
+        ErrorKind::Solver => 4,
+        ErrorKind::Io => 5,
+        ErrorKind::Cancelled => 6,
+    })
+}
+
+/// Read and validate a scene from a file or a bundled example.
+pub fn load_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
+    let text = match (path, example) {
+        (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
+        (None, Some(name)) => wsm::examples::find(name)?.to_string(),
+        _ => {
+            return Err(
+                SceneError::new("SCENE", "give a scene file or --example NAME (not both)").into(),
+            )
+        }
+    };
+    Ok(parse(&text)?)
+}
+
+/// `--criteria phi3,phi5` (empty: the scene's criteria).
+pub fn parse_criteria(names: &[String]) -> Result<Option<Vec<Criterion>>, WsmError> {
+    if names.is_empty() {
+        return Ok(None);
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            Criterion::parse(c).ok_or_else(|| {
+                SceneError::new(
+                    format!("--criteria[{i}]"),
+                    format!("unknown criterion '{c}' (phi1..phi6)"),
+                )
+                .into()
+            })
+        })
+        .collect::<Result<Vec<_>, WsmError>>()
+        .map(Some)
+}
+
+/// Pretty JSON of a result; an encoding failure is an error.
+pub fn to_json(value: &impl Serialize) -> Result<String, WsmError> {
+    serde_json::to_string_pretty(value).map_err(|e| WsmError::io("JSON output", e))
+}
+
+fn write(path: &Path, text: &str) -> Result<(), WsmError> {
+    std::fs::write(path, text).map_err(|e| WsmError::io(path.display(), e))
+}
+
+/// `wsm solve`: the JSON summary; the full result and a VTU file on request.
+pub fn solve(
+    scene: Scene,
+    request: SolveRequest,
+    out: Option<&Path>,
+    vtu: Option<&Path>,
+) -> Result<String, WsmError> {
+    let request = SolveRequest {
+        fields: out.is_some() || vtu.is_some(),
+        ..request
+    };
+    let output = run::solve(scene, &request)?;
+    if let Some(p) = out {
+        write(p, &to_json(&output)?)?;
+    }
+    if let (Some(p), Some(text)) = (vtu, &output.vtu) {
+        write(p, text)?;
+    }
+    to_json(&output.summary)
+}
+
+/// Files of `wsm worst`.
+pub struct WorstFiles {
+    pub out: Option<PathBuf>,
+    pub log: Option<PathBuf>,
+    pub resume: Option<PathBuf>,
+    pub table: Option<PathBuf>,
+}
+
+/// `wsm worst`: the search with a progress bar; prints the outcome without the histories.
+pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<String, WsmError> {
+    let settings = request.settings(&scene)?;
+    let names: Vec<&str> = settings.criteria.iter().map(|c| c.name()).collect();
+    let (file_log, memory_log) = match (&files.log, &files.resume) {
+        (Some(_), Some(_)) => {
+            return Err(SceneError::new(
+                "--log",
+                "give --log FILE for a new log or --resume FILE to continue one, not both",
+            )
+            .into())
+        }
+        (Some(p), None) => (Some(Arc::new(JsonLinesLog::new(p, LogMode::Create))), None),
+        (None, Some(p)) => (Some(Arc::new(JsonLinesLog::new(p, LogMode::Resume))), None),
+        (None, None) => (
+            None,
+            files.table.as_ref().map(|_| Arc::new(MemoryLog::new())),
+        ),
+    };
+    let bar = ProgressBar::new(settings.budget as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} solves {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let progress_bar = bar.clone();
+    let names_owned: Vec<String> = names.iter().map(|s| s.to_string()).collect();
+    let mut control = RunControl::new().with_progress(move |event: &ProgressEvent| {
+        progress_bar.set_position(event.evaluations as u64);
+        let best: Vec<String> = event
+            .best
+            .iter()
+            .filter(|b| b.sense == Sense::Max)
+            .zip(&names_owned)
+            .filter_map(|(b, n)| b.value.map(|v| format!("max {n} {v:.4e}")))
+            .collect();
+        progress_bar.set_message(format!("{:?} {}", event.phase, best.join(", ")));
+    });
+    if let Some(log) = &file_log {
+        control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
+    } else if let Some(log) = &memory_log {
+        control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
+    }
+    let outcome = run::worst(scene, &request, &control)?;
+    bar.finish_and_clear();
+    if let Some(p) = &files.out {
+        write(p, &to_json(&outcome)?)?;
+    }
+    if let Some(p) = &files.table {
+        let evaluations = match (&file_log, &memory_log) {
+            (Some(log), _) => log.evaluations(),
+            (None, Some(log)) => log.evaluations(),
+            (None, None) => Vec::new(),
+        };
+        let file = std::fs::File::create(p).map_err(|e| WsmError::io(p.display(), e))?;
+        run::write_csv(
+            file,
+            &p.display().to_string(),
+            &outcome.parameters,
+            &settings.criteria,
+            &evaluations,
+        )?;
+    }
+    to_json(&without_histories(outcome))
+}
+
+/// The outcome as printed: the convergence histories are left to `--out`.
+fn without_histories(mut outcome: WorstOutcome) -> WorstOutcome {
+    for c in &mut outcome.criteria {
+        c.worst.history.clear();
+        c.best.history.clear();
+    }
+    outcome
+}
+
+/// `wsm example`: a scene's JSON, or the list of names.
+pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
+    match (name, list) {
+        (Some(n), false) => Ok(wsm::examples::find(n)?.to_string()),
+        _ => Ok(wsm::examples::names().collect::<Vec<_>>().join("\n")),
+    }
+}
+
+/// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
+pub fn serve(config: wsm::server::ServeConfig) -> Result<String, WsmError> {
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| WsmError::io("async runtime", e))?;
+    runtime.block_on(wsm::server::serve(config))?;
+    Ok("wsm: stopped".into())
+}

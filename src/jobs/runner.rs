@@ -1,0 +1,282 @@
+//! The workers of `wsm serve`: each leases a job from the store, runs it through the front door
+//! (`run::worst`) on a blocking thread (never on the async runtime), stores every evaluation as
+//! it completes, renews the lease by heartbeat, passes cancel requests on, publishes progress
+//! (to the store and to live subscribers), and stores how the job ended. A panic inside a job
+//! fails that job with the reason; the worker goes on.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
+
+use tokio::sync::{broadcast, mpsc, Notify};
+
+use super::{JobEnd, JobRecord, JobStore};
+use crate::error::{ErrorKind, WsmError};
+use crate::run::{self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status};
+
+/// Settings of the worker pool.
+#[derive(Debug, Clone)]
+pub struct RunnerConfig {
+    pub workers: usize,
+    /// Threads of each job's pool (`None`: rayon's global pool).
+    pub threads_per_job: Option<usize>,
+    /// A lease not renewed for this long is taken over \[s\].
+    pub lease_seconds: f64,
+    /// This process's name in leases and evaluations.
+    pub owner: String,
+}
+
+/// Jobs running in this process: their cancel flags and progress channels.
+#[derive(Default)]
+pub struct Live {
+    jobs: Mutex<HashMap<String, LiveJob>>,
+}
+
+struct LiveJob {
+    cancel: Arc<AtomicBool>,
+    events: broadcast::Sender<ProgressEvent>,
+}
+
+impl Live {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, LiveJob>> {
+        self.jobs.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Progress events of a job running here.
+    pub fn subscribe(&self, id: &str) -> Option<broadcast::Receiver<ProgressEvent>> {
+        self.lock().get(id).map(|j| j.events.subscribe())
+    }
+
+    /// Raise the cancel flag of a job running here.
+    pub fn cancel(&self, id: &str) {
+        if let Some(job) = self.lock().get(id) {
+            job.cancel.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Start the workers; `wake` is notified when a job is submitted.
+pub fn spawn_workers(
+    store: Arc<dyn JobStore>,
+    live: Arc<Live>,
+    config: RunnerConfig,
+    wake: Arc<Notify>,
+) {
+    for _ in 0..config.workers.max(1) {
+        let (store, live, config, wake) =
+            (store.clone(), live.clone(), config.clone(), wake.clone());
+        tokio::spawn(async move {
+            loop {
+                match store.lease(&config.owner, config.lease_seconds).await {
+                    Ok(Some(job)) => run_job(&store, &live, &config, job).await,
+                    Ok(None) => {
+                        tokio::select! {
+                            _ = wake.notified() => {}
+                            _ = tokio::time::sleep(Duration::from_millis(500)) => {}
+                        }
+                    }
+                    Err(e) => {
+                        eprintln!("wsm: {e}");
+                        tokio::time::sleep(Duration::from_secs(1)).await;
+                    }
+                }
+            }
+        });
+    }
+}
+
+/// The evaluation log of a job: its stored evaluations, appended to as they complete.
+struct StoreLog {
+    store: Arc<dyn JobStore>,
+    runtime: tokio::runtime::Handle,
+    job: String,
+    owner: String,
+    run_hash: String,
+    replay: Vec<Evaluation>,
+}
+
+impl EvaluationLog for StoreLog {
+    fn open(&self, header: &LogHeader) -> Result<Vec<Evaluation>, WsmError> {
+        if header.run_hash != self.run_hash {
+            return Err(WsmError::LogMismatch {
+                path: format!("job {}", self.job),
+                expected: header.run_hash.clone(),
+                found: self.run_hash.clone(),
+            });
+        }
+        Ok(self.replay.clone())
+    }
+
+    fn append(&self, evaluation: &Evaluation) -> Result<(), WsmError> {
+        self.runtime
+            .block_on(
+                self.store
+                    .append_evaluation(&self.job, &self.owner, evaluation),
+            )
+            .map(|_| ())
+            .map_err(|e| WsmError::io(format!("job {}", self.job), e))
+    }
+}
+
+/// The text of a panic payload.
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+fn kind_name(kind: ErrorKind) -> &'static str {
+    match kind {
+        ErrorKind::BadInput => "bad_input",
+        ErrorKind::Unsolvable => "unsolvable",
+        ErrorKind::Solver => "solver",
+        ErrorKind::Cancelled => "cancelled",
+        ErrorKind::NotFound => "not_found",
+        ErrorKind::Io => "io",
+    }
+}
+
+async fn run_job(
+    store: &Arc<dyn JobStore>,
+    live: &Arc<Live>,
+    config: &RunnerConfig,
+    job: JobRecord,
+) {
+    let id = job.id.clone();
+    let cancel = Arc::new(AtomicBool::new(job.cancel_requested));
+    let (events, _) = broadcast::channel(256);
+    live.lock().insert(
+        id.clone(),
+        LiveJob {
+            cancel: cancel.clone(),
+            events: events.clone(),
+        },
+    );
+    let lost = Arc::new(AtomicBool::new(false));
+    let heartbeat = tokio::spawn(heartbeat(
+        store.clone(),
+        config.clone(),
+        id.clone(),
+        cancel.clone(),
+        lost.clone(),
+    ));
+    let (progress_tx, progress_rx) = mpsc::unbounded_channel::<ProgressEvent>();
+    let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx, events));
+    let end = match store.evaluations(&id, None).await {
+        Ok(replay) => {
+            let log = StoreLog {
+                store: store.clone(),
+                runtime: tokio::runtime::Handle::current(),
+                job: id.clone(),
+                owner: config.owner.clone(),
+                run_hash: job.run_hash.clone(),
+                replay,
+            };
+            let control = RunControl::new()
+                .with_cancel(cancel.clone())
+                .with_log(Arc::new(log))
+                .with_progress(move |e| {
+                    let _ = progress_tx.send(e.clone());
+                });
+            let mut request = job.settings.clone();
+            if config.threads_per_job.is_some() {
+                request.threads = config.threads_per_job;
+            }
+            let scene_text = job.scene.clone();
+            let task = tokio::task::spawn_blocking(move || {
+                let scene = crate::scene::parse(&scene_text)?;
+                run::worst(scene, &request, &control)
+            });
+            match task.await {
+                Ok(Ok(outcome)) if outcome.status == Status::Cancelled => {
+                    JobEnd::Cancelled(Some(outcome))
+                }
+                Ok(Ok(outcome)) => JobEnd::Succeeded(outcome),
+                Ok(Err(WsmError::Cancelled)) => JobEnd::Cancelled(None),
+                Ok(Err(e)) => JobEnd::Failed {
+                    kind: kind_name(e.kind()).into(),
+                    error: e.to_string(),
+                },
+                Err(join) if join.is_panic() => JobEnd::Failed {
+                    kind: "panic".into(),
+                    error: format!("the job panicked: {}", panic_message(join.into_panic())),
+                },
+                Err(join) => JobEnd::Failed {
+                    kind: "panic".into(),
+                    error: format!("the job was aborted: {join}"),
+                },
+            }
+        }
+        Err(e) => JobEnd::Failed {
+            kind: "io".into(),
+            error: e.to_string(),
+        },
+    };
+    heartbeat.abort();
+    let _ = publisher.await;
+    // A job whose lease was taken over belongs to its new owner now.
+    if !lost.load(Ordering::SeqCst) {
+        if let Err(e) = store.finish(&id, &config.owner, end).await {
+            eprintln!("wsm: job {id}: {e}");
+        }
+    }
+    live.lock().remove(&id);
+}
+
+/// Renew the lease every third of its length and pick up cancel requests from the store.
+async fn heartbeat(
+    store: Arc<dyn JobStore>,
+    config: RunnerConfig,
+    id: String,
+    cancel: Arc<AtomicBool>,
+    lost: Arc<AtomicBool>,
+) {
+    let period = Duration::from_secs_f64((config.lease_seconds / 3.0).max(0.05));
+    loop {
+        tokio::time::sleep(period).await;
+        match store.renew(&id, &config.owner, config.lease_seconds).await {
+            Ok(true) => {}
+            Ok(false) => {
+                lost.store(true, Ordering::SeqCst);
+                cancel.store(true, Ordering::SeqCst);
+                return;
+            }
+            Err(e) => eprintln!("wsm: job {id}: {e}"),
+        }
+        if let Ok(Some(job)) = store.get(&id).await {
+            if job.cancel_requested {
+                cancel.store(true, Ordering::SeqCst);
+            }
+        }
+    }
+}
+
+/// Store the latest progress (at most every 200 ms, and always the last) and pass every event
+/// to live subscribers.
+async fn publish(
+    store: Arc<dyn JobStore>,
+    id: String,
+    mut events: mpsc::UnboundedReceiver<ProgressEvent>,
+    live: broadcast::Sender<ProgressEvent>,
+) {
+    let mut last_write = std::time::Instant::now() - Duration::from_secs(1);
+    let mut pending: Option<ProgressEvent> = None;
+    while let Some(event) = events.recv().await {
+        let _ = live.send(event.clone());
+        if last_write.elapsed() >= Duration::from_millis(200) {
+            if let Err(e) = store.set_progress(&id, &event).await {
+                eprintln!("wsm: job {id}: {e}");
+            }
+            last_write = std::time::Instant::now();
+            pending = None;
+        } else {
+            pending = Some(event);
+        }
+    }
+    if let Some(event) = pending {
+        let _ = store.set_progress(&id, &event).await;
+    }
+}

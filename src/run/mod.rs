@@ -1,0 +1,300 @@
+//! The front door of the engine: the one way the command line, the HTTP service and workers
+//! drive it. [`solve`] runs one state solve; [`worst`] runs a worst-scenario search through its
+//! phases (meshing, admissible-set check, nominal solve, screening, swarm, polish,
+//! sensitivities), reporting progress, honouring the cancel flag and the time limit in every
+//! phase, logging every evaluation as it completes and replaying a log to resume. A cancelled or
+//! timed-out run returns its partial outcome with its status.
+//!
+//! Requests and outcomes are plain serde types; failures are [`WsmError`]s whose
+//! [`crate::error::ErrorKind`] maps onto HTTP statuses and exit codes.
+
+mod control;
+mod hash;
+mod log;
+mod request;
+mod table;
+
+pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
+pub use hash::{canonical_json, run_hash};
+pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
+pub use request::{SolveRequest, WorstRequest};
+pub use table::{columns as table_columns, write_csv};
+
+pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
+pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
+pub use crate::scenario::search::{ActiveBound, ObjectiveResult, Sense, Status};
+pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError};
+use std::time::Instant;
+
+use crate::error::WsmError;
+use crate::fem::Par;
+use crate::scenario::admissible::check_balance_on_vertices;
+use crate::scenario::evaluator::ScenarioEvaluator;
+use crate::scenario::search::{EvalCache, Progress, SearchControl};
+use crate::scenario::worst::{self as engine, WorstSettings};
+use crate::scene::params::{apply, parameters, Parameter};
+use crate::scene::Scene;
+use crate::state::{Needs, SolveOptions, StateProblem};
+use control::{best_so_far, phase_objective};
+
+/// The result of [`solve`].
+#[derive(Debug, Clone, serde::Serialize, utoipa::ToSchema)]
+pub struct SolveOutput {
+    pub summary: SolveSummary,
+    /// The fields, when requested.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fields: Option<SolveFields>,
+    /// The solution as a VTU document for ParaView, when fields were requested.
+    #[serde(skip)]
+    pub vtu: Option<String>,
+}
+
+/// One state solve of `scene` at its nominal data.
+pub fn solve(scene: Scene, request: &SolveRequest) -> Result<SolveOutput, WsmError> {
+    solve_at(scene, None, request)
+}
+
+/// One state solve at given values of the uncertain parameters (in the order of the scene's
+/// `uncertain` list; `None`: the nominal data) — e.g. the worst scenario of a criterion.
+pub fn solve_at(
+    mut scene: Scene,
+    point: Option<&[f64]>,
+    request: &SolveRequest,
+) -> Result<SolveOutput, WsmError> {
+    if let Some(kind) = request.solver {
+        scene.solver.kind = kind;
+    }
+    let params = parameters(&scene)?;
+    if let Some(p) = point {
+        if p.len() != params.len() {
+            return Err(crate::scene::SceneError::new(
+                "point",
+                format!(
+                    "{} values for {} uncertain parameters",
+                    p.len(),
+                    params.len()
+                ),
+            )
+            .into());
+        }
+    }
+    let problem = StateProblem::new(scene)?;
+    let data = match point {
+        Some(p) => apply(&problem.scene, &problem.nominal, &params, p),
+        None => problem.nominal.clone(),
+    };
+    let options = SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: Par::rayon(0),
+        warm: None,
+    };
+    let solution = problem.solve(&data, &options)?;
+    let summary = crate::output::result::summary(&problem, &solution);
+    let (fields, vtu) = if request.fields {
+        (
+            Some(crate::output::result::fields(&problem, &solution)),
+            Some(crate::output::result::vtu(&problem, &solution)),
+        )
+    } else {
+        (None, None)
+    };
+    Ok(SolveOutput {
+        summary,
+        fields,
+        vtu,
+    })
+}
+
+/// The log header of a run: its hash, scene, criteria and parameter fields.
+pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, WsmError> {
+    Ok(LogHeader::new(
+        run_hash(scene, &settings.criteria)?,
+        scene.name.clone(),
+        settings.criteria.clone(),
+        scene.uncertain.iter().map(|u| u.field.clone()).collect(),
+    ))
+}
+
+/// A worst-scenario search on `scene`: the worst and best of each requested criterion over the
+/// admissible box. Runs in its own thread pool when `request.threads` is set.
+pub fn worst(
+    scene: Scene,
+    request: &WorstRequest,
+    control: &RunControl,
+) -> Result<WorstOutcome, WsmError> {
+    let settings = request.settings(&scene)?;
+    let params = parameters(&scene)?;
+    let header = log_header(&scene, &settings)?;
+    let replay = match &control.log {
+        Some(log) => log.open(&header)?,
+        None => Vec::new(),
+    };
+    let run = Run {
+        control,
+        settings: &settings,
+        params: &params,
+        start: Instant::now(),
+        halt: AtomicBool::new(false),
+        log_error: Mutex::new(None),
+    };
+    let mut outcome = match request.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| WsmError::io("thread pool", e))?
+            .install(|| run.execute(scene, replay))?,
+        None => run.execute(scene, replay)?,
+    };
+    outcome.run_hash = header.run_hash;
+    Ok(outcome)
+}
+
+/// One worst-scenario run in progress.
+struct Run<'a> {
+    control: &'a RunControl,
+    settings: &'a WorstSettings,
+    params: &'a [Parameter],
+    start: Instant,
+    /// Raised (for the search) by a cancel request or a failed log write.
+    halt: AtomicBool,
+    log_error: Mutex<Option<WsmError>>,
+}
+
+impl Run<'_> {
+    /// Cancelled or out of time: the status to stop with.
+    fn stop_status(&self) -> Option<Status> {
+        if self.control.is_cancelled() || self.halt.load(Ordering::SeqCst) {
+            Some(Status::Cancelled)
+        } else if self
+            .settings
+            .max_seconds
+            .is_some_and(|t| self.start.elapsed().as_secs_f64() >= t)
+        {
+            Some(Status::TimeLimit)
+        } else {
+            None
+        }
+    }
+
+    fn event(&self, phase: RunPhase, evaluations: usize) -> ProgressEvent {
+        ProgressEvent {
+            phase,
+            objective: None,
+            evaluations,
+            budget: self.settings.budget,
+            best: Vec::new(),
+            elapsed_seconds: self.start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Report a phase before the search; the status to stop with, if any.
+    fn enter(&self, phase: RunPhase) -> Option<Status> {
+        self.control.report(&self.event(phase, 0));
+        self.stop_status()
+    }
+
+    fn execute(&self, scene: Scene, replay: Vec<Evaluation>) -> Result<WorstOutcome, WsmError> {
+        let unstarted = |scene: &Scene, status| {
+            Ok(WorstOutcome::unstarted(
+                scene,
+                self.params,
+                self.settings,
+                status,
+            ))
+        };
+        if let Some(status) = self.enter(RunPhase::Meshing) {
+            return unstarted(&scene, status);
+        }
+        let problem = StateProblem::new(scene)?;
+        if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
+            return unstarted(&problem.scene, status);
+        }
+        match check_balance_on_vertices(&problem, self.params, &|| self.stop_status().is_some()) {
+            Err(WsmError::Cancelled) => {
+                let status = self.stop_status().unwrap_or(Status::Cancelled);
+                return unstarted(&problem.scene, status);
+            }
+            other => other?,
+        }
+        if let Some(status) = self.enter(RunPhase::NominalSolve) {
+            return unstarted(&problem.scene, status);
+        }
+        let observer = |evaluation: &Evaluation| self.record(evaluation);
+        let evaluator = ScenarioEvaluator::new(&problem, self.params, &self.settings.criteria)?
+            .observed_by(&observer);
+        if let Some(status) = self.stop_status() {
+            return unstarted(&problem.scene, status);
+        }
+        let mut cache = EvalCache::new();
+        for evaluation in replay {
+            cache.insert(evaluation.point.clone(), evaluation.outcome());
+        }
+        // The search's clock starts now: give it what is left of the run's time.
+        let mut settings = self.settings.clone();
+        settings.max_seconds = settings
+            .max_seconds
+            .map(|t| (t - self.start.elapsed().as_secs_f64()).max(0.0));
+        let on_progress = |p: &Progress| self.search_progress(p);
+        let control = SearchControl {
+            cancel: &self.halt,
+            on_progress: &on_progress,
+        };
+        let mut outcome = engine::run(
+            &problem,
+            self.params,
+            &settings,
+            &evaluator,
+            &mut cache,
+            control,
+        )?;
+        if let Some(error) = self
+            .log_error
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+        {
+            return Err(error);
+        }
+        outcome.setup_seconds = problem.setup_seconds;
+        self.control
+            .report(&self.event(RunPhase::Finished, outcome.evaluations));
+        Ok(outcome)
+    }
+
+    /// An evaluation completed: log it; pass a cancel request on to the search.
+    fn record(&self, evaluation: &Evaluation) {
+        if let Some(log) = &self.control.log {
+            if let Err(e) = log.append(evaluation) {
+                let mut error = self
+                    .log_error
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner);
+                error.get_or_insert(e);
+                self.halt.store(true, Ordering::SeqCst);
+            }
+        }
+        if self.control.is_cancelled() {
+            self.halt.store(true, Ordering::SeqCst);
+        }
+    }
+
+    fn search_progress(&self, progress: &Progress) {
+        let best = best_so_far(&self.settings.criteria, progress);
+        let objective = phase_objective(progress.phase).and_then(|k| best.get(k).cloned());
+        self.control.report(&ProgressEvent {
+            phase: RunPhase::of(progress.phase),
+            objective,
+            evaluations: progress.evaluations,
+            budget: progress.budget,
+            best,
+            elapsed_seconds: self.start.elapsed().as_secs_f64(),
+        });
+        // A cancel raised by the progress callback itself stops the next batch.
+        if self.control.is_cancelled() {
+            self.halt.store(true, Ordering::SeqCst);
+        }
+    }
+}

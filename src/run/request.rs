@@ -1,0 +1,88 @@
+//! What a caller asks of a run, as plain serde types: a single solve, or a worst-scenario search
+//! with settings that override the scene's `search` block. Each request is checked against the
+//! scene; a bad value is a [`SceneError`] naming the request field.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::WsmError;
+use crate::scenario::worst::WorstSettings;
+use crate::scene::{Criterion, Scene, SceneError, SolverKind};
+
+/// A single state solve.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SolveRequest {
+    /// Inner solver (default: the scene's `solver.kind`).
+    #[serde(default)]
+    pub solver: Option<SolverKind>,
+    /// Also return the nodal and element fields.
+    #[serde(default)]
+    pub fields: bool,
+}
+
+/// A worst-scenario search. Every field left out takes the scene's `search` value.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorstRequest {
+    /// Criteria to maximise and minimise (`phi1` … `phi6`).
+    #[serde(default)]
+    pub criteria: Option<Vec<Criterion>>,
+    /// Inner solves at most (≥ 1).
+    #[serde(default)]
+    pub budget: Option<usize>,
+    /// Seed of every random choice of the search.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Wall-time limit of the whole run, meshing included \[s\] (> 0).
+    #[serde(default)]
+    pub max_seconds: Option<f64>,
+    /// Threads of the run's own pool (default: rayon's global pool).
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
+impl WorstRequest {
+    /// The settings of the run on `scene`, checked. Errors name the request field
+    /// (`criteria[1]`, `budget`, …).
+    pub fn settings(&self, scene: &Scene) -> Result<WorstSettings, WsmError> {
+        let mut settings = WorstSettings::from_scene(scene);
+        if let Some(criteria) = &self.criteria {
+            if criteria.is_empty() {
+                return Err(SceneError::new("criteria", "give at least one criterion").into());
+            }
+            let mut check = scene.clone();
+            check.search.criteria = criteria.clone();
+            crate::scene::validate(&check).map_err(|e| {
+                // The scene was valid: a new error comes from the criteria.
+                SceneError::new(e.path.replacen("search.criteria", "criteria", 1), e.reason)
+            })?;
+            settings.criteria = criteria.clone();
+        }
+        if let Some(budget) = self.budget {
+            if budget == 0 {
+                return Err(SceneError::new("budget", "must be at least 1").into());
+            }
+            settings.budget = budget;
+        }
+        if let Some(seed) = self.seed {
+            settings.seed = seed;
+        }
+        if let Some(limit) = self.max_seconds {
+            if !(limit.is_finite() && limit > 0.0) {
+                return Err(SceneError::new(
+                    "max_seconds",
+                    format!("must be a positive number of seconds (got {limit})"),
+                )
+                .into());
+            }
+            settings.max_seconds = Some(limit);
+        }
+        if self.threads == Some(0) {
+            return Err(SceneError::new("threads", "must be at least 1").into());
+        }
+        if settings.criteria.is_empty() {
+            return Err(SceneError::new("search.criteria", "no criterion requested").into());
+        }
+        Ok(settings)
+    }
+}

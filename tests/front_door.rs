@@ -1,0 +1,384 @@
+//! The front door (`wsm::run`) and the `wsm worst` command around it: cancellation and the time
+//! limit return partial outcomes with their status, an evaluation log survives SIGKILL and a
+//! resumed run ends bit-identical to an uninterrupted one, logs of other runs are refused, a
+//! cut last line is redone, the CSV table has one row per evaluation, and the thread count does
+//! not change the result.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::Ordering;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde_json::{json, Value};
+use wsm::error::WsmError;
+use wsm::run::{
+    self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, RunControl, RunPhase, Status,
+    WorstOutcome, WorstRequest,
+};
+use wsm::scene::{parse, Criterion, Scene};
+
+/// The block pushed on a base with a coarse mesh (fast solves).
+fn block(max_size: f64) -> Scene {
+    let mut v: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    v["mesh"] = json!({ "max_size": max_size });
+    parse(&v.to_string()).unwrap()
+}
+
+fn request(budget: usize, threads: usize) -> WorstRequest {
+    WorstRequest {
+        criteria: Some(vec![Criterion::Phi3, Criterion::Phi6]),
+        budget: Some(budget),
+        seed: Some(5),
+        threads: Some(threads),
+        ..WorstRequest::default()
+    }
+}
+
+fn temp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wsm-front-door-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    path
+}
+
+#[test]
+fn cancel_mid_search_returns_the_partial_result_with_its_best_values() {
+    let control = RunControl::new();
+    let cancel = control.cancel.clone();
+    let phases = Arc::new(std::sync::Mutex::new(Vec::new()));
+    let at_cancel = Arc::new(std::sync::Mutex::new(None));
+    let (seen, at) = (phases.clone(), at_cancel.clone());
+    let control = control.with_progress(move |e| {
+        seen.lock().unwrap().push(e.phase);
+        // Cancel during the swarm, after the screening batch.
+        if e.phase == RunPhase::Swarm && !cancel.load(Ordering::SeqCst) {
+            cancel.store(true, Ordering::SeqCst);
+            *at.lock().unwrap() = Some(e.evaluations);
+        }
+    });
+    let outcome = run::worst(block(0.1), &request(200, 1), &control).unwrap();
+    assert_eq!(outcome.status, Status::Cancelled);
+    let at_cancel = at_cancel.lock().unwrap().expect("cancelled in the swarm");
+    assert_eq!(
+        outcome.evaluations, at_cancel,
+        "no batch after the cancel request"
+    );
+    assert!(outcome.evaluations < 200);
+    for c in &outcome.criteria {
+        assert!(c.worst.best_value.is_some() && c.best.best_value.is_some());
+        assert_eq!(c.worst.best_point.as_ref().unwrap().len(), 3);
+    }
+    let phases = phases.lock().unwrap();
+    let order = [
+        RunPhase::Meshing,
+        RunPhase::AdmissibleCheck,
+        RunPhase::NominalSolve,
+        RunPhase::Screening,
+    ];
+    assert_eq!(&phases[..4], &order, "phases in order: {phases:?}");
+    let json = serde_json::to_value(&outcome).unwrap();
+    assert_eq!(json["status"], "cancelled");
+}
+
+#[test]
+fn cancel_before_the_search_returns_an_unstarted_outcome() {
+    let control = RunControl::new();
+    let cancel = control.cancel.clone();
+    let control = control.with_progress(move |e| {
+        if e.phase == RunPhase::AdmissibleCheck {
+            cancel.store(true, Ordering::SeqCst);
+        }
+    });
+    let outcome = run::worst(block(0.1), &request(50, 1), &control).unwrap();
+    assert_eq!(outcome.status, Status::Cancelled);
+    assert_eq!(outcome.evaluations, 0);
+    assert_eq!(outcome.criteria.len(), 2);
+    assert!(outcome.criteria[0].worst.best_value.is_none());
+}
+
+#[test]
+fn time_limit_returns_the_partial_result_with_status_time_limit() {
+    let mut req = request(100_000, 1);
+    req.max_seconds = Some(0.5);
+    let start = Instant::now();
+    let outcome = run::worst(block(0.1), &req, &RunControl::new()).unwrap();
+    assert_eq!(outcome.status, Status::TimeLimit);
+    assert!(start.elapsed() < Duration::from_secs(10));
+    assert!(outcome.evaluations > 0 && outcome.evaluations < 100_000);
+    assert_eq!(
+        serde_json::to_value(&outcome).unwrap()["status"],
+        "time_limit"
+    );
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let one = run::worst(block(0.1), &request(40, 1), &RunControl::new()).unwrap();
+    let two = run::worst(block(0.1), &request(40, 2), &RunControl::new()).unwrap();
+    assert_eq!(one.criteria, two.criteria);
+    assert_eq!(one.run_hash, two.run_hash);
+}
+
+#[test]
+fn a_log_of_another_run_is_refused_naming_the_hashes() {
+    let path = temp("other.jsonl");
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
+    run::worst(
+        block(0.1),
+        &request(10, 1),
+        &RunControl::new().with_log(log),
+    )
+    .unwrap();
+    // Other criteria: another run.
+    let mut other = request(10, 1);
+    other.criteria = Some(vec![Criterion::Phi5]);
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
+    let err = run::worst(block(0.1), &other, &RunControl::new().with_log(log)).unwrap_err();
+    assert!(matches!(err, WsmError::LogMismatch { .. }), "{err}");
+    assert!(err.to_string().contains("hash"), "{err}");
+    // Another scene.
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
+    let err = run::worst(
+        block(0.12),
+        &request(10, 1),
+        &RunControl::new().with_log(log),
+    );
+    assert!(matches!(err, Err(WsmError::LogMismatch { .. })));
+    // A new log never overwrites one.
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
+    let err = run::worst(
+        block(0.1),
+        &request(10, 1),
+        &RunControl::new().with_log(log),
+    );
+    assert!(matches!(err, Err(WsmError::Io { .. })));
+}
+
+/// Complete lines of a log file (header included).
+fn complete_lines(path: &Path) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .matches('\n')
+        .count()
+}
+
+#[test]
+fn a_cut_last_line_is_dropped_and_that_evaluation_redone() {
+    let path = temp("cut.jsonl");
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
+    let full = run::worst(
+        block(0.1),
+        &request(30, 1),
+        &RunControl::new().with_log(log),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    // Keep the header and 10 records, then half of the 11th.
+    let kept = 11;
+    let mut cut = lines[..kept].join("\n");
+    cut.push('\n');
+    cut.push_str(&lines[kept][..lines[kept].len() / 2]);
+    std::fs::write(&path, cut).unwrap();
+    let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
+    let resumed = run::worst(
+        block(0.1),
+        &request(30, 1),
+        &RunControl::new().with_log(log.clone()),
+    )
+    .unwrap();
+    assert_eq!(resumed.criteria, full.criteria);
+    assert_eq!(resumed.new_evaluations, full.evaluations - (kept - 1));
+    // The file is whole again: header + one line per evaluation.
+    assert_eq!(complete_lines(&path), 1 + full.evaluations);
+    assert_eq!(log.evaluations().len(), full.evaluations);
+}
+
+#[test]
+fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
+    let log = Arc::new(MemoryLog::new());
+    let outcome = run::worst(
+        block(0.1),
+        &request(25, 1),
+        &RunControl::new().with_log(log.clone() as Arc<dyn EvaluationLog>),
+    )
+    .unwrap();
+    let evaluations = log.evaluations();
+    assert_eq!(evaluations.len(), outcome.new_evaluations);
+    let mut buffer = Vec::new();
+    run::write_csv(
+        &mut buffer,
+        "memory",
+        &outcome.parameters,
+        &[Criterion::Phi3, Criterion::Phi6],
+        &evaluations,
+    )
+    .unwrap();
+    let text = String::from_utf8(buffer).unwrap();
+    let rows: Vec<&str> = text.lines().collect();
+    assert_eq!(
+        rows[0],
+        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error"
+    );
+    assert_eq!(rows.len(), 1 + evaluations.len());
+    for (i, row) in rows[1..].iter().enumerate() {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells.len(), 9, "{row}");
+        assert_eq!(cells[0], (i + 1).to_string());
+        let e = &evaluations[i];
+        for (k, x) in e.point.iter().enumerate() {
+            assert_eq!(cells[1 + k].parse::<f64>().unwrap(), *x, "exact round trip");
+        }
+        let phi3: f64 = cells[4].parse().unwrap();
+        assert_eq!(phi3, e.values.as_ref().unwrap()[0]);
+        assert!(
+            cells[6].parse::<f64>().unwrap() < 1e-8,
+            "KKT residual {}",
+            cells[6]
+        );
+    }
+}
+
+fn wsm() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_wsm"))
+}
+
+fn worst_args(extra: &[&str]) -> Vec<String> {
+    [
+        "worst",
+        "--example",
+        "block-on-base",
+        "--budget",
+        "120",
+        "--seed",
+        "5",
+        "--threads",
+        "1",
+        "--criteria",
+        "phi3,phi6",
+    ]
+    .iter()
+    .chain(extra)
+    .map(|s| s.to_string())
+    .collect()
+}
+
+fn read_outcome(path: &Path) -> WorstOutcome {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_run_killed_with_sigkill_and_resumed_ends_bit_identical() {
+    let whole = temp("whole.json");
+    let status = wsm()
+        .args(worst_args(&["--out", whole.to_str().unwrap()]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let whole = read_outcome(&whole);
+
+    let log = temp("killed.jsonl");
+    let mut child = wsm()
+        .args(worst_args(&["--log", log.to_str().unwrap()]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while complete_lines(&log) < 21 && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the run must be killed before it ends");
+    let logged = complete_lines(&log) - 1;
+    assert!(
+        logged >= 20 && logged < whole.evaluations,
+        "{logged} logged"
+    );
+
+    let resumed = temp("resumed.json");
+    let output = wsm()
+        .args(worst_args(&[
+            "--resume",
+            log.to_str().unwrap(),
+            "--out",
+            resumed.to_str().unwrap(),
+        ]))
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let resumed = read_outcome(&resumed);
+    assert_eq!(
+        resumed.criteria, whole.criteria,
+        "values and data bit-identical"
+    );
+    assert_eq!(resumed.status, whole.status);
+    assert_eq!(resumed.evaluations, whole.evaluations);
+    assert_eq!(resumed.new_evaluations, whole.evaluations - logged);
+}
+
+#[test]
+fn the_command_line_writes_the_table_and_refuses_a_foreign_log() {
+    let log = temp("cli.jsonl");
+    let table = temp("cli.csv");
+    let output = wsm()
+        .args(worst_args(&[
+            "--log",
+            log.to_str().unwrap(),
+            "--table",
+            table.to_str().unwrap(),
+        ]))
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let printed: WorstOutcome = serde_json::from_slice(&output.stdout).unwrap();
+    let rows = std::fs::read_to_string(&table).unwrap().lines().count();
+    assert_eq!(rows, 1 + printed.evaluations);
+    // Same log, other criteria: refused with exit code 5 and the hashes named.
+    let output = wsm()
+        .args([
+            "worst",
+            "--example",
+            "block-on-base",
+            "--budget",
+            "10",
+            "--criteria",
+            "phi5",
+            "--resume",
+            log.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(5));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        stderr.contains("belongs to another run") && stderr.contains("hash"),
+        "{stderr}"
+    );
+    let mut f = std::fs::OpenOptions::new().append(true).open(&log).unwrap();
+    writeln!(f, "not json").unwrap();
+    let output = wsm()
+        .args(worst_args(&["--resume", log.to_str().unwrap()]))
+        .output()
+        .unwrap();
+    assert_eq!(
+        output.status.code(),
+        Some(5),
+        "a corrupt complete line is an error"
+    );
+    // Unknown example: exit code 2 and its name.
+    let output = wsm().args(["solve", "--example", "nope"]).output().unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("'nope'"));
+}

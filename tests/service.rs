@@ -1,0 +1,724 @@
+//! The HTTP service against a real `wsm serve` process on a loopback port and a real SQLite
+//! file: a job's result equals `wsm worst` on the same scene and seed; cancel; 20 concurrent
+//! submissions on 2 workers; SIGKILL mid-job and restart on the same database (nothing lost,
+//! nothing recomputed); bad requests answer the right status naming the field; the served
+//! OpenAPI document equals the checked-in one.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::{json, Value};
+
+/// A running server.
+struct Server {
+    child: Child,
+    addr: String,
+}
+
+impl Server {
+    fn start(db: &std::path::Path, extra: &[&str]) -> Server {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_wsm"))
+            .args([
+                "serve",
+                "--addr",
+                "127.0.0.1:0",
+                "--db",
+                db.to_str().unwrap(),
+            ])
+            .args(["--lease-seconds", "2", "--threads-per-job", "1"])
+            .args(extra)
+            .env_remove("WSM_API_TOKEN")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut line)
+            .unwrap();
+        let addr = line
+            .split("http://")
+            .nth(1)
+            .and_then(|s| s.split('/').next())
+            .unwrap_or_else(|| panic!("no address in {line:?}"))
+            .to_string();
+        Server { child, addr }
+    }
+
+    fn kill(&mut self) {
+        let _ = self.child.kill(); // SIGKILL
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// A response: status, headers (lower-case names), body.
+struct Reply {
+    status: u16,
+    headers: Vec<(String, String)>,
+    body: Vec<u8>,
+}
+
+impl Reply {
+    fn json(&self) -> Value {
+        serde_json::from_slice(&self.body)
+            .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&self.body)))
+    }
+
+    fn header(&self, name: &str) -> Option<&str> {
+        self.headers
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+}
+
+/// One HTTP/1.1 request with `Connection: close`.
+fn http(
+    addr: &str,
+    method: &str,
+    path: &str,
+    body: Option<&[u8]>,
+    headers: &[(&str, &str)],
+) -> Reply {
+    let mut stream = TcpStream::connect(addr).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(60)))
+        .unwrap();
+    let mut request = format!("{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n");
+    for (k, v) in headers {
+        request.push_str(&format!("{k}: {v}\r\n"));
+    }
+    if let Some(b) = body {
+        request.push_str(&format!(
+            "Content-Type: application/json\r\nContent-Length: {}\r\n",
+            b.len()
+        ));
+    }
+    request.push_str("\r\n");
+    stream.write_all(request.as_bytes()).unwrap();
+    if let Some(b) = body {
+        stream.write_all(b).unwrap();
+    }
+    let mut raw = Vec::new();
+    stream.read_to_end(&mut raw).unwrap();
+    let split = raw
+        .windows(4)
+        .position(|w| w == b"\r\n\r\n")
+        .expect("a header block");
+    let head = String::from_utf8_lossy(&raw[..split]).to_string();
+    let mut lines = head.lines();
+    let status: u16 = lines
+        .next()
+        .unwrap()
+        .split(' ')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    let headers: Vec<(String, String)> = lines
+        .filter_map(|l| l.split_once(':'))
+        .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_string()))
+        .collect();
+    let mut body = raw[split + 4..].to_vec();
+    if headers
+        .iter()
+        .any(|(k, v)| k == "transfer-encoding" && v == "chunked")
+    {
+        body = dechunk(&body);
+    }
+    Reply {
+        status,
+        headers,
+        body,
+    }
+}
+
+fn dechunk(mut data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    while let Some(end) = data.windows(2).position(|w| w == b"\r\n") {
+        let size =
+            usize::from_str_radix(String::from_utf8_lossy(&data[..end]).trim(), 16).unwrap_or(0);
+        if size == 0 {
+            break;
+        }
+        out.extend_from_slice(&data[end + 2..end + 2 + size]);
+        data = &data[end + 4 + size..];
+    }
+    out
+}
+
+fn get(addr: &str, path: &str) -> Reply {
+    http(addr, "GET", path, None, &[])
+}
+
+fn post(addr: &str, path: &str, body: &Value) -> Reply {
+    http(addr, "POST", path, Some(body.to_string().as_bytes()), &[])
+}
+
+fn temp_db(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wsm-service-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    for suffix in ["", "-wal", "-shm"] {
+        let _ = std::fs::remove_file(format!("{}{suffix}", path.display()));
+    }
+    path
+}
+
+/// Wait until the job is finished; its status.
+fn wait_finished(addr: &str, id: &str, limit: Duration) -> Value {
+    let start = Instant::now();
+    loop {
+        let status = get(addr, &format!("/v1/jobs/{id}")).json();
+        let state = status["state"].as_str().unwrap().to_string();
+        if ["succeeded", "failed", "cancelled"].contains(&state.as_str()) {
+            return status;
+        }
+        assert!(start.elapsed() < limit, "job {id} still {state}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+fn submission(budget: usize, seed: u64) -> Value {
+    json!({
+        "example": "block-on-base",
+        "settings": {"criteria": ["phi3", "phi6"], "budget": budget, "seed": seed}
+    })
+}
+
+/// `wsm worst` on the same example and settings.
+fn cli_worst(budget: usize, seed: u64) -> Value {
+    let output = Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .args([
+            "worst",
+            "--example",
+            "block-on-base",
+            "--criteria",
+            "phi3,phi6",
+            "--threads",
+            "1",
+        ])
+        .args(["--budget", &budget.to_string(), "--seed", &seed.to_string()])
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+/// The criteria of an outcome without the histories (printed by the CLI without them).
+fn extrema(outcome: &Value) -> Value {
+    let mut criteria = outcome["criteria"].clone();
+    for c in criteria.as_array_mut().unwrap() {
+        for side in ["worst", "best"] {
+            c[side]["history"] = json!(null);
+        }
+    }
+    criteria
+}
+
+#[test]
+fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
+    let db = temp_db("basic.db");
+    let server = Server::start(&db, &["--workers", "1"]);
+    let addr = &server.addr;
+    assert_eq!(get(addr, "/healthz").json()["status"], "ok");
+    let examples = get(addr, "/v1/examples").json();
+    assert!(examples
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|e| e["name"] == "tunnel-fault"));
+
+    let reply = post(addr, "/v1/jobs", &submission(30, 5));
+    assert_eq!(
+        reply.status,
+        202,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    let id = reply.json()["id"].as_str().unwrap().to_string();
+    assert_eq!(
+        reply.header("location"),
+        Some(format!("/v1/jobs/{id}").as_str())
+    );
+    // The result of a job that has not finished is a conflict.
+    let early = get(addr, &format!("/v1/jobs/{id}/result"));
+    assert!(early.status == 409 || early.status == 200);
+    let status = wait_finished(addr, &id, Duration::from_secs(120));
+    assert_eq!(status["state"], "succeeded", "{status}");
+    let result = get(addr, &format!("/v1/jobs/{id}/result")).json();
+    let reference = cli_worst(30, 5);
+    assert_eq!(extrema(&result), extrema(&reference), "service = wsm worst");
+    assert_eq!(result["run_hash"], reference["run_hash"]);
+
+    // Evaluations: JSON and CSV, one row per stored evaluation.
+    let evaluations = get(addr, &format!("/v1/jobs/{id}/evaluations")).json();
+    assert_eq!(
+        evaluations.as_array().unwrap().len() as u64,
+        result["evaluations"].as_u64().unwrap()
+    );
+    let csv = get(addr, &format!("/v1/jobs/{id}/evaluations?format=csv"));
+    assert_eq!(csv.header("content-type"), Some("text/csv; charset=utf-8"));
+    let text = String::from_utf8(csv.body).unwrap();
+    assert_eq!(
+        text.lines().count(),
+        1 + evaluations.as_array().unwrap().len()
+    );
+    assert!(text.starts_with(
+        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,"
+    ));
+    let history = get(addr, &format!("/v1/jobs/{id}/history")).json();
+    assert_eq!(history[0]["criterion"], "phi3");
+    // Fields of the worst scenario of Φ6, as JSON and VTU.
+    let fields = get(
+        addr,
+        &format!("/v1/jobs/{id}/fields?scenario=worst&criterion=phi6"),
+    )
+    .json();
+    let nodes = fields["fields"]["nodes"].as_array().unwrap().len();
+    assert!(nodes > 10);
+    assert_eq!(
+        fields["fields"]["displacement"].as_array().unwrap().len(),
+        nodes
+    );
+    let phi6 = fields["summary"]["criteria"]["phi6"].as_f64().unwrap();
+    let worst6 = result["criteria"][1]["worst"]["best_value"]
+        .as_f64()
+        .unwrap();
+    assert_eq!(phi6, worst6, "the fields are those of the worst scenario");
+    let vtu = get(
+        addr,
+        &format!("/v1/jobs/{id}/fields?criterion=phi3&format=vtu"),
+    );
+    assert!(String::from_utf8_lossy(&vtu.body).contains("<VTKFile"));
+    // SSE of a finished job: one status event, then the stream ends.
+    let events = get(addr, &format!("/v1/jobs/{id}/events"));
+    assert_eq!(events.header("content-type"), Some("text/event-stream"));
+    assert!(String::from_utf8_lossy(&events.body).contains("event: status"));
+    // Cancel a finished job: conflict.
+    assert_eq!(
+        post(addr, &format!("/v1/jobs/{id}/cancel"), &json!({})).status,
+        409
+    );
+
+    // A long job, cancelled while running: partial result with status cancelled.
+    let reply = post(addr, "/v1/jobs", &submission(20_000, 1));
+    let long = reply.json()["id"].as_str().unwrap().to_string();
+    let start = Instant::now();
+    while get(addr, &format!("/v1/jobs/{long}")).json()["evaluations"]
+        .as_u64()
+        .unwrap_or(0)
+        < 5
+    {
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let cancel = post(addr, &format!("/v1/jobs/{long}/cancel"), &json!({}));
+    assert_eq!(cancel.status, 202);
+    let status = wait_finished(addr, &long, Duration::from_secs(30));
+    assert_eq!(status["state"], "cancelled");
+    let partial = get(addr, &format!("/v1/jobs/{long}/result")).json();
+    assert_eq!(partial["status"], "cancelled");
+    assert!(partial["criteria"][0]["worst"]["best_value"].is_number());
+    let listed = get(addr, "/v1/jobs?state=cancelled").json();
+    assert!(listed
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|j| j["id"] == long.as_str()));
+}
+
+#[test]
+fn twenty_concurrent_submissions_on_two_workers_all_finish_correctly() {
+    let db = temp_db("concurrent.db");
+    let server = Server::start(&db, &["--workers", "2"]);
+    let addr = server.addr.clone();
+    let ids: Vec<(String, u64)> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..20u64)
+            .map(|seed| {
+                let addr = addr.clone();
+                s.spawn(move || {
+                    let reply = post(&addr, "/v1/jobs", &submission(12, seed));
+                    assert_eq!(reply.status, 202);
+                    (reply.json()["id"].as_str().unwrap().to_string(), seed)
+                })
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    for (id, seed) in &ids {
+        let status = wait_finished(&addr, id, Duration::from_secs(300));
+        assert_eq!(status["state"], "succeeded", "{status}");
+        if seed % 5 == 0 {
+            let result = get(&addr, &format!("/v1/jobs/{id}/result")).json();
+            assert_eq!(
+                extrema(&result),
+                extrema(&cli_worst(12, *seed)),
+                "seed {seed}"
+            );
+        }
+    }
+    assert_eq!(
+        get(&addr, "/v1/jobs?limit=500")
+            .json()
+            .as_array()
+            .unwrap()
+            .len(),
+        20
+    );
+}
+
+#[test]
+fn a_server_killed_mid_job_resumes_it_on_restart_losing_and_recomputing_nothing() {
+    let db = temp_db("restart.db");
+    let mut server = Server::start(&db, &["--workers", "1"]);
+    let reply = post(&server.addr, "/v1/jobs", &submission(150, 9));
+    let id = reply.json()["id"].as_str().unwrap().to_string();
+    let start = Instant::now();
+    loop {
+        let status = get(&server.addr, &format!("/v1/jobs/{id}")).json();
+        assert_ne!(
+            status["state"], "succeeded",
+            "the job must still be running when killed"
+        );
+        if status["evaluations"].as_u64().unwrap_or(0) >= 20 {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    server.kill();
+    let server = Server::start(&db, &["--workers", "1"]);
+    let status = wait_finished(&server.addr, &id, Duration::from_secs(180));
+    assert_eq!(status["state"], "succeeded", "{status}");
+    assert_eq!(status["attempts"], 2, "leased again after the restart");
+    let result = get(&server.addr, &format!("/v1/jobs/{id}/result")).json();
+    assert_eq!(
+        extrema(&result),
+        extrema(&cli_worst(150, 9)),
+        "same result as uninterrupted"
+    );
+    let stored = get(&server.addr, &format!("/v1/jobs/{id}/evaluations")).json();
+    assert_eq!(
+        stored.as_array().unwrap().len() as u64,
+        result["evaluations"].as_u64().unwrap(),
+        "every evaluation stored exactly once"
+    );
+    assert!(result["new_evaluations"].as_u64().unwrap() < result["evaluations"].as_u64().unwrap());
+}
+
+#[test]
+fn bad_requests_answer_the_right_status_and_name_the_field() {
+    let db = temp_db("bad.db");
+    let server = Server::start(
+        &db,
+        &[
+            "--workers",
+            "1",
+            "--max-budget",
+            "5000",
+            "--max-body-bytes",
+            "200000",
+        ],
+    );
+    let addr = &server.addr;
+    let scene: Value =
+        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+    let with = |path: &str, value: Value| {
+        let mut s = scene.clone();
+        let mut target = &mut s;
+        let parts: Vec<&str> = path.split('.').collect();
+        for p in &parts[..parts.len() - 1] {
+            target = match p.parse::<usize>() {
+                Ok(i) => &mut target[i],
+                Err(_) => &mut target[*p],
+            };
+        }
+        let last = parts[parts.len() - 1];
+        match last.parse::<usize>() {
+            Ok(i) => target[i] = value,
+            Err(_) => target[last] = value,
+        }
+        json!({ "scene": s })
+    };
+    // (body, status, path the error must name)
+    let cases: Vec<(Value, u16, &str)> = vec![
+        (
+            with("materials.rock.E", json!(-1.0)),
+            422,
+            "scene.materials.rock.E",
+        ),
+        (
+            with("materials.rock.nu", json!(0.5)),
+            422,
+            "scene.materials.rock.nu",
+        ),
+        (
+            with("materials.rock.E", json!("ten")),
+            422,
+            "scene.materials.rock.E",
+        ),
+        (with("version", json!(2)), 422, "scene.version"),
+        (
+            with("mesh.max_size", json!(0.0)),
+            422,
+            "scene.mesh.max_size",
+        ),
+        (
+            with("mesh.max_size", json!(1e-5)),
+            422,
+            "scene.mesh.max_size",
+        ),
+        (
+            with("mesh.gmsh_file", json!("/etc/passwd")),
+            422,
+            "scene.mesh.gmsh_file",
+        ),
+        (
+            with("boundary.0.segment", json!("nowhere")),
+            422,
+            "scene.boundary[0].segment",
+        ),
+        (
+            with("contacts.0.between.0", json!("nowhere")),
+            422,
+            "scene.contacts[0].between",
+        ),
+        (
+            with("contacts.0.slip_limit", json!(-5.0)),
+            422,
+            "scene.contacts[0].slip_limit",
+        ),
+        (
+            with("uncertain.0.field", json!("materials.nope.E")),
+            422,
+            "scene.uncertain[0].field",
+        ),
+        (
+            with("uncertain.0.interval", json!([2.0, 1.0])),
+            422,
+            "scene.uncertain[0].interval",
+        ),
+        (with("search.budget", json!(0)), 422, "scene.search.budget"),
+        (
+            with("search.budget", json!(1_000_000)),
+            422,
+            "scene.search.budget",
+        ),
+        (
+            with("search.criteria.0", json!("phi9")),
+            422,
+            "scene.search.criteria[0]",
+        ),
+        (
+            with("bodies.0.zones.0.material", json!("steel")),
+            422,
+            "scene.bodies[0].zones[0].material",
+        ),
+        (with("bodies", json!([])), 422, "scene.bodies"),
+        (
+            with("segments.bottom.body", json!("ghost")),
+            422,
+            "scene.segments.bottom.body",
+        ),
+        (with("unknown_field", json!(1)), 422, "scene"),
+        (json!({"example": "nope"}), 422, "example"),
+        (json!({}), 422, "scene"),
+        (
+            json!({"example": "hertz", "scene": scene.clone()}),
+            422,
+            "example",
+        ),
+        (
+            json!({"example": "block-on-base", "extra": 1}),
+            422,
+            "extra",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"budget": 0}}),
+            422,
+            "settings.budget",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"budget": 10_000}}),
+            422,
+            "settings.budget",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"budget": -3}}),
+            422,
+            "settings.budget",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"criteria": []}}),
+            422,
+            "settings.criteria",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"criteria": ["phi7"]}}),
+            422,
+            "settings.criteria[0]",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"max_seconds": -1.0}}),
+            422,
+            "settings.max_seconds",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"threads": 4}}),
+            422,
+            "settings.threads",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"seed": "x"}}),
+            422,
+            "settings.seed",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"colour": "red"}}),
+            422,
+            "settings",
+        ),
+        (json!([1, 2]), 422, "$"),
+    ];
+    assert!(cases.len() >= 30);
+    for (body, status, path) in &cases {
+        let reply = post(addr, "/v1/jobs", body);
+        let text = String::from_utf8_lossy(&reply.body).to_string();
+        assert_eq!(reply.status, *status, "{path}: {text}");
+        let error = reply.json();
+        let got = error["path"].as_str().unwrap_or("");
+        assert!(
+            got.starts_with(path),
+            "expected path {path}, got {got}: {text}"
+        );
+        assert!(!error["detail"].as_str().unwrap().is_empty());
+    }
+    // Malformed JSON, empty body, too large, unknown ids, wrong states, bad queries.
+    let raw = |method: &str, path: &str, body: &[u8]| http(addr, method, path, Some(body), &[]);
+    assert_eq!(raw("POST", "/v1/jobs", b"{not json").status, 400);
+    assert_eq!(raw("POST", "/v1/jobs", b"").status, 400);
+    assert_eq!(raw("POST", "/v1/solve", b"[1,").status, 400);
+    let big = vec![b' '; 300_000];
+    let reply = raw("POST", "/v1/jobs", &big);
+    assert_eq!(reply.status, 413);
+    assert_eq!(reply.json()["error"], "too_large");
+    assert_eq!(get(addr, "/v1/jobs/does-not-exist").status, 404);
+    assert_eq!(get(addr, "/v1/jobs/does-not-exist/result").status, 404);
+    assert_eq!(
+        post(addr, "/v1/jobs/does-not-exist/cancel", &json!({})).status,
+        404
+    );
+    assert_eq!(get(addr, "/v1/examples/nope").status, 404);
+    assert_eq!(get(addr, "/v1/jobs?limit=0").status, 422);
+    assert_eq!(get(addr, "/v1/jobs?state=sleeping").status, 422);
+    let solve = post(addr, "/v1/solve", &with("materials.rock.nu", json!(0.7)));
+    assert_eq!(solve.status, 422);
+    assert_eq!(solve.json()["path"], "scene.materials.rock.nu");
+    let ok = post(addr, "/v1/solve", &json!({"example": "block-on-base"}));
+    assert_eq!(ok.status, 200, "{}", String::from_utf8_lossy(&ok.body));
+    assert!(ok.json()["summary"]["criteria"]["phi6"].is_number());
+    // A queued job's result and fields are conflicts until it ran.
+    let id = post(addr, "/v1/jobs", &submission(5000, 3)).json()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let reply = get(addr, &format!("/v1/jobs/{id}/fields?scenario=sideways"));
+    assert!(reply.status == 409 || reply.status == 422);
+    assert_eq!(
+        post(addr, &format!("/v1/jobs/{id}/cancel"), &json!({})).status / 100,
+        2
+    );
+}
+
+#[test]
+fn the_bearer_token_guards_mutating_endpoints_when_set() {
+    let db = temp_db("token.db");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .args([
+            "serve",
+            "--addr",
+            "127.0.0.1:0",
+            "--db",
+            db.to_str().unwrap(),
+        ])
+        .env("WSM_API_TOKEN", "s3cret-token")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    assert!(!line.contains("s3cret"), "the token is never printed");
+    let addr = line
+        .split("http://")
+        .nth(1)
+        .unwrap()
+        .split('/')
+        .next()
+        .unwrap()
+        .to_string();
+    let body = submission(5, 1).to_string();
+    let no = http(&addr, "POST", "/v1/jobs", Some(body.as_bytes()), &[]);
+    assert_eq!(no.status, 401);
+    let wrong = http(
+        &addr,
+        "POST",
+        "/v1/jobs",
+        Some(body.as_bytes()),
+        &[("Authorization", "Bearer nope")],
+    );
+    assert_eq!(wrong.status, 401);
+    let yes = http(
+        &addr,
+        "POST",
+        "/v1/jobs",
+        Some(body.as_bytes()),
+        &[("Authorization", "Bearer s3cret-token")],
+    );
+    assert_eq!(yes.status, 202);
+    assert_eq!(get(&addr, "/v1/jobs").status, 200, "reading needs no token");
+    let _ = child.kill();
+    let _ = child.wait();
+}
+
+#[test]
+fn the_served_openapi_document_is_the_checked_in_one() {
+    let db = temp_db("openapi.db");
+    let server = Server::start(&db, &[]);
+    let served = get(&server.addr, "/openapi.json").json();
+    let file: Value = serde_json::from_str(
+        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/openapi/openapi.json"))
+            .expect("openapi/openapi.json (write it with `wsm openapi > openapi/openapi.json`)"),
+    )
+    .unwrap();
+    assert_eq!(
+        served, file,
+        "regenerate with `cargo run --release -- openapi > openapi/openapi.json`"
+    );
+    assert_eq!(served["openapi"], "3.1.0");
+    let paths = served["paths"].as_object().unwrap();
+    for p in [
+        "/v1/jobs",
+        "/v1/jobs/{id}",
+        "/v1/jobs/{id}/events",
+        "/v1/jobs/{id}/result",
+        "/v1/jobs/{id}/fields",
+        "/v1/solve",
+        "/v1/examples",
+        "/healthz",
+    ] {
+        assert!(paths.contains_key(p), "{p} documented");
+    }
+}
