@@ -16,8 +16,13 @@
 //!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
 //!   V_0H for S0 (D05 6.4–6.8), also used for PCG1 by default, and the rigid-motion coarse
 //!   enrichment that keeps the iteration counts bounded in the subdomain count
-//!   ([`successive::Pcg1Preconditioner`], [`successive::CoarseKind`]).
+//!   ([`options::Pcg1Preconditioner`], [`options::CoarseKind`]).
+//! - [`coarse_space`]: a coarse space W with A W and the factored G = Wᵀ A W: the A-orthogonal
+//!   projection and the coarse start (D05 5.12–5.15), shared by [`coarse`], [`pcg`] and
+//!   [`newton`].
 //! - [`pcg`]: PCG1 / PCG2 (D05 §5, §6).
+//! - [`options`]: solver options (partition request, PCG1 preconditioner, coarse space,
+//!   tolerances, acceleration).
 //! - [`newton`]: safeguarded semismooth Newton steps on S0 U + S_CON(U) = F for when the
 //!   successive approximations do not contract (2β² ≥ 1) and Anderson mixing stagnates.
 //! - [`successive`]: successive approximations S0 U^k = F − S_CON(U^{k−1}) (D05 4.37 / 6.1–6.3)
@@ -32,9 +37,11 @@
 
 pub mod bench;
 pub mod coarse;
+pub mod coarse_space;
 pub mod decomposition;
 pub mod dense;
 pub mod newton;
+pub mod options;
 pub mod pair;
 pub mod partition;
 pub mod pcg;
@@ -47,11 +54,10 @@ use crate::contact::pairs::ContactGeometry;
 use crate::fem::{ElasticProblem, FemError, Slot};
 use crate::scene::Data;
 
+pub use options::{CoarseKind, DdOptions, Pcg1Preconditioner};
 pub use partition::{Partition, PartitionRequest};
 pub use report::DdReport;
-pub use successive::{
-    solve, CoarseKind, DdOptions, DdSolution, DirectAnswer, Fallback, Pcg1Preconditioner,
-};
+pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.

@@ -7,8 +7,9 @@
 
 use std::collections::HashMap;
 
+use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
-use super::successive::{solve, DdOptions, DdSolution, Fallback, PCG1_TOL};
+use super::successive::{solve, DdSolution, Fallback};
 use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::fem::ElasticProblem;

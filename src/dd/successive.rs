@@ -19,6 +19,9 @@
 //! S0 U + S_CON(U) = F take over ([`super::newton`]: exact line search on the convex interface
 //! energy, so the energy decreases at every step); if all that fails, the caller's direct solver
 //! is used. Every such switch is recorded in the report.
+//!
+//! Depends on [`super::options`], [`super::report`] (which it fills), [`super::decomposition`],
+//! [`super::coarse`], [`super::pcg`] and [`super::newton`]; none of them depends on this module.
 
 use std::time::Instant;
 
@@ -29,100 +32,13 @@ use super::coarse::Balancing;
 use super::decomposition::Decomposition;
 use super::dense::Cholesky;
 use super::newton::{line_search, NewtonOperator};
-use super::partition::{Partition, PartitionRequest};
+use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+use super::partition::Partition;
 use super::pcg::pcg;
 use super::report::{DdReport, Times};
 use super::subdomain::rigid_candidates;
 use super::{DdError, DdProblem};
-use crate::contact::qp::{QpOptions, WarmStart};
-
-/// Default PCG1 tolerance: the auxiliary solution U⁰ (D05 4.48) is only the start of the
-/// successive approximations / Newton steps, whose result does not depend on it (tunnel: 84
-/// instead of 136 PCG1 iterations against 1e-10, the same outer iterations).
-pub const PCG1_TOL: f64 = 1e-6;
-
-/// Which balancing preconditioner PCG1 uses for the tied auxiliary operator S = S0 + Σ S0^{kl}.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Pcg1Preconditioner {
-    /// D05 §5 as printed: Neumann solves on the non-contact subdomains AND the tied contact
-    /// clusters, ρ-weighted injections over all of them, coarse space with the cluster kernels.
-    /// A contact cluster is a band along its whole contact zone; when the zone spans many
-    /// subdomains the band's Neumann inverse (a long thin floating strip: compliance growing like
-    /// (length / width)³ for bending) wrecks the condition number (two-block benchmark: 13 / 32 /
-    /// 88 PCG1 iterations at 5 / 13 / 48 subdomains).
-    Full,
-    /// The reduced preconditioner of D05 §6 (injections D̊ with the cross-point fix, coarse space
-    /// V_0H of the non-contact subdomains) on the full operator S with the S-orthogonal coarse
-    /// projection. It is a balancing preconditioner for S0 ≤ S, so
-    /// κ ≤ κ_BNN(S0) · λ_max(S0⁻¹ S) where λ_max − 1 is the energy ratio β² of D05 Assumption 7.1
-    /// (contact bands against their neighbours): local, bounded in the subdomain count.
-    #[default]
-    Reduced,
-}
-
-/// The coarse space of the balancing preconditioners (PCG1, PCG2 and the Newton steps).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CoarseKind {
-    /// D05 5.11 / 6.7: the weighted traces of the floating subdomains' kernels (the balancing
-    /// minimum). A subdomain that touches the Dirichlet boundary along a short piece only is
-    /// nearly floating; its soft rigid motions stay in the one-level part and the iteration
-    /// count grows with the number of subdomains.
-    Kernels,
-    /// The weighted traces of the plane rigid motions of EVERY non-contact subdomain (which
-    /// contain the kernels, so the balancing of D05 Lemma 5.1 / 6.1 still holds): piecewise
-    /// rigid coarse functions at the subdomain scale, the classical remedy for nearly floating
-    /// subdomains, 3 coarse unknowns per subdomain.
-    #[default]
-    Rigid,
-}
-
-/// Solver options.
-#[derive(Debug, Clone)]
-pub struct DdOptions {
-    pub partition: PartitionRequest,
-    pub pcg1_preconditioner: Pcg1Preconditioner,
-    pub coarse: CoarseKind,
-    /// Relative residual of PCG1 (auxiliary) and PCG2 (per outer step; the tightest one, see
-    /// [`FORCING`]). U⁰ only starts the outer iteration, so PCG1 need not be tight
-    /// ([`PCG1_TOL`]).
-    pub pcg1_tol: f64,
-    pub pcg2_tol: f64,
-    pub max_pcg: usize,
-    /// Stop when ‖U^k − U^{k−1}‖ ≤ outer_tol ‖U^k‖.
-    pub outer_tol: f64,
-    pub max_outer: usize,
-    /// Switch to Anderson acceleration when q ≥ 1, or when q > `stagnation` twice in a row.
-    pub stagnation: f64,
-    /// Anderson memory (0 disables acceleration).
-    pub anderson_depth: usize,
-    /// Always accelerate from the first step (for tests and comparisons).
-    pub force_acceleration: bool,
-    pub qp: QpOptions,
-}
-
-impl Default for DdOptions {
-    fn default() -> Self {
-        DdOptions {
-            partition: PartitionRequest::Automatic {
-                subdomains: 12,
-                contact_layers: super::partition::CONTACT_LAYERS,
-            },
-            pcg1_preconditioner: Pcg1Preconditioner::Reduced,
-            coarse: CoarseKind::Rigid,
-            pcg1_tol: PCG1_TOL,
-            pcg2_tol: 1e-12,
-            max_pcg: 500,
-            outer_tol: 1e-10,
-            max_outer: 200,
-            stagnation: 0.95,
-            anderson_depth: 20,
-            force_acceleration: false,
-            qp: QpOptions::default(),
-        }
-    }
-}
+use crate::contact::qp::WarmStart;
 
 /// The answer of a direct solver: reduced displacement and per-pair (normal, tangential)
 /// multipliers.
