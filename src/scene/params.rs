@@ -39,30 +39,6 @@ pub enum ParamTarget {
     ReferenceTemperature,
 }
 
-impl ParamTarget {
-    /// Whether a change of this parameter changes the stiffness matrix (needs refactorisation).
-    pub fn changes_stiffness(self) -> bool {
-        matches!(
-            self,
-            ParamTarget::Young(_)
-                | ParamTarget::Poisson(_)
-                | ParamTarget::Lambda(_)
-                | ParamTarget::Mu(_)
-        )
-    }
-
-    /// Whether a change of this parameter changes the temperature field.
-    pub fn changes_temperature(self) -> bool {
-        matches!(
-            self,
-            ParamTarget::Conductivity(_)
-                | ParamTarget::HeatSource(_)
-                | ParamTarget::Temperature(_)
-                | ParamTarget::HeatFlux(_)
-        )
-    }
-}
-
 /// One resolved uncertain parameter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
