@@ -54,6 +54,24 @@ fn admissible(path: &str, v: f64, constant: Constant) -> Result<(), SceneError> 
         .map_err(|reason| SceneError::new(path, reason))
 }
 
+/// Record the name of the entry at `path` (a `what`): a name used before is an error at
+/// `{path}.name`.
+fn unique_name<'a>(
+    names: &mut BTreeSet<&'a str>,
+    name: &'a str,
+    path: &str,
+    what: &str,
+) -> Result<(), SceneError> {
+    if names.insert(name) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            format!("{path}.name"),
+            format!("{what} name '{name}' used twice"),
+        ))
+    }
+}
+
 fn check_points(path: &str, pts: &[Point]) -> Result<(), SceneError> {
     for (k, p) in pts.iter().enumerate() {
         if !p[0].is_finite() || !p[1].is_finite() {
@@ -354,12 +372,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
     let mut used = BTreeSet::new();
     for (i, c) in scene.contacts.iter().enumerate() {
         let path = format!("contacts[{i}]");
-        if !names.insert(c.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("contact name '{}' used twice", c.name),
-            ));
-        }
+        unique_name(&mut names, &c.name, &path, "contact")?;
         for (k, seg) in c.between.iter().enumerate() {
             segment_known(scene, format!("{path}.between[{k}]"), seg)?;
             if !used.insert(seg.as_str()) {
@@ -489,12 +502,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     let mut names = BTreeSet::new();
     for (r, g) in scene.criteria.regions.iter().enumerate() {
         let path = format!("criteria.regions[{r}]");
-        if !names.insert(g.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("region name '{}' used twice", g.name),
-            ));
-        }
+        unique_name(&mut names, &g.name, &path, "region")?;
         check_polygon(&format!("{path}.polygon"), &g.polygon)?;
         if let Some(n) = g.normal {
             check_points(&format!("{path}.normal"), &[n])?;
@@ -511,12 +519,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     }
     for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
         let path = format!("criteria.boundary_pieces[{r}]");
-        if !names.insert(piece.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("name '{}' used twice", piece.name),
-            ));
-        }
+        unique_name(&mut names, &piece.name, &path, "boundary piece")?;
         segment_known(scene, format!("{path}.segment"), &piece.segment)?;
         for p in [piece.from, piece.to, piece.normal_at]
             .into_iter()
