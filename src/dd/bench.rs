@@ -7,7 +7,8 @@
 use std::io::Write;
 use std::time::Instant;
 
-use super::successive::{solve, CoarseKind, DdOptions, Pcg1Preconditioner};
+use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+use super::successive::solve;
 use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
 use crate::fem::{ElasticProblem, Slot};
 use crate::mesh::structured::stacked_blocks;

@@ -16,15 +16,22 @@
 //!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
 //!   V_0H for S0 (D05 6.4–6.8), also used for PCG1 by default, and the rigid-motion coarse
 //!   enrichment that keeps the iteration counts bounded in the subdomain count
-//!   ([`successive::Pcg1Preconditioner`], [`successive::CoarseKind`]).
+//!   ([`options::Pcg1Preconditioner`], [`options::CoarseKind`]).
+//! - [`coarse_space`]: a coarse space W with A W and the factored G = Wᵀ A W: the A-orthogonal
+//!   projection and the coarse start (D05 5.12–5.15), shared by [`coarse`], [`pcg`] and
+//!   [`newton`].
 //! - [`pcg`]: PCG1 / PCG2 (D05 §5, §6).
+//! - [`options`]: solver options (partition request, PCG1 preconditioner, coarse space,
+//!   tolerances, acceleration).
 //! - [`newton`]: safeguarded semismooth Newton steps on S0 U + S_CON(U) = F for when the
 //!   successive approximations do not contract (2β² ≥ 1) and Anderson mixing stagnates.
 //! - [`successive`]: successive approximations S0 U^k = F − S_CON(U^{k−1}) (D05 4.37 / 6.1–6.3)
 //!   with inexact warm-started PCG2, contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38),
 //!   Anderson acceleration, Newton steps ([`newton`]) and a direct fallback.
 //! - [`report`]: iteration counts, coarse dimensions, contraction factors, error bound, times.
-//! - [`scene`]: the scene-level entry used by the state layer (`solver.kind = "dd"`).
+//! - [`from_scene`]: DD for a scene's elastic contact problem, the entry of the state layer
+//!   (`solver.kind = "dd"`): options from the scene's solver settings, contact rows from the
+//!   direct solver's geometry, the answer in the direct solver's form.
 //! - [`mod@bench`]: scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
@@ -32,26 +39,25 @@
 
 pub mod bench;
 pub mod coarse;
+pub mod coarse_space;
 pub mod decomposition;
 pub mod dense;
+pub mod from_scene;
 pub mod newton;
+pub mod options;
 pub mod pair;
 pub mod partition;
 pub mod pcg;
 pub mod report;
-pub mod scene;
 pub mod subdomain;
 pub mod successive;
 
-use crate::contact::pairs::ContactGeometry;
 use crate::fem::{ElasticProblem, FemError, Slot};
-use crate::scene::Data;
 
+pub use options::{CoarseKind, DdOptions, Pcg1Preconditioner};
 pub use partition::{Partition, PartitionRequest};
 pub use report::DdReport;
-pub use successive::{
-    solve, CoarseKind, DdOptions, DdSolution, DirectAnswer, Fallback, Pcg1Preconditioner,
-};
+pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.
@@ -173,31 +179,6 @@ impl DdProblem {
             floating_bodies: problem.floating_bodies().to_vec(),
         })
     }
-}
-
-/// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
-/// bounds, so that DD and direct solve the same discrete problem): normal rows
-/// B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
-pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> Vec<DdContactPair> {
-    let (lower, upper) = geometry.bounds(data);
-    geometry
-        .pairs
-        .iter()
-        .enumerate()
-        .map(|(m, p)| {
-            let row = |r: usize, gap: f64| ContactRow {
-                entries: geometry.rows[r].free.clone(),
-                value: gap - geometry.rows[r].dot_fixed(fixed),
-                lower: lower[r],
-                upper: upper[r],
-            };
-            DdContactPair {
-                nodes: p.nodes,
-                normal: row(2 * m, p.gap),
-                tangent: row(2 * m + 1, 0.0),
-            }
-        })
-        .collect()
 }
 
 /// Errors of the DD solver; each says which part failed.

@@ -17,8 +17,12 @@
 //! - the step length t minimises the convex φ(t) = J(U + tδ) (secant search on the monotone
 //!   φ'(t) = δᵀ G(U + tδ), each value one S_CON evaluation), so that J decreases at every step and
 //!   the active-set cycling of undamped Newton cannot occur.
+//!
+//! Depends on [`super::coarse`] (S0), [`super::coarse_space`], [`super::pair`] (the tangents)
+//! and [`super::pcg`]; used by [`super::successive`].
 
-use super::coarse::{Balancing, CoarseSpace, SparseColumns};
+use super::coarse::Balancing;
+use super::coarse_space::{CoarseSpace, SparseColumns};
 use super::pair::{ClusterTangent, ContactCluster};
 use super::pcg::Interface;
 use super::DdError;

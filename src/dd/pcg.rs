@@ -3,8 +3,12 @@
 //! of [`super::newton::NewtonOperator`]). The start vector is coarse-corrected (D05
 //! 5.15 / 6.8), so every residual stays orthogonal to the coarse space (Lemma 5.1 / 6.1); the
 //! largest coarse component seen is returned as a check.
+//!
+//! Depends only on [`super::coarse_space`] and [`super::DdError`]: the operators
+//! ([`super::coarse::Balancing`], [`super::newton::NewtonOperator`]) implement [`Interface`]
+//! in their own modules.
 
-use super::coarse::CoarseSpace;
+use super::coarse_space::CoarseSpace;
 use super::DdError;
 
 /// An SPD interface operator with a balancing preconditioner and a coarse space (D05 §5–6):

@@ -3,11 +3,15 @@
 //! 7.1, FGCS 3.37), the a-priori error bound of D05 Cor. 7.1 / FGCS 3.38
 //! ‖U^k − U‖ ≤ q^k / (1 − q) ‖U⁰ − U¹‖ with the observed q, checks (partition of unity, residual
 //! orthogonality to the coarse spaces), acceleration / fallback, and times per phase.
+//!
+//! Depends on [`super::options`] (the recorded variants), [`super::decomposition`] (sizes) and
+//! [`super::DdProblem`]; filled in by [`super::successive`], which depends on it, not the
+//! other way round.
 
 use std::fmt;
 
 use super::decomposition::Decomposition;
-use super::successive::{CoarseKind, Pcg1Preconditioner};
+use super::options::{CoarseKind, Pcg1Preconditioner};
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.

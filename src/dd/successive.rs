@@ -19,6 +19,9 @@
 //! S0 U + S_CON(U) = F take over ([`super::newton`]: exact line search on the convex interface
 //! energy, so the energy decreases at every step); if all that fails, the caller's direct solver
 //! is used. Every such switch is recorded in the report.
+//!
+//! Depends on [`super::options`], [`super::report`] (which it fills), [`super::decomposition`],
+//! [`super::coarse`], [`super::pcg`] and [`super::newton`]; none of them depends on this module.
 
 use std::time::Instant;
 
@@ -29,100 +32,13 @@ use super::coarse::Balancing;
 use super::decomposition::Decomposition;
 use super::dense::Cholesky;
 use super::newton::{line_search, NewtonOperator};
-use super::partition::{Partition, PartitionRequest};
+use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+use super::partition::Partition;
 use super::pcg::pcg;
 use super::report::{DdReport, Times};
 use super::subdomain::rigid_candidates;
 use super::{DdError, DdProblem};
-use crate::contact::qp::{QpOptions, WarmStart};
-
-/// Default PCG1 tolerance: the auxiliary solution U⁰ (D05 4.48) is only the start of the
-/// successive approximations / Newton steps, whose result does not depend on it (tunnel: 84
-/// instead of 136 PCG1 iterations against 1e-10, the same outer iterations).
-pub const PCG1_TOL: f64 = 1e-6;
-
-/// Which balancing preconditioner PCG1 uses for the tied auxiliary operator S = S0 + Σ S0^{kl}.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Pcg1Preconditioner {
-    /// D05 §5 as printed: Neumann solves on the non-contact subdomains AND the tied contact
-    /// clusters, ρ-weighted injections over all of them, coarse space with the cluster kernels.
-    /// A contact cluster is a band along its whole contact zone; when the zone spans many
-    /// subdomains the band's Neumann inverse (a long thin floating strip: compliance growing like
-    /// (length / width)³ for bending) wrecks the condition number (two-block benchmark: 13 / 32 /
-    /// 88 PCG1 iterations at 5 / 13 / 48 subdomains).
-    Full,
-    /// The reduced preconditioner of D05 §6 (injections D̊ with the cross-point fix, coarse space
-    /// V_0H of the non-contact subdomains) on the full operator S with the S-orthogonal coarse
-    /// projection. It is a balancing preconditioner for S0 ≤ S, so
-    /// κ ≤ κ_BNN(S0) · λ_max(S0⁻¹ S) where λ_max − 1 is the energy ratio β² of D05 Assumption 7.1
-    /// (contact bands against their neighbours): local, bounded in the subdomain count.
-    #[default]
-    Reduced,
-}
-
-/// The coarse space of the balancing preconditioners (PCG1, PCG2 and the Newton steps).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum CoarseKind {
-    /// D05 5.11 / 6.7: the weighted traces of the floating subdomains' kernels (the balancing
-    /// minimum). A subdomain that touches the Dirichlet boundary along a short piece only is
-    /// nearly floating; its soft rigid motions stay in the one-level part and the iteration
-    /// count grows with the number of subdomains.
-    Kernels,
-    /// The weighted traces of the plane rigid motions of EVERY non-contact subdomain (which
-    /// contain the kernels, so the balancing of D05 Lemma 5.1 / 6.1 still holds): piecewise
-    /// rigid coarse functions at the subdomain scale, the classical remedy for nearly floating
-    /// subdomains, 3 coarse unknowns per subdomain.
-    #[default]
-    Rigid,
-}
-
-/// Solver options.
-#[derive(Debug, Clone)]
-pub struct DdOptions {
-    pub partition: PartitionRequest,
-    pub pcg1_preconditioner: Pcg1Preconditioner,
-    pub coarse: CoarseKind,
-    /// Relative residual of PCG1 (auxiliary) and PCG2 (per outer step; the tightest one, see
-    /// [`FORCING`]). U⁰ only starts the outer iteration, so PCG1 need not be tight
-    /// ([`PCG1_TOL`]).
-    pub pcg1_tol: f64,
-    pub pcg2_tol: f64,
-    pub max_pcg: usize,
-    /// Stop when ‖U^k − U^{k−1}‖ ≤ outer_tol ‖U^k‖.
-    pub outer_tol: f64,
-    pub max_outer: usize,
-    /// Switch to Anderson acceleration when q ≥ 1, or when q > `stagnation` twice in a row.
-    pub stagnation: f64,
-    /// Anderson memory (0 disables acceleration).
-    pub anderson_depth: usize,
-    /// Always accelerate from the first step (for tests and comparisons).
-    pub force_acceleration: bool,
-    pub qp: QpOptions,
-}
-
-impl Default for DdOptions {
-    fn default() -> Self {
-        DdOptions {
-            partition: PartitionRequest::Automatic {
-                subdomains: 12,
-                contact_layers: super::partition::CONTACT_LAYERS,
-            },
-            pcg1_preconditioner: Pcg1Preconditioner::Reduced,
-            coarse: CoarseKind::Rigid,
-            pcg1_tol: PCG1_TOL,
-            pcg2_tol: 1e-12,
-            max_pcg: 500,
-            outer_tol: 1e-10,
-            max_outer: 200,
-            stagnation: 0.95,
-            anderson_depth: 20,
-            force_acceleration: false,
-            qp: QpOptions::default(),
-        }
-    }
-}
+use crate::contact::qp::WarmStart;
 
 /// The answer of a direct solver: reduced displacement and per-pair (normal, tangential)
 /// multipliers.
@@ -216,6 +132,41 @@ struct Step<'a> {
     qp_iterations: usize,
     scon_time: f64,
     pcg2_time: f64,
+}
+
+impl<'a> Step<'a> {
+    fn new(
+        dec: &'a Decomposition,
+        s0: Balancing<'a>,
+        f0: Vec<f64>,
+        options: &'a DdOptions,
+    ) -> Step<'a> {
+        Step {
+            dec,
+            s0,
+            f0,
+            options,
+            warm: vec![None; dec.clusters.len()],
+            multipliers: vec![Vec::new(); dec.clusters.len()],
+            b: Vec::new(),
+            pcg2_iterations: Vec::new(),
+            newton_steps: 0,
+            newton_iterations: 0,
+            coarse_residual: 0.0,
+            qp_iterations: 0,
+            scon_time: 0.0,
+            pcg2_time: 0.0,
+        }
+    }
+
+    /// The PCG2 / Newton counts and the PCG2 coarse check into the report.
+    fn record(&self, report: &mut DdReport) {
+        report.newton_steps = self.newton_steps;
+        report.newton_pcg_iterations = self.newton_iterations;
+        report.pcg2_iterations = self.pcg2_iterations.iter().sum();
+        report.pcg2_per_outer = self.pcg2_iterations.clone();
+        report.coarse_residual[1] = self.coarse_residual;
+    }
 }
 
 impl Step<'_> {
@@ -336,6 +287,8 @@ const FORCING_MAX: f64 = 1e-2;
 
 type Outcome = (Vec<f64>, Vec<[f64; 2]>, Times);
 
+/// The solve on a decomposition, phase by phase (each timed): auxiliary problem by PCG1
+/// ([`auxiliary`]), successive approximations ([`outer`]) and recovery ([`recover`]).
 fn iterate(
     problem: &DdProblem,
     dec: &Decomposition,
@@ -343,171 +296,20 @@ fn iterate(
     report: &mut DdReport,
 ) -> Result<Outcome, DdError> {
     let mut times = Times::default();
-    let n = dec.n_interface();
     let t = Instant::now();
-    // F0 = f_Γ + Σ_T (condensed loads).
-    let mut f0: Vec<f64> = dec.interface.iter().map(|&d| problem.rhs[d]).collect();
-    let loads: Vec<Vec<f64>> = dec.blocks.par_iter().map(|b| b.condensed_load()).collect();
-    for (b, l) in dec.blocks.iter().zip(&loads) {
-        for (&g, v) in b.gamma.iter().zip(l) {
-            f0[g] += v;
-        }
-    }
-    // Auxiliary problem (PCG1): S = S0 + Σ tied clusters.
-    let mut aux = f0.clone();
-    for tb in &dec.tied {
-        for (&g, v) in tb.gamma.iter().zip(tb.condensed_load()) {
-            aux[g] += v;
-        }
-    }
+    let (f0, aux) = interface_loads(problem, dec);
     let enrich = match options.coarse {
         CoarseKind::Kernels => Vec::new(),
         CoarseKind::Rigid => rigid_traces(problem, dec),
     };
-    let s_op = match options.pcg1_preconditioner {
-        Pcg1Preconditioner::Full => Balancing::new(
-            dec.blocks.iter().chain(&dec.tied).collect(),
-            Vec::new(),
-            &enrich,
-            n,
-        )?,
-        Pcg1Preconditioner::Reduced => Balancing::new(
-            dec.blocks.iter().collect(),
-            dec.tied.iter().collect(),
-            &enrich,
-            n,
-        )?,
-    };
-    report.pcg1_preconditioner = options.pcg1_preconditioner;
-    report.coarse = options.coarse;
-    report.coarse_dim_pcg1 = s_op.coarse_dim();
-    report.partition_of_unity_error[0] = s_op.partition_of_unity_error();
-    let first = pcg(
-        &s_op,
-        &aux,
-        vec![0.0; n],
-        options.pcg1_tol,
-        options.max_pcg,
-        "PCG1",
-    )?;
-    report.pcg1_iterations = first.iterations;
-    report.coarse_residual[0] = first.coarse_residual;
-    drop(s_op);
+    let u0 = auxiliary(dec, options, &enrich, &aux, report)?;
     times.pcg1 = t.elapsed().as_secs_f64();
 
     let t = Instant::now();
-    let s0 = Balancing::new(dec.blocks.iter().collect(), Vec::new(), &enrich, n)?;
-    report.coarse_dim_pcg2 = s0.coarse_dim();
-    report.partition_of_unity_error[1] = s0.partition_of_unity_error();
-    let mut step = Step {
-        dec,
-        s0,
-        f0,
-        options,
-        warm: vec![None; dec.clusters.len()],
-        multipliers: vec![Vec::new(); dec.clusters.len()],
-        b: Vec::new(),
-        pcg2_iterations: Vec::new(),
-        newton_steps: 0,
-        newton_iterations: 0,
-        coarse_residual: 0.0,
-        qp_iterations: 0,
-        scon_time: 0.0,
-        pcg2_time: 0.0,
-    };
-    let mut u = first.x;
-    let mut anderson = Anderson::new(options.anderson_depth);
-    let mut accelerated = options.force_acceleration && options.anderson_depth > 0;
-    if accelerated {
-        report.acceleration = Some("Anderson mixing from the first step (forced)".into());
-    }
-    let mut high = 0;
-    let mut converged = false;
-    let mut newton = false;
-    let (mut best, mut best_k) = (f64::INFINITY, 0);
-    // Inexact PCG2 (Eisenstat–Walker style): the inner tolerance follows the relative outer
-    // residual of the previous step, never looser than FORCING_MAX nor tighter than pcg2_tol.
-    let mut pcg2_tol = FORCING_MAX.max(options.pcg2_tol);
-    for k in 0..options.max_outer {
-        let used = pcg2_tol;
-        let tu = step.apply(&u, used)?;
-        let diff: Vec<f64> = tu.iter().zip(&u).map(|(a, b)| a - b).collect();
-        let r = norm(&diff);
-        let scale = norm(&tu).max(f64::MIN_POSITIVE);
-        if let Some(&prev) = report.outer_residuals.last() {
-            let q = if prev > 0.0 { r / prev } else { 0.0 };
-            report.contraction.push(q);
-            if !accelerated {
-                high = if q >= 1.0 {
-                    2
-                } else if q > options.stagnation {
-                    high + 1
-                } else {
-                    0
-                };
-                if high >= 2 && options.anderson_depth > 0 {
-                    accelerated = true;
-                    report.acceleration = Some(format!(
-                        "Anderson mixing (depth {}) from outer step {k}: observed contraction {q:.3}",
-                        options.anderson_depth
-                    ));
-                }
-            }
-        }
-        report.outer_residuals.push(r);
-        report.outer_iterations = k + 1;
-        pcg2_tol = (FORCING * r / scale).clamp(options.pcg2_tol, FORCING_MAX.max(options.pcg2_tol));
-        // Converged only if T(U) was evaluated with the full PCG2 accuracy; also when that PCG2
-        // needed no iteration: S0 U − F + S_CON(U) is then below the inner tolerance and no
-        // inner solve can tell U from T(U) (a tight outer_tol at the rounding floor).
-        let exact = used <= options.pcg2_tol;
-        if exact && step.pcg2_iterations.last() == Some(&0) {
-            u = tu;
-            converged = true;
-            break;
-        }
-        if r <= options.outer_tol * scale {
-            u = tu;
-            if exact {
-                converged = true;
-                break;
-            }
-            pcg2_tol = options.pcg2_tol;
-            continue;
-        }
-        if !r.is_finite() {
-            break;
-        }
-        if accelerated && !newton {
-            if r < 0.9 * best {
-                (best, best_k) = (r, k);
-            } else if k >= best_k + STALL {
-                newton = true;
-                let note = format!(
-                    "; safeguarded semismooth Newton from outer step {k} (Anderson stagnated at {best:.3e})"
-                );
-                report
-                    .acceleration
-                    .get_or_insert_with(String::new)
-                    .push_str(&note);
-            }
-        }
-        let next = if newton {
-            step.newton(&u, pcg2_tol)?
-        } else {
-            None
-        };
-        u = match next {
-            Some(v) => v,
-            None if accelerated => anderson.next(&u, &tu),
-            None => tu,
-        };
-    }
-    report.newton_steps = step.newton_steps;
-    report.newton_pcg_iterations = step.newton_iterations;
-    report.pcg2_iterations = step.pcg2_iterations.iter().sum();
-    report.pcg2_per_outer = step.pcg2_iterations.clone();
-    report.coarse_residual[1] = step.coarse_residual;
+    let s0 = s0_operator(dec, &enrich, report)?;
+    let mut step = Step::new(dec, s0, f0, options);
+    let (u, converged) = outer(&mut step, u0, options, report)?;
+    step.record(report);
     report.finish_contraction();
     times.scon = step.scon_time;
     times.pcg2 = step.pcg2_time;
@@ -521,16 +323,282 @@ fn iterate(
         });
     }
 
-    // Recovery of interiors and multipliers at the converged trace.
     let t = Instant::now();
+    let (full, multipliers) = recover(problem, dec, &step.warm, &u, options, report)?;
+    report.qp_iterations = step.qp_iterations;
+    times.recovery = t.elapsed().as_secs_f64();
+    Ok((full, multipliers, times))
+}
+
+/// y[gamma[i]] += values[i]: a block's local interface vector added into the global one.
+fn scatter_add(y: &mut [f64], gamma: &[usize], values: impl IntoIterator<Item = f64>) {
+    for (&g, v) in gamma.iter().zip(values) {
+        y[g] += v;
+    }
+}
+
+/// F0 = f_Γ + Σ_T (condensed loads of the non-contact subdomains), and the right-hand side of
+/// the auxiliary problem: F0 plus the condensed loads of the tied clusters.
+fn interface_loads(problem: &DdProblem, dec: &Decomposition) -> (Vec<f64>, Vec<f64>) {
+    let mut f0: Vec<f64> = dec.interface.iter().map(|&d| problem.rhs[d]).collect();
+    let loads: Vec<Vec<f64>> = dec.blocks.par_iter().map(|b| b.condensed_load()).collect();
+    for (b, l) in dec.blocks.iter().zip(loads) {
+        scatter_add(&mut f0, &b.gamma, l);
+    }
+    let mut aux = f0.clone();
+    for tb in &dec.tied {
+        scatter_add(&mut aux, &tb.gamma, tb.condensed_load());
+    }
+    (f0, aux)
+}
+
+/// The auxiliary problem S U⁰ = F (D05 4.48) by PCG1, S = S0 + Σ tied clusters, with the
+/// preconditioner chosen by [`DdOptions::pcg1_preconditioner`]; returns U⁰.
+fn auxiliary(
+    dec: &Decomposition,
+    options: &DdOptions,
+    enrich: &[Option<Mat<f64>>],
+    aux: &[f64],
+    report: &mut DdReport,
+) -> Result<Vec<f64>, DdError> {
+    let n = dec.n_interface();
+    let s_op = match options.pcg1_preconditioner {
+        Pcg1Preconditioner::Full => Balancing::new(
+            dec.blocks.iter().chain(&dec.tied).collect(),
+            Vec::new(),
+            enrich,
+            n,
+        )?,
+        Pcg1Preconditioner::Reduced => Balancing::new(
+            dec.blocks.iter().collect(),
+            dec.tied.iter().collect(),
+            enrich,
+            n,
+        )?,
+    };
+    report.pcg1_preconditioner = options.pcg1_preconditioner;
+    report.coarse = options.coarse;
+    report.coarse_dim_pcg1 = s_op.coarse_dim();
+    report.partition_of_unity_error[0] = s_op.partition_of_unity_error();
+    let first = pcg(
+        &s_op,
+        aux,
+        vec![0.0; n],
+        options.pcg1_tol,
+        options.max_pcg,
+        "PCG1",
+    )?;
+    report.pcg1_iterations = first.iterations;
+    report.coarse_residual[0] = first.coarse_residual;
+    Ok(first.x)
+}
+
+/// S0 = Σ_T R_sᵀ S_s R_s with its balancing preconditioner (D05 §6), for PCG2 and the Newton
+/// steps.
+fn s0_operator<'a>(
+    dec: &'a Decomposition,
+    enrich: &[Option<Mat<f64>>],
+    report: &mut DdReport,
+) -> Result<Balancing<'a>, DdError> {
+    let s0 = Balancing::new(
+        dec.blocks.iter().collect(),
+        Vec::new(),
+        enrich,
+        dec.n_interface(),
+    )?;
+    report.coarse_dim_pcg2 = s0.coarse_dim();
+    report.partition_of_unity_error[1] = s0.partition_of_unity_error();
+    Ok(s0)
+}
+
+/// The loosest PCG2 tolerance: the first outer step and the cap of [`forcing_tol`].
+fn loosest_pcg2_tol(options: &DdOptions) -> f64 {
+    FORCING_MAX.max(options.pcg2_tol)
+}
+
+/// Inexact PCG2 (Eisenstat–Walker style): the inner tolerance follows the relative outer
+/// residual r / scale of the previous step, never looser than FORCING_MAX nor tighter than
+/// `pcg2_tol`.
+fn forcing_tol(r: f64, scale: f64, options: &DdOptions) -> f64 {
+    (FORCING * r / scale).clamp(options.pcg2_tol, loosest_pcg2_tol(options))
+}
+
+/// What the stopping test says after an outer step.
+enum Stop {
+    /// T(U) is the answer.
+    Converged,
+    /// The step is small but T(U) was computed with a loose PCG2: take it and evaluate again
+    /// with the full accuracy.
+    Tighten,
+    /// The residual is not finite.
+    Diverged,
+    Continue,
+}
+
+/// The stopping test of an outer step with residual r = ‖T(U) − U‖, scale ‖T(U)‖ and PCG2
+/// tolerance `used`. Converged only if T(U) was evaluated with the full PCG2 accuracy; also when
+/// that PCG2 needed no iteration: S0 U − F + S_CON(U) is then below the inner tolerance and no
+/// inner solve can tell U from T(U) (a tight outer_tol at the rounding floor).
+fn stop_test(r: f64, scale: f64, used: f64, step: &Step, options: &DdOptions) -> Stop {
+    let exact = used <= options.pcg2_tol;
+    if exact && step.pcg2_iterations.last() == Some(&0) {
+        return Stop::Converged;
+    }
+    if r <= options.outer_tol * scale {
+        return if exact {
+            Stop::Converged
+        } else {
+            Stop::Tighten
+        };
+    }
+    if !r.is_finite() {
+        return Stop::Diverged;
+    }
+    Stop::Continue
+}
+
+/// The switches away from plain successive approximations, each recorded in the report:
+/// Anderson mixing when the contraction is lost, safeguarded Newton steps when Anderson
+/// stagnates.
+struct Switches {
+    accelerated: bool,
+    /// Consecutive steps with q > `stagnation` (2 once q ≥ 1).
+    high: usize,
+    newton: bool,
+    /// Best accelerated residual and its step.
+    best: f64,
+    best_k: usize,
+}
+
+impl Switches {
+    fn new(options: &DdOptions, report: &mut DdReport) -> Switches {
+        let accelerated = options.force_acceleration && options.anderson_depth > 0;
+        if accelerated {
+            report.acceleration = Some("Anderson mixing from the first step (forced)".into());
+        }
+        Switches {
+            accelerated,
+            high: 0,
+            newton: false,
+            best: f64::INFINITY,
+            best_k: 0,
+        }
+    }
+
+    /// Record r_k and the contraction factor q_k = r_k / r_{k−1} (Thm 7.1: q ≤ 2β² < 1);
+    /// switch to Anderson when q ≥ 1, or when q > `stagnation` twice in a row.
+    fn record_residual(&mut self, k: usize, r: f64, options: &DdOptions, report: &mut DdReport) {
+        if let Some(&prev) = report.outer_residuals.last() {
+            let q = if prev > 0.0 { r / prev } else { 0.0 };
+            report.contraction.push(q);
+            if !self.accelerated {
+                self.high = if q >= 1.0 {
+                    2
+                } else if q > options.stagnation {
+                    self.high + 1
+                } else {
+                    0
+                };
+                if self.high >= 2 && options.anderson_depth > 0 {
+                    self.accelerated = true;
+                    report.acceleration = Some(format!(
+                        "Anderson mixing (depth {}) from outer step {k}: observed contraction {q:.3}",
+                        options.anderson_depth
+                    ));
+                }
+            }
+        }
+        report.outer_residuals.push(r);
+        report.outer_iterations = k + 1;
+    }
+
+    /// Switch to Newton steps when Anderson's best residual has not dropped by 10 % for
+    /// [`STALL`] steps.
+    fn watch_anderson(&mut self, k: usize, r: f64, report: &mut DdReport) {
+        if !self.accelerated || self.newton {
+            return;
+        }
+        if r < 0.9 * self.best {
+            (self.best, self.best_k) = (r, k);
+        } else if k >= self.best_k + STALL {
+            self.newton = true;
+            let note = format!(
+                "; safeguarded semismooth Newton from outer step {k} (Anderson stagnated at {:.3e})",
+                self.best
+            );
+            report
+                .acceleration
+                .get_or_insert_with(String::new)
+                .push_str(&note);
+        }
+    }
+}
+
+/// The successive approximations U^k = T(U^{k−1}) from U⁰ (D05 4.37 / 6.1–6.3) with contraction
+/// monitoring, Anderson mixing and Newton steps ([`Switches`]); returns the last iterate and
+/// whether it converged.
+fn outer(
+    step: &mut Step,
+    mut u: Vec<f64>,
+    options: &DdOptions,
+    report: &mut DdReport,
+) -> Result<(Vec<f64>, bool), DdError> {
+    let mut anderson = Anderson::new(options.anderson_depth);
+    let mut switches = Switches::new(options, report);
+    let mut pcg2_tol = loosest_pcg2_tol(options);
+    for k in 0..options.max_outer {
+        let used = pcg2_tol;
+        let tu = step.apply(&u, used)?;
+        let diff: Vec<f64> = tu.iter().zip(&u).map(|(a, b)| a - b).collect();
+        let r = norm(&diff);
+        let scale = norm(&tu).max(f64::MIN_POSITIVE);
+        switches.record_residual(k, r, options, report);
+        pcg2_tol = forcing_tol(r, scale, options);
+        match stop_test(r, scale, used, step, options) {
+            Stop::Converged => return Ok((tu, true)),
+            Stop::Tighten => {
+                u = tu;
+                pcg2_tol = options.pcg2_tol;
+                continue;
+            }
+            Stop::Diverged => break,
+            Stop::Continue => {}
+        }
+        switches.watch_anderson(k, r, report);
+        let next = if switches.newton {
+            step.newton(&u, pcg2_tol)?
+        } else {
+            None
+        };
+        u = match next {
+            Some(v) => v,
+            None if switches.accelerated => anderson.next(&u, &tu),
+            None => tu,
+        };
+    }
+    Ok((u, false))
+}
+
+/// Recovery at the converged trace `u`: the full reduced displacement (the trace, the interiors
+/// of the non-contact subdomains by K_II u_I = f_I − K_IΓ u (D05 4.24) and those of the contact
+/// clusters from one more local frictional solve, warm-started from `warm`) and the per-pair
+/// multipliers.
+fn recover(
+    problem: &DdProblem,
+    dec: &Decomposition,
+    warm: &[Option<WarmStart>],
+    u: &[f64],
+    options: &DdOptions,
+    report: &mut DdReport,
+) -> Result<(Vec<f64>, Vec<[f64; 2]>), DdError> {
     let mut full = vec![0.0; problem.n_dofs()];
-    for (&d, &v) in dec.interface.iter().zip(&u) {
+    for (&d, &v) in dec.interface.iter().zip(u) {
         full[d] = v;
     }
     let interiors: Vec<Vec<f64>> = dec
         .blocks
         .par_iter()
-        .map(|b| b.interior(&gather(&b.gamma, &u)))
+        .map(|b| b.interior(&gather(&b.gamma, u)))
         .collect();
     for (dofs, x) in dec.block_dofs.iter().zip(interiors) {
         for (&d, v) in dofs.interior.iter().zip(x) {
@@ -540,7 +608,7 @@ fn iterate(
     let mut multipliers = vec![[0.0; 2]; problem.pairs.len()];
     for (c, cl) in dec.clusters.iter().enumerate() {
         let state = cl
-            .evaluate(&gather(&cl.gamma, &u), step.warm[c].as_ref(), &options.qp)
+            .evaluate(&gather(&cl.gamma, u), warm[c].as_ref(), &options.qp)
             .map_err(|reason| DdError::Cluster { cluster: c, reason })?;
         for (&d, &v) in dec.cluster_dofs[c].interior.iter().zip(&state.interior) {
             full[d] = v;
@@ -550,9 +618,7 @@ fn iterate(
         }
         report.floating_modes += state.qp.alpha.len();
     }
-    report.qp_iterations = step.qp_iterations;
-    times.recovery = t.elapsed().as_secs_f64();
-    Ok((full, multipliers, times))
+    Ok((full, multipliers))
 }
 
 /// Anderson mixing (type II) for U = T(U): U_{k+1} = T(U_k) − ΔT γ, γ = argmin ‖f_k − ΔF γ‖,

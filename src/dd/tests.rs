@@ -4,7 +4,8 @@
 use faer::Mat;
 
 use super::bench::{two_blocks, two_blocks_with};
-use super::successive::{DdOptions, DirectAnswer};
+use super::options::DdOptions;
+use super::successive::DirectAnswer;
 use super::*;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::scene::BoundaryValue;

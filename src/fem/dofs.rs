@@ -14,7 +14,7 @@ use crate::scene::{BoundaryData, BoundaryValue};
 
 use super::geometry::segment_node_normals;
 use super::operator::Slot;
-use super::{expect_len, FemError};
+use super::{boundary_segment, expect_len, FemError};
 
 /// sin of the smallest angle between two constraint directions still treated as independent.
 const INDEPENDENT: f64 = 1e-6;
@@ -224,13 +224,7 @@ fn collect_constraints(
 ) -> Result<Vec<Vec<Constraint>>, FemError> {
     let mut per_node = vec![Vec::new(); mesh.nodes.len()];
     for (bc, data) in boundary.iter().enumerate() {
-        let segment = mesh
-            .segments
-            .get(data.segment)
-            .ok_or_else(|| FemError::InvalidBoundary {
-                index: bc,
-                reason: format!("segment index {} is not in the mesh", data.segment),
-            })?;
+        let segment = boundary_segment(mesh, bc, data.segment)?;
         match data.value {
             BoundaryValue::Displacement(components) => {
                 for (comp, value) in components.iter().enumerate() {

@@ -14,7 +14,7 @@ use crate::scene::{BoundaryValue, Data, Scene};
 
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
-use super::{expect_len, material_of, FemError};
+use super::{boundary_segment, expect_len, material_of, FemError};
 
 /// Union-find with path halving.
 #[derive(Debug, Clone)]
@@ -270,13 +270,7 @@ fn temperature_sources(
         if !matches!(b.value, BoundaryValue::Temperature(_)) {
             continue;
         }
-        let segment = mesh
-            .segments
-            .get(b.segment)
-            .ok_or_else(|| FemError::InvalidBoundary {
-                index: bc,
-                reason: format!("segment index {} is not in the mesh", b.segment),
-            })?;
+        let segment = boundary_segment(mesh, bc, b.segment)?;
         for &node in &segment.nodes {
             let s: &mut Vec<usize> = &mut sources[unknown_of[node]];
             if !s.contains(&bc) {

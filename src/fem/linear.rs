@@ -224,11 +224,6 @@ impl Factor {
         self.symbolic.inner.nrows()
     }
 
-    /// Parallelism used by the solves (`Par::Seq` when the caller parallelises itself).
-    pub fn set_par(&mut self, par: Par) {
-        self.par = par;
-    }
-
     /// Overwrite each column b of `rhs` with K⁻¹ b.
     pub fn solve_in_place(&self, rhs: MatMut<'_, f64>) {
         let scratch = self

@@ -74,6 +74,20 @@ fn material_of<'a>(
         })
 }
 
+/// The mesh segment of boundary condition `bc` (an unknown segment index is an error).
+fn boundary_segment(
+    mesh: &crate::mesh::Mesh,
+    bc: usize,
+    segment: usize,
+) -> Result<&crate::mesh::MeshSegment, FemError> {
+    mesh.segments
+        .get(segment)
+        .ok_or_else(|| FemError::InvalidBoundary {
+            index: bc,
+            reason: format!("segment index {segment} is not in the mesh"),
+        })
+}
+
 /// An input array of the wrong length is an error, not a panic.
 fn expect_len(what: &str, given: usize, expected: usize) -> Result<(), FemError> {
     if given == expected {

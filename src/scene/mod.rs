@@ -2,8 +2,10 @@
 //! its uncertain parameters.
 //!
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
-//! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them.
+//! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
+//! `admissible` holds the sign and range rules (materials, slip limit) both of them check.
 
+mod admissible;
 mod data;
 mod model;
 pub mod params;

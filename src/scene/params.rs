@@ -12,6 +12,7 @@
 //! algorithm over the slope slabs and the box), so every admissible g is reached (it is its own
 //! image) and every θ in the box gives an admissible g.
 
+use super::admissible::Constant;
 use super::data::{BoundaryValue, Data, Elastic, Expansion};
 use super::model::{Scene, SlipLimit, Uncertain};
 use super::SceneError;
@@ -40,26 +41,17 @@ pub enum ParamTarget {
 }
 
 impl ParamTarget {
-    /// Whether a change of this parameter changes the stiffness matrix (needs refactorisation).
-    pub fn changes_stiffness(self) -> bool {
-        matches!(
-            self,
-            ParamTarget::Young(_)
-                | ParamTarget::Poisson(_)
-                | ParamTarget::Lambda(_)
-                | ParamTarget::Mu(_)
-        )
-    }
-
-    /// Whether a change of this parameter changes the temperature field.
-    pub fn changes_temperature(self) -> bool {
-        matches!(
-            self,
-            ParamTarget::Conductivity(_)
-                | ParamTarget::HeatSource(_)
-                | ParamTarget::Temperature(_)
-                | ParamTarget::HeatFlux(_)
-        )
+    /// The sign or range rule of the varied number, if it has one.
+    fn constant(self) -> Option<Constant> {
+        match self {
+            ParamTarget::Young(_) => Some(Constant::Young),
+            ParamTarget::Poisson(_) => Some(Constant::Poisson),
+            ParamTarget::Lambda(_) => Some(Constant::Lambda),
+            ParamTarget::Mu(_) => Some(Constant::Mu),
+            ParamTarget::Conductivity(_) => Some(Constant::Conductivity),
+            ParamTarget::SlipConstant(_) | ParamTarget::SlipKnot(..) => Some(Constant::SlipLimit),
+            _ => None,
+        }
     }
 }
 
@@ -188,31 +180,10 @@ pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Param
             format!("inverted interval [{lo}, {hi}]"),
         ));
     }
-    let positive = |what: &str| {
-        SceneError::new(
-            ipath.clone(),
-            format!("{what} must stay > 0 on the whole interval"),
-        )
-    };
-    match target {
-        ParamTarget::Young(_) | ParamTarget::Mu(_) | ParamTarget::Conductivity(_) if lo <= 0.0 => {
-            return Err(positive(&u.field))
-        }
-        ParamTarget::Lambda(_) | ParamTarget::SlipConstant(_) | ParamTarget::SlipKnot(..)
-            if lo < 0.0 =>
-        {
-            return Err(SceneError::new(
-                ipath,
-                format!("{} must stay >= 0 on the whole interval", u.field),
-            ))
-        }
-        ParamTarget::Poisson(_) if lo <= -1.0 || hi >= 0.5 => {
-            return Err(SceneError::new(
-                ipath,
-                "Poisson's ratio must stay in (-1, 0.5)",
-            ))
-        }
-        _ => {}
+    if let Some(constant) = target.constant() {
+        constant
+            .check_interval(lo, hi)
+            .map_err(|reason| SceneError::new(ipath, reason))?;
     }
     Ok(Parameter {
         name: u.name.clone().unwrap_or_else(|| u.field.clone()),

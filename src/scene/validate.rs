@@ -2,6 +2,7 @@
 //! offending field and the reason. Geometric checks that need the mesh (segments on the boundary,
 //! matching contact nodes, overlapping zones) are done by the mesher with the same error type.
 
+use super::admissible::Constant;
 use super::model::*;
 use super::params::resolve_uncertain;
 use super::SceneError;
@@ -43,6 +44,31 @@ fn finite(path: &str, v: f64) -> Result<f64, SceneError> {
         Ok(v)
     } else {
         Err(SceneError::new(path, "must be a finite number"))
+    }
+}
+
+/// A finite value that obeys the rule of `constant` ([`Constant::check`]).
+fn admissible(path: &str, v: f64, constant: Constant) -> Result<(), SceneError> {
+    constant
+        .check(finite(path, v)?)
+        .map_err(|reason| SceneError::new(path, reason))
+}
+
+/// Record the name of the entry at `path` (a `what`): a name used before is an error at
+/// `{path}.name`.
+fn unique_name<'a>(
+    names: &mut BTreeSet<&'a str>,
+    name: &'a str,
+    path: &str,
+    what: &str,
+) -> Result<(), SceneError> {
+    if names.insert(name) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            format!("{path}.name"),
+            format!("{what} name '{name}' used twice"),
+        ))
     }
 }
 
@@ -180,33 +206,12 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
         let path = format!("materials.{name}");
         match (m.young, m.nu, m.lambda, m.mu) {
             (Some(e), Some(nu), None, None) => {
-                if finite(&format!("{path}.E"), e)? <= 0.0 {
-                    return Err(SceneError::new(
-                        format!("{path}.E"),
-                        "Young's modulus must be > 0",
-                    ));
-                }
-                let nu = finite(&format!("{path}.nu"), nu)?;
-                if nu <= -1.0 || nu >= 0.5 {
-                    return Err(SceneError::new(
-                        format!("{path}.nu"),
-                        "Poisson's ratio must lie in (-1, 0.5)",
-                    ));
-                }
+                admissible(&format!("{path}.E"), e, Constant::Young)?;
+                admissible(&format!("{path}.nu"), nu, Constant::Poisson)?;
             }
             (None, None, Some(l), Some(mu)) => {
-                if finite(&format!("{path}.mu"), mu)? <= 0.0 {
-                    return Err(SceneError::new(
-                        format!("{path}.mu"),
-                        "the shear modulus mu must be > 0",
-                    ));
-                }
-                if finite(&format!("{path}.lambda"), l)? < 0.0 {
-                    return Err(SceneError::new(
-                        format!("{path}.lambda"),
-                        "lambda must be >= 0",
-                    ));
-                }
+                admissible(&format!("{path}.mu"), mu, Constant::Mu)?;
+                admissible(&format!("{path}.lambda"), l, Constant::Lambda)?;
             }
             _ => {
                 return Err(SceneError::new(
@@ -228,12 +233,7 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
             ));
         }
         if let Some(k) = m.conductivity {
-            if finite(&format!("{path}.conductivity"), k)? <= 0.0 {
-                return Err(SceneError::new(
-                    format!("{path}.conductivity"),
-                    "conductivity must be > 0",
-                ));
-            }
+            admissible(&format!("{path}.conductivity"), k, Constant::Conductivity)?;
         }
         for (field, v) in [
             ("heat_source", m.heat_source),
@@ -372,12 +372,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
     let mut used = BTreeSet::new();
     for (i, c) in scene.contacts.iter().enumerate() {
         let path = format!("contacts[{i}]");
-        if !names.insert(c.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("contact name '{}' used twice", c.name),
-            ));
-        }
+        unique_name(&mut names, &c.name, &path, "contact")?;
         for (k, seg) in c.between.iter().enumerate() {
             segment_known(scene, format!("{path}.between[{k}]"), seg)?;
             if !used.insert(seg.as_str()) {
@@ -396,11 +391,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
         }
         let slip_path = format!("{path}.slip_limit");
         match &c.slip_limit {
-            SlipLimit::Constant(g) => {
-                if finite(&slip_path, *g)? < 0.0 {
-                    return Err(SceneError::new(slip_path, "the slip limit must be >= 0"));
-                }
-            }
+            SlipLimit::Constant(g) => admissible(&slip_path, *g, Constant::SlipLimit)?,
             SlipLimit::PiecewiseLinear {
                 knots,
                 values,
@@ -511,12 +502,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     let mut names = BTreeSet::new();
     for (r, g) in scene.criteria.regions.iter().enumerate() {
         let path = format!("criteria.regions[{r}]");
-        if !names.insert(g.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("region name '{}' used twice", g.name),
-            ));
-        }
+        unique_name(&mut names, &g.name, &path, "region")?;
         check_polygon(&format!("{path}.polygon"), &g.polygon)?;
         if let Some(n) = g.normal {
             check_points(&format!("{path}.normal"), &[n])?;
@@ -533,12 +519,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     }
     for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
         let path = format!("criteria.boundary_pieces[{r}]");
-        if !names.insert(piece.name.as_str()) {
-            return Err(SceneError::new(
-                format!("{path}.name"),
-                format!("name '{}' used twice", piece.name),
-            ));
-        }
+        unique_name(&mut names, &piece.name, &path, "boundary piece")?;
         segment_known(scene, format!("{path}.segment"), &piece.segment)?;
         for p in [piece.from, piece.to, piece.normal_at]
             .into_iter()

@@ -305,8 +305,8 @@ impl StateProblem {
                 multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
             })
         };
-        let dd_options = crate::dd::scene::options(&self.scene.solver, elastic.mesh());
-        let outcome = crate::dd::scene::solve_elastic(
+        let dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let outcome = crate::dd::from_scene::solve_elastic(
             elastic,
             &self.contact,
             data,

@@ -196,6 +196,18 @@ fn exact_gradient(op: &mut Operator<'_>, b: &[f64], x: &[f64], g: &mut [f64]) {
     g.iter_mut().zip(b).for_each(|(gi, bi)| *gi -= bi);
 }
 
+/// The exact minimising step gᵀd / dᵀAd along `d` (∞ when dᵀAd ≤ 0) and dᵀAd; `ad` receives A d.
+fn cg_step(op: &mut Operator<'_>, d: &[f64], ad: &mut [f64], g: &[f64]) -> (f64, f64) {
+    op.apply(d, ad);
+    let dad = dot(d, ad);
+    let step = if dad > 0.0 {
+        dot(g, d) / dad
+    } else {
+        f64::INFINITY
+    };
+    (step, dad)
+}
+
 /// CG step along `p` if it stays feasible, else a feasible half step and an expansion step.
 fn conjugate_or_expand(
     op: &mut Operator<'_>,
@@ -204,13 +216,7 @@ fn conjugate_or_expand(
     x: &mut [f64],
     v: &mut Vectors,
 ) -> Result<(), QpError> {
-    op.apply(&v.p, &mut v.ap);
-    let pap = dot(&v.p, &v.ap);
-    let acg = if pap > 0.0 {
-        dot(&v.g, &v.p) / pap
-    } else {
-        f64::INFINITY
-    };
+    let (acg, pap) = cg_step(op, &v.p, &mut v.ap, &v.g);
     let af = bx.max_step(x, &v.p);
     if acg.is_finite() && acg <= af {
         axpy(-acg, &v.p, x);
@@ -242,13 +248,7 @@ fn proportion(
     x: &mut [f64],
     v: &mut Vectors,
 ) -> Result<(), QpError> {
-    op.apply(&v.beta, &mut v.ap);
-    let bab = dot(&v.beta, &v.ap);
-    let acg = if bab > 0.0 {
-        dot(&v.g, &v.beta) / bab
-    } else {
-        f64::INFINITY
-    };
+    let (acg, _) = cg_step(op, &v.beta, &mut v.ap, &v.g);
     let step = acg.min(bx.max_step(x, &v.beta));
     if step == f64::INFINITY {
         return Err(QpError::Unbounded);

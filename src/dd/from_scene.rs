@@ -4,13 +4,19 @@
 //! in the direct solver's [`ContactSolution`] form, with gaps and equilibrium residual from the
 //! same [`DirectContact`] functions, so that contact results, stresses and criteria stay shared
 //! between the two solvers.
+//!
+//! Depends on [`super::options`], [`super::successive`] (the solve), [`super::partition`] and
+//! the input types of [`super`], and on [`crate::contact`], [`crate::fem`], [`crate::mesh`] and
+//! [`crate::scene`]; only the state layer depends on it.
 
 use std::collections::HashMap;
 
+use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
-use super::successive::{solve, DdOptions, DdSolution, Fallback, PCG1_TOL};
-use super::{contact_pairs, DdError, DdProblem, PartitionRequest};
+use super::successive::{solve, DdSolution, Fallback};
+use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
+use crate::contact::pairs::ContactGeometry;
 use crate::fem::ElasticProblem;
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
@@ -77,6 +83,31 @@ pub fn explicit_partition(polygons: &[Vec<[f64; 2]>], mesh: &Mesh) -> Vec<usize>
                 .unwrap_or(polygons.len());
             let next = ids.len();
             *ids.entry((region, body)).or_insert(next)
+        })
+        .collect()
+}
+
+/// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
+/// bounds, so that DD and direct solve the same discrete problem): normal rows
+/// B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
+pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> Vec<DdContactPair> {
+    let (lower, upper) = geometry.bounds(data);
+    geometry
+        .pairs
+        .iter()
+        .enumerate()
+        .map(|(m, p)| {
+            let row = |r: usize, gap: f64| ContactRow {
+                entries: geometry.rows[r].free.clone(),
+                value: gap - geometry.rows[r].dot_fixed(fixed),
+                lower: lower[r],
+                upper: upper[r],
+            };
+            DdContactPair {
+                nodes: p.nodes,
+                normal: row(2 * m, p.gap),
+                tangent: row(2 * m + 1, 0.0),
+            }
         })
         .collect()
 }
