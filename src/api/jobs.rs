@@ -115,6 +115,21 @@ async fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
         .ok_or_else(|| ApiError::not_found("job", id))
 }
 
+/// The scene document of a job, as submitted (for drawing its regions and contact zones).
+#[utoipa::path(get, path = "/v1/jobs/{id}/scene", tag = "jobs",
+    params(("id" = String, Path, description = "Job id")),
+    responses((status = 200, description = "The scene document", body = Object),
+        (status = 404, body = ErrorBody)))]
+pub async fn job_scene(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let job = find(&state, &id).await?;
+    serde_json::from_str(&job.scene)
+        .map(Json)
+        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))
+}
+
 /// Listing filters.
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]

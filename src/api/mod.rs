@@ -102,6 +102,7 @@ fn routes() -> OpenApiRouter<AppState> {
         .routes(routes!(submit::submit_job, jobs::list_jobs))
         .routes(routes!(jobs::job_status))
         .routes(routes!(jobs::job_events))
+        .routes(routes!(jobs::job_scene))
         .routes(routes!(jobs::job_result))
         .routes(routes!(jobs::job_history))
         .routes(routes!(jobs::job_evaluations))

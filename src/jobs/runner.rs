@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use tokio::sync::{broadcast, mpsc, Notify};
+use tokio::sync::{mpsc, Notify};
 
 use super::{JobEnd, JobRecord, JobStore};
 use crate::error::{ErrorKind, WsmError};
@@ -27,7 +27,7 @@ pub struct RunnerConfig {
     pub owner: String,
 }
 
-/// Jobs running in this process: their cancel flags and progress channels.
+/// Jobs running in this process: their cancel flags.
 #[derive(Default)]
 pub struct Live {
     jobs: Mutex<HashMap<String, LiveJob>>,
@@ -35,17 +35,11 @@ pub struct Live {
 
 struct LiveJob {
     cancel: Arc<AtomicBool>,
-    events: broadcast::Sender<ProgressEvent>,
 }
 
 impl Live {
     fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, LiveJob>> {
         self.jobs.lock().unwrap_or_else(PoisonError::into_inner)
-    }
-
-    /// Progress events of a job running here.
-    pub fn subscribe(&self, id: &str) -> Option<broadcast::Receiver<ProgressEvent>> {
-        self.lock().get(id).map(|j| j.events.subscribe())
     }
 
     /// Raise the cancel flag of a job running here.
@@ -147,12 +141,10 @@ async fn run_job(
 ) {
     let id = job.id.clone();
     let cancel = Arc::new(AtomicBool::new(job.cancel_requested));
-    let (events, _) = broadcast::channel(256);
     live.lock().insert(
         id.clone(),
         LiveJob {
             cancel: cancel.clone(),
-            events: events.clone(),
         },
     );
     let lost = Arc::new(AtomicBool::new(false));
@@ -164,7 +156,7 @@ async fn run_job(
         lost.clone(),
     ));
     let (progress_tx, progress_rx) = mpsc::unbounded_channel::<ProgressEvent>();
-    let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx, events));
+    let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx));
     let end = match store.evaluations(&id, None).await {
         Ok(replay) => {
             let log = StoreLog {
@@ -254,18 +246,16 @@ async fn heartbeat(
     }
 }
 
-/// Store the latest progress (at most every 200 ms, and always the last) and pass every event
-/// to live subscribers.
+/// Store the latest progress: at most every 200 ms, and always the last (readers, and the
+/// server-sent events, poll the store).
 async fn publish(
     store: Arc<dyn JobStore>,
     id: String,
     mut events: mpsc::UnboundedReceiver<ProgressEvent>,
-    live: broadcast::Sender<ProgressEvent>,
 ) {
     let mut last_write = std::time::Instant::now() - Duration::from_secs(1);
     let mut pending: Option<ProgressEvent> = None;
     while let Some(event) = events.recv().await {
-        let _ = live.send(event.clone());
         if last_write.elapsed() >= Duration::from_millis(200) {
             if let Err(e) = store.set_progress(&id, &event).await {
                 eprintln!("wsm: job {id}: {e}");
