@@ -217,24 +217,31 @@ impl<'a> Session<'a> {
             .iter()
             .filter_map(|k| ledger.seen.get(k).copied())
             .collect();
-        let progress = Progress {
-            evaluations: ledger.trace.len(),
+        let progress = self.progress(&ledger, 0);
+        Ok((indices, progress))
+    }
+
+    /// A progress report: the run's distinct points so far plus `pending` points of the batch
+    /// under evaluation.
+    fn progress(&self, ledger: &Ledger<'a>, pending: usize) -> Progress {
+        Progress {
+            evaluations: ledger.trace.len() + pending,
             budget: self.budget,
             phase: ledger.phase,
             best: (0..self.objectives.len())
-                .map(|k| self.best_in(&ledger, k).map(|(_, v)| v))
+                .map(|k| self.best_in(ledger, k).map(|(_, v)| v))
                 .collect(),
-        };
-        Ok((indices, progress))
+        }
     }
 
     /// Evaluate `points` (distinct, not in the cache) and cache the answers, in chunks of a few
     /// points per thread so that cancellation and the time limit are honoured within a large
-    /// batch.
+    /// batch, with a progress report after each chunk but the last (the batch reports that).
     fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) -> Result<(), Stop> {
         let chunk = CHUNK_PER_THREAD * rayon::current_num_threads().max(1);
         for (i, part) in points.chunks(chunk).enumerate() {
             if i > 0 {
+                (self.control.on_progress)(&self.progress(ledger, i * chunk));
                 Self::update_halt(ledger, self);
                 if let Some(halt) = ledger.halt {
                     return Err(Stop(halt));

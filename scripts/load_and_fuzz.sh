@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Benchmarks of the service, outside the test suite (loopback only, bounded in time and count):
+#  1. load: while a job runs (one worker, one thread per job), `wrk` hammers GET /v1/jobs/{id}
+#     for DURATION seconds with 16 connections and reports requests/s and latency percentiles;
+#  2. fuzz: schemathesis (PyPI, in a virtual environment) generates requests from the served
+#     OpenAPI document, MAX_EXAMPLES per operation, and checks that no response is a 5xx.
+# Usage: scripts/load_and_fuzz.sh [WSM_BINARY] [DURATION] [MAX_EXAMPLES]
+# Needs: wrk (apt-get install wrk), python3 with venv. Results go to stdout; docs/service.md
+# records a run.
+set -euo pipefail
+wsm=${1:-target/release/wsm}
+duration=${2:-10}
+examples=${3:-25}
+work=$(mktemp -d)
+"$wsm" serve --addr 127.0.0.1:0 --db "$work/load.db" --workers 1 --threads-per-job 1 \
+  --max-budget 200 > "$work/serve.log" 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null || true; rm -rf "$work"' EXIT
+for _ in $(seq 1 100); do grep -q 'http://' "$work/serve.log" && break; sleep 0.1; done
+base=$(grep -o 'http://[0-9.:]*' "$work/serve.log" | head -1)
+
+echo "== load: GET /v1/jobs/{id} while the job runs"
+id=$(curl -s -H 'Content-Type: application/json' \
+  -d '{"example":"tunnel-fault","settings":{"budget":200,"criteria":["phi3","phi5"]}}' \
+  "$base/v1/jobs" | grep -o '"id":"[^"]*"' | cut -d'"' -f4)
+sleep 2
+curl -s "$base/v1/jobs/$id" | grep -o '"state":"[^"]*"'
+wrk -t1 -c16 -d"${duration}s" --latency "$base/v1/jobs/$id"
+curl -s "$base/v1/jobs/$id" | grep -o '"state":"[^"]*"\|"evaluations":[0-9]*' | head -2
+curl -s -X POST "$base/v1/jobs/$id/cancel" > /dev/null
+
+echo "== fuzz: schemathesis against $base/openapi.json, $examples examples per operation"
+venv="$work/venv"
+python3 -m venv "$venv"
+"$venv/bin/pip" install -q 'schemathesis==4.*'
+"$venv/bin/st" run "$base/openapi.json" --checks not_a_server_error \
+  --max-examples "$examples" --workers 1 --request-timeout 30 --seed 1
