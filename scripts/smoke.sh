@@ -49,11 +49,11 @@ code=$(curl -s -o "$body" -w '%{http_code}' "$BASE/v1/jobs/$id/evaluations?forma
 if [ "$code" = 200 ] && head -1 "$body" | grep -q '^id,materials.rock.E,'; then ok "$(($(wc -l < "$body") - 1)) rows"; else fail "HTTP $code"; fi
 
 step "an invalid scene answers 422 with the JSON path"
+scene=$(curl -s "$BASE/v1/examples/block-on-base" | sed 's/"E":[-0-9.e+]*/"E":-1.0/')
 code=$(curl -s -o "$body" -w '%{http_code}' "${AUTH[@]}" -H 'Content-Type: application/json' \
-  -d '{"scene":{"version":1,"name":"bad","bodies":[],"segments":{},"materials":{"rock":{"E":-1,"nu":0.3}}}}' \
-  "$BASE/v1/jobs")
+  -d "{\"scene\":$scene}" "$BASE/v1/jobs")
 path=$(grep -o '"path":"[^"]*"' "$body" | cut -d'"' -f4)
-if [ "$code" = 422 ] && [ -n "$path" ]; then ok "path $path"; else fail "HTTP $code $(cat "$body")"; fi
+if [ "$code" = 422 ] && [ "$path" = "scene.materials.rock.E" ]; then ok "path $path"; else fail "HTTP $code $(cat "$body")"; fi
 
 if [ "$failures" -eq 0 ]; then echo "smoke: all steps passed"; exit 0; fi
 echo "smoke: $failures step(s) failed"; exit 1
