@@ -537,8 +537,8 @@ fn progress_is_reported_after_every_batch() {
     assert_eq!(reports[0].phase, Phase::Screening);
     // 2^3 vertices, the centre, and a Latin hypercube up to 400 / 5 points, in one batch
     // (reported chunk by chunk while it is evaluated).
-    let screening = reports.iter().filter(|p| p.phase == Phase::Screening);
-    assert_eq!(screening.last().map(|p| p.evaluations), Some(80));
+    let mut screening = reports.iter().filter(|p| p.phase == Phase::Screening);
+    assert_eq!(screening.next_back().map(|p| p.evaluations), Some(80));
     assert!(reports
         .windows(2)
         .all(|w| w[0].evaluations <= w[1].evaluations));
