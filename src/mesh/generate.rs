@@ -9,7 +9,7 @@ use spade::{Point2, Triangulation};
 
 use super::assemble::{finish, mesh_zones, RawMesh};
 use super::check;
-use super::geom::{dist, P};
+use super::geom::{bbox, dist, P};
 use super::gmsh::import_gmsh;
 use super::input::{self, zone_label, Geometry, Pslg};
 use super::refine::{Cdt, Refiner};
@@ -77,7 +77,18 @@ fn triangulate(
     min_angle: f64,
     budget: usize,
 ) -> Result<(Cdt, Vec<Option<usize>>), SceneError> {
-    let points: Vec<Point2<f64>> = pslg.points.iter().map(|&p| spade_point(p)).collect();
+    let mut points: Vec<Point2<f64>> = pslg.points.iter().map(|&p| spade_point(p)).collect();
+    // A frame of four far corners keeps every segment off the convex hull, so that each one
+    // has a face on both sides (needed to split segments robustly).
+    let bb = bbox(pslg.points.iter().copied());
+    let margin = (bb[2] - bb[0]).max(bb[3] - bb[1]);
+    let (x0, y0, x1, y1) = (
+        bb[0] - margin,
+        bb[1] - margin,
+        bb[2] + margin,
+        bb[3] + margin,
+    );
+    points.extend([[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(spade_point));
     let mut conflicts = 0;
     let cdt = Cdt::try_bulk_load_cdt(points, pslg.edges.clone(), |_| conflicts += 1)
         .map_err(|e| SceneError::new("bodies", format!("triangulation failed: {e}")))?;

@@ -359,7 +359,8 @@ impl<'a> Refiner<'a> {
         let c = face.circumcenter();
         let r2 = d2(c, pos[0]);
         let skinny = r2 > self.ratio * self.ratio * lmin2 * (1.0 + 1e-9);
-        if !big && !(skinny && !self.small_input_angle(f)) {
+        let needs_work = big || (skinny && !self.small_input_angle(f));
+        if !needs_work {
             return Ok(());
         }
         if !(c.x.is_finite() && c.y.is_finite()) {
