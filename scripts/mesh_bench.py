@@ -103,7 +103,7 @@ def run_triangle(poly, holes, h, runs=3):
     times, res = [], None
     for _ in range(runs):
         t0 = time.perf_counter()
-        res = triangle.triangulate(data, f"pq28a{area:.6e}Q")
+        res = triangle.triangulate(data, f"pq28a{area:.15f}Q")
         times.append(time.perf_counter() - t0)
     p, t = res["vertices"], res["triangles"]
     mins = []

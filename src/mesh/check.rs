@@ -8,7 +8,7 @@
 //! to input angles below 60° (`SMALL_INPUT_ANGLE`); every edge no longer than the size field
 //! allows at its end points (factor 1 + 1e-6).
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 
 use super::assemble::RawMesh;
 use super::geom::{dist, orient, point_segment, P};
@@ -45,7 +45,7 @@ pub(crate) fn raw_mesh(
 ) -> Result<(), SceneError> {
     let nodes = &raw.nodes;
     let mut used = vec![false; nodes.len()];
-    let mut edges: HashMap<[usize; 2], u32> = HashMap::new();
+    let mut edges: Vec<[usize; 2]> = Vec::with_capacity(3 * raw.triangles.len());
     for (t, tri) in raw.triangles.iter().enumerate() {
         let p = tri.map(|i| nodes[i]);
         if orient(p[0], p[1], p[2]) <= 0.0 {
@@ -57,16 +57,17 @@ pub(crate) fn raw_mesh(
         for k in 0..3 {
             used[tri[k]] = true;
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            let n = edges.entry([a.min(b), a.max(b)]).or_default();
-            *n += 1;
-            if *n > 2 {
-                return Err(bug(format!(
-                    "edge at {:?} has more than two triangles",
-                    nodes[a]
-                )));
-            }
+            edges.push([a.min(b), a.max(b)]);
         }
     }
+    edges.sort_unstable();
+    if let Some(w) = edges.windows(3).find(|w| w[0] == w[2]) {
+        return Err(bug(format!(
+            "the edge at {:?} has more than two triangles",
+            nodes[w[0][0]]
+        )));
+    }
+    let is_edge = |a: usize, b: usize| edges.binary_search(&[a.min(b), a.max(b)]).is_ok();
     if let Some(n) = used.iter().position(|u| !u) {
         return Err(bug(format!("node {n} at {:?} is unused", nodes[n])));
     }
@@ -105,9 +106,7 @@ pub(crate) fn raw_mesh(
         let ends_found = on.len() >= 2
             && dist(nodes[on[0].1], pa) <= tol
             && dist(nodes[on[on.len() - 1].1], pb) <= tol;
-        let chained = on
-            .windows(2)
-            .all(|w| edges.contains_key(&[w[0].1.min(w[1].1), w[0].1.max(w[1].1)]));
+        let chained = on.windows(2).all(|w| is_edge(w[0].1, w[1].1));
         if !ends_found || !chained {
             return Err(bug(format!(
                 "the input edge from {pa:?} to {pb:?} is not a chain of mesh edges"
@@ -123,12 +122,26 @@ pub(crate) fn raw_mesh(
         let p = tri.map(|i| nodes[i]);
         for k in 0..3 {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            if dist(p[k], p[(k + 1) % 3]) > h[a].min(h[b]) * SIZE_FACTOR {
+            let (q, r) = (p[k], p[(k + 1) % 3]);
+            let limit = h[a].min(h[b]) * SIZE_FACTOR;
+            if (q[0] - r[0]).powi(2) + (q[1] - r[1]).powi(2) > limit * limit {
                 return Err(bug(format!(
                     "triangle {t} at {:?} is larger than mesh.max_size or the refinement asks",
                     p[0]
                 )));
             }
+        }
+        // Cheap test first: every corner's cosine at most cos(min_angle).
+        let cos_limit = (min_angle - 1e-6).to_radians().cos();
+        let fine = (0..3).all(|k| {
+            let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+            let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+            let dot = u[0] * v[0] + u[1] * v[1];
+            let norms = (u[0] * u[0] + u[1] * u[1]) * (v[0] * v[0] + v[1] * v[1]);
+            dot <= 0.0 || dot * dot <= cos_limit * cos_limit * norms
+        });
+        if fine {
+            continue;
         }
         let angles = [0, 1, 2].map(|k| angle_at(p[k], p[(k + 1) % 3], p[(k + 2) % 3]));
         let k = (0..3)

@@ -16,15 +16,19 @@
 use std::collections::VecDeque;
 
 use spade::handles::{FixedFaceHandle, FixedUndirectedEdgeHandle, FixedVertexHandle, InnerTag};
-use spade::{
-    ConstrainedDelaunayTriangulation, Intersection, LineIntersectionIterator, Point2,
-    PositionInTriangulation, Triangulation,
-};
+use spade::{ConstrainedDelaunayTriangulation, Point2, PositionInTriangulation, Triangulation};
 
 use super::size::SizeField;
 use crate::scene::SceneError;
 
 pub(crate) type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
+
+/// Where a straight walk through the triangulation ended.
+enum Walk {
+    Reached(FixedFaceHandle<InnerTag>),
+    Blocked(FixedUndirectedEdgeHandle),
+    Lost,
+}
 
 /// Input angles below this (degrees) may keep smaller element angles next to them.
 pub(crate) const SMALL_INPUT_ANGLE: f64 = 60.0;
@@ -368,31 +372,18 @@ impl<'a> Refiner<'a> {
         }
         self.check_budget()?;
         let centre = face.center();
-        // A segment between the face and its circumcentre is split instead.
-        if let Some(s) = self.blocking_segment(centre, c) {
-            if self.split_segment(s)? {
-                self.faces.push_back(f);
-            }
-            return Ok(());
-        }
-        let hint = vs[0];
-        let target = match self.cdt.locate_with_hint(c, hint) {
-            PositionInTriangulation::OnFace(g) if self.face_zone(g) == Some(z) => g,
-            PositionInTriangulation::OnEdge(e) => {
-                let e = self.cdt.directed_edge(e);
-                if e.is_constraint_edge() {
-                    if self.split_segment(e.fix().as_undirected())? {
-                        self.faces.push_back(f);
-                    }
-                    return Ok(());
+        // A segment between the face and its circumcentre (or under it) is split instead.
+        let target = match self.walk(f, centre, c) {
+            Walk::Reached(g) if self.face_zone(g) == Some(z) => g,
+            Walk::Blocked(s) => {
+                if self.split_segment(s)? {
+                    self.faces.push_back(f);
                 }
-                match e.face().as_inner() {
-                    Some(g) if self.face_zone(g.fix()) == Some(z) => g.fix(),
-                    _ => return Ok(()),
-                }
+                return Ok(());
             }
             _ => return Ok(()),
         };
+        let hint = self.cdt.face(target).vertices()[0].fix();
         let encroached = self.encroached_by(target, c);
         if !encroached.is_empty() {
             let mut split = false;
@@ -414,27 +405,40 @@ impl<'a> Refiner<'a> {
         Ok(())
     }
 
-    /// The first constraint edge crossed on the way from `from` to `to`.
-    fn blocking_segment(
-        &self,
-        from: Point2<f64>,
-        to: Point2<f64>,
-    ) -> Option<FixedUndirectedEdgeHandle> {
-        for i in LineIntersectionIterator::new(&self.cdt, from, to) {
-            match i {
-                Intersection::EdgeIntersection(e) | Intersection::EdgeOverlap(e)
-                    if e.is_constraint_edge() =>
-                {
-                    let [a, b] = e.positions();
-                    // Touching the segment at the far end is not crossing it.
-                    if d2(a, to) > 0.0 && d2(b, to) > 0.0 {
-                        return Some(e.fix().as_undirected());
-                    }
-                }
-                _ => {}
+    /// Walks from face `f` (containing `from`) straight towards `to`: the face containing `to`,
+    /// or the first constraint edge crossed on the way or containing `to`.
+    fn walk(&self, f: FixedFaceHandle<InnerTag>, from: Point2<f64>, to: Point2<f64>) -> Walk {
+        let side = |a: Point2<f64>, b: Point2<f64>, p: Point2<f64>| {
+            (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)
+        };
+        let mut face = f;
+        for _ in 0..self.cdt.num_inner_faces() {
+            let exit = self.cdt.face(face).adjacent_edges().into_iter().find(|e| {
+                let [a, b] = e.positions();
+                e.side_query(to).is_on_right_side() && side(from, to, a) * side(from, to, b) <= 0.0
+            });
+            let Some(e) = exit else {
+                // `to` lies in this face or on its boundary; on a segment means splitting it.
+                let on = self
+                    .cdt
+                    .face(face)
+                    .adjacent_edges()
+                    .into_iter()
+                    .find(|e| e.is_constraint_edge() && e.side_query(to).is_on_line());
+                return match on {
+                    Some(e) => Walk::Blocked(e.fix().as_undirected()),
+                    None => Walk::Reached(face),
+                };
+            };
+            if e.is_constraint_edge() {
+                return Walk::Blocked(e.fix().as_undirected());
+            }
+            match e.rev().face().as_inner() {
+                Some(g) => face = g.fix(),
+                None => return Walk::Lost,
             }
         }
-        None
+        Walk::Lost
     }
 
     /// Segments (constraint edges) on the boundary of the Delaunay cavity of `p` (started at
