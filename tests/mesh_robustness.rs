@@ -323,6 +323,20 @@ fn thin_bodies_and_near_coincident_points() {
     );
     let m = mesh_ok("near-coincident", &sc);
     check("near-coincident", &m, 1.0, Some(28.0));
+    // A vertex 1e-8 away from another is neither the same point nor a real feature: refused,
+    // naming the polygon and the point.
+    let sq = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1e-8], [1.0, 1.0], [0.0, 1.0]];
+    let sc = scene(
+        vec![body("square", &sq, &[])],
+        json!({}),
+        json!({ "max_size": 0.2 }),
+    );
+    let e = generate(&sc).expect_err("near-coincident points are refused");
+    assert_eq!(e.path, "bodies[0].zones[0].polygon", "{e}");
+    assert!(
+        e.reason.contains("(1, 0.00000001)") || e.reason.contains("(1, 0)"),
+        "{e}"
+    );
     // Nearly collinear vertices along an edge.
     let mut wavy = vec![[0.0, 0.0]];
     wavy.extend((1..50).map(|i| [i as f64 / 50.0, 1e-7 * (i % 2) as f64]));
