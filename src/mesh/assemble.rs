@@ -136,19 +136,31 @@ fn split_bodies(raw: &RawMesh, zones: Vec<MeshZone>, scene: &Scene) -> (Mesh, Ve
 
 /// Boundary edges of each body (edges of exactly one of its triangles), body on the left.
 pub(crate) fn boundary_edges(mesh: &Mesh) -> Vec<Vec<[usize; 2]>> {
-    let edges = |t: &[usize; 3]| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]];
-    let mut count: HashMap<[usize; 2], u32> = HashMap::new();
-    for t in &mesh.triangles {
-        for [a, b] in edges(t) {
-            *count.entry([a.min(b), a.max(b)]).or_default() += 1;
-        }
+    // The counter-clockwise edges a → b leaving each node (compressed rows); a → b is on the
+    // boundary when no triangle has b → a.
+    let n = mesh.nodes.len();
+    let directed = || {
+        mesh.triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+    };
+    let mut start = vec![0usize; n + 1];
+    for [a, _] in directed() {
+        start[a + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut to = vec![0usize; start[n]];
+    for [a, b] in directed() {
+        to[fill[a]] = b;
+        fill[a] += 1;
     }
     let mut out = vec![Vec::new(); mesh.bodies.len()];
-    for t in &mesh.triangles {
-        for [a, b] in edges(t) {
-            if count.get(&[a.min(b), a.max(b)]) == Some(&1) {
-                out[mesh.node_body[a]].push([a, b]);
-            }
+    for [a, b] in directed() {
+        if !to[start[b]..start[b + 1]].contains(&a) {
+            out[mesh.node_body[a]].push([a, b]);
         }
     }
     out

@@ -1,27 +1,21 @@
 //! Mesh generation for a scene: one constrained Delaunay triangulation (spade) of all bodies
-//! together, quality-refined to the minimum angle and to the local target size h(x), then
-//! classified into zones (by triangle centroids, one test per region enclosed by constraint
-//! edges) and handed to `assemble` for node splitting, segments and contacts. When the scene
-//! names a Gmsh file, that mesh is imported instead.
+//! together, classified into zones (by triangle centroids, one test per region enclosed by
+//! constraint edges), Delaunay-refined on the domain's faces only (`refine`) to the minimum
+//! angle and to the local target size h(x), checked (`check`), and handed to `assemble` for node
+//! splitting, segments and contacts. When the scene names a Gmsh file, that mesh is imported
+//! instead.
 
-use spade::handles::{FixedFaceHandle, InnerTag};
-use spade::{
-    AngleLimit, ConstrainedDelaunayTriangulation, Point2, PositionInTriangulation,
-    RefinementParameters, Triangulation,
-};
+use spade::{Point2, Triangulation};
 
 use super::assemble::{finish, mesh_zones, RawMesh};
-use super::geom::{dist, P};
+use super::check;
+use super::geom::{bbox, dist, P};
 use super::gmsh::import_gmsh;
 use super::input::{self, zone_label, Geometry, Pslg};
+use super::refine::{Cdt, Refiner};
 use super::size::SizeField;
 use super::Mesh;
 use crate::scene::{Scene, SceneError};
-
-type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
-
-/// Rounds of the size-driven refinement before giving up.
-const MAX_ROUNDS: usize = 64;
 
 /// Meshes all bodies of the scene (or imports `mesh.gmsh_file`).
 pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
@@ -44,25 +38,27 @@ pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
     let estimate = size.check_budget(area)?;
     let extra: Vec<P> = scene.segments.values().flat_map(|s| s.polyline()).collect();
     let pslg = input::pslg(&geo, &extra, &size);
-    let setup = Setup {
-        geo: &geo,
-        scene,
-        min_angle,
-        budget: (4.0 * estimate) as usize + 100_000,
+    let budget = (4.0 * estimate) as usize + 10 * pslg.points.len() + 10_000;
+    // spade is not expected to panic on checked input; if it does, the user gets an error
+    // naming the geometry instead of a crash.
+    let run = || -> Result<RawMesh, SceneError> {
+        let (cdt, zone) = triangulate(&pslg, &size, &geo, scene, min_angle, budget)?;
+        Ok(raw_mesh(&cdt, &zone))
     };
-    let cdt = triangulate(pslg, &size, &setup)?;
-    let raw = classify(&cdt, &geo, scene)?;
+    let raw =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).unwrap_or_else(|panic| {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_default();
+            Err(SceneError::new(
+                "bodies",
+                format!("the triangulator failed on this geometry ({what}); please report it"),
+            ))
+        })?;
+    check::raw_mesh(&raw, &geo, &pslg, &size, min_angle)?;
     finish(scene, raw, zones, &Default::default())
-}
-
-/// What the triangulation needs besides the PSLG and the size field.
-struct Setup<'a> {
-    geo: &'a Geometry,
-    scene: &'a Scene,
-    min_angle: f64,
-    /// Vertex budget: generous against the estimate (faces outside the domain but inside the
-    /// convex hull are refined by spade too).
-    budget: usize,
 }
 
 fn spade_point(p: P) -> Point2<f64> {
@@ -71,162 +67,41 @@ fn spade_point(p: P) -> Point2<f64> {
     Point2::new(flush(p[0]), flush(p[1]))
 }
 
-fn mesh_error(reason: String) -> SceneError {
-    SceneError::new("mesh", reason)
-}
-
-/// CDT of the PSLG, refined to the angle limit and to h(x).
-fn triangulate(pslg: Pslg, size: &SizeField, setup: &Setup) -> Result<Cdt, SceneError> {
-    let points: Vec<Point2<f64>> = pslg.points.iter().map(|&p| spade_point(p)).collect();
+/// CDT of the PSLG, refined on the domain's faces to the angle limit and to h(x). Returns the
+/// triangulation and the zone of every face.
+fn triangulate(
+    pslg: &Pslg,
+    size: &SizeField,
+    geo: &Geometry,
+    scene: &Scene,
+    min_angle: f64,
+    budget: usize,
+) -> Result<(Cdt, Vec<Option<usize>>), SceneError> {
+    let mut points: Vec<Point2<f64>> = pslg.points.iter().map(|&p| spade_point(p)).collect();
+    // A frame of four far corners keeps every segment off the convex hull, so that each one
+    // has a face on both sides (needed to split segments robustly).
+    let bb = bbox(pslg.points.iter().copied());
+    let margin = (bb[2] - bb[0]).max(bb[3] - bb[1]);
+    let (x0, y0, x1, y1) = (
+        bb[0] - margin,
+        bb[1] - margin,
+        bb[2] + margin,
+        bb[3] + margin,
+    );
+    points.extend([[x0, y0], [x1, y0], [x1, y1], [x0, y1]].map(spade_point));
     let mut conflicts = 0;
-    let mut cdt = Cdt::try_bulk_load_cdt(points, pslg.edges, |_| conflicts += 1)
-        .map_err(|e| mesh_error(format!("triangulation failed: {e}")))?;
+    let cdt = Cdt::try_bulk_load_cdt(points, pslg.edges.clone(), |_| conflicts += 1)
+        .map_err(|e| SceneError::new("bodies", format!("triangulation failed: {e}")))?;
     if conflicts > 0 {
         return Err(SceneError::new(
             "bodies",
             "zone boundaries cross each other (overlapping zones)",
         ));
     }
-    let mut h: Vec<f64> = Vec::new();
-    for _ in 0..MAX_ROUNDS {
-        refine(&mut cdt, setup.min_angle, setup.budget)?;
-        let mut zone = face_zones(&cdt, setup.geo, setup.scene)?;
-        let inserted = split_large_faces(&mut cdt, size, &mut h, &mut zone, setup.budget)?;
-        if inserted == 0 {
-            return Ok(cdt);
-        }
-    }
-    Err(mesh_error(format!(
-        "the size refinement did not converge in {MAX_ROUNDS} rounds"
-    )))
-}
-
-/// Whether the face's longest edge exceeds h, taken as the smallest h at its corners.
-fn too_big(cdt: &Cdt, face: FixedFaceHandle<InnerTag>, h: &[f64]) -> bool {
-    let f = cdt.face(face);
-    let limit = f
-        .vertices()
-        .iter()
-        .map(|v| h[v.fix().index()])
-        .fold(f64::INFINITY, f64::min);
-    longest_edge(f.positions()) > limit * (1.0 + 1e-9)
-}
-
-/// Splits every face of the domain whose longest edge exceeds h, one at a time (Ruppert-style):
-/// inserts its circumcentre, or its centroid when the circumcentre lies across a constraint
-/// edge, encroaches one, or falls outside the triangulation. `zone` (per face index) is kept up
-/// to date: the faces around a new vertex belong to the zone of the face it split. Returns the
-/// number of inserted vertices.
-fn split_large_faces(
-    cdt: &mut Cdt,
-    size: &SizeField,
-    h: &mut Vec<f64>,
-    zone: &mut Vec<Option<usize>>,
-    budget: usize,
-) -> Result<usize, SceneError> {
-    let update = |cdt: &Cdt, h: &mut Vec<f64>| {
-        let start = h.len();
-        h.extend(
-            cdt.vertices()
-                .skip(start)
-                .map(|v| size.at([v.position().x, v.position().y])),
-        );
-    };
-    update(cdt, h);
-    let mut queue: Vec<FixedFaceHandle<InnerTag>> = cdt
-        .fixed_inner_faces()
-        .filter(|&f| zone[f.index()].is_some() && too_big(cdt, f, h))
-        .collect();
-    let mut inserted = 0;
-    while let Some(face) = queue.pop() {
-        if !too_big(cdt, face, h) {
-            continue;
-        }
-        if cdt.num_vertices() >= budget {
-            return Err(SceneError::new(
-                "mesh.max_size",
-                format!("the mesh needs more than {budget} vertices"),
-            ));
-        }
-        let hint = cdt.face(face).vertices()[0].fix();
-        let before = cdt.num_vertices();
-        let v = cdt
-            .insert_with_hint(steiner_point(cdt, face), hint)
-            .map_err(|e| mesh_error(format!("triangulation failed: {e}")))?;
-        if cdt.num_vertices() == before {
-            continue; // the point already existed: nothing to split here
-        }
-        inserted += 1;
-        update(cdt, h);
-        zone.resize(cdt.num_all_faces(), None);
-        let z = zone[face.index()];
-        let around: Vec<FixedFaceHandle<InnerTag>> = cdt
-            .vertex(v)
-            .out_edges()
-            .filter_map(|e| e.face().fix().as_inner())
-            .collect();
-        for g in around {
-            zone[g.index()] = z;
-            if too_big(cdt, g, h) {
-                queue.push(g);
-            }
-        }
-    }
-    Ok(inserted)
-}
-
-/// The circumcentre of the face when it is safe to insert, else its centroid.
-fn steiner_point(cdt: &Cdt, face: FixedFaceHandle<InnerTag>) -> Point2<f64> {
-    let f = cdt.face(face);
-    let (centroid, cc) = (f.center(), f.circumcenter());
-    let cc = spade_point([cc.x, cc.y]);
-    let located = match cdt.locate_with_hint(cc, f.vertices()[0].fix()) {
-        PositionInTriangulation::OnFace(g) => Some(g),
-        _ => None,
-    };
-    let safe = located.is_some_and(|g| {
-        !cdt.intersects_constraint(centroid, cc)
-            && cdt.face(g).adjacent_edges().iter().all(|e| {
-                !e.is_constraint_edge() || {
-                    let [a, b] = e.positions();
-                    let mid = Point2::new(0.5 * (a.x + b.x), 0.5 * (a.y + b.y));
-                    mid.distance_2(cc) >= 0.25 * a.distance_2(b)
-                }
-            })
-    });
-    if safe {
-        cc
-    } else {
-        spade_point([centroid.x, centroid.y])
-    }
-}
-
-/// spade's Delaunay refinement to the angle limit. No area bound: spade refines every face of
-/// the convex hull, and an area bound would fill the gaps between bodies; sizes are enforced on
-/// the domain's faces only, by `split_large_faces`.
-fn refine(cdt: &mut Cdt, min_angle: f64, budget: usize) -> Result<(), SceneError> {
-    let left = budget.saturating_sub(cdt.num_vertices());
-    let result = cdt.refine(
-        RefinementParameters::new()
-            .with_angle_limit(AngleLimit::from_deg(min_angle))
-            .with_max_additional_vertices(left),
-    );
-    if result.refinement_complete {
-        Ok(())
-    } else {
-        Err(SceneError::new(
-            "mesh.min_angle",
-            format!(
-                "the angle refinement did not finish within {budget} vertices; \
-                 lower min_angle or check the geometry for tiny features"
-            ),
-        ))
-    }
-}
-
-fn longest_edge(p: [Point2<f64>; 3]) -> f64 {
-    let q = p.map(|v| [v.x, v.y]);
-    dist(q[0], q[1]).max(dist(q[1], q[2])).max(dist(q[2], q[0]))
+    let zone = face_zones(&cdt, geo, scene)?;
+    let mut refiner = Refiner::new(cdt, zone, size, min_angle, budget);
+    refiner.run()?;
+    Ok((refiner.cdt, refiner.zone))
 }
 
 /// The zone of every face (by face index; `None` outside all zones). Faces are grouped into
@@ -270,23 +145,26 @@ fn face_zones(cdt: &Cdt, geo: &Geometry, scene: &Scene) -> Result<Vec<Option<usi
         .collect())
 }
 
-/// The triangles of the domain with their zones; faces in no zone are dropped.
-fn classify(cdt: &Cdt, geo: &Geometry, scene: &Scene) -> Result<RawMesh, SceneError> {
-    let zone = face_zones(cdt, geo, scene)?;
-    let mut raw = RawMesh {
-        nodes: cdt
-            .vertices()
-            .map(|v| [v.position().x, v.position().y])
-            .collect(),
-        ..RawMesh::default()
-    };
+/// The triangles of the domain with their zones; faces in no zone are dropped, and so are the
+/// vertices only they use.
+fn raw_mesh(cdt: &Cdt, zone: &[Option<usize>]) -> RawMesh {
+    let mut id = vec![usize::MAX; cdt.num_vertices()];
+    let mut raw = RawMesh::default();
     for f in cdt.inner_faces() {
-        if let Some(z) = zone[f.fix().index()] {
-            raw.triangles.push(f.vertices().map(|v| v.fix().index()));
+        if let Some(z) = zone.get(f.fix().index()).copied().flatten() {
+            let t = f.vertices().map(|v| {
+                let k = v.fix().index();
+                if id[k] == usize::MAX {
+                    id[k] = raw.nodes.len();
+                    raw.nodes.push([v.position().x, v.position().y]);
+                }
+                id[k]
+            });
+            raw.triangles.push(t);
             raw.zone.push(z);
         }
     }
-    Ok(raw)
+    raw
 }
 
 /// The zone containing `p`; an error when two zones claim it.

@@ -13,8 +13,13 @@ use super::geom::{
 use super::size::SizeField;
 use crate::scene::{Scene, SceneError};
 
-/// Relative tolerance (of the scene diameter) under which points coincide.
+/// Relative tolerance (of the scene diameter) under which points coincide (and are merged).
 const SNAP: f64 = 1e-9;
+
+/// Relative distance (of the scene diameter) under which distinct points, or a point and an
+/// edge, are refused as near-coincident: features this small are almost always typing or
+/// rounding slips, and would force elements many orders of magnitude below the body size.
+pub(crate) const FEATURE: f64 = 1e-6;
 
 /// A zone polygon with its holes, checked.
 #[derive(Debug, Clone)]
@@ -111,6 +116,7 @@ pub(crate) fn geometry(scene: &Scene) -> Result<Geometry, SceneError> {
         }
     }
     check_crossings(&zones, scene, tol)?;
+    check_near_points(&zones, tol, FEATURE * diameter)?;
     Ok(Geometry { zones, tol })
 }
 
@@ -223,6 +229,45 @@ fn check_crossings(zones: &[ZoneGeom], scene: &Scene, tol: f64) -> Result<(), Sc
                 zone_label(scene, &zones[first])
             ),
         ))
+    })
+}
+
+/// A vertex closer than `feature` to an edge (or a vertex) of any ring without touching it
+/// (within `tol`) is refused, naming both places.
+fn check_near_points(zones: &[ZoneGeom], tol: f64, feature: f64) -> Result<(), SceneError> {
+    let edges: Vec<(usize, usize, P, P)> = zones
+        .iter()
+        .enumerate()
+        .flat_map(|(z, g)| ring_edges(g).into_iter().map(move |e| (z, e.0, e.2, e.3)))
+        .collect();
+    let boxes: Vec<[f64; 4]> = edges.iter().map(|e| bbox([e.2, e.3])).collect();
+    overlapping_pairs(&boxes, feature, |i, j| {
+        for (v, e) in [(i, j), (j, i)] {
+            let (zv, rv, a, b) = edges[v];
+            let (ze, re, c, d) = edges[e];
+            for p in [a, b] {
+                let (dist, _) = point_segment(p, c, d);
+                if dist > tol && dist < feature {
+                    let (gv, ge) = (&zones[zv], &zones[ze]);
+                    return Err(SceneError::new(
+                        ring_path(gv, rv),
+                        format!(
+                            "the point ({}, {}) lies {dist:.3e} m from the edge ({}, {})–({}, {}) \
+                             of {}: closer than {FEATURE:e} of the geometry's size without \
+                             touching it; make the points identical or move them apart",
+                            p[0],
+                            p[1],
+                            c[0],
+                            c[1],
+                            d[0],
+                            d[1],
+                            ring_path(ge, re)
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     })
 }
 

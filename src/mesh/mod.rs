@@ -6,10 +6,12 @@
 //! the same position, ordered along body k's segment.
 
 pub(crate) mod assemble;
+mod check;
 mod generate;
 pub(crate) mod geom;
 mod gmsh;
 mod input;
+mod refine;
 mod size;
 pub mod structured;
 #[cfg(test)]

@@ -169,20 +169,19 @@ pub fn stacked_blocks(
     ny_lower: usize,
     ny_upper: usize,
 ) -> Mesh {
+    // A rectangle's segments are "bottom", "left", "right", "top" in this order, and appending
+    // "lower" before "upper" keeps all names sorted: the indices are fixed by construction.
+    const BOTTOM: usize = 0;
+    const TOP: usize = 3;
     let mut mesh = Mesh::default();
-    append_body(
-        &mut mesh,
-        rectangle(0.0, 0.0, width, h_lower, nx, ny_lower),
-        "lower",
-    );
+    let lower = rectangle(0.0, 0.0, width, h_lower, nx, ny_lower);
+    let (k, l) = (TOP, lower.segments.len() + BOTTOM);
+    append_body(&mut mesh, lower, "lower");
     append_body(
         &mut mesh,
         rectangle(0.0, h_lower, width, h_lower + h_upper, nx, ny_upper),
         "upper",
     );
-    mesh.segments.sort_by(|a, b| a.name.cmp(&b.name));
-    let k = mesh.segment_index("lower_top").unwrap_or_default();
-    let l = mesh.segment_index("upper_bottom").unwrap_or_default();
     let (top, bottom) = (&mesh.segments[k], &mesh.segments[l]);
     let pairs: Vec<[usize; 2]> = top
         .nodes
@@ -253,7 +252,13 @@ mod tests {
     fn stacked_blocks_pair_interface_nodes() {
         let m = stacked_blocks(2.0, 1.0, 0.5, 4, 2, 3);
         assert_eq!(m.bodies, ["lower", "upper"]);
+        let names: Vec<&str> = m.segments.iter().map(|s| s.name.as_str()).collect();
+        let mut sorted = names.clone();
+        sorted.sort_unstable();
+        assert_eq!(names, sorted);
         let c = &m.contacts[0];
+        assert_eq!(m.segments[c.segment_k].name, "lower_top");
+        assert_eq!(m.segments[c.segment_l].name, "upper_bottom");
         assert_eq!(c.pairs.len(), 5);
         for &[a, b] in &c.pairs {
             assert_eq!(m.nodes[a], m.nodes[b]);

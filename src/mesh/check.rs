@@ -1,0 +1,187 @@
+//! Validity check of every generated mesh before it reaches the FEM. A failure is a mesher bug
+//! and is reported as one (path `mesh`), never left to surface later as a singular matrix.
+//!
+//! Checked: every triangle counter-clockwise with positive area; every node used; every edge
+//! shared by at most two triangles; every input edge (zone boundaries, contact lines, holes)
+//! covered by a chain of mesh edges; the area of every zone equal to its polygon's area (so no
+//! triangle is missing, doubled or misclassified); every angle at least `min_angle` except next
+//! to input angles below 60° (`SMALL_INPUT_ANGLE`); every edge no longer than the size field
+//! allows at its end points (factor 1 + 1e-6).
+
+use std::collections::HashSet;
+
+use super::assemble::RawMesh;
+use super::geom::{dist, orient, point_segment, P};
+use super::input::{Geometry, Pslg};
+use super::refine::SMALL_INPUT_ANGLE;
+use super::size::SizeField;
+use crate::scene::SceneError;
+
+/// Allowed excess of an edge over the size field at its end points.
+pub(crate) const SIZE_FACTOR: f64 = 1.0 + 1e-6;
+
+fn bug(what: String) -> SceneError {
+    SceneError::new(
+        "mesh",
+        format!("mesher bug: {what}; please report it with the scene file"),
+    )
+}
+
+/// Angle at `p` between the directions to `a` and `b`, degrees.
+fn angle_at(p: P, a: P, b: P) -> f64 {
+    let (u, v) = ([a[0] - p[0], a[1] - p[1]], [b[0] - p[0], b[1] - p[1]]);
+    let cross = u[0] * v[1] - u[1] * v[0];
+    let dot = u[0] * v[0] + u[1] * v[1];
+    cross.abs().atan2(dot).to_degrees()
+}
+
+/// Checks a raw mesh against its input; see the module documentation.
+pub(crate) fn raw_mesh(
+    raw: &RawMesh,
+    geo: &Geometry,
+    pslg: &Pslg,
+    size: &SizeField,
+    min_angle: f64,
+) -> Result<(), SceneError> {
+    let nodes = &raw.nodes;
+    let mut used = vec![false; nodes.len()];
+    let mut edges: Vec<[usize; 2]> = Vec::with_capacity(3 * raw.triangles.len());
+    for (t, tri) in raw.triangles.iter().enumerate() {
+        let p = tri.map(|i| nodes[i]);
+        if orient(p[0], p[1], p[2]) <= 0.0 {
+            return Err(bug(format!(
+                "triangle {t} at {:?} is flat or inverted",
+                p[0]
+            )));
+        }
+        for k in 0..3 {
+            used[tri[k]] = true;
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            edges.push([a.min(b), a.max(b)]);
+        }
+    }
+    edges.sort_unstable();
+    if let Some(w) = edges.windows(3).find(|w| w[0] == w[2]) {
+        return Err(bug(format!(
+            "the edge at {:?} has more than two triangles",
+            nodes[w[0][0]]
+        )));
+    }
+    let is_edge = |a: usize, b: usize| edges.binary_search(&[a.min(b), a.max(b)]).is_ok();
+    if let Some(n) = used.iter().position(|u| !u) {
+        return Err(bug(format!("node {n} at {:?} is unused", nodes[n])));
+    }
+    // Zone areas.
+    let mut area = vec![0.0; geo.zones.len()];
+    for (t, tri) in raw.triangles.iter().enumerate() {
+        let p = tri.map(|i| nodes[i]);
+        area[raw.zone[t]] += 0.5 * orient(p[0], p[1], p[2]);
+    }
+    for (z, g) in geo.zones.iter().enumerate() {
+        let want = g.area();
+        if (area[z] - want).abs() > 1e-9 * want.abs().max(geo.tol * geo.tol) {
+            return Err(bug(format!(
+                "the triangles of {} cover {:.12e} m² of its {:.12e} m²",
+                g.path, area[z], want
+            )));
+        }
+    }
+    // Input edges covered by mesh edges; the input edges each node lies on.
+    let tol = geo.tol;
+    let mut by_x: Vec<usize> = (0..nodes.len()).collect();
+    by_x.sort_by(|&i, &j| nodes[i][0].total_cmp(&nodes[j][0]).then(i.cmp(&j)));
+    let mut on_input: Vec<Vec<usize>> = vec![Vec::new(); nodes.len()];
+    for (k, &[a, b]) in pslg.edges.iter().enumerate() {
+        let (pa, pb) = (pslg.points[a], pslg.points[b]);
+        let lo = by_x.partition_point(|&i| nodes[i][0] < pa[0].min(pb[0]) - tol);
+        let mut on: Vec<(f64, usize)> = by_x[lo..]
+            .iter()
+            .take_while(|&&i| nodes[i][0] <= pa[0].max(pb[0]) + tol)
+            .filter_map(|&i| {
+                let (d, t) = point_segment(nodes[i], pa, pb);
+                (d <= tol).then_some((t, i))
+            })
+            .collect();
+        on.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let ends_found = on.len() >= 2
+            && dist(nodes[on[0].1], pa) <= tol
+            && dist(nodes[on[on.len() - 1].1], pb) <= tol;
+        let chained = on.windows(2).all(|w| is_edge(w[0].1, w[1].1));
+        if !ends_found || !chained {
+            return Err(bug(format!(
+                "the input edge from {pa:?} to {pb:?} is not a chain of mesh edges"
+            )));
+        }
+        for (_, i) in on {
+            on_input[i].push(k);
+        }
+    }
+    // Sizes and angles.
+    let h: Vec<f64> = nodes.iter().map(|&p| size.at(p)).collect();
+    for (t, tri) in raw.triangles.iter().enumerate() {
+        let p = tri.map(|i| nodes[i]);
+        for k in 0..3 {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let (q, r) = (p[k], p[(k + 1) % 3]);
+            let limit = h[a].min(h[b]) * SIZE_FACTOR;
+            if (q[0] - r[0]).powi(2) + (q[1] - r[1]).powi(2) > limit * limit {
+                return Err(bug(format!(
+                    "triangle {t} at {:?} is larger than mesh.max_size or the refinement asks",
+                    p[0]
+                )));
+            }
+        }
+        // Cheap test first: every corner's cosine at most cos(min_angle).
+        let cos_limit = (min_angle - 1e-6).to_radians().cos();
+        let fine = (0..3).all(|k| {
+            let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+            let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+            let dot = u[0] * v[0] + u[1] * v[1];
+            let norms = (u[0] * u[0] + u[1] * u[1]) * (v[0] * v[0] + v[1] * v[1]);
+            dot <= 0.0 || dot * dot <= cos_limit * cos_limit * norms
+        });
+        if fine {
+            continue;
+        }
+        let angles = [0, 1, 2].map(|k| angle_at(p[k], p[(k + 1) % 3], p[(k + 2) % 3]));
+        let k = (0..3)
+            .min_by(|&i, &j| angles[i].total_cmp(&angles[j]))
+            .unwrap_or(0);
+        if angles[k] >= min_angle - 1e-6 {
+            continue;
+        }
+        let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+        if !small_input_angle(u, w, nodes, pslg, &on_input) {
+            return Err(bug(format!(
+                "triangle {t} at {:?} has an angle of {:.3}° (mesh.min_angle {min_angle}°) \
+                 away from any small input angle",
+                p[0], angles[k]
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether the small angle opposite edge (u, w) of a triangle is caused by an input angle
+/// below `SMALL_INPUT_ANGLE`: u and w lie on two input edges that meet at a common input vertex
+/// at such an angle.
+fn small_input_angle(
+    u: usize,
+    w: usize,
+    nodes: &[P],
+    pslg: &Pslg,
+    on_input: &[Vec<usize>],
+) -> bool {
+    let apexes = |n: usize| -> HashSet<usize> {
+        on_input[n]
+            .iter()
+            .flat_map(|&k| pslg.edges[k])
+            .filter(|&v| dist(pslg.points[v], nodes[n]) > 0.0)
+            .collect()
+    };
+    let (au, aw) = (apexes(u), apexes(w));
+    au.intersection(&aw).any(|&p| {
+        let pp = pslg.points[p];
+        angle_at(pp, nodes[u], nodes[w]) < SMALL_INPUT_ANGLE
+    })
+}
