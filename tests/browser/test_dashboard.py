@@ -244,6 +244,21 @@ def test_validation_errors_next_to_fields(page):
     assert STATE["expect_refusals"] == 0, "the refused submission was not logged"
 
 
+def test_cancel(page):
+    page.goto(BASE + "/#/")
+    page.get_by_label("Bundled example").check()
+    page.get_by_label("Example", exact=True).select_option("block-on-base")
+    page.get_by_label("Budget (solves)").fill("5000")
+    page.get_by_role("button", name="Submit job").click()
+    page.wait_for_url("**/#/jobs/*")
+    expect(page.locator("#job-state")).to_have_text("running", timeout=30_000)
+    page.get_by_role("button", name="Cancel job").click()
+    expect(page.locator("#job-state")).to_have_text("cancelled", timeout=30_000)
+    expect(page.get_by_role("button", name="Cancel job")).to_be_disabled()
+    job_id = page.url.rsplit("/", 1)[1]
+    assert api(page, f"/v1/jobs/{job_id}")["state"] == "cancelled"
+
+
 def test_narrow_screen(page):
     page.set_viewport_size({"width": 390, "height": 844})
     page.goto(BASE + "/#/")
@@ -256,6 +271,7 @@ def test_narrow_screen(page):
     page.wait_for_timeout(300)
     assert page.evaluate("document.documentElement.scrollWidth") <= 390 + 1
     shot(page, "09-narrow-job")
+    page.locator("#mesh-section").screenshot(path=str(ART / "10-narrow-mesh.png"))
     page.set_viewport_size({"width": 1280, "height": 800})
 
 

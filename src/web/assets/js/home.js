@@ -12,6 +12,7 @@ export function showHome() {
     examplesLoaded = true;
     loadExamples();
   }
+  $("submit-msg").textContent = "";
   refreshList();
   clearInterval(listTimer);
   listTimer = setInterval(() => {
@@ -37,7 +38,7 @@ function bestLines(job) {
     byCriterion.set(b.criterion, entry);
   }
   return [...byCriterion].map(([c, v]) =>
-    el("span", { class: "best-line" }, `${CRITERIA[c] || c}: ${num(v.max, 4)} / ${num(v.min, 4)}`),
+    el("span", { class: "best-line" }, `${CRITERIA[c] || c}: ${num(v.max, 3)} / ${num(v.min, 3)}`),
   );
 }
 
@@ -46,21 +47,21 @@ function jobRow(job) {
   const tr = el(
     "tr",
     { "data-id": job.id, "data-state": job.state },
-    el("td", {}, el("a", { href }, job.scene || job.id.slice(0, 8))),
-    el("td", {}, el("span", { class: `badge ${job.state}` }, job.state)),
-    el("td", {}, PHASES[job.phase] || job.phase),
+    el("td", { class: "scene", "data-label": "Scene" }, el("a", { href }, job.scene || job.id.slice(0, 8))),
+    el("td", { "data-label": "State" }, el("span", { class: `badge ${job.state}` }, job.state)),
+    el("td", { "data-label": "Phase" }, PHASES[job.phase] || job.phase),
     el(
       "td",
-      { class: "num" },
+      { class: "num", "data-label": "Progress" },
       el("progress", {
         max: job.budget, value: Math.min(job.evaluations, job.budget),
         "aria-label": `${job.evaluations} of ${job.budget} evaluations`,
       }),
       ` ${job.evaluations}/${job.budget}`,
     ),
-    el("td", {}, when(job.created_at)),
-    el("td", {}, job.criteria.map((c) => CRITERIA[c] || c).join(" ")),
-    el("td", { class: "best" }, ...bestLines(job)),
+    el("td", { "data-label": "Created" }, when(job.created_at)),
+    el("td", { "data-label": "Criteria" }, job.criteria.map((c) => CRITERIA[c] || c).join(" ")),
+    el("td", { class: "best", "data-label": "Best so far (max / min)" }, ...bestLines(job)),
   );
   tr.addEventListener("click", (e) => {
     if (e.target.tagName !== "A") location.hash = href;

@@ -164,7 +164,9 @@ function onStatus(s) {
     for (const b of s.best) current.plots.add(b.criterion, b.sense, s.evaluations, b.value);
     current.plots.extendTo(s.evaluations);
   } else if (first || !wasFinished) {
-    loadFinished(current.id, current.gen);
+    // Only a job that ran has an outcome (outcome_status says so): ask for nothing else.
+    if (s.outcome_status) loadFinished(current.id, current.gen);
+    else showResultSections(false, `This job ${s.state === "failed" ? "failed" : "was cancelled"} before it had a result.`);
   }
 }
 
@@ -308,22 +310,33 @@ function sensitivities() {
 
 // ---- the scenario mesh ----
 
+let fieldsRequest = 0; // the latest /fields request wins
+
 async function loadFields() {
   if (!current || !current.result) return;
   const { id, gen } = current;
+  const ticket = ++fieldsRequest;
   const criterion = $("mesh-criterion").value;
   const scenario = $("mesh-scenario").value;
   setLink("dl-vtu", api.vtuUrl(id, scenario, criterion));
   $("dl-vtu").textContent = `VTU (${scenario} ${criterion})`;
+  const c = current.result.criteria.find((x) => x.criterion === criterion);
+  const extremum = c && (scenario === "worst" ? c.worst : c.best);
+  if (!extremum || !extremum.best_point) {
+    mesh.clear();
+    setLink("dl-vtu", null);
+    mesh.message(`No feasible point was found for the ${scenario} scenario of ${CRITERIA[criterion] || criterion}: there is no mesh to show.`);
+    return;
+  }
   mesh.message(`Solving the ${scenario} scenario of ${CRITERIA[criterion] || criterion}…`);
   let fields;
   try {
     fields = await api.fields(id, scenario, criterion);
   } catch (e) {
-    if (current && current.gen === gen) mesh.message(`No mesh: ${e.message}`);
+    if (current && current.gen === gen && ticket === fieldsRequest) mesh.message(`No mesh: ${e.message}`);
     return;
   }
-  if (!current || current.gen !== gen) return;
+  if (!current || current.gen !== gen || ticket !== fieldsRequest) return;
   mesh.message("");
   const f = fields.fields;
   const options = $("mesh-field").options;
@@ -363,10 +376,14 @@ function meshFacts(summary) {
 
 function updateColorbar() {
   const f = FIELDS[mesh.field];
-  const range = mesh.data ? mesh.range() : null;
-  $("cb-min").textContent = range ? num(range[0], 4) : "";
-  $("cb-max").textContent = range ? num(range[1], 4) : "";
-  $("cb-unit").textContent = range ? `${f.label} [${f.unit}]` : `${f.label}: none in this scenario`;
+  const r = mesh.data ? mesh.range() : null;
+  $("cb-min").textContent = r ? `${r.clipped[0] ? "≤ " : ""}${num(r.lo, 4)}` : "";
+  $("cb-max").textContent = r ? `${r.clipped[1] ? "≥ " : ""}${num(r.hi, 4)}` : "";
+  let unit = r ? `${f.label} [${f.unit}]` : `${f.label}: none in this scenario`;
+  if (r && (r.clipped[0] || r.clipped[1])) {
+    unit += ` · colours span the 1st–99th percentile; all values ${num(r.full[0], 4)} … ${num(r.full[1], 4)}`;
+  }
+  $("cb-unit").textContent = unit;
 }
 
 function updateMag() {

@@ -241,18 +241,22 @@ export class MeshView {
     }
   }
 
+  /**
+   * The colour range of the current field: the 1st to 99th percentile, so that the singular
+   * values at corners and contact ends do not wash out everything else; `full` is the true
+   * [min, max] and `clipped` says whether the colours saturate at either end.
+   */
   range() {
     const v = this.values();
     if (!v) return null;
-    const arr = v.node || v.tri || v.contact;
-    if (!arr || arr.length === 0) return null;
-    let lo = Infinity;
-    let hi = -Infinity;
-    for (const x of arr) {
-      if (x < lo) lo = x;
-      if (x > hi) hi = x;
-    }
-    return [lo, hi];
+    const arr = (v.node || v.tri || v.contact || []).filter((x) => x !== null && Number.isFinite(x));
+    if (arr.length === 0) return null;
+    const sorted = Float64Array.from(arr).sort();
+    const at = (q) => sorted[Math.min(sorted.length - 1, Math.max(0, Math.round(q * (sorted.length - 1))))];
+    const full = [sorted[0], sorted[sorted.length - 1]];
+    let [lo, hi] = [at(0.01), at(0.99)];
+    if (!(hi > lo)) [lo, hi] = full;
+    return { lo, hi, full, clipped: [lo > full[0], hi < full[1]] };
   }
 
   updateDeformed() {
@@ -310,7 +314,7 @@ export class MeshView {
     const S = d.def.map((p) => this.toScreen(p));
     const values = this.values();
     const range = this.range();
-    const [lo, hi] = range || [0, 1];
+    const [lo, hi] = range ? [range.lo, range.hi] : [0, 1];
     const level = (x) => Math.max(0, Math.min(LEVELS - 1, Math.round(((x - lo) / (hi - lo || 1)) * (LEVELS - 1))));
     // Triangles batched by colour, filled and stroked in it (no hairline seams).
     const groups = new Map();
