@@ -141,7 +141,7 @@ mod tests {
 
     #[test]
     fn etag_revalidates() {
-        let first = serve("app.js", &HeaderMap::new());
+        let first = serve("js/app.js", &HeaderMap::new());
         assert_eq!(first.status(), StatusCode::OK);
         assert_eq!(
             first.headers()[header::CONTENT_TYPE],
@@ -150,7 +150,10 @@ mod tests {
         assert_eq!(first.headers()[header::CACHE_CONTROL], "no-cache");
         let mut headers = HeaderMap::new();
         headers.insert(header::IF_NONE_MATCH, first.headers()[header::ETAG].clone());
-        assert_eq!(serve("app.js", &headers).status(), StatusCode::NOT_MODIFIED);
+        assert_eq!(
+            serve("js/app.js", &headers).status(),
+            StatusCode::NOT_MODIFIED
+        );
         assert_eq!(
             serve("../Cargo.toml", &HeaderMap::new()).status(),
             StatusCode::NOT_FOUND

@@ -113,7 +113,8 @@ def test_submit_and_watch_progress(page):
             n = int(text)
             if not seen or seen[-1] != n:
                 seen.append(n)
-            if state == "running" and n > 0 and not shot_taken:
+            # While running, once the live convergence curves have something to show.
+            if state == "running" and n >= 40 and not shot_taken:
                 shot(page, "02-job-running")
                 shot_taken = True
         if state in ("succeeded", "failed", "cancelled"):
@@ -124,6 +125,7 @@ def test_submit_and_watch_progress(page):
     assert len(seen) >= 3, f"progress did not advance visibly: {seen}"
     assert seen == sorted(seen), seen
     assert seen[0] < seen[-1]
+    assert shot_taken, f"never saw the job running past 40 evaluations: {seen}"
 
 
 def test_finished_job_shows_plots_and_numbers(page):

@@ -67,7 +67,9 @@ function resetView(id) {
   $("mesh-facts").replaceChildren();
   $("mesh-criterion").replaceChildren();
   mesh.clear();
-  mesh.message("The mesh of the worst scenario appears when the job has finished.");
+  mesh.message("");
+  delete $("mesh-canvas").dataset.ready;
+  for (const c of ["cb-min", "cb-max", "cb-unit"]) $(c).textContent = "";
   for (const a of ["dl-result", "dl-csv", "dl-vtu"]) setLink(a, null);
   setLink("dl-csv", api.csvUrl(id));
 }
@@ -316,6 +318,7 @@ async function loadFields() {
   if (!current || !current.result) return;
   const { id, gen } = current;
   const ticket = ++fieldsRequest;
+  delete $("mesh-canvas").dataset.ready;
   const criterion = $("mesh-criterion").value;
   const scenario = $("mesh-scenario").value;
   setLink("dl-vtu", api.vtuUrl(id, scenario, criterion));

@@ -3,12 +3,14 @@
 import { num } from "./format.js";
 
 /** Colour-by choices: label, unit, and where the values live. */
+// `robust`: colours span the 1st–99th percentile (stresses and contact values are singular at
+// corners and at the ends of contact zones, and one peak would wash out the rest).
 export const FIELDS = {
-  u: { label: "|u|", unit: "m", on: "nodes" },
-  i2: { label: "I2²", unit: "Pa²", on: "triangles" },
-  temperature: { label: "T", unit: "K", on: "nodes" },
-  pressure: { label: "contact pressure", unit: "Pa", on: "contact" },
-  slip: { label: "slip", unit: "m", on: "contact" },
+  u: { label: "|u|", unit: "m", on: "nodes", robust: false },
+  i2: { label: "I2²", unit: "Pa²", on: "triangles", robust: true },
+  temperature: { label: "T", unit: "K", on: "nodes", robust: false },
+  pressure: { label: "contact pressure", unit: "Pa", on: "contact", robust: true },
+  slip: { label: "slip", unit: "m", on: "contact", robust: true },
 };
 
 // Viridis, 9 stops.
@@ -242,9 +244,9 @@ export class MeshView {
   }
 
   /**
-   * The colour range of the current field: the 1st to 99th percentile, so that the singular
-   * values at corners and contact ends do not wash out everything else; `full` is the true
-   * [min, max] and `clipped` says whether the colours saturate at either end.
+   * The colour range of the current field: its [min, max], or for a `robust` field the 1st to
+   * 99th percentile; `full` is the true [min, max] and `clipped` says whether the colours
+   * saturate at either end.
    */
   range() {
     const v = this.values();
@@ -254,7 +256,7 @@ export class MeshView {
     const sorted = Float64Array.from(arr).sort();
     const at = (q) => sorted[Math.min(sorted.length - 1, Math.max(0, Math.round(q * (sorted.length - 1))))];
     const full = [sorted[0], sorted[sorted.length - 1]];
-    let [lo, hi] = [at(0.01), at(0.99)];
+    let [lo, hi] = FIELDS[this.field].robust ? [at(0.01), at(0.99)] : full;
     if (!(hi > lo)) [lo, hi] = full;
     return { lo, hi, full, clipped: [lo > full[0], hi < full[1]] };
   }
