@@ -202,6 +202,7 @@ def test_switch_field_and_scenario(page):
 def test_download_result(page):
     with page.expect_download() as info:
         page.get_by_role("link", name="Result JSON").click()
+    assert info.value.suggested_filename == f"wsm-{STATE['id']}-result.json"
     path = ART / "downloaded-result.json"
     info.value.save_as(str(path))
     downloaded = json.loads(path.read_text())

@@ -71,11 +71,12 @@ function resetView(id) {
   delete $("mesh-canvas").dataset.ready;
   for (const c of ["cb-min", "cb-max", "cb-unit"]) $(c).textContent = "";
   for (const a of ["dl-result", "dl-csv", "dl-vtu"]) setLink(a, null);
-  setLink("dl-csv", api.csvUrl(id));
+  setLink("dl-csv", api.csvUrl(id), `wsm-${id}-evaluations.csv`);
 }
 
-function setLink(id, href) {
+function setLink(id, href, filename) {
   const a = $(id);
+  if (filename) a.setAttribute("download", filename);
   if (href) {
     a.href = href;
     a.removeAttribute("aria-disabled");
@@ -203,7 +204,7 @@ async function loadFinished(id, gen) {
   if (!here()) return;
   current.result = result;
   showResultSections(true);
-  setLink("dl-result", api.resultUrl(id));
+  setLink("dl-result", api.resultUrl(id), `wsm-${id}-result.json`);
   try {
     const history = await api.history(id);
     if (!here()) return;
