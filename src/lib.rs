@@ -6,8 +6,8 @@
 //! solve and its criteria) → `scenario` (admissible sets, the outer maximiser) → `run` (the front
 //! door: typed requests, outcomes, progress, cancellation and evaluation logs, shared by the
 //! command line, the service and workers) → `jobs` (the durable job queue and its workers) →
-//! `api` (the HTTP API) → `server` (`wsm serve`). The numerical core (everything up to `run`)
-//! never imports the service modules.
+//! `api` (the HTTP API) and `web` (the dashboard over it) → `server` (`wsm serve`). The
+//! numerical core (everything up to `run`) never imports the service modules.
 
 pub mod api;
 pub mod bench;
@@ -25,3 +25,4 @@ pub mod scenario;
 pub mod scene;
 pub mod server;
 pub mod state;
+pub mod web;

@@ -54,7 +54,7 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
         limits: Arc::new(config.limits.clone()),
         token: config.token.clone().map(Arc::new),
     };
-    let app = crate::api::router(state);
+    let app = crate::api::router(state).merge(crate::web::router());
     let listener = tokio::net::TcpListener::bind(&config.addr)
         .await
         .map_err(|e| WsmError::io(&config.addr, e))?;

@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# End-to-end test of the web dashboard in headless Chromium (tests/browser/test_dashboard.py).
+#
+#   scripts/browser_test.sh [PATH/TO/wsm]      (default: target/release/wsm; builds nothing)
+#
+# Installs what is missing: Debian's chromium (apt, only if /usr/bin/chromium is absent) and a
+# Python virtual environment with pinned Playwright and pytest (never `playwright install`: the
+# browser is the system one). Starts `wsm serve` on a free loopback port with a temporary
+# database, runs the tests, stops the server. Screenshots and the downloaded result go to
+# target/browser-artifacts/ (override with WSM_ARTIFACTS). Exit status: pytest's.
+set -euo pipefail
+
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+WSM=${1:-target/release/wsm}
+VENV=${WSM_BROWSER_VENV:-$ROOT/target/browser-venv}
+ARTIFACTS=${WSM_ARTIFACTS:-$ROOT/target/browser-artifacts}
+PLAYWRIGHT_VERSION=1.65.2
+PYTEST_VERSION=9.2.0
+
+if [[ ! -x $WSM ]]; then
+    echo "browser_test: no wsm binary at $WSM (build it first: cargo build --release)" >&2
+    exit 2
+fi
+WSM=$(cd "$(dirname "$WSM")" && pwd)/$(basename "$WSM")
+
+if [[ ! -x /usr/bin/chromium ]]; then
+    echo "browser_test: installing chromium (apt)"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq chromium >/dev/null
+fi
+
+if ! "$VENV/bin/python" -c "import playwright, pytest" 2>/dev/null \
+    || [[ $("$VENV/bin/python" -c 'from importlib.metadata import version; print(version("playwright"), version("pytest"))') != "$PLAYWRIGHT_VERSION $PYTEST_VERSION" ]]; then
+    echo "browser_test: preparing the Python environment in $VENV"
+    python3 -m venv "$VENV"
+    "$VENV/bin/pip" install -q --disable-pip-version-check \
+        "playwright==$PLAYWRIGHT_VERSION" "pytest==$PYTEST_VERSION"
+fi
+
+WORK=$(mktemp -d -t wsm-browser-XXXXXX)
+SERVER_PID=
+cleanup() {
+    if [[ -n $SERVER_PID ]]; then
+        kill "$SERVER_PID" 2>/dev/null || true
+        wait "$SERVER_PID" 2>/dev/null || true
+    fi
+    rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+rm -rf "$ARTIFACTS"
+mkdir -p "$ARTIFACTS"
+START=$(date +%s)
+
+# Port 0: the server picks a free port and prints it on its first line.
+env -u WSM_API_TOKEN "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/jobs.db" --workers 1 \
+    --threads-per-job 1 >"$WORK/server.out" 2>"$ARTIFACTS/server.log" &
+SERVER_PID=$!
+URL=
+for _ in $(seq 1 100); do
+    URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/server.out" | head -n 1)
+    [[ -n $URL ]] && break
+    if ! kill -0 "$SERVER_PID" 2>/dev/null; then
+        echo "browser_test: wsm serve exited:" >&2
+        cat "$ARTIFACTS/server.log" >&2
+        exit 1
+    fi
+    sleep 0.1
+done
+if [[ -z $URL ]]; then
+    echo "browser_test: wsm serve did not report its address" >&2
+    exit 1
+fi
+echo "browser_test: wsm serve at $URL (pid $SERVER_PID)"
+
+set +e
+WSM_URL=$URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
+    tests/browser/test_dashboard.py 2>&1 | tee "$ARTIFACTS/pytest.log"
+STATUS=${PIPESTATUS[0]}
+set -e
+
+echo "browser_test: $(tail -n 1 "$ARTIFACTS/pytest.log") — $(($(date +%s) - START)) s; artefacts in $ARTIFACTS"
+exit "$STATUS"

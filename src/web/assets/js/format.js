@@ -1,0 +1,71 @@
+// Number, time and DOM helpers shared by the views.
+
+/** A number for people: 5 significant digits, exponent form when large or small. */
+export function num(x, digits = 5) {
+  if (x === null || x === undefined || Number.isNaN(x)) return "—";
+  if (!Number.isFinite(x)) return x > 0 ? "∞" : "−∞";
+  const a = Math.abs(x);
+  if (a !== 0 && (a >= 1e5 || a < 1e-3)) return x.toExponential(digits - 1);
+  return Number(x.toPrecision(digits)).toString();
+}
+
+/** Seconds as "1 h 2 min", "3 min 4 s" or "5.6 s". */
+export function duration(s) {
+  if (s === null || s === undefined) return "—";
+  if (s < 60) return `${s.toFixed(1)} s`;
+  const m = Math.floor(s / 60);
+  if (m < 60) return `${m} min ${Math.round(s - 60 * m)} s`;
+  return `${Math.floor(m / 60)} h ${m % 60} min`;
+}
+
+/** Unix seconds as local date and time. */
+export function when(t) {
+  if (!t) return "—";
+  const d = new Date(t * 1000);
+  const time = d.toLocaleTimeString(undefined, { hour: "2-digit", minute: "2-digit", second: "2-digit" });
+  if (d.toDateString() === new Date().toDateString()) return time;
+  return `${d.toLocaleDateString(undefined, { month: "short", day: "numeric" })} ${time}`;
+}
+
+/** Create an element: el("td", {class: "num"}, "text", child...). */
+export function el(tag, attrs = {}, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (v === null || v === undefined || v === false) continue;
+    if (k === "class") e.className = v;
+    else if (k === "text") e.textContent = v;
+    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else e.setAttribute(k, v === true ? "" : v);
+  }
+  for (const c of children) if (c !== null && c !== undefined) e.append(c);
+  return e;
+}
+
+/** Fill a <dl> from [label, value] pairs. */
+export function facts(dl, pairs) {
+  dl.replaceChildren(
+    ...pairs.map(([k, v, attrs]) => el("div", {}, el("dt", {}, k), el("dd", attrs || {}, v))),
+  );
+}
+
+export const $ = (id) => document.getElementById(id);
+
+export const PHASES = {
+  queued: "queued", meshing: "meshing", admissible_check: "checking the admissible set",
+  nominal_solve: "nominal solve", screening: "screening vertices", swarm: "swarm search",
+  polish: "polishing", sensitivities: "sensitivities", finished: "finished",
+};
+
+export const CRITERIA = {
+  phi1: "Φ1", phi2: "Φ2", phi3: "Φ3", phi4: "Φ4", phi5: "Φ5", phi6: "Φ6",
+};
+
+/** What each criterion measures, and its unit. */
+export const CRITERION_INFO = {
+  phi1: ["mean temperature over a region", "K"],
+  phi2: ["mean temperature over a boundary piece", "K"],
+  phi3: ["mean normal displacement over a region", "m"],
+  phi4: ["mean normal displacement over a boundary piece", "m"],
+  phi5: ["mean I2² (shear-stress intensity) over a region", "Pa²"],
+  phi6: ["mean normal pressure −τn over a region", "Pa"],
+};

@@ -1,0 +1,416 @@
+// The job view: live status (server-sent events, polling as fallback), convergence plots,
+// worst/best data, sensitivities, solver statistics, the scenario mesh and downloads.
+import { api, ApiError } from "./api.js";
+import { ConvergencePlots, sensitivityChart } from "./charts.js";
+import { $, el, facts, num, duration, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
+import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
+
+const POLL_MS = 1000;
+
+let current = null; // {id, gen, es, timer, plots, status, result, scene}
+let generation = 0;
+let mesh = null;
+
+const finished = (s) => ["succeeded", "failed", "cancelled"].includes(s.state);
+
+/** Stop everything the job view follows (its EventSource first: browsers allow few connections). */
+export function hideJob() {
+  if (!current) return;
+  if (current.es) current.es.close();
+  clearTimeout(current.timer);
+  current.plots.destroy();
+  current = null;
+  if (mesh) mesh.clear();
+}
+
+/** Show job `id` and follow it until it finishes. */
+export async function showJob(id) {
+  hideJob();
+  const gen = ++generation;
+  current = { id, gen, es: null, timer: null, plots: new ConvergencePlots($("conv-plots")), status: null, result: null, scene: null };
+  const here = () => current && current.gen === gen;
+  resetView(id);
+  let status;
+  try {
+    status = await api.job(id);
+  } catch (e) {
+    if (!here()) return;
+    $("job-title").textContent = "Job not found";
+    showJobError(e.message);
+    return;
+  }
+  if (!here()) return;
+  api.scene(id).then((scene) => { if (here()) current.scene = scene; }).catch(() => {});
+  onStatus(status);
+  if (!finished(status)) follow(id, gen);
+}
+
+/** Show the result sections (mesh, data, sensitivities, statistics), or the note that they come. */
+function showResultSections(on, note) {
+  $("result-sections").hidden = !on;
+  $("pending-note").hidden = on;
+  if (note) $("pending-note").textContent = note;
+}
+
+function resetView(id) {
+  showResultSections(false, "The mesh of the worst scenario, the worst and best data, the sensitivities and the solver statistics appear when the job has finished.");
+  $("job-title").textContent = "Job";
+  $("job-id").textContent = id;
+  $("job-state").textContent = "";
+  $("job-state").className = "badge";
+  $("job-error").hidden = true;
+  $("job-facts").replaceChildren();
+  $("data-tables").replaceChildren(el("p", { class: "hint" }, "The worst and best data appear when the job has finished."));
+  $("sens-chart").replaceChildren();
+  $("sens-criterion").replaceChildren();
+  $("stats").replaceChildren();
+  $("mesh-facts").replaceChildren();
+  $("mesh-criterion").replaceChildren();
+  mesh.clear();
+  mesh.message("");
+  delete $("mesh-canvas").dataset.ready;
+  for (const c of ["cb-min", "cb-max", "cb-unit"]) $(c).textContent = "";
+  for (const a of ["dl-result", "dl-csv", "dl-vtu"]) setLink(a, null);
+  setLink("dl-csv", api.csvUrl(id), `wsm-${id}-evaluations.csv`);
+}
+
+function setLink(id, href, filename) {
+  const a = $(id);
+  if (filename) a.setAttribute("download", filename);
+  if (href) {
+    a.href = href;
+    a.removeAttribute("aria-disabled");
+    a.removeAttribute("tabindex");
+  } else {
+    a.removeAttribute("href");
+    a.setAttribute("aria-disabled", "true");
+    a.setAttribute("tabindex", "-1");
+  }
+}
+
+function showJobError(text) {
+  $("job-error").textContent = text;
+  $("job-error").hidden = !text;
+}
+
+/** Live status: an EventSource; polling when it is unavailable or keeps failing. */
+function follow(id, gen) {
+  const here = () => current && current.gen === gen;
+  if (!window.EventSource) return poll(id, gen);
+  const es = new EventSource(api.eventsUrl(id));
+  current.es = es;
+  let failures = 0;
+  es.addEventListener("status", (e) => {
+    if (!here()) return es.close();
+    failures = 0;
+    const status = JSON.parse(e.data);
+    if (finished(status)) es.close();
+    onStatus(status);
+  });
+  es.onerror = () => {
+    if (!here()) return es.close();
+    failures += 1;
+    if (es.readyState === EventSource.CLOSED || failures >= 3) {
+      es.close();
+      current.es = null;
+      poll(id, gen);
+    }
+  };
+}
+
+function poll(id, gen) {
+  const here = () => current && current.gen === gen;
+  const tick = async () => {
+    if (!here()) return;
+    try {
+      const status = await api.job(id);
+      if (!here()) return;
+      onStatus(status);
+      if (finished(status)) return;
+    } catch {
+      /* try again */
+    }
+    current.timer = setTimeout(tick, POLL_MS);
+  };
+  current.timer = setTimeout(tick, POLL_MS);
+}
+
+function onStatus(s) {
+  const first = !current.status;
+  const wasFinished = current.status && finished(current.status);
+  current.status = s;
+  $("job-title").textContent = s.scene || "Job";
+  document.title = `${s.scene} — ${s.state} — wsm`;
+  $("job-state").textContent = s.state;
+  $("job-state").className = `badge ${s.state}`;
+  const progress = $("job-progress");
+  progress.max = s.budget;
+  progress.value = Math.min(s.evaluations, s.budget);
+  $("job-progress-text").textContent = `${s.evaluations} / ${s.budget} evaluations · ${PHASES[s.phase] || s.phase}`;
+  $("job-progress-text").dataset.evaluations = s.evaluations;
+  facts($("job-facts"), [
+    ["Phase", PHASES[s.phase] || s.phase],
+    ["Criteria", s.criteria.map((c) => CRITERIA[c] || c).join(", ")],
+    ["Created", when(s.created_at)],
+    ["Started", when(s.started_at)],
+    ["Finished", when(s.finished_at)],
+    ["Elapsed", duration(s.elapsed_seconds)],
+    ["Time left (estimate)", s.eta_seconds === null ? "—" : duration(s.eta_seconds)],
+    ["Outcome", s.outcome_status || "—"],
+    ["Attempts", String(s.attempts)],
+  ]);
+  const cancel = $("cancel-btn");
+  cancel.disabled = finished(s) || s.cancel_requested;
+  cancel.textContent = s.cancel_requested && !finished(s) ? "Cancelling…" : "Cancel job";
+  showJobError(s.error ? `${s.error_kind ? `${s.error_kind}: ` : ""}${s.error}` : "");
+  if (!finished(s)) {
+    for (const b of s.best) current.plots.add(b.criterion, b.sense, s.evaluations, b.value);
+    current.plots.extendTo(s.evaluations);
+  } else if (first || !wasFinished) {
+    // Only a job that ran has an outcome (outcome_status says so): ask for nothing else.
+    if (s.outcome_status) loadFinished(current.id, current.gen);
+    else showResultSections(false, `This job ${s.state === "failed" ? "failed" : "was cancelled"} before it had a result.`);
+  }
+}
+
+async function cancelJob() {
+  if (!current) return;
+  const gen = current.gen;
+  $("cancel-btn").disabled = true;
+  try {
+    const status = await api.cancel(current.id);
+    if (current && current.gen === gen) onStatus(status);
+  } catch (e) {
+    if (current && current.gen === gen) {
+      showJobError(`Could not cancel: ${e.message}`);
+      $("cancel-btn").disabled = false;
+    }
+  }
+}
+
+// ---- a finished job ----
+
+async function loadFinished(id, gen) {
+  const here = () => current && current.gen === gen;
+  let result;
+  try {
+    result = await api.result(id);
+  } catch (e) {
+    if (!here()) return;
+    const why = e instanceof ApiError && e.status === 409 ? "This job has no result." : `Could not load the result: ${e.message}`;
+    showResultSections(false, why);
+    return;
+  }
+  if (!here()) return;
+  current.result = result;
+  showResultSections(true);
+  setLink("dl-result", api.resultUrl(id), `wsm-${id}-result.json`);
+  try {
+    const history = await api.history(id);
+    if (!here()) return;
+    current.plots.destroy();
+    current.plots = new ConvergencePlots($("conv-plots"));
+    current.plots.setHistory(history);
+    current.plots.extendTo(result.evaluations);
+  } catch {
+    /* keep the live curves */
+  }
+  if (!current.scene) {
+    try {
+      current.scene = await api.scene(id);
+    } catch {
+      current.scene = {};
+    }
+    if (!here()) return;
+  }
+  dataTables(result);
+  statistics(result);
+  const names = result.criteria.map((c) => c.criterion);
+  for (const sel of [$("mesh-criterion"), $("sens-criterion")]) {
+    sel.replaceChildren(...names.map((c) => el("option", { value: c }, `${CRITERIA[c] || c} (${c})`)));
+  }
+  sensitivities();
+  loadFields();
+}
+
+function boundText(b) {
+  return { lower: "lower bound", upper: "upper bound", interior: "interior", fixed: "fixed" }[b] || b;
+}
+
+function yesNo(v) {
+  return el("span", { class: v ? "yes" : "no" }, v ? "yes" : "no");
+}
+
+function dataTables(result) {
+  const blocks = result.criteria.map((c) => {
+    const name = c.criterion;
+    const [what, unit] = CRITERION_INFO[name] || [name, ""];
+    const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.best_value) },
+      o.best_value === null ? "—" : `${num(o.best_value, 6)} ${unit}`);
+    const rows = result.parameters.map((p, i) => el("tr", {},
+      el("th", { scope: "row" }, p.name, p.field !== p.name ? el("span", { class: "bound" }, ` ${p.field}`) : null),
+      el("td", { class: "num" }, `[${num(p.interval[0])}, ${num(p.interval[1])}]`),
+      ...[c.worst, c.best].flatMap((o) => [
+        el("td", { class: "num" }, o.best_point ? num(o.best_point[i], 6) : "—"),
+        el("td", { class: "bound" }, boundText(o.active_bounds[i])),
+      ]),
+    ));
+    return el("div", { class: "crit-table table-wrap" },
+      el("h3", {}, `${CRITERIA[name] || name} — ${what} [${unit}]`),
+      el("table", { "data-criterion": name },
+        el("thead", {}, el("tr", {},
+          el("th", { scope: "col" }, "Parameter"), el("th", { scope: "col", class: "num" }, "Interval"),
+          el("th", { scope: "col", class: "num max" }, "Worst θ (max)"), el("th", { scope: "col" }, "Active bound"),
+          el("th", { scope: "col", class: "num min" }, "Best θ (min)"), el("th", { scope: "col" }, "Active bound"))),
+        el("tbody", {},
+          el("tr", {}, el("th", { scope: "row" }, `${CRITERIA[name] || name} value`), el("td"),
+            value(c.worst, "max"), el("td"), value(c.best, "min"), el("td")),
+          ...rows,
+          el("tr", {}, el("th", { scope: "row" }, "At a vertex / vertex optimal"), el("td"),
+            el("td", { class: "num" }, yesNo(c.worst.at_vertex), " / ", yesNo(c.worst.vertex_optimal)), el("td"),
+            el("td", { class: "num" }, yesNo(c.best.at_vertex), " / ", yesNo(c.best.vertex_optimal)), el("td")),
+          el("tr", {}, el("th", { scope: "row" }, "Several optima"), el("td"),
+            el("td", { class: "num" }, yesNo(c.worst.several_optima)), el("td"),
+            el("td", { class: "num" }, yesNo(c.best.several_optima)), el("td")),
+          el("tr", {}, el("th", { scope: "row" }, "Search status"), el("td"),
+            el("td", { class: "num" }, c.worst.status), el("td"), el("td", { class: "num" }, c.best.status), el("td")),
+        )));
+  });
+  $("data-tables").replaceChildren(...blocks);
+}
+
+const INNER_LABELS = {
+  solves: "State solves", failures: "Failed solves", factorisations: "Factorisations",
+  reused_factorisations: "Reused factorisations", elastic_solves: "Elastic solves", heat_solves: "Heat solves",
+  mean_qp_iterations: "Mean QP iterations", solver_seconds: "Solver time [s]", max_kkt_residual: "Max KKT residual",
+};
+
+function statistics(r) {
+  const inner = r.inner || {};
+  const pairs = [
+    ["Status", r.status],
+    ["Evaluations (new)", `${r.evaluations} (${r.new_evaluations})`, { id: "stat-evaluations", "data-value": String(r.evaluations) }],
+    ["Budget", String(r.budget)],
+    ["Wall time", duration(r.wall_seconds)],
+    ["Setup time", duration(r.setup_seconds)],
+    ["Evaluations per second", num(r.evaluations_per_second, 4)],
+    ["Inner-solver time share", `${num(100 * r.inner_time_share, 3)} %`],
+  ];
+  for (const [k, v] of Object.entries(inner)) {
+    const label = INNER_LABELS[k] || k.replaceAll("_", " ");
+    const attrs = k === "max_kkt_residual" ? { id: "stat-kkt", "data-value": String(v) } : undefined;
+    pairs.push([label, typeof v === "number" ? num(v) : String(v), attrs]);
+  }
+  facts($("stats"), pairs);
+}
+
+function sensitivities() {
+  const r = current && current.result;
+  if (!r) return;
+  const c = r.criteria.find((x) => x.criterion === $("sens-criterion").value) || r.criteria[0];
+  if (c) sensitivityChart($("sens-chart"), r.parameters, c);
+}
+
+// ---- the scenario mesh ----
+
+let fieldsRequest = 0; // the latest /fields request wins
+
+async function loadFields() {
+  if (!current || !current.result) return;
+  const { id, gen } = current;
+  const ticket = ++fieldsRequest;
+  delete $("mesh-canvas").dataset.ready;
+  const criterion = $("mesh-criterion").value;
+  const scenario = $("mesh-scenario").value;
+  setLink("dl-vtu", api.vtuUrl(id, scenario, criterion));
+  $("dl-vtu").textContent = `VTU (${scenario} ${criterion})`;
+  const c = current.result.criteria.find((x) => x.criterion === criterion);
+  const extremum = c && (scenario === "worst" ? c.worst : c.best);
+  if (!extremum || !extremum.best_point) {
+    mesh.clear();
+    setLink("dl-vtu", null);
+    mesh.message(`No feasible point was found for the ${scenario} scenario of ${CRITERIA[criterion] || criterion}: there is no mesh to show.`);
+    return;
+  }
+  mesh.message(`Solving the ${scenario} scenario of ${CRITERIA[criterion] || criterion}…`);
+  let fields;
+  try {
+    fields = await api.fields(id, scenario, criterion);
+  } catch (e) {
+    if (current && current.gen === gen && ticket === fieldsRequest) mesh.message(`No mesh: ${e.message}`);
+    return;
+  }
+  if (!current || current.gen !== gen || ticket !== fieldsRequest) return;
+  mesh.message("");
+  const f = fields.fields;
+  const options = $("mesh-field").options;
+  for (const o of options) {
+    o.disabled = (o.value === "temperature" && !f.temperature)
+      || ((o.value === "pressure" || o.value === "slip") && !(f.contact && f.contact.length));
+  }
+  if (options[$("mesh-field").selectedIndex].disabled) $("mesh-field").value = "u";
+  mesh.field = $("mesh-field").value;
+  mesh.setData(fields, current.scene || {});
+  $("mesh-canvas").dataset.ready = `${scenario}-${criterion}`;
+  updateColorbar();
+  updateMag();
+  meshFacts(fields.summary);
+}
+
+function meshFacts(summary) {
+  const kkt = (summary.report && summary.report.kkt) || {};
+  const pairs = [
+    ["Mesh", `${summary.mesh.nodes} nodes, ${summary.mesh.triangles} triangles`],
+    ["Contact pairs", String(summary.mesh.contact_pairs)],
+  ];
+  for (const [c, v] of Object.entries(summary.criteria || {})) {
+    if (v !== null) pairs.push([`${CRITERIA[c] || c} here`, `${num(v, 6)} ${(CRITERION_INFO[c] || [])[1] || ""}`]);
+  }
+  for (const z of summary.contact_zones || []) {
+    pairs.push([`Contact ${z.name}: max pressure`, `${num(z.max_pressure)} Pa`]);
+    pairs.push([`Contact ${z.name}: stick / slip / open`, `${z.stick} / ${z.slip} / ${z.open}`]);
+  }
+  for (const [k, v] of Object.entries(kkt)) pairs.push([`KKT ${k.replaceAll("_", " ")}`, num(v, 3)]);
+  if (summary.report) {
+    pairs.push(["Solver", `${summary.report.solver}, ${summary.report.qp_iterations} QP iterations`]);
+    for (const w of summary.report.warnings || []) pairs.push(["Warning", w]);
+  }
+  facts($("mesh-facts"), pairs);
+}
+
+function updateColorbar() {
+  const f = FIELDS[mesh.field];
+  const r = mesh.data ? mesh.range() : null;
+  $("cb-min").textContent = r ? `${r.clipped[0] ? "≤ " : ""}${num(r.lo, 4)}` : "";
+  $("cb-max").textContent = r ? `${r.clipped[1] ? "≥ " : ""}${num(r.hi, 4)}` : "";
+  let unit = r ? `${f.label} [${f.unit}]` : `${f.label}: none in this scenario`;
+  if (r && (r.clipped[0] || r.clipped[1])) {
+    unit += ` · colours span the 1st–99th percentile; all values ${num(r.full[0], 4)} … ${num(r.full[1], 4)}`;
+  }
+  $("cb-unit").textContent = unit;
+}
+
+function updateMag() {
+  const m = mesh.magnification();
+  $("mesh-mag-out").textContent = mesh.data ? (m === 0 ? "(undeformed)" : `×${num(m, 3)}`) : "";
+}
+
+/** Wire the job view's controls (once). */
+export function initJob() {
+  mesh = new MeshView($("mesh-canvas"), $("mesh-tip"), $("mesh-msg"));
+  drawColorbar($("cb-canvas"));
+  $("cancel-btn").addEventListener("click", cancelJob);
+  $("mesh-criterion").addEventListener("change", loadFields);
+  $("mesh-scenario").addEventListener("change", loadFields);
+  $("mesh-field").addEventListener("change", () => {
+    mesh.setField($("mesh-field").value);
+    updateColorbar();
+  });
+  $("mesh-mag").addEventListener("input", () => {
+    mesh.setSlider(Number($("mesh-mag").value));
+    updateMag();
+  });
+  $("mesh-reset").addEventListener("click", () => mesh.fit());
+  $("mesh-edges").addEventListener("change", () => mesh.setEdges($("mesh-edges").checked));
+  $("sens-criterion").addEventListener("change", sensitivities);
+}

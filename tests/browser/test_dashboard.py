@@ -1,0 +1,282 @@
+"""End-to-end test of the dashboard in headless Chromium (Debian's /usr/bin/chromium, driven by
+Playwright; no browser download). Run by scripts/browser_test.sh, which starts `wsm serve` and
+sets WSM_URL; screenshots and the downloaded result go to $WSM_ARTIFACTS
+(target/browser-artifacts/ by default).
+
+The tests share one browser page and run in file order: submit, watch, inspect, download,
+then the bad submissions and the narrow screen. No JavaScript console error may occur anywhere.
+"""
+
+import json
+import os
+import pathlib
+import tempfile
+import time
+
+import pytest
+from playwright.sync_api import expect, sync_playwright
+
+BASE = os.environ.get("WSM_URL", "http://127.0.0.1:8099").rstrip("/")
+ART = pathlib.Path(os.environ.get("WSM_ARTIFACTS", "target/browser-artifacts"))
+CHROMIUM = os.environ.get("WSM_CHROMIUM", "/usr/bin/chromium")
+FLAGS = [
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+]
+# Enough solves that the progress is seen moving, few enough for a short run on 2 shared cores.
+BUDGET = 150
+
+STATE = {}  # shared between the ordered tests: job id, API result
+
+
+@pytest.fixture(scope="module")
+def page():
+    ART.mkdir(parents=True, exist_ok=True)
+    errors = []
+    with tempfile.TemporaryDirectory(prefix="wsm-chromium-") as profile, sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            profile, executable_path=CHROMIUM, headless=True, args=FLAGS,
+            viewport={"width": 1280, "height": 800}, accept_downloads=True,
+        )
+        pg = context.pages[0] if context.pages else context.new_page()
+        def on_console(m):
+            if m.type != "error":
+                return
+            # The browser itself logs every HTTP error response; those the test provokes on
+            # purpose (the refused submissions) are expected, any other is an error.
+            expected = STATE.get("expect_refusals", 0)
+            if m.text.startswith("Failed to load resource") and "422" in m.text \
+                    and m.location.get("url") == BASE + "/v1/jobs" and expected > 0:
+                STATE["expect_refusals"] = expected - 1
+                return
+            errors.append(f"console: {m.text} ({m.location})")
+
+        pg.on("console", on_console)
+        pg.on("pageerror", lambda e: errors.append(f"pageerror: {e}"))
+        pg.set_default_timeout(20_000)
+        STATE["errors"] = errors
+        yield pg
+        context.close()
+
+
+def shot(page, name, full=True):
+    page.screenshot(path=str(ART / f"{name}.png"), full_page=full)
+
+
+def api(page, path):
+    response = page.request.get(BASE + path)
+    assert response.ok, f"{path}: {response.status}"
+    return response.json()
+
+
+def canvas_stats(page, selector):
+    """Painted pixels and distinct colours of a canvas (sampled on a grid)."""
+    return page.eval_on_selector(selector, """(c) => {
+        const ctx = c.getContext('2d');
+        const {width, height} = c;
+        const data = ctx.getImageData(0, 0, width, height).data;
+        let painted = 0; const colours = new Set(); let sum = 0;
+        for (let y = 0; y < height; y += 3) for (let x = 0; x < width; x += 3) {
+            const i = 4 * (y * width + x);
+            const [r, g, b, a] = [data[i], data[i+1], data[i+2], data[i+3]];
+            if (a > 0 && !(r > 245 && g > 245 && b > 245)) { painted++; colours.add((r << 16) | (g << 8) | b); }
+            sum = (sum * 31 + r + 7 * g + 13 * b + a) % 1000000007;
+        }
+        return {painted, colours: colours.size, samples: Math.ceil(width / 3) * Math.ceil(height / 3), sum};
+    }""")
+
+
+def test_home_lists_examples(page):
+    page.goto(BASE + "/")
+    expect(page.locator("#example option")).not_to_have_count(0)
+    expect(page.get_by_label("Budget (solves)")).not_to_have_value("")
+    assert page.locator("#criteria input:checked").count() >= 1
+    shot(page, "01-home")
+
+
+def test_submit_and_watch_progress(page):
+    page.get_by_label("Example", exact=True).select_option("block-on-base")
+    expect(page.locator("#criteria input[value=phi6]")).to_be_checked()
+    page.get_by_label("Budget (solves)").fill(str(BUDGET))
+    page.get_by_label("Seed").fill("3")
+    page.get_by_role("button", name="Submit job").click()
+    page.wait_for_url("**/#/jobs/*")
+    job_id = page.url.rsplit("/", 1)[1]
+    STATE["id"] = job_id
+    seen = []
+    deadline = time.time() + 150
+    shot_taken = False
+    while time.time() < deadline:
+        text = page.locator("#job-progress-text").get_attribute("data-evaluations")
+        state = page.locator("#job-state").text_content()
+        if text is not None:
+            n = int(text)
+            if not seen or seen[-1] != n:
+                seen.append(n)
+            # While running, once the live convergence curves have something to show.
+            if state == "running" and n >= 40 and not shot_taken:
+                shot(page, "02-job-running")
+                shot_taken = True
+        if state in ("succeeded", "failed", "cancelled"):
+            break
+        time.sleep(0.1)
+    assert page.locator("#job-state").text_content() == "succeeded", seen
+    # The page followed the job: several distinct evaluation counts, increasing.
+    assert len(seen) >= 3, f"progress did not advance visibly: {seen}"
+    assert seen == sorted(seen), seen
+    assert seen[0] < seen[-1]
+    assert shot_taken, f"never saw the job running past 40 evaluations: {seen}"
+
+
+def test_finished_job_shows_plots_and_numbers(page):
+    job_id = STATE["id"]
+    # A fresh load of the finished job's page (as opened from the list).
+    page.goto(BASE + "/#/")
+    row = page.locator(f"#jobs-table tr[data-id='{job_id}']")
+    expect(row).to_have_attribute("data-state", "succeeded")
+    row.get_by_role("link").click()
+    page.wait_for_url(f"**/#/jobs/{job_id}")
+    expect(page.locator("#value-phi6-max")).to_be_visible()
+    expect(page.locator("#mesh-canvas")).to_have_attribute("data-ready", "worst-phi3", timeout=60_000)
+    page.wait_for_timeout(300)  # the next animation frame draws
+    result = api(page, f"/v1/jobs/{job_id}/result")
+    STATE["result"] = result
+    # Numbers on the page equal the API's.
+    for c in result["criteria"]:
+        for sense, o in (("max", c["worst"]), ("min", c["best"])):
+            cell = page.locator(f"#value-{c['criterion']}-{sense}")
+            assert float(cell.get_attribute("data-value")) == o["best_value"]
+            shown = float(cell.text_content().split()[0])
+            assert shown == pytest.approx(o["best_value"], rel=1e-5)
+    assert int(page.locator("#stat-evaluations").get_attribute("data-value")) == result["evaluations"]
+    status = api(page, f"/v1/jobs/{job_id}")
+    assert page.locator("#job-progress-text").get_attribute("data-evaluations") == str(status["evaluations"])
+    # One convergence plot per criterion, painted.
+    plots = page.locator("#conv-plots figure")
+    expect(plots).to_have_count(len(result["criteria"]))
+    for i in range(plots.count()):
+        stats = canvas_stats(page, f"#conv-plots figure:nth-child({i + 1}) canvas")
+        assert stats["painted"] > 200, stats
+    # The mesh view, painted in many colours (|u| by default).
+    mesh = canvas_stats(page, "#mesh-canvas")
+    assert mesh["painted"] > 0.2 * mesh["samples"], mesh
+    assert mesh["colours"] > 30, mesh
+    STATE["mesh_u"] = mesh
+    expect(page.locator("#cb-unit")).to_contain_text("[m]")
+    # Hover shows a value.
+    page.locator("#mesh-canvas").scroll_into_view_if_needed()
+    box = page.locator("#mesh-canvas").bounding_box()
+    page.mouse.move(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.7)
+    expect(page.locator("#mesh-tip")).to_be_visible()
+    expect(page.locator("#mesh-tip")).to_contain_text("|u| =")
+    page.mouse.move(0, 0)
+    # The sensitivity chart has a bar per parameter and sense.
+    assert page.locator("#sens-chart rect").count() >= len(result["parameters"])
+    shot(page, "03-job-finished")
+    shot(page, "04-job-viewport", full=False)
+
+
+def test_switch_field_and_scenario(page):
+    page.get_by_label("Criterion", exact=True).select_option("phi6")
+    expect(page.locator("#mesh-canvas")).to_have_attribute("data-ready", "worst-phi6", timeout=60_000)
+    page.get_by_label("Colour by").select_option("i2")
+    expect(page.locator("#cb-unit")).to_contain_text("Pa²")
+    page.wait_for_timeout(300)
+    mesh = canvas_stats(page, "#mesh-canvas")
+    assert mesh["painted"] > 0.2 * mesh["samples"], mesh
+    assert mesh["sum"] != STATE["mesh_u"]["sum"], "the picture did not change with the field"
+    # Zoom with the keyboard: the picture changes again.
+    page.locator("#mesh-canvas").focus()
+    page.keyboard.press("+")
+    page.keyboard.press("+")
+    page.wait_for_timeout(200)
+    assert canvas_stats(page, "#mesh-canvas")["sum"] != mesh["sum"]
+    page.locator("#mesh-section").screenshot(path=str(ART / "05-mesh-i2-zoomed.png"))
+    page.get_by_role("button", name="Reset view").click()
+    page.get_by_label("Colour by").select_option("pressure")
+    expect(page.locator("#cb-unit")).to_contain_text("[Pa]")
+    page.wait_for_timeout(200)
+    page.locator("#mesh-section").screenshot(path=str(ART / "06-mesh-contact-pressure.png"))
+
+
+def test_download_result(page):
+    with page.expect_download() as info:
+        page.get_by_role("link", name="Result JSON").click()
+    assert info.value.suggested_filename == f"wsm-{STATE['id']}-result.json"
+    path = ART / "downloaded-result.json"
+    info.value.save_as(str(path))
+    downloaded = json.loads(path.read_text())
+    assert downloaded["run_hash"] == STATE["result"]["run_hash"]
+    assert downloaded["criteria"] == STATE["result"]["criteria"]
+    csv = page.request.get(BASE + page.get_by_role("link", name="Evaluations CSV").get_attribute("href"))
+    assert csv.ok and csv.text().count("\n") >= 2
+
+
+def test_validation_errors_next_to_fields(page):
+    page.goto(BASE + "/#/")
+    expect(page.locator("#example option")).not_to_have_count(0)
+    # A budget the API refuses: the error sits under the budget field, naming settings.budget.
+    page.get_by_label("Budget (solves)").fill("100000000")
+    STATE["expect_refusals"] = 1
+    page.get_by_role("button", name="Submit job").click()
+    expect(page.locator("#error-budget")).to_be_visible()
+    expect(page.locator("#error-budget")).to_contain_text("settings.budget")
+    page.wait_for_timeout(300)
+    assert STATE["expect_refusals"] == 0, "the refused submission was not logged"
+    expect(page.get_by_label("Budget (solves)")).to_have_attribute("aria-invalid", "true")
+    # A bad uploaded scene: Poisson's ratio out of range.
+    scene = api(page, "/v1/examples/block-on-base")
+    scene["materials"]["rock"]["nu"] = 0.7
+    bad = ART / "bad-scene.json"
+    bad.write_text(json.dumps(scene))
+    page.get_by_label("Upload a scene file").check()
+    page.get_by_label("Scene file (JSON)").set_input_files(str(bad))
+    page.get_by_label("Budget (solves)").fill("20")
+    STATE["expect_refusals"] = 1
+    page.get_by_role("button", name="Submit job").click()
+    error = page.locator("#error-scene")
+    expect(error).to_be_visible()
+    expect(error).to_contain_text("scene.materials.rock.nu")
+    expect(page.locator("#error-budget")).to_be_hidden()
+    assert page.url.endswith("/#/")  # nothing was submitted
+    shot(page, "07-upload-error")
+    for _ in range(20):  # the browser's log of the refusal may come after the page shows it
+        if STATE["expect_refusals"] == 0:
+            break
+        page.wait_for_timeout(100)
+    assert STATE["expect_refusals"] == 0, "the refused submission was not logged"
+
+
+def test_cancel(page):
+    page.goto(BASE + "/#/")
+    page.get_by_label("Bundled example").check()
+    page.get_by_label("Example", exact=True).select_option("block-on-base")
+    page.get_by_label("Budget (solves)").fill("5000")
+    page.get_by_role("button", name="Submit job").click()
+    page.wait_for_url("**/#/jobs/*")
+    expect(page.locator("#job-state")).to_have_text("running", timeout=30_000)
+    page.get_by_role("button", name="Cancel job").click()
+    expect(page.locator("#job-state")).to_have_text("cancelled", timeout=30_000)
+    expect(page.get_by_role("button", name="Cancel job")).to_be_disabled()
+    job_id = page.url.rsplit("/", 1)[1]
+    assert api(page, f"/v1/jobs/{job_id}")["state"] == "cancelled"
+
+
+def test_narrow_screen(page):
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.goto(BASE + "/#/")
+    expect(page.locator("#jobs-table tbody tr").first).to_be_visible()
+    # No horizontal scrolling of the page itself (tables scroll in their own box).
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390 + 1
+    shot(page, "08-narrow-home")
+    page.goto(BASE + f"/#/jobs/{STATE['id']}")
+    expect(page.locator("#mesh-canvas")).to_have_attribute("data-ready", "worst-phi3", timeout=60_000)
+    page.wait_for_timeout(300)
+    assert page.evaluate("document.documentElement.scrollWidth") <= 390 + 1
+    shot(page, "09-narrow-job")
+    page.locator("#mesh-section").screenshot(path=str(ART / "10-narrow-mesh.png"))
+    page.set_viewport_size({"width": 1280, "height": 800})
+
+
+def test_no_console_errors(page):
+    assert STATE["errors"] == [], "\n".join(STATE["errors"])
