@@ -20,7 +20,21 @@ struct Server {
 
 impl Server {
     fn start(db: &std::path::Path, extra: &[&str]) -> Server {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_wsm"))
+        Server::start_with_token(db, extra, None).0
+    }
+
+    /// Start with `WSM_API_TOKEN` set (or unset); also the first line the server printed.
+    fn start_with_token(
+        db: &std::path::Path,
+        extra: &[&str],
+        token: Option<&str>,
+    ) -> (Server, String) {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_wsm"));
+        match token {
+            Some(t) => command.env("WSM_API_TOKEN", t),
+            None => command.env_remove("WSM_API_TOKEN"),
+        };
+        let mut child = command
             .args([
                 "serve",
                 "--addr",
@@ -30,7 +44,6 @@ impl Server {
             ])
             .args(["--lease-seconds", "2", "--threads-per-job", "1"])
             .args(extra)
-            .env_remove("WSM_API_TOKEN")
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
@@ -45,7 +58,7 @@ impl Server {
             .and_then(|s| s.split('/').next())
             .unwrap_or_else(|| panic!("no address in {line:?}"))
             .to_string();
-        Server { child, addr }
+        (Server { child, addr }, line)
     }
 
     fn kill(&mut self) {
@@ -643,32 +656,9 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
 #[test]
 fn the_bearer_token_guards_mutating_endpoints_when_set() {
     let db = temp_db("token.db");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_wsm"))
-        .args([
-            "serve",
-            "--addr",
-            "127.0.0.1:0",
-            "--db",
-            db.to_str().unwrap(),
-        ])
-        .env("WSM_API_TOKEN", "s3cret-token")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
+    let (server, line) = Server::start_with_token(&db, &[], Some("s3cret-token"));
     assert!(!line.contains("s3cret"), "the token is never printed");
-    let addr = line
-        .split("http://")
-        .nth(1)
-        .unwrap()
-        .split('/')
-        .next()
-        .unwrap()
-        .to_string();
+    let addr = server.addr.clone();
     let body = submission(5, 1).to_string();
     let no = http(&addr, "POST", "/v1/jobs", Some(body.as_bytes()), &[]);
     assert_eq!(no.status, 401);
@@ -689,8 +679,6 @@ fn the_bearer_token_guards_mutating_endpoints_when_set() {
     );
     assert_eq!(yes.status, 202);
     assert_eq!(get(&addr, "/v1/jobs").status, 200, "reading needs no token");
-    let _ = child.kill();
-    let _ = child.wait();
 }
 
 #[test]
