@@ -84,9 +84,10 @@ impl ApiError {
                 ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "unsolvable", detail)
             }
             ErrorKind::Cancelled => ApiError::conflict(detail),
-            ErrorKind::Solver | ErrorKind::Io => {
+            ErrorKind::Solver => {
                 ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "solver_failure", detail)
             }
+            ErrorKind::Io => ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail),
         }
     }
 }

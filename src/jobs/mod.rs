@@ -106,6 +106,15 @@ pub enum JobEnd {
     },
 }
 
+/// What a heartbeat learns about its lease.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lease {
+    /// Still `owner`'s; whether a cancel was requested.
+    Held { cancel_requested: bool },
+    /// Taken over by another worker, or the job ended.
+    Lost,
+}
+
 /// A page of a listing.
 #[derive(Debug, Clone, Copy)]
 pub struct Page {
@@ -131,8 +140,8 @@ pub trait JobStore: Send + Sync + 'static {
     async fn active_count(&self) -> StoreResult<usize>;
     /// Lease the oldest queued job, or a running job whose lease expired, for `owner`.
     async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>>;
-    /// Extend the lease; false when the lease is no longer `owner`'s.
-    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<bool>;
+    /// Extend the lease and read the job's cancel flag.
+    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease>;
     async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()>;
     /// Store one evaluation; its 1-based sequence number.
     async fn append_evaluation(

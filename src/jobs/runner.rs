@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use tokio::sync::{mpsc, Notify};
 
-use super::{JobEnd, JobRecord, JobStore};
+use super::{JobEnd, JobRecord, JobStore, Lease};
 use crate::error::{ErrorKind, WsmError};
 use crate::run::{self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status};
 
@@ -218,7 +218,8 @@ async fn run_job(
     live.lock().remove(&id);
 }
 
-/// Renew the lease every third of its length and pick up cancel requests from the store.
+/// Renew the lease every third of its length; the same statement reads the cancel flag (a
+/// cancel sent to another process reaches this one within a heartbeat).
 async fn heartbeat(
     store: Arc<dyn JobStore>,
     config: RunnerConfig,
@@ -230,18 +231,17 @@ async fn heartbeat(
     loop {
         tokio::time::sleep(period).await;
         match store.renew(&id, &config.owner, config.lease_seconds).await {
-            Ok(true) => {}
-            Ok(false) => {
+            Ok(Lease::Held { cancel_requested }) => {
+                if cancel_requested {
+                    cancel.store(true, Ordering::SeqCst);
+                }
+            }
+            Ok(Lease::Lost) => {
                 lost.store(true, Ordering::SeqCst);
                 cancel.store(true, Ordering::SeqCst);
                 return;
             }
             Err(e) => eprintln!("wsm: job {id}: {e}"),
-        }
-        if let Ok(Some(job)) = store.get(&id).await {
-            if job.cancel_requested {
-                cancel.store(true, Ordering::SeqCst);
-            }
         }
     }
 }

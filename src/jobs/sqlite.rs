@@ -10,7 +10,9 @@ use std::time::Duration;
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePoolOptions, SqliteSynchronous};
 use sqlx::{Row, SqlitePool};
 
-use super::{now, JobEnd, JobRecord, JobState, JobStore, NewJob, Page, StoreError, StoreResult};
+use super::{
+    now, JobEnd, JobRecord, JobState, JobStore, Lease, NewJob, Page, StoreError, StoreResult,
+};
 use crate::run::{Evaluation, ProgressEvent};
 
 /// The SQLite job store.
@@ -193,18 +195,24 @@ impl JobStore for SqliteStore {
         Self::record(&row).map(Some)
     }
 
-    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<bool> {
-        let done = sqlx::query(
+    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease> {
+        let cancel: Option<i64> = sqlx::query_scalar(
             "UPDATE jobs SET lease_expires_at = ?
-             WHERE id = ? AND lease_owner = ? AND state = 'running'",
+             WHERE id = ? AND lease_owner = ? AND state = 'running'
+             RETURNING cancel_requested",
         )
         .bind(now() + lease_seconds)
         .bind(id)
         .bind(owner)
-        .execute(&self.pool)
+        .fetch_optional(&self.pool)
         .await
         .map_err(db("renewing a lease"))?;
-        Ok(done.rows_affected() == 1)
+        Ok(match cancel {
+            Some(flag) => Lease::Held {
+                cancel_requested: flag != 0,
+            },
+            None => Lease::Lost,
+        })
     }
 
     async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()> {
