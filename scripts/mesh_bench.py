@@ -1,19 +1,24 @@
 #!/usr/bin/env python3
 """Side-by-side benchmark of wsm's built-in mesher and Shewchuk's Triangle (PyPI `triangle`).
 
-Writes the cases as wsm scenes to a JSON file, meshes each with Triangle (switches pq28a<A>,
-A = sqrt(3)/4 h^2, the area of an equilateral triangle of side h) and with wsm (the
-`mesh_bench` example, h = mesh.max_size bounds the longest edge), and prints a Markdown table:
-triangle counts, minimum angle, share of triangles below 30 degrees, median time.
+Meshes each case with Triangle (switches pq28a<A>, A = sqrt(3)/4 h^2, the area of an
+equilateral triangle of side h) and right after with wsm (the `mesh_bench` example on that case
+alone, h = mesh.max_size bounds the longest edge), so that both timings of a case see the same
+machine load, and prints a Markdown table: triangle counts, minimum angle, share of triangles
+below 30 degrees, median time of `--runs` runs (default 3), and the load average before and
+after.
 
 Usage (Triangle is only a benchmark peer, never a dependency of wsm):
     python3 -m venv /tmp/meshvenv && /tmp/meshvenv/bin/pip install triangle numpy
-    /tmp/meshvenv/bin/python scripts/mesh_bench.py [--quick]
+    cargo build --release --example mesh_bench
+    /tmp/meshvenv/bin/python scripts/mesh_bench.py [--quick] [--runs N] [--only TEXT]
 """
 import json
 import math
+import os
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -119,24 +124,34 @@ def run_triangle(poly, holes, h, runs=3):
             "below_30": int((mins < 30).sum()), "seconds": sorted(times)[len(times) // 2]}
 
 
+def run_wsm(name, poly, holes, h, runs):
+    exe = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "target", "release", "examples",
+                       "mesh_bench")
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+        json.dump([{"name": name, "scene": scene(poly, holes, h)}], f)
+    try:
+        out = subprocess.run([exe, f.name, str(runs)], capture_output=True, text=True, check=True).stdout
+    finally:
+        os.unlink(f.name)
+    return json.loads(out.splitlines()[0])
+
+
+def arg(flag, default):
+    return sys.argv[sys.argv.index(flag) + 1] if flag in sys.argv else default
+
+
 def main():
-    quick = "--quick" in sys.argv
-    cs = cases(quick)
-    path = "/tmp/wsm_mesh_cases.json"
-    with open(path, "w") as f:
-        json.dump([{"name": n, "scene": scene(p, hs, h)} for (n, p, hs, h) in cs], f)
-    out = subprocess.run(["cargo", "run", "--release", "-q", "--example", "mesh_bench", "--", path, "3"],
-                         capture_output=True, text=True, check=True).stdout
-    ours = {}
-    for line in out.splitlines():
-        r = json.loads(line)
-        ours[r["name"]] = r
+    runs = int(arg("--runs", "3"))
+    only = arg("--only", "")
+    cs = [c for c in cases("--quick" in sys.argv) if only in c[0]]
+    print(f"load average before: {os.getloadavg()[0]:.2f}; {runs} runs per case, medians")
+    print()
     print("| case | Triangle: triangles | min angle | < 30° | time | wsm: triangles | min angle | < 30° | time "
           "| time ratio | per-triangle ratio |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for (n, p, hs, h) in cs:
-        t = run_triangle(p, hs, h)
-        w = ours.get(n, {"error": "missing"})
+        t = run_triangle(p, hs, h, runs)
+        w = run_wsm(n, p, hs, h, runs)
         if "error" in w:
             print(f"| {n} | {t['triangles']} | {t['min_angle']:.1f}° | {100 * t['below_30'] / t['triangles']:.0f} % "
                   f"| {1e3 * t['seconds']:.1f} ms | FAILED: {w['error']} | | | | | |")
@@ -145,7 +160,9 @@ def main():
               f"| {1e3 * t['seconds']:.1f} ms | {w['triangles']} | {w['min_angle']:.1f}° "
               f"| {100 * w['below_30'] / w['triangles']:.0f} % | {1e3 * w['seconds']:.1f} ms "
               f"| {w['seconds'] / t['seconds']:.1f}× "
-              f"| {(w['seconds'] / w['triangles']) / (t['seconds'] / t['triangles']):.1f}× |")
+              f"| {(w['seconds'] / w['triangles']) / (t['seconds'] / t['triangles']):.1f}× |", flush=True)
+    print()
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, HashMap, HashSet};
 
 use super::geom::{bbox, dist, lerp, orient, Polyline, P};
+use super::rows::Rows;
 use super::{Mesh, MeshContact, MeshSegment, MeshZone};
 use crate::scene::{Scene, SceneError, Segment};
 
@@ -101,34 +102,62 @@ impl Copies {
     }
 }
 
-/// Triangles grouped by body and oriented CCW; each body gets its own copies of its nodes.
+/// Triangles grouped by body and oriented CCW; each body gets its own copies of its nodes (in
+/// raw node order). Linear in the mesh size: counting passes, no sorting of all nodes.
 fn split_bodies(raw: &RawMesh, zones: Vec<MeshZone>, scene: &Scene) -> (Mesh, Vec<Copies>) {
+    const NONE: usize = usize::MAX;
+    let nb = scene.bodies.len();
+    let body = |t: usize| zones[raw.zone[t]].body;
+    // The bodies of every raw node: the first one, and (node, body) for any further ones.
+    let mut first = vec![NONE; raw.nodes.len()];
+    let mut more: Vec<(usize, usize)> = Vec::new();
+    for (t, tri) in raw.triangles.iter().enumerate() {
+        let b = body(t);
+        for &i in tri {
+            if first[i] == NONE {
+                first[i] = b;
+            } else if first[i] != b {
+                more.push((i, b));
+            }
+        }
+    }
+    more.sort_unstable();
+    more.dedup();
+    let mut ids: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    let mut extra = more.iter().peekable();
+    for (i, &b) in first.iter().enumerate() {
+        if b != NONE {
+            ids[b].push(i);
+        }
+        while let Some(&(_, b)) = extra.next_if(|e| e.0 == i) {
+            ids[b].push(i);
+        }
+    }
     let mut mesh = Mesh {
         bodies: scene.bodies.iter().map(|b| b.name.clone()).collect(),
         ..Mesh::default()
     };
-    let mut copies = Vec::new();
-    for b in 0..scene.bodies.len() {
-        let tris: Vec<usize> = (0..raw.triangles.len())
-            .filter(|&t| zones[raw.zone[t]].body == b)
-            .collect();
-        let mut ids: Vec<usize> = tris.iter().flat_map(|&t| raw.triangles[t]).collect();
-        ids.sort_unstable();
-        ids.dedup();
-        let c = Copies {
-            raw: ids,
-            base: mesh.nodes.len(),
-        };
-        mesh.nodes.extend(c.raw.iter().map(|&i| raw.nodes[i]));
-        mesh.node_body.extend(c.raw.iter().map(|_| b));
-        for t in tris {
-            let [a, b1, c1] = raw.triangles[t].map(|i| c.get(i).unwrap_or(0));
+    let mut tris: Vec<Vec<usize>> = vec![Vec::new(); nb];
+    for t in 0..raw.triangles.len() {
+        tris[body(t)].push(t);
+    }
+    let mut local = vec![0usize; raw.nodes.len()];
+    let mut copies = Vec::with_capacity(nb);
+    for (b, raw_ids) in ids.into_iter().enumerate() {
+        let base = mesh.nodes.len();
+        for (k, &i) in raw_ids.iter().enumerate() {
+            local[i] = base + k;
+            mesh.nodes.push(raw.nodes[i]);
+            mesh.node_body.push(b);
+        }
+        for &t in &tris[b] {
+            let [a, b1, c1] = raw.triangles[t].map(|i| local[i]);
             let ccw = orient(mesh.nodes[a], mesh.nodes[b1], mesh.nodes[c1]) >= 0.0;
             mesh.triangles
                 .push(if ccw { [a, b1, c1] } else { [a, c1, b1] });
             mesh.triangle_zone.push(raw.zone[t]);
         }
-        copies.push(c);
+        copies.push(Copies { raw: raw_ids, base });
     }
     mesh.zones = zones;
     (mesh, copies)
@@ -136,30 +165,17 @@ fn split_bodies(raw: &RawMesh, zones: Vec<MeshZone>, scene: &Scene) -> (Mesh, Ve
 
 /// Boundary edges of each body (edges of exactly one of its triangles), body on the left.
 pub(crate) fn boundary_edges(mesh: &Mesh) -> Vec<Vec<[usize; 2]>> {
-    // The counter-clockwise edges a → b leaving each node (compressed rows); a → b is on the
-    // boundary when no triangle has b → a.
-    let n = mesh.nodes.len();
+    // The counter-clockwise edges a → b leaving each node; a → b is on the boundary when no
+    // triangle has b → a.
     let directed = || {
         mesh.triangles
             .iter()
             .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
     };
-    let mut start = vec![0usize; n + 1];
-    for [a, _] in directed() {
-        start[a + 1] += 1;
-    }
-    for i in 0..n {
-        start[i + 1] += start[i];
-    }
-    let mut fill = start.clone();
-    let mut to = vec![0usize; start[n]];
-    for [a, b] in directed() {
-        to[fill[a]] = b;
-        fill[a] += 1;
-    }
+    let rows = Rows::new(mesh.nodes.len(), directed);
     let mut out = vec![Vec::new(); mesh.bodies.len()];
     for [a, b] in directed() {
-        if !to[start[b]..start[b + 1]].contains(&a) {
+        if !rows.row(b).contains(&a) {
             out[mesh.node_body[a]].push([a, b]);
         }
     }

@@ -14,6 +14,7 @@ use super::assemble::RawMesh;
 use super::geom::{dist, orient, point_segment, P};
 use super::input::{Geometry, Pslg};
 use super::refine::SMALL_INPUT_ANGLE;
+use super::rows::Rows;
 use super::size::SizeField;
 use crate::scene::SceneError;
 
@@ -45,7 +46,6 @@ pub(crate) fn raw_mesh(
 ) -> Result<(), SceneError> {
     let nodes = &raw.nodes;
     let mut used = vec![false; nodes.len()];
-    let mut edges: Vec<[usize; 2]> = Vec::with_capacity(3 * raw.triangles.len());
     for (t, tri) in raw.triangles.iter().enumerate() {
         let p = tri.map(|i| nodes[i]);
         if orient(p[0], p[1], p[2]) <= 0.0 {
@@ -54,23 +54,27 @@ pub(crate) fn raw_mesh(
                 p[0]
             )));
         }
-        for k in 0..3 {
-            used[tri[k]] = true;
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edges.push([a.min(b), a.max(b)]);
+        for &i in tri {
+            used[i] = true;
         }
     }
-    edges.sort_unstable();
-    if let Some(w) = edges.windows(3).find(|w| w[0] == w[2]) {
-        return Err(bug(format!(
-            "the edge at {:?} has more than two triangles",
-            nodes[w[0][0]]
-        )));
-    }
-    let is_edge = |a: usize, b: usize| edges.binary_search(&[a.min(b), a.max(b)]).is_ok();
     if let Some(n) = used.iter().position(|u| !u) {
         return Err(bug(format!("node {n} at {:?} is unused", nodes[n])));
     }
+    // Undirected edges, each stored at its smaller node, one entry per triangle.
+    let mut edges = Rows::new(nodes.len(), || {
+        raw.triangles.iter().flat_map(|t| {
+            [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]].map(|[a, b]| [a.min(b), a.max(b)])
+        })
+    });
+    edges.sort_rows();
+    if let Some(a) = (0..nodes.len()).find(|&a| edges.row(a).windows(3).any(|w| w[0] == w[2])) {
+        return Err(bug(format!(
+            "an edge at {:?} has more than two triangles",
+            nodes[a]
+        )));
+    }
+    let is_edge = |a: usize, b: usize| edges.row(a.min(b)).binary_search(&a.max(b)).is_ok();
     // Zone areas.
     let mut area = vec![0.0; geo.zones.len()];
     for (t, tri) in raw.triangles.iter().enumerate() {
@@ -88,16 +92,16 @@ pub(crate) fn raw_mesh(
     }
     // Input edges covered by mesh edges; the input edges each node lies on.
     let tol = geo.tol;
-    let mut by_x: Vec<usize> = (0..nodes.len()).collect();
-    by_x.sort_by(|&i, &j| nodes[i][0].total_cmp(&nodes[j][0]).then(i.cmp(&j)));
+    let mut by_x: Vec<(f64, usize)> = nodes.iter().enumerate().map(|(i, p)| (p[0], i)).collect();
+    by_x.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     let mut on_input: Vec<Vec<usize>> = vec![Vec::new(); nodes.len()];
     for (k, &[a, b]) in pslg.edges.iter().enumerate() {
         let (pa, pb) = (pslg.points[a], pslg.points[b]);
-        let lo = by_x.partition_point(|&i| nodes[i][0] < pa[0].min(pb[0]) - tol);
+        let lo = by_x.partition_point(|&(x, _)| x < pa[0].min(pb[0]) - tol);
         let mut on: Vec<(f64, usize)> = by_x[lo..]
             .iter()
-            .take_while(|&&i| nodes[i][0] <= pa[0].max(pb[0]) + tol)
-            .filter_map(|&i| {
+            .take_while(|&&(x, _)| x <= pa[0].max(pb[0]) + tol)
+            .filter_map(|&(_, i)| {
                 let (d, t) = point_segment(nodes[i], pa, pb);
                 (d <= tol).then_some((t, i))
             })

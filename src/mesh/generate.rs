@@ -1,21 +1,25 @@
-//! Mesh generation for a scene: one constrained Delaunay triangulation (spade) of all bodies
-//! together, classified into zones (by triangle centroids, one test per region enclosed by
-//! constraint edges), Delaunay-refined on the domain's faces only (`refine`) to the minimum
-//! angle and to the local target size h(x), checked (`check`), and handed to `assemble` for node
-//! splitting, segments and contacts. When the scene names a Gmsh file, that mesh is imported
+//! Mesh generation for a scene: one constrained Delaunay triangulation (spade's bulk load) of all
+//! bodies together, copied into flat arrays (`tri`), classified into zones (by triangle
+//! centroids, one test per region enclosed by constraint edges), Delaunay-refined on the
+//! domain's triangles only (`refine`) to the minimum angle and to the local target size h(x),
+//! checked (`check`), and handed to `assemble` for node splitting, segments and contacts. When the scene names a Gmsh file, that mesh is imported
 //! instead.
 
-use spade::{Point2, Triangulation};
+use spade::handles::FixedVertexHandle;
+use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
 use super::assemble::{finish, mesh_zones, RawMesh};
 use super::check;
 use super::geom::{bbox, dist, P};
 use super::gmsh::import_gmsh;
 use super::input::{self, zone_label, Geometry, Pslg};
-use super::refine::{Cdt, Refiner};
+use super::refine::Refiner;
 use super::size::SizeField;
+use super::tri::{orient, Tri, NONE};
 use super::Mesh;
 use crate::scene::{Scene, SceneError};
+
+type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
 /// Meshes all bodies of the scene (or imports `mesh.gmsh_file`).
 pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
@@ -42,8 +46,8 @@ pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
     // spade is not expected to panic on checked input; if it does, the user gets an error
     // naming the geometry instead of a crash.
     let run = || -> Result<RawMesh, SceneError> {
-        let (cdt, zone) = triangulate(&pslg, &size, &geo, scene, min_angle, budget)?;
-        Ok(raw_mesh(&cdt, &zone))
+        let tri = triangulate(&pslg, &size, &geo, scene, min_angle, budget)?;
+        Ok(raw_mesh(&tri))
     };
     let raw =
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)).unwrap_or_else(|panic| {
@@ -67,8 +71,7 @@ fn spade_point(p: P) -> Point2<f64> {
     Point2::new(flush(p[0]), flush(p[1]))
 }
 
-/// CDT of the PSLG, refined on the domain's faces to the angle limit and to h(x). Returns the
-/// triangulation and the zone of every face.
+/// CDT of the PSLG (spade), refined on the domain's triangles to the angle limit and to h(x).
 fn triangulate(
     pslg: &Pslg,
     size: &SizeField,
@@ -76,10 +79,10 @@ fn triangulate(
     scene: &Scene,
     min_angle: f64,
     budget: usize,
-) -> Result<(Cdt, Vec<Option<usize>>), SceneError> {
+) -> Result<Tri, SceneError> {
     let mut points: Vec<Point2<f64>> = pslg.points.iter().map(|&p| spade_point(p)).collect();
     // A frame of four far corners keeps every segment off the convex hull, so that each one
-    // has a face on both sides (needed to split segments robustly).
+    // has a triangle on both sides.
     let bb = bbox(pslg.points.iter().copied());
     let margin = (bb[2] - bb[0]).max(bb[3] - bb[1]);
     let (x0, y0, x1, y1) = (
@@ -98,71 +101,101 @@ fn triangulate(
             "zone boundaries cross each other (overlapping zones)",
         ));
     }
-    let zone = face_zones(&cdt, geo, scene)?;
-    let mut refiner = Refiner::new(cdt, zone, size, min_angle, budget);
+    let mut tri = flat(&cdt);
+    tri.zone = zones(&tri, geo, scene)?;
+    let mut refiner = Refiner::new(tri, size, min_angle, budget);
     refiner.run()?;
-    Ok((refiner.cdt, refiner.zone))
+    Ok(refiner.tri)
 }
 
-/// The zone of every face (by face index; `None` outside all zones). Faces are grouped into
-/// regions connected across non-constraint edges, and each region is located once, by the
-/// centroid of its largest face.
-fn face_zones(cdt: &Cdt, geo: &Geometry, scene: &Scene) -> Result<Vec<Option<usize>>, SceneError> {
-    const NONE: usize = usize::MAX;
-    let mut region = vec![NONE; cdt.num_all_faces()];
-    let mut region_zone: Vec<Option<usize>> = Vec::new();
+/// spade's triangulation as flat arrays.
+fn flat(cdt: &Cdt) -> Tri {
+    let pts: Vec<P> = cdt
+        .vertices()
+        .map(|v| [v.position().x, v.position().y])
+        .collect();
+    let id = |v: FixedVertexHandle| v.index() as u32;
+    let tris: Vec<[u32; 3]> = cdt
+        .inner_faces()
+        .map(|f| {
+            let [a, b, c] = f.vertices().map(|v| id(v.fix()));
+            if orient(pts[a as usize], pts[b as usize], pts[c as usize]) > 0.0 {
+                [a, b, c]
+            } else {
+                [a, c, b]
+            }
+        })
+        .collect();
+    let mut constraints: Vec<[u32; 2]> = cdt
+        .undirected_edges()
+        .filter(|e| e.is_constraint_edge())
+        .map(|e| {
+            let [a, b] = e.vertices().map(|v| id(v.fix()));
+            [a.min(b), a.max(b)]
+        })
+        .collect();
+    constraints.sort_unstable();
+    Tri::new(pts, tris, |a, b| constraints.binary_search(&[a, b]).is_ok())
+}
+
+/// The zone of every triangle (`NONE` outside all zones). Triangles are grouped into regions
+/// connected across non-constraint edges, and each region is located once, by the centroid of
+/// its largest triangle.
+fn zones(tri: &Tri, geo: &Geometry, scene: &Scene) -> Result<Vec<u32>, SceneError> {
+    let mut region = vec![NONE; tri.v.len()];
+    let mut region_zone: Vec<u32> = Vec::new();
     let mut stack = Vec::new();
-    for start in cdt.inner_faces() {
-        if region[start.fix().index()] != NONE {
+    for start in 0..tri.v.len() as u32 {
+        if region[start as usize] != NONE {
             continue;
         }
-        let r = region_zone.len();
+        let r = region_zone.len() as u32;
         let mut best = (f64::NEG_INFINITY, [0.0, 0.0]);
-        region[start.fix().index()] = r;
+        region[start as usize] = r;
         stack.push(start);
-        while let Some(f) = stack.pop() {
-            if f.area() > best.0 {
-                let c = f.center();
-                best = (f.area(), [c.x, c.y]);
+        while let Some(t) = stack.pop() {
+            let [a, b, c] = tri.corners(t);
+            let area = orient(a, b, c);
+            if area > best.0 {
+                best = (
+                    area,
+                    [(a[0] + b[0] + c[0]) / 3.0, (a[1] + b[1] + c[1]) / 3.0],
+                );
             }
-            for e in f.adjacent_edges() {
-                if e.is_constraint_edge() {
-                    continue;
-                }
-                if let Some(g) = e.rev().face().as_inner() {
-                    if region[g.fix().index()] == NONE {
-                        region[g.fix().index()] = r;
-                        stack.push(g);
-                    }
+            for k in 0..3 {
+                let u = tri.n[t as usize][k];
+                if !tri.is_seg(t, k) && u != NONE && region[u as usize] == NONE {
+                    region[u as usize] = r;
+                    stack.push(u);
                 }
             }
         }
-        region_zone.push(locate(best.1, geo, scene)?);
+        region_zone.push(locate(best.1, geo, scene)?.map_or(NONE, |z| z as u32));
     }
     Ok(region
         .into_iter()
-        .map(|r| region_zone.get(r).copied().flatten())
+        .map(|r| region_zone[r as usize])
         .collect())
 }
 
-/// The triangles of the domain with their zones; faces in no zone are dropped, and so are the
-/// vertices only they use.
-fn raw_mesh(cdt: &Cdt, zone: &[Option<usize>]) -> RawMesh {
-    let mut id = vec![usize::MAX; cdt.num_vertices()];
+/// The triangles of the domain with their zones; triangles in no zone are dropped, and so are
+/// the vertices only they use.
+fn raw_mesh(tri: &Tri) -> RawMesh {
+    let mut id = vec![NONE; tri.pts.len()];
     let mut raw = RawMesh::default();
-    for f in cdt.inner_faces() {
-        if let Some(z) = zone.get(f.fix().index()).copied().flatten() {
-            let t = f.vertices().map(|v| {
-                let k = v.fix().index();
-                if id[k] == usize::MAX {
-                    id[k] = raw.nodes.len();
-                    raw.nodes.push([v.position().x, v.position().y]);
-                }
-                id[k]
-            });
-            raw.triangles.push(t);
-            raw.zone.push(z);
+    for (t, &z) in tri.zone.iter().enumerate() {
+        if z == NONE {
+            continue;
         }
+        let corners = tri.v[t].map(|k| {
+            if id[k as usize] == NONE {
+                id[k as usize] = raw.nodes.len() as u32;
+                raw.nodes.push(tri.pts[k as usize]);
+            }
+            id[k as usize] as usize
+        });
+        raw.triangles.push(corners);
+        raw.zone.push(z as usize);
     }
     raw
 }

@@ -12,10 +12,12 @@ pub(crate) mod geom;
 mod gmsh;
 mod input;
 mod refine;
+mod rows;
 mod size;
 pub mod structured;
 #[cfg(test)]
 pub(crate) mod tests;
+mod tri;
 
 pub use generate::{generate, stats, MeshStats};
 pub use gmsh::import_gmsh;
