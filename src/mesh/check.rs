@@ -1,12 +1,15 @@
 //! Validity check of every generated mesh before it reaches the FEM. A failure is a mesher bug
 //! and is reported as one (path `mesh`), never left to surface later as a singular matrix.
 //!
-//! Checked: every triangle counter-clockwise with positive area; every node used; every edge
-//! shared by at most two triangles; every input edge (zone boundaries, contact lines, holes)
+//! Checked: every triangle counter-clockwise with positive area; every node used; no two
+//! triangles on the same side of an edge (no fold, no edge in more than two triangles); every input edge (zone boundaries, contact lines, holes)
 //! covered by a chain of mesh edges; the area of every zone equal to its polygon's area (so no
 //! triangle is missing, doubled or misclassified); every angle at least `min_angle` except next
 //! to input angles below 60° (`SMALL_INPUT_ANGLE`); every edge no longer than the size field
 //! allows at its end points (factor 1 + 1e-6).
+//!
+//! The connectivity part (`connectivity`, `hanging_node`) is shared with the Gmsh import,
+//! which names the file's element and node tags in its errors.
 
 use std::collections::HashSet;
 
@@ -36,6 +39,97 @@ fn angle_at(p: P, a: P, b: P) -> f64 {
     cross.abs().atan2(dot).to_degrees()
 }
 
+/// A defect of a triangle mesh's connectivity (indices of triangles and nodes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Defect {
+    /// The triangle has zero area (repeated or collinear corners) or is clockwise.
+    Degenerate(usize),
+    /// The two triangles both have the directed edge a → b: they overlap (a fold or a
+    /// duplicate), or the edge belongs to more than two triangles.
+    Overlap([usize; 2], [usize; 2]),
+    /// The node lies inside the boundary edge a → b of the triangle without being a corner of
+    /// it: the mesh does not conform there.
+    Hanging(usize, usize, [usize; 2]),
+}
+
+fn directed(triangles: &[[usize; 3]]) -> impl Iterator<Item = [usize; 2]> + '_ {
+    triangles
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+}
+
+fn with_edge(triangles: &[[usize; 3]], [a, b]: [usize; 2]) -> impl Iterator<Item = usize> + '_ {
+    (0..triangles.len()).filter(move |&t| {
+        let v = triangles[t];
+        (0..3).any(|k| v[k] == a && v[(k + 1) % 3] == b)
+    })
+}
+
+/// Checks that every triangle is counter-clockwise with a non-degenerate area (twice the area
+/// above 1e-12 of its longest edge squared) and that no directed edge occurs twice; returns the
+/// directed edges in sorted compressed rows (a → b stored in row a).
+pub(crate) fn connectivity(nodes: &[P], triangles: &[[usize; 3]]) -> Result<Rows, Defect> {
+    for (t, tri) in triangles.iter().enumerate() {
+        let p = tri.map(|i| nodes[i]);
+        let l2 = (0..3)
+            .map(|k| {
+                let d = [p[k][0] - p[(k + 1) % 3][0], p[k][1] - p[(k + 1) % 3][1]];
+                d[0] * d[0] + d[1] * d[1]
+            })
+            .fold(0.0, f64::max);
+        if !(orient(p[0], p[1], p[2]) > 1e-12 * l2) {
+            return Err(Defect::Degenerate(t));
+        }
+    }
+    let mut rows = Rows::new(nodes.len(), || directed(triangles));
+    rows.sort_rows();
+    for a in 0..nodes.len() {
+        if let Some(w) = rows.row(a).windows(2).find(|w| w[0] == w[1]) {
+            let mut two = with_edge(triangles, [a, w[0]]);
+            let (s, t) = (two.next().unwrap_or(0), two.next().unwrap_or(0));
+            return Err(Defect::Overlap([s, t], [a, w[0]]));
+        }
+    }
+    Ok(rows)
+}
+
+/// A node lying inside a boundary edge of the counter-clockwise `triangles` (within 1e-9 of
+/// the edge's length, away from its ends) without being its corner. Only nodes of these
+/// triangles are considered.
+pub(crate) fn hanging_node(nodes: &[P], triangles: &[[usize; 3]]) -> Option<Defect> {
+    let rows = Rows::new(nodes.len(), || directed(triangles));
+    let mut used = vec![false; nodes.len()];
+    for &i in triangles.iter().flatten() {
+        used[i] = true;
+    }
+    let mut by_x: Vec<(f64, usize)> = (0..nodes.len())
+        .filter(|&i| used[i])
+        .map(|i| (nodes[i][0], i))
+        .collect();
+    by_x.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+    for [a, b] in directed(triangles) {
+        if rows.row(b).contains(&a) {
+            continue;
+        }
+        let (pa, pb) = (nodes[a], nodes[b]);
+        let tol = 1e-9 * dist(pa, pb);
+        let lo = by_x.partition_point(|&(x, _)| x < pa[0].min(pb[0]) - tol);
+        let inside = by_x[lo..]
+            .iter()
+            .take_while(|&&(x, _)| x <= pa[0].max(pb[0]) + tol)
+            .map(|&(_, i)| i)
+            .find(|&i| {
+                let p = nodes[i];
+                point_segment(p, pa, pb).0 <= tol && dist(p, pa) > tol && dist(p, pb) > tol
+            });
+        if let Some(i) = inside {
+            let t = with_edge(triangles, [a, b]).next().unwrap_or(0);
+            return Some(Defect::Hanging(i, t, [a, b]));
+        }
+    }
+    None
+}
+
 /// Checks a raw mesh against its input; see the module documentation.
 pub(crate) fn raw_mesh(
     raw: &RawMesh,
@@ -45,36 +139,27 @@ pub(crate) fn raw_mesh(
     min_angle: f64,
 ) -> Result<(), SceneError> {
     let nodes = &raw.nodes;
+    let edges = connectivity(nodes, &raw.triangles).map_err(|d| match d {
+        Defect::Degenerate(t) => bug(format!(
+            "triangle {t} at {:?} is flat or inverted",
+            nodes[raw.triangles[t][0]]
+        )),
+        Defect::Overlap(_, [a, b]) => bug(format!(
+            "the edge from {:?} to {:?} has two triangles on one side",
+            nodes[a], nodes[b]
+        )),
+        Defect::Hanging(..) => bug("a hanging node".into()),
+    })?;
     let mut used = vec![false; nodes.len()];
-    for (t, tri) in raw.triangles.iter().enumerate() {
-        let p = tri.map(|i| nodes[i]);
-        if orient(p[0], p[1], p[2]) <= 0.0 {
-            return Err(bug(format!(
-                "triangle {t} at {:?} is flat or inverted",
-                p[0]
-            )));
-        }
-        for &i in tri {
-            used[i] = true;
-        }
+    for &i in raw.triangles.iter().flatten() {
+        used[i] = true;
     }
     if let Some(n) = used.iter().position(|u| !u) {
         return Err(bug(format!("node {n} at {:?} is unused", nodes[n])));
     }
-    // Undirected edges, each stored at its smaller node, one entry per triangle.
-    let mut edges = Rows::new(nodes.len(), || {
-        raw.triangles.iter().flat_map(|t| {
-            [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]].map(|[a, b]| [a.min(b), a.max(b)])
-        })
-    });
-    edges.sort_rows();
-    if let Some(a) = (0..nodes.len()).find(|&a| edges.row(a).windows(3).any(|w| w[0] == w[2])) {
-        return Err(bug(format!(
-            "an edge at {:?} has more than two triangles",
-            nodes[a]
-        )));
-    }
-    let is_edge = |a: usize, b: usize| edges.row(a.min(b)).binary_search(&a.max(b)).is_ok();
+    let is_edge = |a: usize, b: usize| {
+        edges.row(a).binary_search(&b).is_ok() || edges.row(b).binary_search(&a).is_ok()
+    };
     // Zone areas.
     let mut area = vec![0.0; geo.zones.len()];
     for (t, tri) in raw.triangles.iter().enumerate() {

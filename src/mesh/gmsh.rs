@@ -5,11 +5,19 @@
 //! lines (type 1) and points (type 15, ignored) are accepted. Physical names of surfaces are
 //! zone names of the scene; physical names of curves give the edges of the scene segment of the
 //! same name. Node splitting, segments and contacts are shared with the mesher (`assemble`).
+//!
+//! The imported mesh is checked before the FEM sees it (`check::connectivity`, `hanging_node`):
+//! triangles of either orientation are turned counter-clockwise, a triangle with no area, two
+//! triangles folded over one edge (or an edge of three triangles), a node lying inside another
+//! element's edge of the same body, and a line element of a used physical curve that is no
+//! triangle edge are refused with the file's line, element and node tags. Nodes used by no
+//! triangle (a circle's centre point, say) are not part of the FE model and are dropped.
 
 use std::collections::{BTreeMap, HashMap};
 
 use super::assemble::{finish, mesh_zones, RawMesh};
-use super::geom::P;
+use super::check::{self, Defect};
+use super::geom::{orient, P};
 use super::Mesh;
 use crate::scene::{Scene, SceneError};
 
@@ -68,11 +76,21 @@ struct Msh {
     /// (dimension, entity tag) → physical tags.
     physical: HashMap<(i32, i32), Vec<i32>>,
     nodes: Vec<P>,
+    /// The file's tag of every node.
+    node_tags: Vec<usize>,
     node_index: HashMap<usize, usize>,
-    /// (surface entity tag, node tags, line).
-    triangles: Vec<(i32, [usize; 3], usize)>,
-    /// (curve entity tag, node tags, line).
-    lines: Vec<(i32, [usize; 2], usize)>,
+    triangles: Vec<Element<3>>,
+    lines: Vec<Element<2>>,
+}
+
+/// An element of the file.
+struct Element<const N: usize> {
+    /// The entity (surface or curve) it belongs to.
+    entity: i32,
+    nodes: [usize; N],
+    /// Its line in the file and its element tag.
+    line: usize,
+    tag: usize,
 }
 
 /// Reads an MSH 4.1 ASCII mesh whose physical names match the scene's zones and segments.
@@ -110,7 +128,13 @@ pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
         nodes: msh.nodes.clone(),
         ..RawMesh::default()
     };
-    for &(entity, tags, line) in &msh.triangles {
+    for &Element {
+        entity,
+        nodes: tags,
+        line,
+        ..
+    } in &msh.triangles
+    {
         let names = names_of(2, entity);
         let zone = names
             .iter()
@@ -123,22 +147,94 @@ pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
                     ),
                 )
             })?;
-        raw.triangles.push([
+        let [a, b, c] = [
             node(tags[0], line)?,
             node(tags[1], line)?,
             node(tags[2], line)?,
-        ]);
+        ];
+        // Either orientation is accepted; the mesh is kept counter-clockwise.
+        let ccw = orient(raw.nodes[a], raw.nodes[b], raw.nodes[c]) >= 0.0;
+        raw.triangles.push(if ccw { [a, b, c] } else { [a, c, b] });
         raw.zone.push(zone);
     }
     check_zones_present(scene, &raw)?;
+    let edges = check::connectivity(&raw.nodes, &raw.triangles).map_err(|d| defect(&msh, d))?;
+    for b in 0..scene.bodies.len() {
+        let tris: Vec<[usize; 3]> = (0..raw.triangles.len())
+            .filter(|&t| zones[raw.zone[t]].body == b)
+            .map(|t| raw.triangles[t])
+            .collect();
+        if let Some(Defect::Hanging(n, t, e)) = check::hanging_node(&raw.nodes, &tris) {
+            let t = raw
+                .triangles
+                .iter()
+                .position(|x| *x == tris[t])
+                .unwrap_or(0);
+            return Err(defect(&msh, Defect::Hanging(n, t, e)));
+        }
+    }
     let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
-    for &(entity, tags, line) in &msh.lines {
-        let edge = [node(tags[0], line)?, node(tags[1], line)?];
-        for name in names_of(1, entity) {
-            curves.entry(name.to_string()).or_default().push(edge);
+    for el in &msh.lines {
+        let [a, b] = [node(el.nodes[0], el.line)?, node(el.nodes[1], el.line)?];
+        for name in names_of(1, el.entity) {
+            let is_edge = edges.row(a).contains(&b) || edges.row(b).contains(&a);
+            if !is_edge && scene.segments.contains_key(name) {
+                return Err(err(
+                    el.line,
+                    format!(
+                        "line element {} of the physical curve '{name}' joins nodes {} and {}, \
+                         which are not two corners of one triangle: the curve does not conform \
+                         to the surface mesh",
+                        el.tag, el.nodes[0], el.nodes[1]
+                    ),
+                ));
+            }
+            curves.entry(name.to_string()).or_default().push([a, b]);
         }
     }
     finish(scene, raw, zones, &curves)
+}
+
+/// The error for a connectivity defect, naming the file's element and node tags.
+fn defect(msh: &Msh, d: Defect) -> SceneError {
+    let el = |t: usize| &msh.triangles[t];
+    let tag = |n: usize| msh.node_tags[n];
+    match d {
+        Defect::Degenerate(t) => err(
+            el(t).line,
+            format!(
+                "triangle element {} (nodes {:?}) is degenerate: its corners are repeated or \
+                 collinear, so it has no area",
+                el(t).tag,
+                el(t).nodes
+            ),
+        ),
+        Defect::Overlap([s, t], [a, b]) => err(
+            el(t).line,
+            format!(
+                "triangle elements {} (line {}) and {} lie on the same side of the edge between \
+                 nodes {} and {}: they overlap (a folded or duplicated element), or the edge \
+                 belongs to more than two triangles",
+                el(s).tag,
+                el(s).line,
+                el(t).tag,
+                tag(a),
+                tag(b)
+            ),
+        ),
+        Defect::Hanging(n, t, [a, b]) => err(
+            el(t).line,
+            format!(
+                "node {} lies on the edge between nodes {} and {} of triangle element {} \
+                 without being one of its corners (a hanging node): neighbouring elements must \
+                 share their nodes along every edge",
+                tag(n),
+                tag(a),
+                tag(b),
+                el(t).tag
+            ),
+        ),
+    }
 }
 
 /// Every scene zone must have triangles.
@@ -316,6 +412,7 @@ fn nodes(mut t: Tokens, msh: &mut Msh) -> Result<(), SceneError> {
                 return Err(err(line, format!("node {tag} is defined twice")));
             }
             msh.nodes.push([x, y]);
+            msh.node_tags.push(tag);
         }
     }
     Ok(())
@@ -345,13 +442,23 @@ fn elements(mut t: Tokens, msh: &mut Msh) -> Result<(), SceneError> {
         };
         for _ in 0..n {
             let line = t.line();
-            t.skip(1);
+            let tag: usize = t.next("an element tag")?;
             let v = (0..per)
                 .map(|_| t.next::<usize>("a node tag"))
                 .collect::<Result<Vec<_>, _>>()?;
             match kind {
-                1 => msh.lines.push((entity, [v[0], v[1]], line)),
-                2 => msh.triangles.push((entity, [v[0], v[1], v[2]], line)),
+                1 => msh.lines.push(Element {
+                    entity,
+                    nodes: [v[0], v[1]],
+                    line,
+                    tag,
+                }),
+                2 => msh.triangles.push(Element {
+                    entity,
+                    nodes: [v[0], v[1], v[2]],
+                    line,
+                    tag,
+                }),
                 _ => {}
             }
         }

@@ -508,6 +508,140 @@ fn gmsh_errors_name_the_problem() {
     assert!(import_gmsh(truncated, &sc).is_err());
 }
 
+/// An MSH 4.1 file of one physical surface "z" (entity 1) and one physical curve "bottom"
+/// (entity 1): nodes (tag, x, y), triangles and lines (element tag, node tags).
+fn square_msh(
+    nodes: &[(usize, f64, f64)],
+    tris: &[(usize, [usize; 3])],
+    lines: &[(usize, [usize; 2])],
+) -> String {
+    let mut s = String::from(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$PhysicalNames\n2\n1 7 \"bottom\"\n2 3 \"z\"\n\
+         $EndPhysicalNames\n$Entities\n0 1 1 0\n1 0 0 0 1 0 0 1 7 0\n1 0 0 0 1 1 0 1 3 0\n\
+         $EndEntities\n",
+    );
+    let max_tag = nodes.iter().map(|n| n.0).max().unwrap_or(0);
+    s += &format!(
+        "$Nodes\n1 {} 1 {max_tag}\n2 1 0 {}\n",
+        nodes.len(),
+        nodes.len()
+    );
+    for n in nodes {
+        s += &format!("{}\n", n.0);
+    }
+    for n in nodes {
+        s += &format!("{} {} 0\n", n.1, n.2);
+    }
+    let count = tris.len() + lines.len();
+    s += &format!(
+        "$EndNodes\n$Elements\n2 {count} 1 {count}\n2 1 2 {}\n",
+        tris.len()
+    );
+    for (tag, v) in tris {
+        s += &format!("{tag} {} {} {}\n", v[0], v[1], v[2]);
+    }
+    s += &format!("1 1 1 {}\n", lines.len());
+    for (tag, v) in lines {
+        s += &format!("{tag} {} {}\n", v[0], v[1]);
+    }
+    s + "$EndElements\n"
+}
+
+fn square_scene() -> Scene {
+    scene(serde_json::json!({
+        "version": 1,
+        "bodies": [{ "name": "b", "zones": [{ "name": "z", "material": "m", "polygon": [] }] }],
+        "segments": { "bottom": { "body": "b" } },
+        "materials": { "m": { "E": 1.0, "nu": 0.3 } },
+        "mesh": { "max_size": 1.0 }
+    }))
+}
+
+const UNIT_SQUARE: [(usize, f64, f64); 4] =
+    [(1, 0.0, 0.0), (2, 1.0, 0.0), (3, 1.0, 1.0), (4, 0.0, 1.0)];
+
+#[test]
+fn gmsh_import_accepts_either_orientation_and_drops_unused_nodes() {
+    // Element 11 is clockwise; node 9 (a circle's centre point, say) belongs to no triangle.
+    let mut nodes = UNIT_SQUARE.to_vec();
+    nodes.push((9, 0.5, 3.0));
+    let text = square_msh(&nodes, &[(10, [1, 2, 3]), (11, [1, 4, 3])], &[(20, [1, 2])]);
+    let mesh = import_gmsh(&text, &square_scene()).unwrap();
+    check_mesh(&mesh, 45.0);
+    assert_eq!(mesh.nodes.len(), 4, "the unused node is dropped");
+    let area: f64 = (0..mesh.triangles.len())
+        .map(|t| mesh.triangle_area(t))
+        .sum();
+    assert!((area - 1.0).abs() < 1e-12);
+    assert_eq!(mesh.segments[0].edges.len(), 1);
+}
+
+#[test]
+fn gmsh_import_refuses_broken_meshes_naming_the_elements() {
+    let sc = square_scene();
+    let reason = |nodes: &[(usize, f64, f64)],
+                  tris: &[(usize, [usize; 3])],
+                  lines: &[(usize, [usize; 2])]| {
+        let e = import_gmsh(&square_msh(nodes, tris, lines), &sc).unwrap_err();
+        assert_eq!(e.path, "mesh.gmsh_file", "{e}");
+        e.reason
+    };
+    let bottom = [(20, [1, 2])];
+    // Collinear corners: node 5 lies on the line through nodes 1 and 2.
+    let mut nodes = UNIT_SQUARE.to_vec();
+    nodes.push((5, 2.0, 0.0));
+    let r = reason(
+        &nodes,
+        &[(10, [1, 2, 3]), (11, [1, 3, 4]), (12, [1, 2, 5])],
+        &bottom,
+    );
+    assert!(r.contains("element 12") && r.contains("degenerate"), "{r}");
+    // A repeated node.
+    let r = reason(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 3])], &bottom);
+    assert!(r.contains("element 11") && r.contains("degenerate"), "{r}");
+    // Two triangles folded over the edge 1–2 (both on its upper side).
+    let r = reason(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 2, 4])], &bottom);
+    assert!(
+        r.contains("elements 10") && r.contains("and 11") && r.contains("nodes 1 and 2"),
+        "{r}"
+    );
+    // A duplicated element.
+    let r = reason(
+        &UNIT_SQUARE,
+        &[(10, [1, 2, 3]), (11, [1, 3, 4]), (12, [3, 4, 1])],
+        &bottom,
+    );
+    assert!(r.contains("elements 11") && r.contains("and 12"), "{r}");
+    // A hanging node: node 6 splits the diagonal on one side only.
+    let mut nodes = UNIT_SQUARE.to_vec();
+    nodes.push((6, 0.5, 0.5));
+    let r = reason(
+        &nodes,
+        &[(10, [1, 2, 3]), (11, [1, 6, 4]), (12, [6, 3, 4])],
+        &bottom,
+    );
+    assert!(
+        r.contains("node 6") && r.contains("element 10") && r.contains("hanging"),
+        "{r}"
+    );
+    // A physical curve that crosses the triangles instead of following their edges.
+    let r = reason(
+        &UNIT_SQUARE,
+        &[(10, [1, 2, 3]), (11, [1, 3, 4])],
+        &[(20, [2, 4])],
+    );
+    assert!(
+        r.contains("line element 20") && r.contains("'bottom'") && r.contains("conform"),
+        "{r}"
+    );
+    // The same file with conforming elements imports.
+    assert!(import_gmsh(
+        &square_msh(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 4])], &bottom),
+        &sc
+    )
+    .is_ok());
+}
+
 #[test]
 fn far_apart_bodies_do_not_mesh_the_gap() {
     let sc = scene(serde_json::json!({
