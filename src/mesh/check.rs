@@ -77,7 +77,8 @@ pub(crate) fn connectivity(nodes: &[P], triangles: &[[usize; 3]]) -> Result<Rows
                 d[0] * d[0] + d[1] * d[1]
             })
             .fold(0.0, f64::max);
-        if !(orient(p[0], p[1], p[2]) > 1e-12 * l2) {
+        let area2 = orient(p[0], p[1], p[2]);
+        if area2.is_nan() || area2 <= 1e-12 * l2 {
             return Err(Defect::Degenerate(t));
         }
     }

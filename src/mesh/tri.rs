@@ -369,3 +369,110 @@ pub(crate) fn encroaches(a: P, b: P, q: P) -> bool {
     let d2 = |x: P, y: P| (x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2);
     d2(q, m) < 0.25 * d2(a, b) * (1.0 - 1e-12)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unit square as two triangles (diagonal 0–2), with the given constraint edges.
+    fn square(constraints: &[[u32; 2]]) -> Tri {
+        let pts = vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+        let c: Vec<[u32; 2]> = constraints
+            .iter()
+            .map(|e| [e[0].min(e[1]), e[0].max(e[1])])
+            .collect();
+        let mut t = Tri::new(pts, vec![[0, 1, 2], [0, 2, 3]], |a, b| c.contains(&[a, b]));
+        t.zone = vec![0, 0];
+        t
+    }
+
+    /// Counter-clockwise triangles, symmetric neighbours and constraint bits, and the
+    /// constrained Delaunay property across every non-constraint edge.
+    fn assert_valid(t: &Tri) {
+        for s in 0..t.v.len() as u32 {
+            let p = t.corners(s);
+            assert!(orient(p[0], p[1], p[2]) > 0.0, "triangle {s} not CCW");
+            for k in 0..3 {
+                let u = t.n[s as usize][k];
+                if u == NONE {
+                    continue;
+                }
+                let [a, b] = t.edge(s, k);
+                let j = (0..3)
+                    .find(|&j| t.edge(u, j) == [b, a])
+                    .expect("neighbour shares the edge");
+                assert_eq!(t.n[u as usize][j], s);
+                assert_eq!(t.is_seg(s, k), t.is_seg(u, j));
+                if !t.is_seg(s, k) {
+                    let apex = t.pts[t.v[u as usize][j] as usize];
+                    assert!(
+                        !t.in_circle(s, apex),
+                        "edge {a}–{b} is not locally Delaunay"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn insertions_keep_a_valid_delaunay_triangulation() {
+        let mut t = square(&[[0, 1], [1, 2], [2, 3], [3, 0]]);
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..300 {
+            let p = [0.05 + 0.9 * rnd(), 0.05 + 0.9 * rnd()];
+            let Walk::Reached(s) = t.walk(
+                0,
+                t.corners(0)
+                    .iter()
+                    .fold([0.0; 2], |c, q| [c[0] + q[0] / 3.0, c[1] + q[1] / 3.0]),
+                p,
+            ) else {
+                panic!("the walk did not reach {p:?}");
+            };
+            assert!(matches!(t.insert(p, &[s], None, false), Insert::Done(_)));
+        }
+        assert_eq!(t.pts.len(), 304);
+        assert_eq!(t.v.len(), 2 * 304 - 4 - 2, "Euler: 2n − h − 2 triangles");
+        assert_valid(&t);
+    }
+
+    #[test]
+    fn a_split_constraint_becomes_two_constraints() {
+        let mut t = square(&[[0, 2]]);
+        let (s, k) = t.find_edge(0, 2).unwrap();
+        let u = t.n[s as usize][k];
+        let Insert::Done(m) = t.insert([0.5, 0.5], &[s, u], Some([0, 2]), false) else {
+            panic!("the split was refused");
+        };
+        for e in [[0, m], [m, 2]] {
+            let (s, k) = t.find_edge(e[0], e[1]).unwrap();
+            assert!(t.is_seg(s, k), "{e:?} is a constraint");
+        }
+        assert_eq!(t.v.len(), 4);
+        assert_valid(&t);
+    }
+
+    #[test]
+    fn encroaching_and_duplicate_points_change_nothing() {
+        let mut t = square(&[[0, 1], [1, 2], [2, 3], [3, 0]]);
+        let before = (t.v.clone(), t.n.clone());
+        // Close to the bottom edge: inside its diametral circle.
+        match t.insert([0.5, 0.1], &[0], None, true) {
+            Insert::Encroached(e) => assert_eq!(e, vec![[0, 1]]),
+            _ => panic!("the bottom edge is encroached"),
+        }
+        // An existing vertex would make a flat triangle.
+        assert!(matches!(
+            t.insert([1.0, 1.0], &[0], None, false),
+            Insert::Refused
+        ));
+        assert_eq!((t.v.clone(), t.n.clone()), before);
+        assert_eq!(t.pts.len(), 4);
+    }
+}
