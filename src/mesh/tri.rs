@@ -2,7 +2,7 @@
 //! (vertices, neighbours, constraint bits, zone), built once from spade's bulk-loaded CDT and
 //! then changed only by Bowyer–Watson insertions whose cavity never crosses a constraint edge
 //! (the constrained Delaunay property is kept; Shewchuk, "Delaunay refinement algorithms for
-//! triangular mesh generation", 2002, §3). All orientation and in-circle decisions use exact
+//! triangular mesh generation", 2002). All orientation and in-circle decisions use exact
 //! predicates (`robust`), and every insertion checks that its new triangles are
 //! counter-clockwise before it changes anything, so a degenerate point is refused, never
 //! inserted.
