@@ -1,0 +1,92 @@
+//! A coordinator's evaluation batches as tasks in the job store (the second level of
+//! distribution, issue #14): when other worker processes share the store, each chunk of a batch is
+//! split into one task per live evaluation thread, posted, and its evaluations are read back in
+//! input order once every task is done. The coordinator's own process evaluates tasks too (its
+//! task loop), so a job never waits on nobody. Alone (no other live worker), a batch is declined
+//! and evaluated in-process with no store round trips.
+//!
+//! Called from the search's blocking thread; talks to the store through the runtime's handle.
+
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use super::JobStore;
+use crate::error::WsmError;
+use crate::run::{BatchDispatch, Evaluation};
+use crate::scenario::search::CHUNK_PER_THREAD;
+
+/// Points per live thread in one fan-out batch: enough work per task to keep the store's round
+/// trips small, few enough that a cancel is seen soon.
+const POINTS_PER_THREAD: usize = 4;
+
+/// The batches of one job (one lease attempt) as tasks.
+pub struct StoreDispatch {
+    pub store: Arc<dyn JobStore>,
+    pub runtime: tokio::runtime::Handle,
+    pub job: String,
+    pub owner: String,
+    pub attempt: u32,
+    /// Evaluation threads of this process (the batch goes out only when others are live).
+    pub own_threads: usize,
+    /// Workers seen within this many seconds are live.
+    pub lease_seconds: f64,
+    /// Raised when the job's lease was lost: stop waiting.
+    pub lost: Arc<AtomicBool>,
+    pub next_batch: AtomicU64,
+}
+
+impl StoreDispatch {
+    fn live_threads(&self) -> usize {
+        self.runtime
+            .block_on(self.store.live_threads(self.lease_seconds))
+            .unwrap_or(0)
+    }
+
+    fn io(&self, e: impl std::fmt::Display) -> WsmError {
+        WsmError::io(format!("job {}", self.job), e)
+    }
+}
+
+impl BatchDispatch for StoreDispatch {
+    fn chunk_size(&self) -> usize {
+        let live = self.live_threads().max(self.own_threads);
+        if live > self.own_threads {
+            POINTS_PER_THREAD * live
+        } else {
+            CHUNK_PER_THREAD * self.own_threads
+        }
+    }
+
+    fn evaluate(&self, points: &[Vec<f64>]) -> Result<Option<Vec<Evaluation>>, WsmError> {
+        let live = self.live_threads();
+        if live <= self.own_threads || points.len() < 2 {
+            return Ok(None);
+        }
+        let parts_count = live.min(points.len());
+        let per_part = points.len().div_ceil(parts_count);
+        let parts: Vec<Vec<Vec<f64>>> = points.chunks(per_part).map(|c| c.to_vec()).collect();
+        let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
+        self.runtime
+            .block_on(
+                self.store
+                    .post_tasks(&self.job, &self.owner, self.attempt, batch, &parts),
+            )
+            .map_err(|e| self.io(e))?;
+        loop {
+            if self.lost.load(Ordering::SeqCst) {
+                return Err(self.io("the job's lease was taken over"));
+            }
+            match self.runtime.block_on(
+                self.store
+                    .batch_results(&self.job, self.attempt, batch),
+            ) {
+                Ok(Some(evaluations)) => return Ok(Some(evaluations)),
+                Ok(None) => {}
+                Err(e) => return Err(self.io(e)),
+            }
+            self.runtime
+                .block_on(self.store.wait_for_results(Duration::from_millis(200)));
+        }
+    }
+}
