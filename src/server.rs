@@ -100,16 +100,19 @@ pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
 pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
     let store = open_store(&config.db).await?;
     let live = Arc::new(Live::default());
-    spawn_workers(
-        store.clone(),
-        live.clone(),
-        RunnerConfig {
-            workers: config.workers,
-            threads_per_job: config.threads_per_job,
-            lease_seconds: config.lease_seconds,
-            owner: owner_name("serve"),
-        },
-    );
+    // With no job slots the server only serves: `wsm worker` processes do all the work.
+    if config.workers > 0 {
+        spawn_workers(
+            store.clone(),
+            live.clone(),
+            RunnerConfig {
+                workers: config.workers,
+                threads_per_job: config.threads_per_job,
+                lease_seconds: config.lease_seconds,
+                owner: owner_name("serve"),
+            },
+        );
+    }
     let state = AppState {
         store,
         live,
