@@ -8,10 +8,10 @@
 //! Called from the search's blocking thread; talks to the store through the runtime's handle.
 
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
 
-use super::JobStore;
+use super::{wait, JobStore};
 use crate::error::WsmError;
 use crate::run::{BatchDispatch, Evaluation};
 use crate::scenario::search::CHUNK_PER_THREAD;
@@ -33,14 +33,51 @@ pub struct StoreDispatch {
     pub lease_seconds: f64,
     /// Raised when the job's lease was lost: stop waiting.
     pub lost: Arc<AtomicBool>,
-    pub next_batch: AtomicU64,
+    next_batch: AtomicU64,
+    /// The live threads last counted, and when.
+    live: Mutex<Option<(Instant, usize)>>,
 }
 
 impl StoreDispatch {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        store: Arc<dyn JobStore>,
+        runtime: tokio::runtime::Handle,
+        job: String,
+        owner: String,
+        attempt: u32,
+        own_threads: usize,
+        lease_seconds: f64,
+        lost: Arc<AtomicBool>,
+    ) -> StoreDispatch {
+        StoreDispatch {
+            store,
+            runtime,
+            job,
+            owner,
+            attempt,
+            own_threads,
+            lease_seconds,
+            lost,
+            next_batch: AtomicU64::new(0),
+            live: Mutex::new(None),
+        }
+    }
+
+    /// Evaluation threads of the live workers, counted again at most once a second.
     fn live_threads(&self) -> usize {
-        self.runtime
-            .block_on(self.store.live_threads(self.lease_seconds))
-            .unwrap_or(0)
+        let mut live = self.live.lock().unwrap_or_else(PoisonError::into_inner);
+        match *live {
+            Some((at, n)) if at.elapsed() < Duration::from_secs(1) => n,
+            _ => {
+                let n = self
+                    .runtime
+                    .block_on(self.store.live_threads(self.lease_seconds))
+                    .unwrap_or(0);
+                *live = Some((Instant::now(), n));
+                n
+            }
+        }
     }
 
     fn io(&self, e: impl std::fmt::Display) -> WsmError {
@@ -67,6 +104,8 @@ impl BatchDispatch for StoreDispatch {
         let per_part = points.len().div_ceil(parts_count);
         let parts: Vec<Vec<Vec<f64>>> = points.chunks(per_part).map(|c| c.to_vec()).collect();
         let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
+        let mut done = self.store.results_signal();
+        done.borrow_and_update();
         self.runtime
             .block_on(
                 self.store
@@ -86,7 +125,7 @@ impl BatchDispatch for StoreDispatch {
                 Err(e) => return Err(self.io(e)),
             }
             self.runtime
-                .block_on(self.store.wait_for_results(Duration::from_millis(200)));
+                .block_on(wait(&mut done, Duration::from_millis(200)));
         }
     }
 }

@@ -228,10 +228,20 @@ pub trait JobStore: Send + Sync + 'static {
     async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()>;
     /// Evaluation threads of the workers seen within the last `seconds`.
     async fn live_threads(&self, seconds: f64) -> StoreResult<usize>;
-    /// Wait until new work (a job or a task) may be there, or `timeout`.
-    async fn wait_for_work(&self, timeout: std::time::Duration);
-    /// Wait until a task may have completed, or `timeout`.
-    async fn wait_for_results(&self, timeout: std::time::Duration);
+    /// Changes whenever new work (a job or a task) may be there. Mark it seen before looking
+    /// for work, then [`wait`] on it: no announcement is missed in between.
+    fn work_signal(&self) -> Signal;
+    /// Changes whenever a task may have completed (used the same way).
+    fn results_signal(&self) -> Signal;
+}
+
+/// A counter raised by announcements (local writes, or notifications from other processes).
+pub type Signal = tokio::sync::watch::Receiver<u64>;
+
+/// Wait until `signal` changes after it was last seen, or `timeout` (waiters also poll, so a
+/// lost notification only delays them).
+pub async fn wait(signal: &mut Signal, timeout: std::time::Duration) {
+    let _ = tokio::time::timeout(timeout, signal.changed()).await;
 }
 
 /// Seconds since the Unix epoch.

@@ -15,7 +15,7 @@ use tokio::sync::mpsc;
 
 use super::dispatch::StoreDispatch;
 use super::tasks::{serve_tasks, TaskConfig};
-use super::{JobEnd, JobRecord, JobStore, Lease};
+use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use crate::error::{ErrorKind, WsmError};
 use crate::run::{self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status};
 
@@ -69,10 +69,12 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
     for _ in 0..config.workers {
         let (store, live, config) = (store.clone(), live.clone(), config.clone());
         tokio::spawn(async move {
+            let mut work = store.work_signal();
             loop {
+                work.borrow_and_update();
                 match store.lease(&config.owner, config.lease_seconds).await {
                     Ok(Some(job)) => run_job(&store, &live, &config, job).await,
-                    Ok(None) => store.wait_for_work(Duration::from_millis(500)).await,
+                    Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
                     Err(e) => {
                         eprintln!("wsm: {e}");
                         tokio::time::sleep(Duration::from_secs(1)).await;
@@ -192,17 +194,16 @@ async fn run_job(
                 run_hash: job.run_hash.clone(),
                 replay,
             };
-            let dispatch = StoreDispatch {
-                store: store.clone(),
-                runtime: tokio::runtime::Handle::current(),
-                job: id.clone(),
-                owner: config.owner.clone(),
-                attempt: job.attempts,
-                own_threads: config.threads(),
-                lease_seconds: config.lease_seconds,
-                lost: lost.clone(),
-                next_batch: 0.into(),
-            };
+            let dispatch = StoreDispatch::new(
+                store.clone(),
+                tokio::runtime::Handle::current(),
+                id.clone(),
+                config.owner.clone(),
+                job.attempts,
+                config.threads(),
+                config.lease_seconds,
+                lost.clone(),
+            );
             let control = RunControl::new()
                 .with_cancel(cancel.clone())
                 .with_log(Arc::new(log))

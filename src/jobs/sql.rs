@@ -17,11 +17,11 @@ use std::time::Duration;
 
 use sqlx::any::{AnyConnectOptions, AnyPoolOptions, AnyRow};
 use sqlx::{AnyPool, Executor, Row};
-use tokio::sync::Notify;
+use tokio::sync::watch;
 
 use super::{
-    JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, StoreError, StoreResult,
-    TaskKey, TaskRecord,
+    JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, Signal, StoreError,
+    StoreResult, TaskKey, TaskRecord,
 };
 use crate::run::{Evaluation, ProgressEvent};
 
@@ -60,6 +60,16 @@ impl Backend {
         }
     }
 
+    /// Task bookkeeping need not wait for the disk on PostgreSQL: a server crash can only lose
+    /// the last moments of task traffic, and a lost completion is recomputed (its evaluations
+    /// and the task's state are in one transaction, so they are lost together or not at all).
+    fn relaxed_commit(self) -> Option<&'static str> {
+        match self {
+            Backend::Sqlite => None,
+            Backend::Postgres => Some("SET LOCAL synchronous_commit TO OFF"),
+        }
+    }
+
     /// How the row a lease picks is locked against the other workers.
     fn lock_row(self) -> &'static str {
         match self {
@@ -79,9 +89,13 @@ pub struct SqlStore {
     pool: AnyPool,
     backend: Backend,
     /// Raised when a job or task may be waiting (a local write, or a notification).
-    work: Arc<Notify>,
+    work: Arc<watch::Sender<u64>>,
     /// Raised when a task may have completed.
-    results: Arc<Notify>,
+    results: Arc<watch::Sender<u64>>,
+}
+
+fn raise(signal: &watch::Sender<u64>) {
+    signal.send_modify(|n| *n = n.wrapping_add(1));
 }
 
 fn db(operation: &'static str) -> impl Fn(sqlx::Error) -> StoreError {
@@ -141,8 +155,8 @@ impl SqlStore {
         let store = SqlStore {
             pool,
             backend,
-            work: Arc::new(Notify::new()),
-            results: Arc::new(Notify::new()),
+            work: Arc::new(watch::channel(0).0),
+            results: Arc::new(watch::channel(0).0),
         };
         if backend == Backend::Postgres {
             store.listen(&url).await?;
@@ -168,8 +182,8 @@ impl SqlStore {
         tokio::spawn(async move {
             loop {
                 match listener.recv().await {
-                    Ok(n) if n.channel() == RESULTS_CHANNEL => results.notify_waiters(),
-                    Ok(_) => work.notify_waiters(),
+                    Ok(n) if n.channel() == RESULTS_CHANNEL => raise(&results),
+                    Ok(_) => raise(&work),
                     Err(_) => tokio::time::sleep(Duration::from_millis(200)).await,
                 }
             }
@@ -184,7 +198,7 @@ impl SqlStore {
         } else {
             &self.work
         };
-        local.notify_waiters();
+        raise(local);
         if self.backend == Backend::Postgres {
             let _ = sqlx::query("SELECT pg_notify($1, '')")
                 .bind(channel)
@@ -243,19 +257,21 @@ impl SqlStore {
         .fetch_one(&mut *tx)
         .await
         .map_err(&store)?;
-        for evaluation in evaluations {
-            seq += 1;
-            sqlx::query(sql(format!(
-                "INSERT INTO evaluations (job_id, seq, body, worker, created_at)
-                 VALUES ($1, $2, $3, $4, {now})"
-            )))
-            .bind(id)
-            .bind(seq)
-            .bind(json(evaluation)?)
-            .bind(worker)
-            .execute(&mut *tx)
-            .await
-            .map_err(&store)?;
+        // One statement for the whole list: rows (job, seq, body) after the shared worker.
+        if !evaluations.is_empty() {
+            let rows: Vec<String> = (0..evaluations.len())
+                .map(|i| format!("($1, ${}, ${}, $2, {now})", 3 + 2 * i, 4 + 2 * i))
+                .collect();
+            let statement = format!(
+                "INSERT INTO evaluations (job_id, seq, body, worker, created_at) VALUES {}",
+                rows.join(", ")
+            );
+            let mut insert = sqlx::query(sql(statement)).bind(id).bind(worker);
+            for evaluation in evaluations {
+                seq += 1;
+                insert = insert.bind(seq).bind(json(evaluation)?);
+            }
+            insert.execute(&mut *tx).await.map_err(&store)?;
         }
         sqlx::query("UPDATE jobs SET evaluations = $1 WHERE id = $2")
             .bind(seq)
@@ -556,6 +572,9 @@ impl JobStore for SqlStore {
             .begin_with(self.backend.begin_write())
             .await
             .map_err(&post)?;
+        if let Some(statement) = self.backend.relaxed_commit() {
+            tx.execute(statement).await.map_err(&post)?;
+        }
         let held: Option<i64> = sqlx::query_scalar(
             "SELECT attempts FROM jobs WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
         )
@@ -596,6 +615,9 @@ impl JobStore for SqlStore {
             .begin_with(self.backend.begin_write())
             .await
             .map_err(&lease)?;
+        if let Some(statement) = self.backend.relaxed_commit() {
+            tx.execute(statement).await.map_err(&lease)?;
+        }
         let row = sqlx::query(sql(format!(
             "SELECT t.job_id, t.attempt, t.batch, t.part, t.points, j.run_hash
              FROM tasks t JOIN jobs j ON j.id = t.job_id
@@ -680,6 +702,9 @@ impl JobStore for SqlStore {
             .begin_with(self.backend.begin_write())
             .await
             .map_err(&complete)?;
+        if let Some(statement) = self.backend.relaxed_commit() {
+            tx.execute(statement).await.map_err(&complete)?;
+        }
         // Lock the job row first (appends of one job are serialised), then claim the task.
         sqlx::query(sql(format!(
             "SELECT id FROM jobs WHERE id = $1{}",
@@ -780,11 +805,11 @@ impl JobStore for SqlStore {
         Ok(n.max(0) as usize)
     }
 
-    async fn wait_for_work(&self, timeout: Duration) {
-        let _ = tokio::time::timeout(timeout, self.work.notified()).await;
+    fn work_signal(&self) -> Signal {
+        self.work.subscribe()
     }
 
-    async fn wait_for_results(&self, timeout: Duration) {
-        let _ = tokio::time::timeout(timeout, self.results.notified()).await;
+    fn results_signal(&self) -> Signal {
+        self.results.subscribe()
     }
 }

@@ -15,7 +15,7 @@ use std::time::Duration;
 
 use rayon::prelude::*;
 
-use super::{JobInput, JobStore, TaskRecord};
+use super::{wait, JobInput, JobStore, TaskRecord};
 use crate::error::WsmError;
 use crate::run::{Evaluation, WorstRequest};
 use crate::scenario::evaluator::ScenarioEvaluator;
@@ -144,10 +144,12 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
         kept: VecDeque::new(),
         pool,
     };
+    let mut work = store.work_signal();
     loop {
+        work.borrow_and_update();
         match store.lease_task(&config.owner, config.lease_seconds).await {
             Ok(Some(task)) => run_task(&store, &config, &mut models, task).await,
-            Ok(None) => store.wait_for_work(Duration::from_millis(500)).await,
+            Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
             Err(e) => {
                 eprintln!("wsm: {e}");
                 tokio::time::sleep(Duration::from_secs(1)).await;
