@@ -44,7 +44,9 @@ async fn task_loop(store: Arc<dyn JobStore>, owner: String) {
 
 async fn bench(db: &str, batches: usize) {
     let store: Arc<dyn JobStore> = Arc::new(SqlStore::open(db).await.unwrap());
-    println!("| workers | tasks per batch | points per task | batch round trip median [ms] | p90 [ms] |");
+    println!(
+        "| workers | tasks per batch | points per task | batch round trip median [ms] | p90 [ms] |"
+    );
     println!("|---|---|---|---|---|");
     let mut job_no = 0;
     for (workers, parts, points) in [(1, 1, 4), (2, 2, 4), (4, 4, 4), (8, 8, 4), (8, 8, 16)] {
@@ -69,7 +71,11 @@ async fn bench(db: &str, batches: usize) {
         let mut times = Vec::new();
         for batch in 0..batches as u64 {
             let tasks: Vec<Vec<Vec<f64>>> = (0..parts)
-                .map(|p| (0..points).map(|i| vec![batch as f64, p as f64, i as f64]).collect())
+                .map(|p| {
+                    (0..points)
+                        .map(|i| vec![batch as f64, p as f64, i as f64])
+                        .collect()
+                })
                 .collect();
             let start = Instant::now();
             let mut done = store.results_signal();

@@ -120,7 +120,12 @@ fn submit(addr: &str, seed: u64) -> String {
             "settings": {"criteria": ["phi3", "phi5"], "budget": BUDGET, "seed": seed}
         }),
     );
-    assert_eq!(reply.status, 202, "{}", String::from_utf8_lossy(&reply.body));
+    assert_eq!(
+        reply.status,
+        202,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
     reply.json()["id"].as_str().unwrap().to_string()
 }
 

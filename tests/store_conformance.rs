@@ -143,7 +143,10 @@ async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc
     let second = store.lease("w2", 30.0).await.unwrap().expect("expired");
     assert_eq!(second.attempts, 2);
     assert_eq!(store.renew("j", "w1", 30.0).await.unwrap(), Lease::Lost);
-    assert!(!store.request_cancel("j").await.unwrap(), "running: flagged");
+    assert!(
+        !store.request_cancel("j").await.unwrap(),
+        "running: flagged"
+    );
     assert_eq!(
         store.renew("j", "w2", 30.0).await.unwrap(),
         Lease::Held {
@@ -155,7 +158,10 @@ async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc
         .finish("j", "w1", JobEnd::Cancelled(None))
         .await
         .unwrap();
-    assert_eq!(store.get("j").await.unwrap().unwrap().state, JobState::Running);
+    assert_eq!(
+        store.get("j").await.unwrap().unwrap().state,
+        JobState::Running
+    );
     store
         .finish("j", "w2", JobEnd::Cancelled(None))
         .await
@@ -166,7 +172,10 @@ async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc
     // A queued job is cancelled at once.
     store.insert(job("q")).await.unwrap();
     assert!(store.request_cancel("q").await.unwrap());
-    assert_eq!(store.get("q").await.unwrap().unwrap().state, JobState::Cancelled);
+    assert_eq!(
+        store.get("q").await.unwrap().unwrap().state,
+        JobState::Cancelled
+    );
     assert_eq!(store.active_count().await.unwrap(), 0);
 }
 conformance!(

@@ -116,10 +116,10 @@ impl BatchDispatch for StoreDispatch {
             if self.lost.load(Ordering::SeqCst) {
                 return Err(self.io("the job's lease was taken over"));
             }
-            match self.runtime.block_on(
-                self.store
-                    .batch_results(&self.job, self.attempt, batch),
-            ) {
+            match self
+                .runtime
+                .block_on(self.store.batch_results(&self.job, self.attempt, batch))
+            {
                 Ok(Some(evaluations)) => return Ok(Some(evaluations)),
                 Ok(None) => {}
                 Err(e) => return Err(self.io(e)),

@@ -250,13 +250,12 @@ impl SqlStore {
         evaluations: &[Evaluation],
     ) -> StoreResult<()> {
         let store = db("storing an evaluation");
-        let mut seq: i64 = sqlx::query_scalar(
-            "SELECT COALESCE(MAX(seq), 0) FROM evaluations WHERE job_id = $1",
-        )
-        .bind(id)
-        .fetch_one(&mut *tx)
-        .await
-        .map_err(&store)?;
+        let mut seq: i64 =
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM evaluations WHERE job_id = $1")
+                .bind(id)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(&store)?;
         // One statement for the whole list: rows (job, seq, body) after the shared worker.
         if !evaluations.is_empty() {
             let rows: Vec<String> = (0..evaluations.len())
@@ -530,13 +529,11 @@ impl JobStore for SqlStore {
         .rows_affected()
             == 1;
         if !cancelled {
-            sqlx::query(
-                "UPDATE jobs SET cancel_requested = 1 WHERE id = $1 AND state = 'running'",
-            )
-            .bind(id)
-            .execute(&mut *tx)
-            .await
-            .map_err(&cancel)?;
+            sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = $1 AND state = 'running'")
+                .bind(id)
+                .execute(&mut *tx)
+                .await
+                .map_err(&cancel)?;
         }
         tx.commit().await.map_err(&cancel)?;
         Ok(cancelled)
@@ -552,7 +549,10 @@ impl JobStore for SqlStore {
         let read = db("reading a job");
         Ok(Some(JobInput {
             scene: row.try_get("scene").map_err(&read)?,
-            settings: parse(&row.try_get::<String, _>("settings").map_err(&read)?, "settings")?,
+            settings: parse(
+                &row.try_get::<String, _>("settings").map_err(&read)?,
+                "settings",
+            )?,
             run_hash: row.try_get("run_hash").map_err(&read)?,
         }))
     }
@@ -641,7 +641,10 @@ impl JobStore for SqlStore {
             batch: row.try_get::<i64, _>("batch").map_err(&lease)? as u64,
             part: row.try_get::<i64, _>("part").map_err(&lease)? as u32,
         };
-        let points = parse(&row.try_get::<String, _>("points").map_err(&lease)?, "points")?;
+        let points = parse(
+            &row.try_get::<String, _>("points").map_err(&lease)?,
+            "points",
+        )?;
         let run_hash = row.try_get("run_hash").map_err(&lease)?;
         sqlx::query(sql(format!(
             "UPDATE tasks SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2

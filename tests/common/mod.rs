@@ -216,7 +216,6 @@ pub fn extrema(outcome: &Value) -> Value {
     criteria
 }
 
-
 /// The PostgreSQL server of the tests (`.ci/run` sets `WSM_TEST_POSTGRES_URL`), if any.
 pub fn postgres_url() -> Option<String> {
     std::env::var("WSM_TEST_POSTGRES_URL")
