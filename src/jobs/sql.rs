@@ -70,6 +70,15 @@ impl Backend {
         }
     }
 
+    /// Appends to a job's evaluations lock its row (sequence numbers stay dense); SQLite's write
+    /// transaction already holds the whole database.
+    fn serialise_appends(self) -> &'static str {
+        match self {
+            Backend::Sqlite => "",
+            Backend::Postgres => " FOR UPDATE",
+        }
+    }
+
     /// How the row a lease picks is locked against the other workers.
     fn lock_row(self) -> &'static str {
         match self {
@@ -207,6 +216,24 @@ impl SqlStore {
         }
     }
 
+    /// A write transaction (`Backend::begin_write`); `relaxed` for task traffic
+    /// (`Backend::relaxed_commit`).
+    async fn begin_write(
+        &self,
+        relaxed: bool,
+        error: &impl Fn(sqlx::Error) -> StoreError,
+    ) -> StoreResult<sqlx::Transaction<'static, sqlx::Any>> {
+        let mut tx = self
+            .pool
+            .begin_with(self.backend.begin_write())
+            .await
+            .map_err(error)?;
+        if let Some(statement) = self.backend.relaxed_commit().filter(|_| relaxed) {
+            tx.execute(statement).await.map_err(error)?;
+        }
+        Ok(tx)
+    }
+
     fn record(row: &AnyRow) -> StoreResult<JobRecord> {
         let read = db("reading a job");
         let text = |name: &str| -> StoreResult<String> { row.try_get(name).map_err(&read) };
@@ -339,11 +366,7 @@ impl JobStore for SqlStore {
     async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>> {
         let now = self.backend.now();
         let lease = db("leasing a job");
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&lease)?;
+        let mut tx = self.begin_write(false, &lease).await?;
         let id: Option<String> = sqlx::query_scalar(sql(format!(
             "SELECT id FROM jobs
              WHERE state = 'queued' OR (state = 'running' AND lease_expires_at < {now})
@@ -416,18 +439,11 @@ impl JobStore for SqlStore {
         evaluation: &Evaluation,
     ) -> StoreResult<usize> {
         let store = db("storing an evaluation");
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&store)?;
+        let mut tx = self.begin_write(false, &store).await?;
         // Lock the job row: appends of one job are serialised (sequence numbers stay dense).
         let held: Option<String> = sqlx::query_scalar(sql(format!(
             "SELECT id FROM jobs WHERE id = $1 AND lease_owner = $2{}",
-            match self.backend {
-                Backend::Sqlite => "",
-                Backend::Postgres => " FOR UPDATE",
-            }
+            self.backend.serialise_appends()
         )))
         .bind(id)
         .bind(owner)
@@ -512,11 +528,7 @@ impl JobStore for SqlStore {
 
     async fn request_cancel(&self, id: &str) -> StoreResult<bool> {
         let cancel = db("cancelling a job");
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&cancel)?;
+        let mut tx = self.begin_write(false, &cancel).await?;
         let cancelled = sqlx::query(sql(format!(
             "UPDATE jobs SET state = 'cancelled', cancel_requested = 1, finished_at = {}
              WHERE id = $1 AND state = 'queued'",
@@ -567,14 +579,7 @@ impl JobStore for SqlStore {
     ) -> StoreResult<()> {
         let post = db("posting tasks");
         let now = self.backend.now();
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&post)?;
-        if let Some(statement) = self.backend.relaxed_commit() {
-            tx.execute(statement).await.map_err(&post)?;
-        }
+        let mut tx = self.begin_write(true, &post).await?;
         let held: Option<i64> = sqlx::query_scalar(
             "SELECT attempts FROM jobs WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
         )
@@ -610,14 +615,7 @@ impl JobStore for SqlStore {
     async fn lease_task(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<TaskRecord>> {
         let now = self.backend.now();
         let lease = db("leasing a task");
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&lease)?;
-        if let Some(statement) = self.backend.relaxed_commit() {
-            tx.execute(statement).await.map_err(&lease)?;
-        }
+        let mut tx = self.begin_write(true, &lease).await?;
         let row = sqlx::query(sql(format!(
             "SELECT t.job_id, t.attempt, t.batch, t.part, t.points, j.run_hash
              FROM tasks t JOIN jobs j ON j.id = t.job_id
@@ -700,21 +698,11 @@ impl JobStore for SqlStore {
     ) -> StoreResult<bool> {
         let complete = db("completing a task");
         let now = self.backend.now();
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
-            .await
-            .map_err(&complete)?;
-        if let Some(statement) = self.backend.relaxed_commit() {
-            tx.execute(statement).await.map_err(&complete)?;
-        }
+        let mut tx = self.begin_write(true, &complete).await?;
         // Lock the job row first (appends of one job are serialised), then claim the task.
         sqlx::query(sql(format!(
             "SELECT id FROM jobs WHERE id = $1{}",
-            match self.backend {
-                Backend::Sqlite => "",
-                Backend::Postgres => " FOR UPDATE",
-            }
+            self.backend.serialise_appends()
         )))
         .bind(&key.job_id)
         .fetch_optional(&mut *tx)
