@@ -16,9 +16,13 @@ use crate::error::WsmError;
 use crate::run::{BatchDispatch, Evaluation};
 use crate::scenario::search::CHUNK_PER_THREAD;
 
-/// Points per live thread in one fan-out batch: enough work per task to keep the store's round
-/// trips small, few enough that a cancel is seen soon.
-const POINTS_PER_THREAD: usize = 4;
+/// Solve time of one fan-out chunk per live thread \[s\]: long enough that the store's round
+/// trips (a few ms per batch) stay a small share, short enough that a cancel is seen soon.
+const CHUNK_SECONDS: f64 = 0.5;
+/// Points per live thread in a chunk, before any solve time is known and at the least.
+const MIN_POINTS_PER_THREAD: usize = 4;
+/// Points per live thread in a chunk at the most.
+const MAX_POINTS_PER_THREAD: usize = 64;
 
 /// The batches of one job (one lease attempt) as tasks.
 pub struct StoreDispatch {
@@ -36,6 +40,8 @@ pub struct StoreDispatch {
     next_batch: AtomicU64,
     /// The live threads last counted, and when.
     live: Mutex<Option<(Instant, usize)>>,
+    /// Solve seconds and count of the evaluations returned so far.
+    solves: Mutex<(f64, usize)>,
 }
 
 impl StoreDispatch {
@@ -61,7 +67,19 @@ impl StoreDispatch {
             lost,
             next_batch: AtomicU64::new(0),
             live: Mutex::new(None),
+            solves: Mutex::new((0.0, 0)),
         }
+    }
+
+    /// Points per live thread in a chunk: about `CHUNK_SECONDS` of solves.
+    fn points_per_thread(&self) -> usize {
+        let (seconds, count) = *self.solves.lock().unwrap_or_else(PoisonError::into_inner);
+        if count == 0 || seconds <= 0.0 {
+            return MIN_POINTS_PER_THREAD;
+        }
+        let per_point = seconds / count as f64;
+        ((CHUNK_SECONDS / per_point).ceil() as usize)
+            .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD)
     }
 
     /// Evaluation threads of the live workers, counted again at most once a second.
@@ -89,7 +107,7 @@ impl BatchDispatch for StoreDispatch {
     fn chunk_size(&self) -> usize {
         let live = self.live_threads().max(self.own_threads);
         if live > self.own_threads {
-            POINTS_PER_THREAD * live
+            self.points_per_thread() * live
         } else {
             CHUNK_PER_THREAD * self.own_threads
         }
@@ -120,7 +138,12 @@ impl BatchDispatch for StoreDispatch {
                 .runtime
                 .block_on(self.store.batch_results(&self.job, self.attempt, batch))
             {
-                Ok(Some(evaluations)) => return Ok(Some(evaluations)),
+                Ok(Some(evaluations)) => {
+                    let mut solves = self.solves.lock().unwrap_or_else(PoisonError::into_inner);
+                    solves.0 += evaluations.iter().map(|e| e.solve_seconds).sum::<f64>();
+                    solves.1 += evaluations.len();
+                    return Ok(Some(evaluations));
+                }
                 Ok(None) => {}
                 Err(e) => return Err(self.io(e)),
             }

@@ -593,19 +593,29 @@ impl JobStore for SqlStore {
                 "posting tasks: job {id} is no longer coordinated by this worker"
             )));
         }
-        for (part, points) in parts.iter().enumerate() {
-            sqlx::query(sql(format!(
-                "INSERT INTO tasks (job_id, attempt, batch, part, points, state, created_at)
-                 VALUES ($1, $2, $3, $4, $5, 'queued', {now})"
-            )))
-            .bind(id)
-            .bind(attempt as i64)
-            .bind(batch as i64)
-            .bind(part as i64)
-            .bind(json(points)?)
-            .execute(&mut *tx)
-            .await
-            .map_err(&post)?;
+        // One statement for the whole batch: rows (part, points) after the shared key.
+        if !parts.is_empty() {
+            let rows: Vec<String> = (0..parts.len())
+                .map(|i| {
+                    format!(
+                        "($1, $2, $3, ${}, ${}, 'queued', {now})",
+                        4 + 2 * i,
+                        5 + 2 * i
+                    )
+                })
+                .collect();
+            let statement = format!(
+                "INSERT INTO tasks (job_id, attempt, batch, part, points, state, created_at) VALUES {}",
+                rows.join(", ")
+            );
+            let mut insert = sqlx::query(sql(statement))
+                .bind(id)
+                .bind(attempt as i64)
+                .bind(batch as i64);
+            for (part, points) in parts.iter().enumerate() {
+                insert = insert.bind(part as i64).bind(json(points)?);
+            }
+            insert.execute(&mut *tx).await.map_err(&post)?;
         }
         tx.commit().await.map_err(&post)?;
         self.announce(WORK_CHANNEL).await;
