@@ -184,10 +184,18 @@ pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
 
 /// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
 pub fn serve(config: wsm::server::ServeConfig) -> Result<String, WsmError> {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
+    runtime()?.block_on(wsm::server::serve(config))?;
+    Ok("wsm: stopped".into())
+}
+
+pub fn worker(config: wsm::server::WorkerConfig) -> Result<String, WsmError> {
+    runtime()?.block_on(wsm::server::worker(config))?;
+    Ok("wsm: stopped".into())
+}
+
+fn runtime() -> Result<tokio::runtime::Runtime, WsmError> {
+    tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()
-        .map_err(|e| WsmError::io("async runtime", e))?;
-    runtime.block_on(wsm::server::serve(config))?;
-    Ok("wsm: stopped".into())
+        .map_err(|e| WsmError::io("async runtime", e))
 }

@@ -82,15 +82,15 @@ enum Command {
         #[arg(long)]
         table: Option<PathBuf>,
     },
-    /// Run the HTTP service and dashboard on an embedded SQLite job store.
+    /// Run the HTTP service and dashboard (job store: an embedded SQLite file, or PostgreSQL).
     Serve {
         /// Address to listen on (port 0: any free port, printed on start).
         #[arg(long, default_value = "127.0.0.1:8080")]
         addr: String,
-        /// SQLite database file (created and migrated on start).
+        /// SQLite database file (created and migrated on start) or postgres:// URL.
         #[arg(long, default_value = "wsm.db")]
         db: String,
-        /// Jobs run at once.
+        /// Jobs run at once by this process (0: only serve; `wsm worker` processes run them).
         #[arg(long, default_value_t = 1)]
         workers: usize,
         /// Threads of each job (default: all cores).
@@ -111,6 +111,22 @@ enum Command {
         /// Largest request body [bytes].
         #[arg(long, default_value_t = 4 << 20)]
         max_body_bytes: usize,
+    },
+    /// A worker process for a shared job store: coordinates jobs and evaluates batches of any
+    /// job (needs nothing but the database URL; start as many as you have machines).
+    Worker {
+        /// postgres:// URL (or a SQLite file shared by processes on one machine).
+        #[arg(long)]
+        db: String,
+        /// Evaluation threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Jobs coordinated at once by this process.
+        #[arg(long, default_value_t = 1)]
+        jobs: usize,
+        /// A job or task whose lease is not renewed for this long is taken over [s].
+        #[arg(long, default_value_t = 30.0)]
+        lease_seconds: f64,
     },
     /// Print the OpenAPI 3.1 document of the HTTP API.
     Openapi,
@@ -208,6 +224,17 @@ fn main() -> ExitCode {
             token: std::env::var("WSM_API_TOKEN")
                 .ok()
                 .filter(|t| !t.is_empty()),
+        }),
+        Command::Worker {
+            db,
+            threads,
+            jobs,
+            lease_seconds,
+        } => cli::worker(wsm::server::WorkerConfig {
+            db,
+            threads,
+            jobs,
+            lease_seconds,
         }),
         Command::Openapi => wsm::api::openapi_json()
             .map(|t| t.trim_end().to_string())

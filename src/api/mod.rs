@@ -16,7 +16,6 @@ use axum::extract::DefaultBodyLimit;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::Router;
 use subtle::ConstantTimeEq;
-use tokio::sync::Notify;
 use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
@@ -57,7 +56,6 @@ impl Default for Limits {
 pub struct AppState {
     pub store: Arc<dyn JobStore>,
     pub live: Arc<Live>,
-    pub wake: Arc<Notify>,
     pub limits: Arc<Limits>,
     /// Bearer token required on mutating endpoints (`None`: open).
     pub token: Option<Arc<String>>,

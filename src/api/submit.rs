@@ -256,7 +256,6 @@ pub async fn submit_job(
             run_hash: header.run_hash,
         })
         .await?;
-    state.wake.notify_one();
     let location = format!("/v1/jobs/{id}");
     Ok((
         StatusCode::ACCEPTED,

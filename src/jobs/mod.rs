@@ -1,14 +1,23 @@
 //! The job queue of the service (SPEC §5.4): worst-scenario jobs stored durably with their
 //! lease, progress, every evaluation as it completes and the outcome, behind the [`JobStore`]
-//! trait (SQLite now: `sqlite`; PostgreSQL for scale-out later), and the workers that lease jobs
-//! and run them through the front door (`runner`).
+//! trait (`sql`: SQLite, the embedded default, or PostgreSQL for scale-out), and the processes
+//! that work on them (`runner`: job coordinators; `tasks`: evaluation of fanned-out batches;
+//! `dispatch`: a coordinator's batches as tasks).
 //!
 //! A job's life: `queued` → `running` (leased by a worker, lease renewed by heartbeat) →
 //! `succeeded` | `failed` | `cancelled`. A running job whose lease expired (its process died) is
 //! leased again and resumed from its stored evaluations: none lost, none recomputed.
+//!
+//! Two levels of distribution (issue #14): a whole job goes to any free worker process, which
+//! coordinates it (runs the search); when the store is shared by several processes, the
+//! coordinator posts each evaluation batch as tasks that every worker leases, so one large job
+//! uses all of them. Leases of jobs and tasks are renewed by heartbeat and expire by the database
+//! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
 
+pub mod dispatch;
 pub mod runner;
-pub mod sqlite;
+pub mod sql;
+pub mod tasks;
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
@@ -122,6 +131,33 @@ pub struct Page {
     pub offset: usize,
 }
 
+/// A task: some points of one evaluation batch of a job.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct TaskKey {
+    pub job_id: String,
+    /// The job's lease attempt whose coordinator posted it.
+    pub attempt: u32,
+    pub batch: u64,
+    pub part: u32,
+}
+
+/// A leased task.
+#[derive(Debug, Clone)]
+pub struct TaskRecord {
+    pub key: TaskKey,
+    /// Physical parameter points, in the order their evaluations must be returned.
+    pub points: Vec<Vec<f64>>,
+    pub run_hash: String,
+}
+
+/// What a worker needs to evaluate a job's points: the scene and the search settings.
+#[derive(Debug, Clone)]
+pub struct JobInput {
+    pub scene: String,
+    pub settings: WorstRequest,
+    pub run_hash: String,
+}
+
 /// Store errors (database failures); the message names the operation.
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("job store: {0}")]
@@ -155,6 +191,57 @@ pub trait JobStore: Send + Sync + 'static {
     async fn finish(&self, id: &str, owner: &str, end: JobEnd) -> StoreResult<()>;
     /// Ask a job to stop: a queued job is cancelled at once (true), a running one is flagged.
     async fn request_cancel(&self, id: &str) -> StoreResult<bool>;
+
+    /// The scene and settings of a job (what a worker needs to evaluate its points).
+    async fn job_input(&self, id: &str) -> StoreResult<Option<JobInput>>;
+    /// Post one batch of job `id` (whose lease `owner` holds) as tasks, one per part; tasks of
+    /// the job's earlier attempts are dropped (their coordinator is gone).
+    async fn post_tasks(
+        &self,
+        id: &str,
+        owner: &str,
+        attempt: u32,
+        batch: u64,
+        parts: &[Vec<Vec<f64>>],
+    ) -> StoreResult<()>;
+    /// Lease the oldest queued task, or a running one whose lease expired.
+    async fn lease_task(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<TaskRecord>>;
+    /// Extend a task's lease; false when it is no longer `owner`'s.
+    async fn renew_task(&self, key: &TaskKey, owner: &str, lease_seconds: f64)
+        -> StoreResult<bool>;
+    /// Store a task's evaluations (in the job's evaluations too) and mark it done, atomically;
+    /// false (and nothing stored) when the task is no longer `owner`'s.
+    async fn complete_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<bool>;
+    /// The evaluations of a batch in part order once every part is done (`None` before).
+    async fn batch_results(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<Evaluation>>>;
+    /// Announce a worker process with its evaluation threads (a heartbeat).
+    async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()>;
+    /// Evaluation threads of the workers seen within the last `seconds`.
+    async fn live_threads(&self, seconds: f64) -> StoreResult<usize>;
+    /// Changes whenever new work (a job or a task) may be there. Mark it seen before looking
+    /// for work, then [`wait`] on it: no announcement is missed in between.
+    fn work_signal(&self) -> Signal;
+    /// Changes whenever a task may have completed (used the same way).
+    fn results_signal(&self) -> Signal;
+}
+
+/// A counter raised by announcements (local writes, or notifications from other processes).
+pub type Signal = tokio::sync::watch::Receiver<u64>;
+
+/// Wait until `signal` changes after it was last seen, or `timeout` (waiters also poll, so a
+/// lost notification only delays them).
+pub async fn wait(signal: &mut Signal, timeout: std::time::Duration) {
+    let _ = tokio::time::timeout(timeout, signal.changed()).await;
 }
 
 /// Seconds since the Unix epoch.

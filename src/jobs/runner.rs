@@ -1,25 +1,30 @@
-//! The workers of `wsm serve`: each leases a job from the store, runs it through the front door
-//! (`run::worst`) on a blocking thread (never on the async runtime), stores every evaluation as
-//! it completes, renews the lease by heartbeat, passes cancel requests on, publishes progress
-//! (to the store and to live subscribers), and stores how the job ended. A panic inside a job
-//! fails that job with the reason; the worker goes on.
+//! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job
+//! from the store and coordinates it — runs it through the front door (`run::worst`) on a
+//! blocking thread (never on the async runtime), with its batches fanned out as tasks when other
+//! workers share the store (`dispatch`), stores every evaluation it computes as it completes,
+//! renews the lease by heartbeat, passes cancel requests on, publishes progress, and stores how
+//! the job ended. A panic inside a job fails that job with the reason; the worker goes on. Beside
+//! the job slots run the task loop (`tasks`) and the heartbeat that announces the process.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Duration;
 
-use tokio::sync::{mpsc, Notify};
+use tokio::sync::mpsc;
 
-use super::{JobEnd, JobRecord, JobStore, Lease};
+use super::dispatch::StoreDispatch;
+use super::tasks::{serve_tasks, TaskConfig};
+use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use crate::error::{ErrorKind, WsmError};
 use crate::run::{self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status};
 
-/// Settings of the worker pool.
+/// Settings of a worker process.
 #[derive(Debug, Clone)]
 pub struct RunnerConfig {
+    /// Jobs coordinated at once (0: none, only tasks of other coordinators).
     pub workers: usize,
-    /// Threads of each job's pool (`None`: rayon's global pool).
+    /// Threads of each job's pool and of the task loop (`None`: all cores).
     pub threads_per_job: Option<usize>,
     /// A lease not renewed for this long is taken over \[s\].
     pub lease_seconds: f64,
@@ -50,26 +55,26 @@ impl Live {
     }
 }
 
-/// Start the workers; `wake` is notified when a job is submitted.
-pub fn spawn_workers(
-    store: Arc<dyn JobStore>,
-    live: Arc<Live>,
-    config: RunnerConfig,
-    wake: Arc<Notify>,
-) {
-    for _ in 0..config.workers.max(1) {
-        let (store, live, config, wake) =
-            (store.clone(), live.clone(), config.clone(), wake.clone());
+impl RunnerConfig {
+    /// Evaluation threads of this process.
+    pub fn threads(&self) -> usize {
+        self.threads_per_job
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+            .max(1)
+    }
+}
+
+/// Start the job slots, the task loop and the heartbeat that announces this process.
+pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerConfig) {
+    for _ in 0..config.workers {
+        let (store, live, config) = (store.clone(), live.clone(), config.clone());
         tokio::spawn(async move {
+            let mut work = store.work_signal();
             loop {
+                work.borrow_and_update();
                 match store.lease(&config.owner, config.lease_seconds).await {
                     Ok(Some(job)) => run_job(&store, &live, &config, job).await,
-                    Ok(None) => {
-                        tokio::select! {
-                            _ = wake.notified() => {}
-                            _ = tokio::time::sleep(Duration::from_millis(500)) => {}
-                        }
-                    }
+                    Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
                     Err(e) => {
                         eprintln!("wsm: {e}");
                         tokio::time::sleep(Duration::from_secs(1)).await;
@@ -78,6 +83,28 @@ pub fn spawn_workers(
             }
         });
     }
+    {
+        let (store, config) = (store.clone(), config.clone());
+        tokio::spawn(async move {
+            let period = Duration::from_secs_f64((config.lease_seconds / 3.0).max(0.05));
+            loop {
+                if let Err(e) = store.register_worker(&config.owner, config.threads()).await {
+                    eprintln!("wsm: {e}");
+                }
+                tokio::time::sleep(period).await;
+            }
+        });
+    }
+    let tasks = TaskConfig {
+        owner: config.owner.clone(),
+        threads: config.threads(),
+        lease_seconds: config.lease_seconds,
+    };
+    tokio::spawn(async move {
+        if let Err(e) = serve_tasks(store, tasks).await {
+            eprintln!("wsm: the task loop stopped: {e}");
+        }
+    });
 }
 
 /// The evaluation log of a job: its stored evaluations, appended to as they complete.
@@ -167,9 +194,20 @@ async fn run_job(
                 run_hash: job.run_hash.clone(),
                 replay,
             };
+            let dispatch = StoreDispatch::new(
+                store.clone(),
+                tokio::runtime::Handle::current(),
+                id.clone(),
+                config.owner.clone(),
+                job.attempts,
+                config.threads(),
+                config.lease_seconds,
+                lost.clone(),
+            );
             let control = RunControl::new()
                 .with_cancel(cancel.clone())
                 .with_log(Arc::new(log))
+                .with_dispatch(Arc::new(dispatch))
                 .with_progress(move |e| {
                     let _ = progress_tx.send(e.clone());
                 });

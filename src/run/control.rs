@@ -1,11 +1,12 @@
 //! The lifecycle of a run as its caller sees it: the cancel flag, the progress events (one per
-//! phase change and per evaluation batch) and the evaluation log.
+//! phase change and per evaluation batch), the evaluation log and where batches are evaluated.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
+use super::dispatch::BatchDispatch;
 use super::log::EvaluationLog;
 use crate::scenario::search::{Phase, Progress, Sense};
 use crate::scene::Criterion;
@@ -61,6 +62,8 @@ pub struct RunControl {
     pub progress: Option<Arc<ProgressFn>>,
     /// Where every evaluation goes as it completes, and where a resumed run replays from.
     pub log: Option<Arc<dyn EvaluationLog>>,
+    /// Where evaluation batches are computed when not here (other worker processes).
+    pub dispatch: Option<Arc<dyn BatchDispatch>>,
 }
 
 impl RunControl {
@@ -78,6 +81,11 @@ impl RunControl {
 
     pub fn with_log(mut self, log: Arc<dyn EvaluationLog>) -> Self {
         self.log = Some(log);
+        self
+    }
+
+    pub fn with_dispatch(mut self, dispatch: Arc<dyn BatchDispatch>) -> Self {
+        self.dispatch = Some(dispatch);
         self
     }
 

@@ -9,12 +9,14 @@
 //! [`crate::error::ErrorKind`] maps onto HTTP statuses and exit codes.
 
 mod control;
+mod dispatch;
 mod hash;
 mod log;
 mod request;
 mod table;
 
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
+pub use dispatch::BatchDispatch;
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
 pub use request::{SolveRequest, WorstRequest};
@@ -39,6 +41,7 @@ use crate::scene::params::{apply, parameters, Parameter};
 use crate::scene::Scene;
 use crate::state::{Needs, SolveOptions, StateProblem};
 use control::{best_so_far, phase_objective};
+use dispatch::Dispatched;
 
 /// The result of [`solve`].
 #[derive(Debug, Clone, serde::Serialize, utoipa::ToSchema)]
@@ -158,8 +161,9 @@ struct Run<'a> {
     settings: &'a WorstSettings,
     params: &'a [Parameter],
     start: Instant,
-    /// Raised (for the search) by a cancel request or a failed log write.
+    /// Raised (for the search) by a cancel request or a failed log write or dispatch.
     halt: AtomicBool,
+    /// A failed log write or dispatch: the run stops with it.
     log_error: Mutex<Option<WsmError>>,
 }
 
@@ -242,14 +246,30 @@ impl Run<'_> {
             cancel: &self.halt,
             on_progress: &on_progress,
         };
-        let mut outcome = engine::run(
-            &problem,
-            self.params,
-            &settings,
-            &evaluator,
-            &mut cache,
-            control,
-        )?;
+        let mut outcome = match &self.control.dispatch {
+            Some(dispatch) => {
+                let dispatched =
+                    Dispatched::new(&evaluator, dispatch.as_ref(), &self.log_error, &self.halt);
+                engine::run(
+                    &problem,
+                    self.params,
+                    &settings,
+                    &dispatched,
+                    &|| dispatched.summary(),
+                    &mut cache,
+                    control,
+                )?
+            }
+            None => engine::run(
+                &problem,
+                self.params,
+                &settings,
+                &evaluator,
+                &|| evaluator.summary(),
+                &mut cache,
+                control,
+            )?,
+        };
         if let Some(error) = self
             .log_error
             .lock()

@@ -10,9 +10,10 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::evaluator::{InnerSummary, ScenarioEvaluator};
+use super::evaluator::InnerSummary;
 use super::search::{
-    search, EvalCache, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense, Status,
+    search, EvalCache, Evaluator, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense,
+    Status,
 };
 use crate::error::WsmError;
 use crate::scene::params::Parameter;
@@ -154,12 +155,14 @@ impl WorstOutcome {
 }
 
 /// Run the search for max and min of each requested criterion, evaluating through `cache`
-/// (pre-loaded to resume). A cancelled or timed-out search returns its partial outcome.
+/// (pre-loaded to resume); `inner` gives the inner-solver statistics of the evaluations. A
+/// cancelled or timed-out search returns its partial outcome.
 pub fn run(
     problem: &StateProblem,
     params: &[Parameter],
     settings: &WorstSettings,
-    evaluator: &ScenarioEvaluator,
+    evaluator: &dyn Evaluator,
+    inner: &dyn Fn() -> InnerSummary,
     cache: &mut EvalCache,
     control: SearchControl<'_>,
 ) -> Result<WorstOutcome, WsmError> {
@@ -188,7 +191,7 @@ pub fn run(
         })
         .collect();
     let wall = start.elapsed().as_secs_f64();
-    let inner = evaluator.summary();
+    let inner = inner();
     Ok(WorstOutcome {
         scene: problem.scene.name.clone(),
         run_hash: String::new(),

@@ -52,7 +52,17 @@ pub trait Evaluator: Sync {
     /// but must return the results in input order. An `Err` marks an infeasible point; a
     /// non-finite criterion value is treated the same way.
     fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>>;
+
+    /// Points passed to [`Evaluator::evaluate`] at once, between two checks of cancellation and
+    /// the time limit (a few per thread; more when the batch is spread over other processes).
+    /// Chunking never changes results, only how soon a halt is seen.
+    fn chunk_size(&self) -> usize {
+        CHUNK_PER_THREAD * rayon::current_num_threads().max(1)
+    }
 }
+
+/// Points per thread evaluated between two checks of cancellation and the time limit.
+pub const CHUNK_PER_THREAD: usize = 2;
 
 /// Whether a criterion is to be maximised (the worst scenario) or minimised (the best one).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]

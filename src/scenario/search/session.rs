@@ -18,9 +18,6 @@ use std::sync::atomic::Ordering;
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
-/// Points per thread evaluated between two checks of cancellation and the time limit.
-const CHUNK_PER_THREAD: usize = 2;
-
 /// A batch was refused: the budget cannot take it, or the run is halted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("search stopped: {0:?}")]
@@ -238,7 +235,7 @@ impl<'a> Session<'a> {
     /// points per thread so that cancellation and the time limit are honoured within a large
     /// batch, with a progress report after each chunk but the last (the batch reports that).
     fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) -> Result<(), Stop> {
-        let chunk = CHUNK_PER_THREAD * rayon::current_num_threads().max(1);
+        let chunk = self.evaluator.chunk_size().max(1);
         for (i, part) in points.chunks(chunk).enumerate() {
             if i > 0 {
                 (self.control.on_progress)(&self.progress(ledger, i * chunk));

@@ -1,0 +1,361 @@
+//! One conformance suite for the job store, run against SQLite (always) and PostgreSQL (when
+//! `WSM_TEST_POSTGRES_URL` names a server, as `.ci/run` sets it; otherwise those runs say they
+//! are skipped): jobs, leases and their expiry by the database clock, cancel, guarded appends,
+//! the fan-out tasks of a batch (leased once each, results in part order, a dead worker's task
+//! leased again, a taken-over job's tasks dropped), and the workers' heartbeat.
+
+mod common;
+
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Duration;
+
+use common::{postgres_url, PgSchema};
+use wsm::jobs::sql::SqlStore;
+use wsm::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey};
+use wsm::run::{Evaluation, WorstRequest};
+
+/// A fresh SQLite file.
+async fn sqlite() -> Arc<dyn JobStore> {
+    let dir = std::env::temp_dir().join(format!("wsm-conformance-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{}.db", uuid::Uuid::new_v4()));
+    Arc::new(SqlStore::open(path.to_str().unwrap()).await.unwrap())
+}
+
+/// Run `check` on every backend available.
+macro_rules! conformance {
+    ($name:ident, $check:ident) => {
+        #[tokio::test(flavor = "multi_thread", worker_threads = 4)]
+        async fn $name() {
+            $check(sqlite().await).await;
+            match postgres_url() {
+                Some(url) => {
+                    let schema = PgSchema::new(&url);
+                    $check(Arc::new(SqlStore::open(&schema.url).await.unwrap())).await;
+                }
+                None => eprintln!(
+                    "{}: PostgreSQL part skipped (WSM_TEST_POSTGRES_URL is not set)",
+                    stringify!($name)
+                ),
+            }
+        }
+    };
+}
+
+fn job(id: &str) -> NewJob {
+    NewJob {
+        id: id.into(),
+        scene: "{\"name\": \"scene\"}".into(),
+        settings: WorstRequest::default(),
+        scene_name: "scene".into(),
+        criteria: vec!["phi3".into()],
+        budget: 10,
+        run_hash: format!("hash-{id}"),
+    }
+}
+
+/// An evaluation whose numbers need every bit of an f64.
+fn evaluation(x: f64) -> Evaluation {
+    Evaluation {
+        point: vec![x, 1.0 / 3.0 + x, 1e-300 * x],
+        values: Some(vec![std::f64::consts::PI * x, -0.1 - x]),
+        error: None,
+        max_kkt_residual: Some(1.234_567_890_123_456_7e-13),
+        solve_seconds: 0.01,
+    }
+}
+
+async fn jobs_round_trip_and_list_newest_first(store: Arc<dyn JobStore>) {
+    for id in ["a", "b", "c"] {
+        store.insert(job(id)).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    let a = store.get("a").await.unwrap().unwrap();
+    assert_eq!(a.state, JobState::Queued);
+    assert_eq!(a.criteria, vec!["phi3".to_string()]);
+    assert_eq!(a.run_hash, "hash-a");
+    assert!(store.get("missing").await.unwrap().is_none());
+    let page = Page {
+        limit: 2,
+        offset: 0,
+    };
+    let listed: Vec<String> = store
+        .list(None, page)
+        .await
+        .unwrap()
+        .into_iter()
+        .map(|j| j.id)
+        .collect();
+    assert_eq!(listed, ["c", "b"]);
+    assert_eq!(store.active_count().await.unwrap(), 3);
+    let queued = store.list(Some(JobState::Running), page).await.unwrap();
+    assert!(queued.is_empty());
+}
+conformance!(
+    jobs_round_trip_and_list_newest_first_on_every_backend,
+    jobs_round_trip_and_list_newest_first
+);
+
+async fn concurrent_leases_take_each_job_once(store: Arc<dyn JobStore>) {
+    for i in 0..12 {
+        store.insert(job(&format!("job{i:02}"))).await.unwrap();
+    }
+    let leasers: Vec<_> = (0..4)
+        .map(|w| {
+            let store = store.clone();
+            tokio::spawn(async move {
+                let mut got = Vec::new();
+                while let Some(job) = store.lease(&format!("w{w}"), 60.0).await.unwrap() {
+                    assert_eq!(job.state, JobState::Running);
+                    got.push(job.id);
+                }
+                got
+            })
+        })
+        .collect();
+    let mut all = Vec::new();
+    for l in leasers {
+        all.extend(l.await.unwrap());
+    }
+    let distinct: HashSet<_> = all.iter().cloned().collect();
+    assert_eq!(all.len(), 12, "{all:?}");
+    assert_eq!(distinct.len(), 12);
+}
+conformance!(
+    concurrent_leases_take_each_job_once_on_every_backend,
+    concurrent_leases_take_each_job_once
+);
+
+async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc<dyn JobStore>) {
+    store.insert(job("j")).await.unwrap();
+    let first = store.lease("w1", 0.3).await.unwrap().unwrap();
+    assert_eq!(first.attempts, 1);
+    assert!(store.lease("w2", 0.3).await.unwrap().is_none(), "held");
+    assert_eq!(
+        store.renew("j", "w1", 0.3).await.unwrap(),
+        Lease::Held {
+            cancel_requested: false
+        }
+    );
+    assert_eq!(store.renew("j", "w2", 0.3).await.unwrap(), Lease::Lost);
+    tokio::time::sleep(Duration::from_millis(450)).await;
+    let second = store.lease("w2", 30.0).await.unwrap().expect("expired");
+    assert_eq!(second.attempts, 2);
+    assert_eq!(store.renew("j", "w1", 30.0).await.unwrap(), Lease::Lost);
+    assert!(
+        !store.request_cancel("j").await.unwrap(),
+        "running: flagged"
+    );
+    assert_eq!(
+        store.renew("j", "w2", 30.0).await.unwrap(),
+        Lease::Held {
+            cancel_requested: true
+        }
+    );
+    // Only the lease holder ends the job.
+    store
+        .finish("j", "w1", JobEnd::Cancelled(None))
+        .await
+        .unwrap();
+    assert_eq!(
+        store.get("j").await.unwrap().unwrap().state,
+        JobState::Running
+    );
+    store
+        .finish("j", "w2", JobEnd::Cancelled(None))
+        .await
+        .unwrap();
+    let ended = store.get("j").await.unwrap().unwrap();
+    assert_eq!(ended.state, JobState::Cancelled);
+    assert!(ended.finished_at.unwrap() >= ended.created_at);
+    // A queued job is cancelled at once.
+    store.insert(job("q")).await.unwrap();
+    assert!(store.request_cancel("q").await.unwrap());
+    assert_eq!(
+        store.get("q").await.unwrap().unwrap().state,
+        JobState::Cancelled
+    );
+    assert_eq!(store.active_count().await.unwrap(), 0);
+}
+conformance!(
+    leases_renew_expire_by_the_database_clock_and_pass_cancel_on_on_every_backend,
+    leases_renew_expire_by_the_database_clock_and_pass_cancel_on
+);
+
+async fn evaluations_are_stored_exactly_in_order_by_the_lease_holder_only(
+    store: Arc<dyn JobStore>,
+) {
+    store.insert(job("e")).await.unwrap();
+    store.lease("w1", 30.0).await.unwrap().unwrap();
+    for i in 0..5 {
+        let seq = store
+            .append_evaluation("e", "w1", &evaluation(i as f64 + 0.1))
+            .await
+            .unwrap();
+        assert_eq!(seq, i + 1);
+    }
+    assert!(store
+        .append_evaluation("e", "intruder", &evaluation(9.0))
+        .await
+        .is_err());
+    let stored = store.evaluations("e", None).await.unwrap();
+    let expected: Vec<Evaluation> = (0..5).map(|i| evaluation(i as f64 + 0.1)).collect();
+    assert_eq!(stored, expected, "bit-exact round trip, in order");
+    let page = store
+        .evaluations(
+            "e",
+            Some(Page {
+                limit: 2,
+                offset: 3,
+            }),
+        )
+        .await
+        .unwrap();
+    assert_eq!(page, expected[3..]);
+    assert_eq!(store.get("e").await.unwrap().unwrap().evaluations, 5);
+}
+conformance!(
+    evaluations_are_stored_exactly_in_order_by_the_lease_holder_only_on_every_backend,
+    evaluations_are_stored_exactly_in_order_by_the_lease_holder_only
+);
+
+async fn batch_tasks_are_leased_once_and_return_in_part_order(store: Arc<dyn JobStore>) {
+    store.insert(job("t")).await.unwrap();
+    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let parts: Vec<Vec<Vec<f64>>> = (0..6)
+        .map(|p| vec![vec![p as f64, 0.5], vec![p as f64, 0.25]])
+        .collect();
+    assert!(store
+        .post_tasks("t", "someone-else", coordinator.attempts, 0, &parts)
+        .await
+        .is_err());
+    store
+        .post_tasks("t", "coord", coordinator.attempts, 0, &parts)
+        .await
+        .unwrap();
+    assert!(store
+        .batch_results("t", coordinator.attempts, 0)
+        .await
+        .unwrap()
+        .is_none());
+    let workers: Vec<_> = (0..3)
+        .map(|w| {
+            let store = store.clone();
+            tokio::spawn(async move {
+                let owner = format!("worker{w}");
+                let mut done = Vec::new();
+                while let Some(task) = store.lease_task(&owner, 30.0).await.unwrap() {
+                    assert_eq!(task.run_hash, "hash-t");
+                    let evaluations: Vec<Evaluation> = task
+                        .points
+                        .iter()
+                        .map(|p| evaluation(p[0] * 10.0 + p[1]))
+                        .collect();
+                    assert!(store
+                        .complete_task(&task.key, &owner, &evaluations)
+                        .await
+                        .unwrap());
+                    done.push(task.key.part);
+                }
+                done
+            })
+        })
+        .collect();
+    let mut parts_done = Vec::new();
+    for w in workers {
+        parts_done.extend(w.await.unwrap());
+    }
+    parts_done.sort();
+    assert_eq!(parts_done, [0, 1, 2, 3, 4, 5], "each task leased once");
+    let results = store
+        .batch_results("t", coordinator.attempts, 0)
+        .await
+        .unwrap()
+        .expect("all parts done");
+    let expected: Vec<Evaluation> = parts
+        .iter()
+        .flatten()
+        .map(|p| evaluation(p[0] * 10.0 + p[1]))
+        .collect();
+    assert_eq!(results, expected, "part order, point order, exact numbers");
+    assert_eq!(
+        store.evaluations("t", None).await.unwrap().len(),
+        12,
+        "task evaluations are the job's evaluations"
+    );
+}
+conformance!(
+    batch_tasks_are_leased_once_and_return_in_part_order_on_every_backend,
+    batch_tasks_are_leased_once_and_return_in_part_order
+);
+
+async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dropped(
+    store: Arc<dyn JobStore>,
+) {
+    store.insert(job("d")).await.unwrap();
+    let first = store.lease("coord1", 0.3).await.unwrap().unwrap();
+    store
+        .post_tasks("d", "coord1", first.attempts, 0, &[vec![vec![1.0]]])
+        .await
+        .unwrap();
+    let task = store.lease_task("dies", 0.2).await.unwrap().unwrap();
+    assert!(store.lease_task("other", 0.2).await.unwrap().is_none());
+    assert!(store.renew_task(&task.key, "dies", 0.2).await.unwrap());
+    tokio::time::sleep(Duration::from_millis(350)).await;
+    // The worker "dies" holding the task: its lease expires and another worker takes it.
+    let again = store
+        .lease_task("other", 30.0)
+        .await
+        .unwrap()
+        .expect("expired task");
+    assert_eq!(again.key, task.key);
+    assert!(!store.renew_task(&task.key, "dies", 0.2).await.unwrap());
+    assert!(
+        !store
+            .complete_task(&task.key, "dies", &[evaluation(1.0)])
+            .await
+            .unwrap(),
+        "a lost lease stores nothing"
+    );
+    assert!(store.evaluations("d", None).await.unwrap().is_empty());
+    // The coordinator dies too: whoever takes the job over starts without the old tasks.
+    let second = store.lease("coord2", 30.0).await.unwrap().expect("expired");
+    assert_eq!(second.attempts, first.attempts + 1);
+    assert!(
+        !store
+            .complete_task(&again.key, "other", &[evaluation(1.0)])
+            .await
+            .unwrap(),
+        "tasks of an earlier attempt are gone"
+    );
+    assert!(store.lease_task("other", 30.0).await.unwrap().is_none());
+    assert!(store.evaluations("d", None).await.unwrap().is_empty());
+    let stale = TaskKey {
+        attempt: first.attempts,
+        ..again.key.clone()
+    };
+    assert!(store
+        .batch_results("d", stale.attempt, stale.batch)
+        .await
+        .is_err());
+}
+conformance!(
+    a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dropped_on_every_backend,
+    a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dropped
+);
+
+async fn workers_announce_their_threads_by_heartbeat(store: Arc<dyn JobStore>) {
+    assert_eq!(store.live_threads(5.0).await.unwrap(), 0);
+    store.register_worker("w1", 2).await.unwrap();
+    store.register_worker("w2", 1).await.unwrap();
+    store.register_worker("w1", 3).await.unwrap();
+    assert_eq!(store.live_threads(5.0).await.unwrap(), 4);
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    store.register_worker("w2", 1).await.unwrap();
+    assert_eq!(store.live_threads(0.2).await.unwrap(), 1, "w1 is silent");
+}
+conformance!(
+    workers_announce_their_threads_by_heartbeat_on_every_backend,
+    workers_announce_their_threads_by_heartbeat
+);
