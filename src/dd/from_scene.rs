@@ -145,6 +145,8 @@ pub fn solve_elastic(
         rigid: Vec::new(),
         qp: None,
         free_motions,
+        qp_seconds: 0.0,
+        refinements: 0,
     };
     Ok((contact, sol))
 }

@@ -219,6 +219,11 @@ pub struct Factor {
 }
 
 impl Factor {
+    /// Number of stored nonzeros of L.
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
     /// Dimension of K.
     pub fn dim(&self) -> usize {
         self.symbolic.inner.nrows()
