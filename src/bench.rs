@@ -21,7 +21,7 @@ fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (out, t.elapsed().as_secs_f64())
 }
 
-/// The tunnel example with all mesh sizes scaled by `factor`.
+/// A bundled example with all mesh sizes scaled by `factor`.
 pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
     let text = crate::examples::find(example)?;
     let mut v: Value =
@@ -32,7 +32,8 @@ pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
         }
     };
     scale(&mut v["mesh"]["max_size"]);
-    if let Some(list) = v["mesh"]["refine"].as_array_mut() {
+    // (`get_mut`: indexing a missing key would insert a null.)
+    if let Some(list) = v["mesh"].get_mut("refine").and_then(Value::as_array_mut) {
         for r in list {
             scale(&mut r["max_size"]);
         }
@@ -269,11 +270,8 @@ pub fn worst_benchmark(
     let params = crate::scene::params::parameters(&problem.scene)?;
     let mut settings = crate::scenario::worst::WorstSettings::from_scene(&problem.scene);
     settings.budget = budget;
-    let evaluator = crate::scenario::evaluator::ScenarioEvaluator::new(
-        &problem,
-        &params,
-        &settings.criteria,
-    )?;
+    let evaluator =
+        crate::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &settings.criteria)?;
     let mut cache = crate::scenario::search::EvalCache::new();
     let (outcome, wall) = time(|| {
         crate::scenario::worst::run(

@@ -204,7 +204,10 @@ impl BodyBlock {
 
     /// The contact rows that touch the body's unpinned DOFs.
     pub fn contact_rows(&self) -> Vec<usize> {
-        self.blocks.iter().flat_map(|b| b.rows.iter().copied()).collect()
+        self.blocks
+            .iter()
+            .flat_map(|b| b.rows.iter().copied())
+            .collect()
     }
 
     /// The lower-triangular pattern of the block (local numbering).
@@ -223,9 +226,10 @@ impl BodyBlock {
     pub fn factor(&self, values: &[f64]) -> Result<BodyFactor, WsmError> {
         let mut local: Vec<f64> = self.source.iter().map(|&p| values[p]).collect();
         pin(self.pattern.as_ref(), &mut local, &self.pinned);
-        let factor = self
-            .symbolic
-            .factorize(SparseColMatRef::new(self.pattern.as_ref(), &local), Par::Seq)?;
+        let factor = self.symbolic.factorize(
+            SparseColMatRef::new(self.pattern.as_ref(), &local),
+            Par::Seq,
+        )?;
         let wtw = self
             .blocks
             .iter()

@@ -167,8 +167,8 @@ pub struct StiffnessFactor {
 
 /// A cache of body factors: given the body index, its block and the global values of K, the
 /// body's factor and whether it came from the cache.
-pub type BodyCache<'a> = &'a (dyn Fn(usize, &BodyBlock, &[f64]) -> Result<(Arc<BodyFactor>, bool), WsmError>
-         + Sync);
+pub type BodyCache<'a> =
+    &'a (dyn Fn(usize, &BodyBlock, &[f64]) -> Result<(Arc<BodyFactor>, bool), WsmError> + Sync);
 
 /// The result of one contact solve.
 #[derive(Debug, Clone)]

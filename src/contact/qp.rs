@@ -387,7 +387,12 @@ pub(crate) fn residuals(
     let mut gradient_scale = inf_norm(p.d);
     for (j, t) in tmp.iter_mut().enumerate() {
         *t = match p.c.col(j).try_as_col_major() {
-            Some(col) => col.as_slice().iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum(),
+            Some(col) => col
+                .as_slice()
+                .iter()
+                .zip(x)
+                .map(|(c, xi)| (c * xi).abs())
+                .sum(),
             None => p.c.col(j).iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum(),
         };
     }

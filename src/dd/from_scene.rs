@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdSolution, Fallback};
-use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
+use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::ContactGeometry;
 use crate::fem::ElasticProblem;
@@ -110,6 +110,22 @@ pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> 
             }
         })
         .collect()
+}
+
+/// The partition of `options` for the scene's mesh and contact pairs (it does not depend on the
+/// data; built once per scene and passed on as [`PartitionRequest::Given`]).
+pub fn partition(
+    elastic: &ElasticProblem,
+    direct: &DirectContact,
+    data: &Data,
+    options: &DdOptions,
+) -> Result<Partition, DdError> {
+    let coefficients = elastic.coefficients(data)?;
+    let fixed = elastic.fixed_values(data)?;
+    let pairs = contact_pairs(&direct.geometry, data, &fixed);
+    let rhs = vec![0.0; elastic.dofs().n_free()];
+    let problem = DdProblem::from_elastic(elastic, &coefficients, rhs, pairs)?;
+    Partition::new(&problem, &options.partition)
 }
 
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed

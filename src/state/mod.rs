@@ -16,7 +16,7 @@ pub use criteria::{evaluate as evaluate_criteria, Fields};
 pub use solution::*;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use crate::contact::bodies::BodyFactor;
@@ -99,6 +99,9 @@ pub struct StateProblem {
     /// Per body block of K: its factors keyed by the coefficients of its zones.
     body_factors: Vec<Memo<Arc<BodyFactor>>>,
     temperatures: Memo<Arc<Vec<f64>>>,
+    /// The DD partition, built on the first DD solve from the nominal data (it depends only on
+    /// the mesh and the contact pairs).
+    dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
     pub counters: Counters,
     /// Time to build the problem \[s\].
     pub setup_seconds: f64,
@@ -140,6 +143,7 @@ impl StateProblem {
             factors: Memo::new(4),
             body_factors,
             temperatures: Memo::new(4),
+            dd_partition: OnceLock::new(),
             counters: Counters::default(),
             setup_seconds: start.elapsed().as_secs_f64(),
         })
@@ -339,7 +343,14 @@ impl StateProblem {
                 multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
             })
         };
-        let dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let mut dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let partition = self.dd_partition.get_or_init(|| {
+            crate::dd::from_scene::partition(elastic, &self.contact, &self.nominal, &dd_options)
+        });
+        // A partition error is left to the solve below, which reports it as before.
+        if let Ok(p) = partition {
+            dd_options.partition = crate::dd::PartitionRequest::Given(Box::new(p.clone()));
+        }
         let outcome = crate::dd::from_scene::solve_elastic(
             elastic,
             &self.contact,
