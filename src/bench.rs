@@ -310,7 +310,7 @@ pub fn worst_benchmark(
 /// `wsm bench --worst`: the worst-scenario loop on the tunnel, both solvers, as Markdown.
 pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, WsmError> {
     let mut out = format!(
-        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | body factorisations | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | body factorisations | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
     );
     let mut kinds = vec![crate::scene::SolverKind::Direct];
@@ -323,7 +323,7 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
             let p = &r.phases;
             let share = |x: f64| x / r.solver_seconds.max(1e-12);
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}) | {:.2} | {} |\n",
+                "| {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}; {:.2} / {:.2} / {:.2} / {:.2}) | {:.2} | {} |\n",
                 r.solver,
                 r.unknowns,
                 r.evaluations,
@@ -337,6 +337,10 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
                 share(p.hessian),
                 share(p.contact),
                 share(p.qp),
+                share(p.dd_setup),
+                share(p.dd_pcg1),
+                share(p.dd_outer),
+                share(p.dd_recovery),
                 share(p.post),
                 r.worst
                     .iter()

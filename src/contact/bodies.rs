@@ -143,54 +143,13 @@ impl BodyBlock {
             .collect();
         contact.sort_unstable();
         contact.dedup();
-        if contact.is_empty() {
-            let symbolic = Symbolic::analyse(pattern.as_ref())?;
-            return Ok(BodyBlock {
-                dofs,
-                zones,
-                pattern,
-                source,
-                pinned,
-                symbolic,
-                blocks: Vec::new(),
-            });
-        }
-        let symbolic = Symbolic::analyse_with_trailing(pattern.as_ref(), &contact)?;
-        let mut position = vec![usize::MAX; nl];
-        for (k, &i) in contact.iter().enumerate() {
-            position[i] = k;
-        }
-        let blocks = symbolic
-            .trailing_blocks()
-            .windows(2)
-            .map(|w| {
-                let range = w[0]..w[1];
-                let inside = |i: usize| {
-                    let l = local[i];
-                    l != usize::MAX
-                        && range.contains(&position[l])
-                        && pinned.binary_search(&l).is_err()
-                };
-                let rows: Vec<usize> = (0..geometry.dim())
-                    .filter(|&r| {
-                        geometry.rows[r]
-                            .free
-                            .iter()
-                            .any(|&(i, c)| c != 0.0 && inside(i))
-                    })
-                    .collect();
-                let mut bt = Mat::<f64>::zeros(range.len(), rows.len());
-                for (j, &r) in rows.iter().enumerate() {
-                    for &(i, c) in &geometry.rows[r].free {
-                        if inside(i) {
-                            bt[(position[local[i]] - range.start, j)] += c;
-                        }
-                    }
-                }
-                SchurBlock { range, rows, bt }
-            })
-            .filter(|b| !b.rows.is_empty())
-            .collect();
+        let (symbolic, blocks) = if contact.is_empty() {
+            (Symbolic::analyse(pattern.as_ref())?, Vec::new())
+        } else {
+            let symbolic = Symbolic::analyse_with_trailing(pattern.as_ref(), &contact)?;
+            let blocks = schur_blocks(&symbolic, geometry, &local, &contact, &pinned);
+            (symbolic, blocks)
+        };
         Ok(BodyBlock {
             dofs,
             zones,
@@ -281,6 +240,51 @@ impl BodyBlock {
             }
         }
     }
+}
+
+/// The diagonal blocks of L₂₂ of a body analysed with its (local) `contact` DOFs last, with the
+/// contact rows that touch each block's unpinned DOFs and the dense B_cᵀ on them; `local` maps
+/// global free DOFs to the body's (usize::MAX outside it).
+fn schur_blocks(
+    symbolic: &Symbolic,
+    geometry: &ContactGeometry,
+    local: &[usize],
+    contact: &[usize],
+    pinned: &[usize],
+) -> Vec<SchurBlock> {
+    let mut position = vec![usize::MAX; local.len()];
+    for (k, &i) in contact.iter().enumerate() {
+        position[i] = k;
+    }
+    symbolic
+        .trailing_blocks()
+        .windows(2)
+        .map(|w| {
+            let range = w[0]..w[1];
+            let inside = |i: usize| {
+                let l = local[i];
+                l != usize::MAX && range.contains(&position[l]) && pinned.binary_search(&l).is_err()
+            };
+            let rows: Vec<usize> = (0..geometry.dim())
+                .filter(|&r| {
+                    geometry.rows[r]
+                        .free
+                        .iter()
+                        .any(|&(i, c)| c != 0.0 && inside(i))
+                })
+                .collect();
+            let mut bt = Mat::<f64>::zeros(range.len(), rows.len());
+            for (j, &r) in rows.iter().enumerate() {
+                for &(i, c) in &geometry.rows[r].free {
+                    if inside(i) {
+                        bt[(position[local[i]] - range.start, j)] += c;
+                    }
+                }
+            }
+            SchurBlock { range, rows, bt }
+        })
+        .filter(|b| !b.rows.is_empty())
+        .collect()
 }
 
 /// Replace the rows and columns of `pinned` DOFs by the identity scaled to the mean diagonal.

@@ -389,7 +389,12 @@ impl StateProblem {
             }
         };
         report.solver = "dd".into();
-        report.timings.contact = dd.report.times.total;
+        let times = &dd.report.times;
+        report.timings.contact = times.total;
+        report.timings.dd_setup = times.setup;
+        report.timings.dd_pcg1 = times.pcg1;
+        report.timings.dd_outer = times.outer;
+        report.timings.dd_recovery = times.recovery;
         if let Some(fallback) = &dd.report.fallback {
             report.warnings.push(format!("DD: {fallback}"));
         }

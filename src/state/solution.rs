@@ -79,6 +79,13 @@ pub struct Timings {
     pub contact: f64,
     /// Of `contact`: the QP (direct solver).
     pub qp: f64,
+    /// Of `contact` (DD): local factorisations and condensed contact operators; the auxiliary
+    /// problem (coarse operator and PCG1); the successive approximations (S0 coarse operator,
+    /// S_CON evaluations, PCG2 and Newton PCG); interior recovery.
+    pub dd_setup: f64,
+    pub dd_pcg1: f64,
+    pub dd_outer: f64,
+    pub dd_recovery: f64,
     /// Contact results, stresses and criteria.
     pub post: f64,
     pub total: f64,
@@ -94,6 +101,10 @@ impl Timings {
         self.hessian += other.hessian;
         self.contact += other.contact;
         self.qp += other.qp;
+        self.dd_setup += other.dd_setup;
+        self.dd_pcg1 += other.dd_pcg1;
+        self.dd_outer += other.dd_outer;
+        self.dd_recovery += other.dd_recovery;
         self.post += other.post;
         self.total += other.total;
     }
