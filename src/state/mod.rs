@@ -5,8 +5,10 @@
 //! Everything that depends only on the mesh and the topology is built once in
 //! [`StateProblem::new`]: mesh, criteria weights, DOF map, per-zone operators, symbolic
 //! factorisations, contact geometry and the floating-body kernel. Per data set only numeric work
-//! remains, and a stiffness factorisation (with its contact Schur complement C) or a temperature
-//! field is reused when λ, μ or the thermal data did not change.
+//! remains: K is factorised body by body, and a body's factor (with its share of the contact
+//! Schur complement C) is reused when the λ, μ of its zones did not change, a temperature field
+//! when the thermal data did not change (memos keyed by the exact bits, so reused values equal
+//! fresh ones); the DD partition is built once.
 
 mod criteria;
 mod memo;
