@@ -21,7 +21,7 @@ fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (out, t.elapsed().as_secs_f64())
 }
 
-/// The tunnel example with all mesh sizes scaled by `factor`.
+/// A bundled example with all mesh sizes scaled by `factor`.
 pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
     let text = crate::examples::find(example)?;
     let mut v: Value =
@@ -32,7 +32,8 @@ pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
         }
     };
     scale(&mut v["mesh"]["max_size"]);
-    if let Some(list) = v["mesh"]["refine"].as_array_mut() {
+    // (`get_mut`: indexing a missing key would insert a null.)
+    if let Some(list) = v["mesh"].get_mut("refine").and_then(Value::as_array_mut) {
         for r in list {
             scale(&mut r["max_size"]);
         }
@@ -231,6 +232,123 @@ pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
             .map_err(|e| WsmError::io("DD scalability benchmark", e))?;
         out.push_str("\nDomain decomposition:\n\n");
         out.push_str(&String::from_utf8_lossy(&buffer));
+    }
+    Ok(out)
+}
+
+/// One row of the worst-scenario loop benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct WorstRow {
+    pub solver: &'static str,
+    pub unknowns: usize,
+    pub evaluations: usize,
+    pub wall: f64,
+    pub evaluations_per_second: f64,
+    /// Summed over threads \[s\]: the inner solves and their phases.
+    pub solver_seconds: f64,
+    pub phases: crate::state::Timings,
+    /// Numeric factorisations of body blocks of K (direct solver and DD fallback).
+    pub body_factorisations: usize,
+    /// The worst (max) value of each criterion.
+    pub worst: Vec<f64>,
+}
+
+/// `wsm worst` on the tunnel at about `unknowns` unknowns with the scene's criteria and
+/// parameters and `budget` inner solves, with the direct solver or DD: evaluations/s and the
+/// phase times of the inner solves.
+pub fn worst_benchmark(
+    example: &str,
+    unknowns: usize,
+    budget: usize,
+    solver: crate::scene::SolverKind,
+) -> Result<WorstRow, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
+    let mut scene = scaled_scene(example, factor)?;
+    scene.solver.kind = solver;
+    let problem = StateProblem::new(scene)?;
+    let params = crate::scene::params::parameters(&problem.scene)?;
+    let mut settings = crate::scenario::worst::WorstSettings::from_scene(&problem.scene);
+    settings.budget = budget;
+    let evaluator =
+        crate::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &settings.criteria)?;
+    let mut cache = crate::scenario::search::EvalCache::new();
+    let (outcome, wall) = time(|| {
+        crate::scenario::worst::run(
+            &problem,
+            &params,
+            &settings,
+            &evaluator,
+            &mut cache,
+            Default::default(),
+        )
+    });
+    let outcome = outcome?;
+    Ok(WorstRow {
+        solver: match solver {
+            crate::scene::SolverKind::Dd => "dd",
+            _ => "direct",
+        },
+        unknowns: problem.elastic.dofs().n_free(),
+        evaluations: outcome.new_evaluations,
+        wall,
+        evaluations_per_second: outcome.new_evaluations as f64 / wall,
+        solver_seconds: outcome.inner.solver_seconds,
+        phases: evaluator.phase_seconds(),
+        body_factorisations: problem
+            .counters
+            .body_factorisations
+            .load(std::sync::atomic::Ordering::Relaxed),
+        worst: outcome
+            .criteria
+            .iter()
+            .map(|c| c.worst.best_value.unwrap_or(f64::NAN))
+            .collect(),
+    })
+}
+
+/// `wsm bench --worst`: the worst-scenario loop on the tunnel, both solvers, as Markdown.
+pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, WsmError> {
+    let mut out = format!(
+        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | body factorisations | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        rayon::current_num_threads()
+    );
+    let mut kinds = vec![crate::scene::SolverKind::Direct];
+    if dd {
+        kinds.push(crate::scene::SolverKind::Dd);
+    }
+    for &n in sizes {
+        for &kind in &kinds {
+            let r = worst_benchmark("tunnel-fault", n, budget, kind)?;
+            let p = &r.phases;
+            let share = |x: f64| x / r.solver_seconds.max(1e-12);
+            out.push_str(&format!(
+                "| {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}; {:.2} / {:.2} / {:.2} / {:.2}) | {:.2} | {} |\n",
+                r.solver,
+                r.unknowns,
+                r.evaluations,
+                r.body_factorisations,
+                r.wall,
+                r.evaluations_per_second,
+                1e3 * r.solver_seconds / r.evaluations.max(1) as f64,
+                share(p.assembly),
+                share(p.factor),
+                share(p.numeric),
+                share(p.hessian),
+                share(p.contact),
+                share(p.qp),
+                share(p.dd_setup),
+                share(p.dd_pcg1),
+                share(p.dd_outer),
+                share(p.dd_recovery),
+                share(p.post),
+                r.worst
+                    .iter()
+                    .map(|v| format!("{v:.10e}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
     }
     Ok(out)
 }

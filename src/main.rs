@@ -138,9 +138,16 @@ enum Command {
         /// Runs per measurement (the median is reported).
         #[arg(long, default_value_t = 3)]
         runs: usize,
-        /// Also print the domain-decomposition scalability tables (slow).
+        /// Also print the domain-decomposition scalability tables (slow); with --worst: also
+        /// run the loop with the DD solver.
         #[arg(long)]
         dd: bool,
+        /// Instead: evaluations/s of the worst-scenario loop on the tunnel, with phase shares.
+        #[arg(long)]
+        worst: bool,
+        /// Inner-solve budget of each --worst run.
+        #[arg(long, default_value_t = 400)]
+        budget: usize,
     },
     /// Print a bundled example scene, or list them.
     Example {
@@ -239,7 +246,19 @@ fn main() -> ExitCode {
         Command::Openapi => wsm::api::openapi_json()
             .map(|t| t.trim_end().to_string())
             .map_err(|e| wsm::error::WsmError::io("OpenAPI document", e)),
-        Command::Bench { sizes, runs, dd } => wsm::bench::run(&sizes, runs, dd),
+        Command::Bench {
+            sizes,
+            runs,
+            dd,
+            worst,
+            budget,
+        } => {
+            if worst {
+                wsm::bench::run_worst(&sizes, budget, dd)
+            } else {
+                wsm::bench::run(&sizes, runs, dd)
+            }
+        }
         Command::Example { name, list } => cli::example(name.as_deref(), list),
     };
     match result {

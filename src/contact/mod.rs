@@ -4,9 +4,11 @@
 //! - `pairs`: discrete contact geometry — normals, tangents, nodal contact lengths, initial
 //!   gaps, the contact operator B on the reduced DOFs, and the multiplier bounds.
 //! - `qp`: the dense box- and equality-constrained QP in the contact multipliers.
+//! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
 
+pub mod bodies;
 pub mod direct;
 pub mod pairs;
 pub mod qp;

@@ -336,25 +336,31 @@ impl<'a> ProblemRef<'a> {
 
 /// `out = C x` for a dense column-major `C`.
 pub(crate) fn symv(c: MatRef<'_, f64>, x: &[f64], out: &mut [f64]) {
+    gemv_rows(c, x, out);
+}
+
+/// `out = G x` for the `k × m` matrix `G` (column by column; contiguous columns as slices, so
+/// that the update vectorises).
+pub(crate) fn gemv_rows(g: MatRef<'_, f64>, x: &[f64], out: &mut [f64]) {
     out.fill(0.0);
     for (j, &xj) in x.iter().enumerate() {
         if xj != 0.0 {
-            for (o, &cij) in out.iter_mut().zip(c.col(j).iter()) {
-                *o += cij * xj;
+            match g.col(j).try_as_col_major() {
+                Some(col) => axpy(xj, col.as_slice(), out),
+                None => {
+                    for (o, &grj) in out.iter_mut().zip(g.col(j).iter()) {
+                        *o += grj * xj;
+                    }
+                }
             }
         }
     }
 }
 
-/// `out = G x` for the `k × m` matrix `G`.
-pub(crate) fn gemv_rows(g: MatRef<'_, f64>, x: &[f64], out: &mut [f64]) {
-    out.fill(0.0);
-    for (j, &xj) in x.iter().enumerate() {
-        if xj != 0.0 {
-            for (o, &grj) in out.iter_mut().zip(g.col(j).iter()) {
-                *o += grj * xj;
-            }
-        }
+/// `out += a · x` over slices.
+fn axpy(a: f64, x: &[f64], out: &mut [f64]) {
+    for (o, &xi) in out.iter_mut().zip(x) {
+        *o += a * xi;
     }
 }
 
@@ -380,7 +386,15 @@ pub(crate) fn residuals(
     let m = x.len();
     let mut gradient_scale = inf_norm(p.d);
     for (j, t) in tmp.iter_mut().enumerate() {
-        *t = p.c.col(j).iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum();
+        *t = match p.c.col(j).try_as_col_major() {
+            Some(col) => col
+                .as_slice()
+                .iter()
+                .zip(x)
+                .map(|(c, xi)| (c * xi).abs())
+                .sum(),
+            None => p.c.col(j).iter().zip(x).map(|(c, xi)| (c * xi).abs()).sum(),
+        };
     }
     gradient_scale = gradient_scale.max(inf_norm(tmp));
     symv(p.c, x, grad);

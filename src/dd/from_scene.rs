@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdSolution, Fallback};
-use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
+use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::ContactGeometry;
 use crate::fem::ElasticProblem;
@@ -112,6 +112,22 @@ pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> 
         .collect()
 }
 
+/// The partition of `options` for the scene's mesh and contact pairs (it does not depend on the
+/// data; built once per scene and passed on as [`PartitionRequest::Given`]).
+pub fn partition(
+    elastic: &ElasticProblem,
+    direct: &DirectContact,
+    data: &Data,
+    options: &DdOptions,
+) -> Result<Partition, DdError> {
+    let coefficients = elastic.coefficients(data)?;
+    let fixed = elastic.fixed_values(data)?;
+    let pairs = contact_pairs(&direct.geometry, data, &fixed);
+    let rhs = vec![0.0; elastic.dofs().n_free()];
+    let problem = DdProblem::from_elastic(elastic, &coefficients, rhs, pairs)?;
+    Partition::new(&problem, &options.partition)
+}
+
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
 /// values) by DD on the contact rows of `direct`; `fallback` is the direct solver, used only when
 /// DD fails (and reported). Undetermined rigid motions get the direct solver's normal form.
@@ -145,6 +161,8 @@ pub fn solve_elastic(
         rigid: Vec::new(),
         qp: None,
         free_motions,
+        qp_seconds: 0.0,
+        refinements: 0,
     };
     Ok((contact, sol))
 }

@@ -36,6 +36,9 @@ pub enum PartitionRequest {
     },
     /// Subdomain of every element (edge-disconnected pieces become subdomains of their own).
     Explicit(Vec<usize>),
+    /// A partition built before for the same mesh and contact pairs (it depends on nothing
+    /// else), reused for every data set of a scene.
+    Given(Box<Partition>),
 }
 
 /// A validated partition.
@@ -60,6 +63,7 @@ impl Partition {
                 contact_layers,
             } => automatic(problem, Target::Size(*elements), *contact_layers),
             PartitionRequest::Explicit(list) => split_disconnected(problem, list),
+            PartitionRequest::Given(partition) => return Ok((**partition).clone()),
         };
         Partition::validate(problem, element_subdomain)
     }

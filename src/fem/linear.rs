@@ -93,39 +93,45 @@ impl Symbolic {
         let solver =
             |e: &dyn std::fmt::Debug| FemError::Solver(format!("symbolic Cholesky: {e:?}"));
         let sub = SymbolicSparseColMat::new_checked(nl, nl, sub_ptr, None, sub_rows);
-        let (mut amd_fwd, mut amd_inv) = (vec![0usize; nl], vec![0usize; nl]);
-        let mut buffer = MemBuffer::try_new(amd::order_scratch::<usize>(nl, sub.compute_nnz()))
-            .map_err(|_| FemError::Solver("out of memory in AMD ordering".into()))?;
-        amd::order(
-            &mut amd_fwd,
-            &mut amd_inv,
-            sub.as_ref(),
-            amd::Control::default(),
-            MemStack::new(&mut buffer),
-        )
-        .map_err(|e| solver(&e))?;
-        // fwd[new] = old: the AMD-ordered leading DOFs, then the trailing ones.
-        let fwd: Vec<usize> = amd_fwd
-            .iter()
-            .map(|&k| lead[k])
-            .chain(trailing.iter().copied())
+        // Two orders of the leading DOFs: AMD of their submatrix, and AMD of the whole pattern
+        // with the trailing DOFs left out (it sees the couplings through them); the one with
+        // the sparser factor is kept.
+        let by_sub: Vec<usize> = amd_order(sub.as_ref())?
+            .into_iter()
+            .map(|k| lead[k])
             .collect();
-        let mut inv = vec![0usize; n];
-        for (new, &old) in fwd.iter().enumerate() {
-            inv[old] = new;
+        let by_full: Vec<usize> = amd_order(pattern)?
+            .into_iter()
+            .filter(|&i| !is_trailing[i])
+            .collect();
+        let mut best: Option<SymbolicCholesky<usize>> = None;
+        for order in [by_sub, by_full] {
+            // fwd[new] = old: the ordered leading DOFs, then the trailing ones.
+            let fwd: Vec<usize> = order.into_iter().chain(trailing.iter().copied()).collect();
+            let mut inv = vec![0usize; n];
+            for (new, &old) in fwd.iter().enumerate() {
+                inv[old] = new;
+            }
+            let perm = PermRef::new_checked(&fwd, &inv, n);
+            let params = CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            };
+            let candidate = factorize_symbolic_cholesky(
+                pattern,
+                Side::Lower,
+                SymmetricOrdering::Custom(perm),
+                params,
+            )
+            .map_err(|e| solver(&e))?;
+            if best
+                .as_ref()
+                .is_none_or(|b| candidate.len_val() < b.len_val())
+            {
+                best = Some(candidate);
+            }
         }
-        let perm = PermRef::new_checked(&fwd, &inv, n);
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
-        let inner = factorize_symbolic_cholesky(
-            pattern,
-            Side::Lower,
-            SymmetricOrdering::Custom(perm),
-            params,
-        )
-        .map_err(|e| solver(&e))?;
+        let inner = best.ok_or_else(|| FemError::Solver("no ordering".into()))?;
         Ok(Symbolic {
             inner: Arc::new(inner),
             trailing: trailing.len(),
@@ -209,6 +215,23 @@ impl Symbolic {
     }
 }
 
+/// The AMD order (new → old) of the symmetric matrix with lower-triangular `pattern`.
+fn amd_order(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, FemError> {
+    let n = pattern.ncols();
+    let (mut fwd, mut inv) = (vec![0usize; n], vec![0usize; n]);
+    let mut buffer = MemBuffer::try_new(amd::order_scratch::<usize>(n, pattern.compute_nnz()))
+        .map_err(|_| FemError::Solver("out of memory in AMD ordering".into()))?;
+    amd::order(
+        &mut fwd,
+        &mut inv,
+        pattern,
+        amd::Control::default(),
+        MemStack::new(&mut buffer),
+    )
+    .map_err(|e| FemError::Solver(format!("AMD ordering: {e:?}")))?;
+    Ok(fwd)
+}
+
 /// Numeric Cholesky factor of a symmetric positive definite matrix: solves K x = b for one or
 /// many right-hand sides.
 #[derive(Debug, Clone)]
@@ -219,6 +242,11 @@ pub struct Factor {
 }
 
 impl Factor {
+    /// Number of stored nonzeros of L.
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
     /// Dimension of K.
     pub fn dim(&self) -> usize {
         self.symbolic.inner.nrows()

@@ -20,7 +20,7 @@ use crate::error::WsmError;
 use crate::fem::Par;
 use crate::scene::params::{apply, Parameter};
 use crate::scene::Criterion;
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::state::{Needs, SolveOptions, StateProblem, Timings};
 
 /// One evaluation of the criteria at a point θ.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -58,6 +58,8 @@ struct InnerStats {
     qp_iterations: AtomicUsize,
     nanos: AtomicU64,
     max_kkt: Mutex<f64>,
+    /// Phase times summed over the solves.
+    phases: Mutex<Timings>,
 }
 
 /// Inner-solver statistics of a run.
@@ -158,6 +160,9 @@ impl<'a> ScenarioEvaluator<'a> {
             }
         };
         let report = &solution.report;
+        if let Ok(mut p) = self.stats.phases.lock() {
+            p.add(&report.timings);
+        }
         if report.reused_factorisation {
             self.stats
                 .reused_factorisations
@@ -186,6 +191,11 @@ impl<'a> ScenarioEvaluator<'a> {
             Err(e) => evaluation.error = Some(e),
         }
         evaluation
+    }
+
+    /// Phase times of the evaluations so far, summed over threads \[s\].
+    pub fn phase_seconds(&self) -> Timings {
+        self.stats.phases.lock().map(|p| *p).unwrap_or_default()
     }
 
     /// Statistics of the evaluations so far.

@@ -9,6 +9,11 @@ pub fn key(numbers: impl Iterator<Item = f64>) -> Vec<u64> {
     numbers.map(f64::to_bits).collect()
 }
 
+/// How many values of `bytes` each fit in `budget` bytes, at least 2 and at most 64.
+pub fn capacity(budget: usize, bytes: usize) -> usize {
+    (budget / bytes.max(1)).clamp(2, 64)
+}
+
 /// Most-recently-used cache of `capacity` values.
 pub struct Memo<V> {
     entries: Mutex<VecDeque<(Vec<u64>, V)>>,

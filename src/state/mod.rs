@@ -5,8 +5,10 @@
 //! Everything that depends only on the mesh and the topology is built once in
 //! [`StateProblem::new`]: mesh, criteria weights, DOF map, per-zone operators, symbolic
 //! factorisations, contact geometry and the floating-body kernel. Per data set only numeric work
-//! remains, and a stiffness factorisation (with its contact Schur complement C) or a temperature
-//! field is reused when λ, μ or the thermal data did not change.
+//! remains: K is factorised body by body, and a body's factor (with its share of the contact
+//! Schur complement C) is reused when the λ, μ of its zones did not change, a temperature field
+//! when the thermal data did not change (memos keyed by the exact bits, so reused values equal
+//! fresh ones); the DD partition is built once.
 
 mod criteria;
 mod memo;
@@ -16,9 +18,10 @@ pub use criteria::{evaluate as evaluate_criteria, Fields};
 pub use solution::*;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
+use crate::contact::bodies::BodyFactor;
 use crate::contact::direct::{ContactSolution, DirectContact, StiffnessFactor};
 use crate::contact::qp::WarmStart;
 use crate::criteria::CriteriaGeometry;
@@ -68,7 +71,10 @@ pub struct SolveOptions {
 #[derive(Debug, Default)]
 pub struct Counters {
     pub heat_solves: AtomicUsize,
+    /// Stiffness factors built (at least one body block factorised numerically).
     pub factorisations: AtomicUsize,
+    /// Body blocks factorised numerically.
+    pub body_factorisations: AtomicUsize,
     pub elastic_solves: AtomicUsize,
 }
 
@@ -92,7 +98,12 @@ pub struct StateProblem {
     pub heat: Option<HeatProblem>,
     pub contact: DirectContact,
     factors: Memo<Arc<StiffnessFactor>>,
+    /// Per body block of K: its factors keyed by the coefficients of its zones.
+    body_factors: Vec<Memo<Arc<BodyFactor>>>,
     temperatures: Memo<Arc<Vec<f64>>>,
+    /// The DD partition, built on the first DD solve from the nominal data (it depends only on
+    /// the mesh and the contact pairs).
+    dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
     pub counters: Counters,
     /// Time to build the problem \[s\].
     pub setup_seconds: f64,
@@ -116,6 +127,14 @@ impl StateProblem {
         };
         let elastic = ElasticProblem::new(&mesh, &nominal)?;
         let contact = DirectContact::new(&scene, &elastic)?;
+        let body_factors = contact
+            .bodies()
+            .iter()
+            .map(|b| {
+                let budget = BODY_CACHE_BYTES / contact.bodies().len();
+                Memo::new(memo::capacity(budget, 8 * b.factor_nnz()))
+            })
+            .collect();
         Ok(StateProblem {
             scene,
             nominal,
@@ -124,7 +143,9 @@ impl StateProblem {
             heat,
             contact,
             factors: Memo::new(4),
+            body_factors,
             temperatures: Memo::new(4),
+            dd_partition: OnceLock::new(),
             counters: Counters::default(),
             setup_seconds: start.elapsed().as_secs_f64(),
         })
@@ -205,6 +226,7 @@ impl StateProblem {
         report: &mut SolveReport,
     ) -> Result<(), WsmError> {
         let elastic = &self.elastic;
+        let t0 = Instant::now();
         let coefficients = elastic.coefficients(data)?;
         report
             .warnings
@@ -212,6 +234,7 @@ impl StateProblem {
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
+        report.timings.assembly = t0.elapsed().as_secs_f64();
         self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
         let t1 = Instant::now();
         let sol = if self.scene.solver.kind == SolverKind::Dd {
@@ -220,11 +243,15 @@ impl StateProblem {
             let (factor, reused) = self.stiffness_factor(&coefficients, options.par)?;
             report.reused_factorisation = reused;
             report.timings.factor = t1.elapsed().as_secs_f64();
+            if !reused {
+                [report.timings.numeric, report.timings.hessian] = factor.seconds;
+            }
             let t1 = Instant::now();
             let sol =
                 self.contact
                     .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
             report.timings.contact = t1.elapsed().as_secs_f64();
+            report.timings.qp = sol.qp_seconds;
             sol
         };
         let t2 = Instant::now();
@@ -260,23 +287,36 @@ impl StateProblem {
             x: sol.multipliers.clone(),
             alpha: sol.rigid.clone(),
         });
-        report.timings.post = t2.elapsed().as_secs_f64();
+        report.timings.post += t2.elapsed().as_secs_f64();
         Ok(())
     }
 
     /// The stiffness factorisation of the direct solver for the coefficients (memoised), and
-    /// whether it was reused.
+    /// whether it was reused whole. Body blocks whose zone coefficients were seen before reuse
+    /// their factor (keyed by the exact bits, so a reused factor equals a fresh one).
     fn stiffness_factor(
         &self,
         coefficients: &[[f64; 2]],
         par: Par,
     ) -> Result<(Arc<StiffnessFactor>, bool), WsmError> {
         let key = memo::key(coefficients.iter().flatten().copied());
+        let body = |b: usize, block: &crate::contact::bodies::BodyBlock, values: &[f64]| {
+            let key = memo::key(block.zones.iter().flat_map(|&z| coefficients[z]));
+            self.body_factors[b].get_or_try(key, || {
+                self.counters
+                    .body_factorisations
+                    .fetch_add(1, Ordering::Relaxed);
+                block.factor(values).map(Arc::new)
+            })
+        };
         self.factors.get_or_try(key, || {
-            self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
-            self.contact
-                .factor(&self.elastic, coefficients, par)
-                .map(Arc::new)
+            let factor = self
+                .contact
+                .factor_with(&self.elastic, coefficients, par, &body)?;
+            if factor.reused_bodies < self.contact.bodies().len() {
+                self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
+            }
+            Ok(Arc::new(factor))
         })
     }
 
@@ -305,7 +345,14 @@ impl StateProblem {
                 multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
             })
         };
-        let dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let mut dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let partition = self.dd_partition.get_or_init(|| {
+            crate::dd::from_scene::partition(elastic, &self.contact, &self.nominal, &dd_options)
+        });
+        // A partition error is left to the solve below, which reports it as before.
+        if let Ok(p) = partition {
+            dd_options.partition = crate::dd::PartitionRequest::Given(Box::new(p.clone()));
+        }
         let outcome = crate::dd::from_scene::solve_elastic(
             elastic,
             &self.contact,
@@ -344,7 +391,12 @@ impl StateProblem {
             }
         };
         report.solver = "dd".into();
-        report.timings.contact = dd.report.times.total;
+        let times = &dd.report.times;
+        report.timings.contact = times.total;
+        report.timings.dd_setup = times.setup;
+        report.timings.dd_pcg1 = times.pcg1;
+        report.timings.dd_outer = times.outer;
+        report.timings.dd_recovery = times.recovery;
         if let Some(fallback) = &dd.report.fallback {
             report.warnings.push(format!("DD: {fallback}"));
         }
@@ -377,6 +429,9 @@ impl StateProblem {
         Ok(t)
     }
 }
+
+/// Memory for cached body factors of a scene \[bytes\] (shared by its bodies).
+const BODY_CACHE_BYTES: usize = 1 << 28;
 
 /// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
 fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {

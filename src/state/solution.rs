@@ -67,10 +67,47 @@ impl ContactKkt {
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Timings {
     pub heat: f64,
+    /// Loads, prescribed values and the right-hand side.
+    pub assembly: f64,
+    /// The stiffness factor with C (zero when it was reused whole).
     pub factor: f64,
+    /// Of `factor`: numeric factorisations of the body blocks with their shares of C.
+    pub numeric: f64,
+    /// Of `factor`: assembly of C and the floating-body projection.
+    pub hessian: f64,
+    /// The contact solve (direct: condensation, QP, recovery; DD: the whole DD solve).
     pub contact: f64,
+    /// Of `contact`: the QP (direct solver).
+    pub qp: f64,
+    /// Of `contact` (DD): local factorisations and condensed contact operators; the auxiliary
+    /// problem (coarse operator and PCG1); the successive approximations (S0 coarse operator,
+    /// S_CON evaluations, PCG2 and Newton PCG); interior recovery.
+    pub dd_setup: f64,
+    pub dd_pcg1: f64,
+    pub dd_outer: f64,
+    pub dd_recovery: f64,
+    /// Contact results, stresses and criteria.
     pub post: f64,
     pub total: f64,
+}
+
+impl Timings {
+    /// Add `other` phase by phase.
+    pub fn add(&mut self, other: &Timings) {
+        self.heat += other.heat;
+        self.assembly += other.assembly;
+        self.factor += other.factor;
+        self.numeric += other.numeric;
+        self.hessian += other.hessian;
+        self.contact += other.contact;
+        self.qp += other.qp;
+        self.dd_setup += other.dd_setup;
+        self.dd_pcg1 += other.dd_pcg1;
+        self.dd_outer += other.dd_outer;
+        self.dd_recovery += other.dd_recovery;
+        self.post += other.post;
+        self.total += other.total;
+    }
 }
 
 /// The solver report of one solve.
