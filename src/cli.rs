@@ -258,3 +258,30 @@ pub fn study_accuracy(
     }
     Ok(markdown)
 }
+
+/// `wsm study stability`: the catalogue as Markdown (and JSON with `--out`); an error when a case
+/// fails its expectation.
+pub fn study_stability(out: Option<&Path>) -> Result<String, WsmError> {
+    use wsm::study::stability;
+    let results = stability::run_catalogue(&stability::catalogue());
+    let markdown = stability::markdown(&results, &command_line());
+    if let Some(dir) = out {
+        write_in(dir, "stability.md", &markdown)?;
+        write_in(dir, "stability.json", &to_json(&results)?)?;
+    }
+    let failed: Vec<String> = results
+        .iter()
+        .filter(|r| !r.passed)
+        .map(|r| format!("{} / {} ({})", r.group, r.name, r.solver))
+        .collect();
+    if failed.is_empty() {
+        Ok(markdown)
+    } else {
+        println!("{markdown}");
+        Err(WsmError::contact(format!(
+            "{} stability case(s) failed: {}",
+            failed.len(),
+            failed.join(", ")
+        )))
+    }
+}

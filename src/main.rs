@@ -69,6 +69,10 @@ enum Command {
         /// Threads of the run's own pool (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Refined meshes of the accuracy statement: 0, 1 or 2 (default: 2 for small meshes,
+        /// else 1).
+        #[arg(long)]
+        accuracy_refinements: Option<usize>,
         /// Write the full result as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -178,6 +182,13 @@ enum StudyCommand {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+    /// The catalogue of stiff and extreme cases with both solvers: outcome, KKT residuals,
+    /// iterations, condition estimate, time (Markdown; exit status 4 when a case fails).
+    Stability {
+        /// Directory for stability.md and stability.json.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -208,6 +219,7 @@ fn main() -> ExitCode {
             seed,
             max_seconds,
             threads,
+            accuracy_refinements,
             out,
             log,
             resume,
@@ -219,6 +231,7 @@ fn main() -> ExitCode {
                 seed,
                 max_seconds,
                 threads,
+                accuracy_refinements,
             };
             let files = cli::WorstFiles {
                 out,
@@ -283,6 +296,7 @@ fn main() -> ExitCode {
                     };
                     cli::study_accuracy(&case, &options, out.as_deref())
                 }),
+            StudyCommand::Stability { out } => cli::study_stability(out.as_deref()),
         },
     };
     match result {

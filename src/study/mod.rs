@@ -13,8 +13,11 @@
 
 pub mod accuracy;
 pub mod analytic;
+pub mod condition;
 pub mod energy;
 pub mod ladder;
 pub mod plot;
 pub mod report;
 pub mod richardson;
+pub mod stability;
+pub mod statement;
