@@ -40,10 +40,10 @@ pub enum Expect {
 enum Input {
     Scene(Value),
     /// A scene on a given (structured) mesh.
-    OnMesh(Value, crate::mesh::Mesh),
+    OnMesh(Value, Box<crate::mesh::Mesh>),
     /// Two scenes on meshes of the same topology whose displacements must agree after scaling
     /// the second's by the factor.
-    SameShape((Value, crate::mesh::Mesh), (Value, crate::mesh::Mesh), f64),
+    SameShape(Box<[(Value, crate::mesh::Mesh); 2]>, f64),
     /// A worst-scenario run whose worst Φ3 must be at `worst` and best at `best` (vertex
     /// coordinates as 0 = lo, 1 = hi).
     Worst(Value, Vec<usize>, Vec<usize>),
@@ -264,7 +264,7 @@ pub fn catalogue() -> Vec<Case> {
         add(
             "aspect ratio",
             format!("cells 1 m × {t} m (aspect {:.0})", 1.0 / t),
-            Input::OnMesh(scene, mesh),
+            Input::OnMesh(scene, Box::new(mesh)),
             solved(1e-6),
         );
     }
@@ -272,13 +272,13 @@ pub fn catalogue() -> Vec<Case> {
     add(
         "units",
         "Pa against GPa".into(),
-        Input::SameShape(si.clone(), layers(2.0, 0.2, 4, 1.0, 1e-9), 1.0),
+        Input::SameShape(Box::new([si.clone(), layers(2.0, 0.2, 4, 1.0, 1e-9)]), 1.0),
         solved(1e-9),
     );
     add(
         "units",
         "m against mm".into(),
-        Input::SameShape(si, layers(2.0, 0.2, 4, 1e3, 1.0), 1e-3),
+        Input::SameShape(Box::new([si, layers(2.0, 0.2, 4, 1e3, 1.0)]), 1e-3),
         solved(1e-9),
     );
     let mut wide = pushed_block(2e10, 2e10, 0.3, 1e5, 1.5e5);
@@ -424,9 +424,11 @@ fn attempt(
     match &case.input {
         Input::Scene(_) | Input::OnMesh(..) => {
             let problem = match &case.input {
-                Input::OnMesh(v, mesh) => {
-                    StateProblem::with_mesh(with_solver(v, kind)?, mesh.clone(), Instant::now())?
-                }
+                Input::OnMesh(v, mesh) => StateProblem::with_mesh(
+                    with_solver(v, kind)?,
+                    (**mesh).clone(),
+                    Instant::now(),
+                )?,
                 Input::Scene(v) => StateProblem::new(with_solver(v, kind)?)?,
                 _ => unreachable!("matched above"),
             };
@@ -441,7 +443,8 @@ fn attempt(
             }
             *displacement = Some(sol.displacement);
         }
-        Input::SameShape((a, ma), (b, mb), scale) => {
+        Input::SameShape(pair, scale) => {
+            let [(a, ma), (b, mb)] = pair.as_ref();
             let pa = StateProblem::with_mesh(with_solver(a, kind)?, ma.clone(), Instant::now())?;
             let pb = StateProblem::with_mesh(with_solver(b, kind)?, mb.clone(), Instant::now())?;
             let (sa, sb) = (solve(&pa)?, solve(&pb)?);

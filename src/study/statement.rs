@@ -113,7 +113,7 @@ pub fn statement(
     let mut points: Vec<&Vec<f64>> = Vec::new();
     for pair in extrema {
         for (_, p) in pair.iter().flatten() {
-            if !points.iter().any(|q| *q == p) {
+            if !points.contains(&p) {
                 points.push(p);
             }
         }
