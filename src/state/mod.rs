@@ -317,7 +317,8 @@ impl StateProblem {
             Some(&direct),
         );
         // A DD answer that does not balance the loads is never returned as a solution.
-        let unbalanced = |sol: &ContactSolution| sol.equilibrium_residual > DD_EQUILIBRIUM_LIMIT;
+        let limit = DD_EQUILIBRIUM_LIMIT.max(100.0 * self.scene.solver.tolerance);
+        let unbalanced = |sol: &ContactSolution| sol.equilibrium_residual > limit;
         let (sol, dd) = match outcome {
             Ok((sol, _)) if unbalanced(&sol) => {
                 let e = format!(
@@ -410,8 +411,8 @@ impl StateProblem {
     }
 }
 
-/// Largest relative equilibrium residual ‖K u − f + Bᵀλ‖ / ‖f‖ of an accepted DD result; above
-/// it the direct solver answers (with a warning).
+/// Largest relative equilibrium residual ‖K u − f + Bᵀλ‖ / ‖f‖ of an accepted DD result (or 100 ×
+/// the DD tolerance when that is larger); above it the direct solver answers (with a warning).
 const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
 
 /// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
