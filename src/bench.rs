@@ -3,8 +3,6 @@
 
 use std::time::Instant;
 
-use serde_json::Value;
-
 use crate::error::WsmError;
 use crate::fem::Par;
 use crate::scene::{parse, BoundaryValue, Scene};
@@ -21,24 +19,9 @@ fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
     (out, t.elapsed().as_secs_f64())
 }
 
-/// A bundled example with all mesh sizes scaled by `factor`.
+/// An example with all mesh sizes scaled by `factor`.
 pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
-    let text = crate::examples::find(example)?;
-    let mut v: Value =
-        serde_json::from_str(text).map_err(|e| WsmError::io(format!("example {example}"), e))?;
-    let scale = |x: &mut Value| {
-        if let Some(s) = x.as_f64() {
-            *x = Value::from(s * factor);
-        }
-    };
-    scale(&mut v["mesh"]["max_size"]);
-    // (`get_mut`: indexing a missing key would insert a null.)
-    if let Some(list) = v["mesh"].get_mut("refine").and_then(Value::as_array_mut) {
-        for r in list {
-            scale(&mut r["max_size"]);
-        }
-    }
-    Ok(parse(&v.to_string())?)
+    crate::study::ladder::scaled(&parse(crate::examples::find(example)?)?, factor)
 }
 
 /// A state problem of the example with about `unknowns` free DOFs (one correction step).
@@ -279,6 +262,7 @@ pub fn worst_benchmark(
             &params,
             &settings,
             &evaluator,
+            &|| evaluator.summary(),
             &mut cache,
             Default::default(),
         )

@@ -199,3 +199,97 @@ fn runtime() -> Result<tokio::runtime::Runtime, WsmError> {
         .build()
         .map_err(|e| WsmError::io("async runtime", e))
 }
+
+/// The command line as typed, with the program named `wsm` (recorded in study reports).
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    format!("wsm {}", args.join(" "))
+}
+
+/// The case of `wsm study accuracy`: a bundled example (or `manufactured`) or a scene file.
+pub fn study_case(
+    path: Option<&Path>,
+    example: Option<&str>,
+    analytic: Option<&str>,
+) -> Result<wsm::study::accuracy::Case, WsmError> {
+    use wsm::study::accuracy::Case;
+    match (path, example) {
+        (None, Some(name)) if analytic.is_none() => Case::example(name),
+        (None, Some(_)) => Err(SceneError::new(
+            "--analytic",
+            "is for scene files; examples bring their own",
+        )
+        .into()),
+        _ => Case::scene(load_scene(path, example)?, analytic),
+    }
+}
+
+/// A file name piece from a case name (`tunnel-fault`, `hertz-cylinder-on-a-flat`).
+fn slug(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    s.split('-')
+        .filter(|p| !p.is_empty())
+        .collect::<Vec<_>>()
+        .join("-")
+}
+
+/// Create `dir` and write `name` in it.
+fn write_in(dir: &Path, name: &str, text: &str) -> Result<(), WsmError> {
+    std::fs::create_dir_all(dir).map_err(|e| WsmError::io(dir.display(), e))?;
+    write(&dir.join(name), text)
+}
+
+/// `wsm study accuracy`: the Markdown report on stdout; with `--out`, the report, the CSV table
+/// and the SVG plot in that directory.
+pub fn study_accuracy(
+    case: &wsm::study::accuracy::Case,
+    options: &wsm::study::accuracy::AccuracyOptions,
+    out: Option<&Path>,
+) -> Result<String, WsmError> {
+    use wsm::study::report;
+    let study = wsm::study::accuracy::run(case, options)?;
+    let markdown = report::markdown(&study, &command_line());
+    if let Some(dir) = out {
+        let name = slug(&study.case);
+        write_in(dir, &format!("{name}-accuracy.md"), &markdown)?;
+        write_in(dir, &format!("{name}-accuracy.csv"), &report::csv(&study)?)?;
+        write_in(dir, &format!("{name}-accuracy.svg"), &report::plot(&study))?;
+    }
+    Ok(markdown)
+}
+
+/// `wsm study stability`: the catalogue as Markdown (and JSON with `--out`); an error when a case
+/// fails its expectation.
+pub fn study_stability(out: Option<&Path>) -> Result<String, WsmError> {
+    use wsm::study::stability;
+    let results = stability::run_catalogue(&stability::catalogue());
+    let markdown = stability::markdown(&results, &command_line());
+    if let Some(dir) = out {
+        write_in(dir, "stability.md", &markdown)?;
+        write_in(dir, "stability.json", &to_json(&results)?)?;
+    }
+    let failed: Vec<String> = results
+        .iter()
+        .filter(|r| !r.passed)
+        .map(|r| format!("{} / {} ({})", r.group, r.name, r.solver))
+        .collect();
+    if failed.is_empty() {
+        Ok(markdown)
+    } else {
+        println!("{markdown}");
+        Err(WsmError::contact(format!(
+            "{} stability case(s) failed: {}",
+            failed.len(),
+            failed.join(", ")
+        )))
+    }
+}

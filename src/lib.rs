@@ -25,4 +25,5 @@ pub mod scenario;
 pub mod scene;
 pub mod server;
 pub mod state;
+pub mod study;
 pub mod web;

@@ -69,6 +69,10 @@ enum Command {
         /// Threads of the run's own pool (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Refined meshes of the accuracy statement: 0, 1 or 2 (default: 2 for small meshes,
+        /// else 1).
+        #[arg(long)]
+        accuracy_refinements: Option<usize>,
         /// Write the full result as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -149,11 +153,64 @@ enum Command {
         #[arg(long, default_value_t = 400)]
         budget: usize,
     },
+    /// Accuracy against run time, and numerical stability on stiff and extreme cases.
+    Study {
+        #[command(subcommand)]
+        study: StudyCommand,
+    },
     /// Print a bundled example scene, or list them.
     Example {
         name: Option<String>,
         #[arg(long)]
         list: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum StudyCommand {
+    /// A scene on a ladder of meshes with the direct and the DD solver: errors against analytic
+    /// solutions or Richardson extrapolation, against solve time (Markdown, CSV, SVG plot).
+    Accuracy {
+        /// Scene file (JSON).
+        scene: Option<PathBuf>,
+        /// A bundled example instead of a file (also `manufactured`: the built-in manufactured
+        /// solution on the unit square).
+        #[arg(long)]
+        example: Option<String>,
+        /// Compare a scene file with an analytic solution: `hertz` or `lame`.
+        #[arg(long)]
+        analytic: Option<String>,
+        /// Mesh levels.
+        #[arg(long, default_value_t = 5)]
+        levels: usize,
+        /// Mesh size factor of the coarsest level (relative to the scene's sizes).
+        #[arg(long, default_value_t = 2.0)]
+        coarsest: f64,
+        /// Refinement in h from one level to the next.
+        #[arg(long, default_value_t = std::f64::consts::SQRT_2)]
+        ratio: f64,
+        /// DD tolerances (a DD row per tolerance and level).
+        #[arg(long, value_delimiter = ',', default_value = "1e-4,1e-6,1e-8")]
+        tolerances: Vec<f64>,
+        /// Only the direct solver.
+        #[arg(long)]
+        direct_only: bool,
+        /// Cold solves per row (the median time is reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: usize,
+        /// Threads (default 1: the cost per core, as in a worst-scenario run).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Directory for NAME-accuracy.md, .csv and .svg.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+    /// The catalogue of stiff and extreme cases with both solvers: outcome, KKT residuals,
+    /// iterations, condition estimate, time (Markdown; exit status 4 when a case fails).
+    Stability {
+        /// Directory for stability.md and stability.json.
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
 }
 
@@ -185,6 +242,7 @@ fn main() -> ExitCode {
             seed,
             max_seconds,
             threads,
+            accuracy_refinements,
             out,
             log,
             resume,
@@ -196,6 +254,7 @@ fn main() -> ExitCode {
                 seed,
                 max_seconds,
                 threads,
+                accuracy_refinements,
             };
             let files = cli::WorstFiles {
                 out,
@@ -260,6 +319,31 @@ fn main() -> ExitCode {
             }
         }
         Command::Example { name, list } => cli::example(name.as_deref(), list),
+        Command::Study { study } => match study {
+            StudyCommand::Accuracy {
+                scene,
+                example,
+                analytic,
+                levels,
+                coarsest,
+                ratio,
+                tolerances,
+                direct_only,
+                repeats,
+                threads,
+                out,
+            } => cli::study_case(scene.as_deref(), example.as_deref(), analytic.as_deref())
+                .and_then(|case| {
+                    let options = wsm::study::accuracy::AccuracyOptions {
+                        ladder: wsm::study::ladder::Ladder::new(coarsest, ratio, levels)?,
+                        dd_tolerances: if direct_only { Vec::new() } else { tolerances },
+                        repeats,
+                        threads,
+                    };
+                    cli::study_accuracy(&case, &options, out.as_deref())
+                }),
+            StudyCommand::Stability { out } => cli::study_stability(out.as_deref()),
+        },
     };
     match result {
         Ok(text) => {

@@ -4,11 +4,11 @@
 
 use std::f64::consts::PI;
 
-use wsm::fem::stress::element_displacements;
 use wsm::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
 use wsm::mesh::structured::{perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks};
 use wsm::mesh::{Mesh, MeshSegment};
 use wsm::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
+use wsm::study::analytic::{field_errors, points, ExactField, LameCylinder, Manufactured};
 
 // ---------- helpers ----------
 
@@ -47,45 +47,6 @@ fn clamp_all(mesh: &Mesh) -> Vec<BoundaryData> {
     ["bottom", "left", "right", "top"]
         .iter()
         .map(|s| bc(mesh, s, BoundaryValue::Displacement([Some(0.0), Some(0.0)])))
-        .collect()
-}
-
-/// Degree-5 Dunavant rule: (barycentric point, weight) with weights summing to 1.
-fn quadrature() -> Vec<([f64; 3], f64)> {
-    let (a1, b1, w1) = (
-        0.059_715_871_789_770,
-        0.470_142_064_105_115,
-        0.132_394_152_788_506,
-    );
-    let (a2, b2, w2) = (
-        0.797_426_985_353_087,
-        0.101_286_507_323_456,
-        0.125_939_180_544_827,
-    );
-    let mut q = vec![([1.0 / 3.0; 3], 0.225)];
-    for (a, b, w) in [(a1, b1, w1), (a2, b2, w2)] {
-        q.push(([a, b, b], w));
-        q.push(([b, a, b], w));
-        q.push(([b, b, a], w));
-    }
-    q
-}
-
-/// Quadrature points of triangle t: (x, barycentric coordinates, weight·area).
-fn points(mesh: &Mesh, t: usize) -> Vec<([f64; 2], [f64; 3], f64)> {
-    let tri = mesh.triangles[t];
-    let area = mesh.triangle_area(t);
-    quadrature()
-        .into_iter()
-        .map(|(l, w)| {
-            let x = (0..3).fold([0.0; 2], |acc, i| {
-                [
-                    acc[0] + l[i] * mesh.nodes[tri[i]][0],
-                    acc[1] + l[i] * mesh.nodes[tri[i]][1],
-                ]
-            });
-            (x, l, w * area)
-        })
         .collect()
 }
 
@@ -184,98 +145,23 @@ fn patch_test_uniform_tension_with_rollers_and_traction() {
 
 // ---------- manufactured solutions ----------
 
-/// u = (sin πx cos πy, cos 2πx sin πy); f = −(λ + μ) ∇div u − μ Δu.
-struct Manufactured {
-    lambda: f64,
-    mu: f64,
-}
-
-impl Manufactured {
-    fn u(&self, [x, y]: [f64; 2]) -> [f64; 2] {
-        [
-            (PI * x).sin() * (PI * y).cos(),
-            (2.0 * PI * x).cos() * (PI * y).sin(),
-        ]
-    }
-
-    /// [[∂x u1, ∂y u1], [∂x u2, ∂y u2]]
-    fn grad(&self, [x, y]: [f64; 2]) -> [[f64; 2]; 2] {
-        [
-            [
-                PI * (PI * x).cos() * (PI * y).cos(),
-                -PI * (PI * x).sin() * (PI * y).sin(),
-            ],
-            [
-                -2.0 * PI * (2.0 * PI * x).sin() * (PI * y).sin(),
-                PI * (2.0 * PI * x).cos() * (PI * y).cos(),
-            ],
-        ]
-    }
-
-    fn force(&self, [x, y]: [f64; 2]) -> [f64; 2] {
-        let (l, m) = (self.lambda, self.mu);
-        let s = (PI * x).cos() + (2.0 * PI * x).cos();
-        let ddx_div =
-            PI * (PI * y).cos() * (-PI * (PI * x).sin() - 2.0 * PI * (2.0 * PI * x).sin());
-        let ddy_div = -PI * PI * (PI * y).sin() * s;
-        let u = self.u([x, y]);
-        [
-            -(l + m) * ddx_div + 2.0 * PI * PI * m * u[0],
-            -(l + m) * ddy_div + 5.0 * PI * PI * m * u[1],
-        ]
-    }
-}
-
 /// (L² error, energy error) of the elastic manufactured solution on an n × n unit square.
 fn elastic_errors(ms: &Manufactured, n: usize) -> (f64, f64) {
     let mut mesh = rectangle(0.0, 0.0, 1.0, 1.0, n, n);
     perturb_interior(&mut mesh, 0.15 / n as f64, 11);
     let d = data(vec![lame(ms.lambda, ms.mu)], clamp_all(&mesh));
     let problem = ElasticProblem::new(&mesh, &d).unwrap();
-    let mut loads = vec![[0.0; 2]; mesh.nodes.len()];
-    for t in 0..mesh.triangles.len() {
-        for (x, l, w) in points(&mesh, t) {
-            let f = ms.force(x);
-            for (i, &node) in mesh.triangles[t].iter().enumerate() {
-                loads[node][0] += w * f[0] * l[i];
-                loads[node][1] += w * f[1] * l[i];
-            }
-        }
-    }
     let exact: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| ms.u(p)).collect();
     let factor = problem.factor(&d, Par::Seq).unwrap();
     let u = problem
         .solve_with(
             &factor,
-            &loads,
+            &ms.loads(&mesh),
             &problem.dofs().fixed_values_from(&exact).unwrap(),
         )
         .unwrap();
-    let (mut l2, mut energy) = (0.0, 0.0);
-    for t in 0..mesh.triangles.len() {
-        let tri = mesh.triangles[t];
-        let g = TriangleGradients::of(&mesh, t);
-        let v = element_displacements(&u, tri);
-        let eh = g.strain(&v);
-        for (x, l, w) in points(&mesh, t) {
-            let ue = ms.u(x);
-            let uh = (0..3).fold([0.0; 2], |a, i| {
-                [a[0] + l[i] * u[tri[i]][0], a[1] + l[i] * u[tri[i]][1]]
-            });
-            l2 += w * ((ue[0] - uh[0]).powi(2) + (ue[1] - uh[1]).powi(2));
-            let gr = ms.grad(x);
-            let de = [
-                gr[0][0] - eh[0],
-                gr[1][1] - eh[1],
-                0.5 * (gr[0][1] + gr[1][0] - eh[2]),
-            ];
-            let tr = de[0] + de[1];
-            energy += w
-                * (ms.lambda * tr * tr
-                    + 2.0 * ms.mu * (de[0] * de[0] + de[1] * de[1] + 2.0 * de[2] * de[2]));
-        }
-    }
-    (l2.sqrt(), energy.sqrt())
+    let e = field_errors(&mesh, &u, ms, &|_| (ms.lambda, ms.mu));
+    (e.l2, e.energy)
 }
 
 #[test]
@@ -362,30 +248,10 @@ fn manufactured_heat_converges_at_optimal_rates() {
 
 // ---------- thick-walled cylinder (Lamé) ----------
 
-struct Cylinder {
-    a: f64,
-    b: f64,
-    p: f64,
-    e: f64,
-    nu: f64,
-}
-
-impl Cylinder {
-    fn radial_displacement(&self, r: f64) -> f64 {
-        let c = self.a * self.a * self.p / (self.b * self.b - self.a * self.a);
-        (1.0 + self.nu) / self.e * c * ((1.0 - 2.0 * self.nu) * r + self.b * self.b / r)
-    }
-
-    fn hoop_stress(&self, r: f64) -> f64 {
-        let c = self.a * self.a * self.p / (self.b * self.b - self.a * self.a);
-        c * (1.0 + self.b * self.b / (r * r))
-    }
-}
-
 /// Solve the quarter cylinder rotated by `angle`; returns (max relative u_r error at the inner
 /// radius, overall, max relative hoop-stress error at the inner ring, overall).
 fn cylinder_errors(
-    cyl: &Cylinder,
+    cyl: &LameCylinder,
     nr: usize,
     nt: usize,
     angle: f64,
@@ -479,7 +345,7 @@ fn cylinder_errors(
 
 #[test]
 fn thick_walled_cylinder_matches_lame_solution() {
-    let cyl = Cylinder {
+    let cyl = LameCylinder {
         a: 1.0,
         b: 2.0,
         p: 1.0e6,

@@ -25,6 +25,8 @@ pub enum RunPhase {
     Swarm,
     Polish,
     Sensitivities,
+    /// The accuracy statement: worst and best data re-solved on refined meshes.
+    Accuracy,
     Finished,
 }
 

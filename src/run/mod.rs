@@ -26,6 +26,7 @@ pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveS
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::search::{ActiveBound, ObjectiveResult, Sense, Status};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
+pub use crate::study::statement::{CriterionAccuracy, ExtremumAccuracy, StatementMesh};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
@@ -39,7 +40,8 @@ use crate::scenario::search::{EvalCache, Progress, SearchControl};
 use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{apply, parameters, Parameter};
 use crate::scene::Scene;
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::state::{locking_warnings, Needs, SolveOptions, StateProblem};
+use crate::study::statement::{default_refinements, statement, AccuracyStatement};
 use control::{best_so_far, phase_objective};
 use dispatch::Dispatched;
 
@@ -279,9 +281,66 @@ impl Run<'_> {
             return Err(error);
         }
         outcome.setup_seconds = problem.setup_seconds;
+        outcome.warnings = self.warnings(&problem, &outcome)?;
+        if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
+            outcome.accuracy = self.accuracy(&problem, &outcome)?;
+        }
         self.control
             .report(&self.event(RunPhase::Finished, outcome.evaluations));
         Ok(outcome)
+    }
+
+    /// The accuracy statement of a finished search (SPEC §6, `crate::study::statement`).
+    fn accuracy(
+        &self,
+        problem: &StateProblem,
+        outcome: &WorstOutcome,
+    ) -> Result<Option<AccuracyStatement>, WsmError> {
+        let refinements = self
+            .settings
+            .accuracy_refinements
+            .unwrap_or_else(|| default_refinements(problem.elastic.dofs().n_free()));
+        if refinements == 0 {
+            return Ok(None);
+        }
+        self.control
+            .report(&self.event(RunPhase::Accuracy, outcome.evaluations));
+        let stop = || self.stop_status().is_some();
+        statement(
+            problem,
+            self.params,
+            &self.settings.criteria,
+            &outcome.extrema(),
+            refinements,
+            &stop,
+        )
+        .map(Some)
+    }
+
+    /// Warnings about the result: P1 locking (ν ≥ 0.49) at the nominal, worst or best data,
+    /// one per zone.
+    fn warnings(
+        &self,
+        problem: &StateProblem,
+        outcome: &WorstOutcome,
+    ) -> Result<Vec<String>, WsmError> {
+        let mut data = vec![problem.nominal.clone()];
+        for [worst, best] in outcome.extrema() {
+            for (_, point) in [worst, best].into_iter().flatten() {
+                data.push(apply(&problem.scene, &problem.nominal, self.params, &point));
+            }
+        }
+        let mut warnings: Vec<String> = Vec::new();
+        for d in &data {
+            let coefficients = problem.elastic.coefficients(d)?;
+            for w in locking_warnings(&coefficients, problem.mesh()) {
+                let zone = w.split(':').next().unwrap_or_default().to_string();
+                if !warnings.iter().any(|v| v.starts_with(&zone)) {
+                    warnings.push(w);
+                }
+            }
+        }
+        Ok(warnings)
     }
 
     /// An evaluation completed: log it; pass a cancel request on to the search.

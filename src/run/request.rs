@@ -39,6 +39,10 @@ pub struct WorstRequest {
     /// Threads of the run's own pool (default: rayon's global pool).
     #[serde(default)]
     pub threads: Option<usize>,
+    /// Refined meshes of the accuracy statement (0, 1 or 2; default: 2 for small meshes, else
+    /// 1 — see the outcome's `accuracy`).
+    #[serde(default)]
+    pub accuracy_refinements: Option<usize>,
 }
 
 impl WorstRequest {
@@ -76,6 +80,16 @@ impl WorstRequest {
                 .into());
             }
             settings.max_seconds = Some(limit);
+        }
+        if let Some(r) = self.accuracy_refinements {
+            if r > 2 {
+                return Err(SceneError::new(
+                    "accuracy_refinements",
+                    format!("0, 1 or 2 refined meshes (got {r})"),
+                )
+                .into());
+            }
+            settings.accuracy_refinements = Some(r);
         }
         if self.threads == Some(0) {
             return Err(SceneError::new("threads", "must be at least 1").into());

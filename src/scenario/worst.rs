@@ -19,6 +19,7 @@ use crate::error::WsmError;
 use crate::scene::params::Parameter;
 use crate::scene::{Criterion, Scene, SceneError};
 use crate::state::StateProblem;
+use crate::study::statement::{AccuracyStatement, Extrema};
 
 /// Settings of one worst-scenario run (defaults from the scene's `search`).
 #[derive(Debug, Clone, PartialEq)]
@@ -27,6 +28,9 @@ pub struct WorstSettings {
     pub budget: usize,
     pub seed: u64,
     pub max_seconds: Option<f64>,
+    /// Refined meshes of the accuracy statement (`None`: by the mesh size, see
+    /// [`crate::study::statement::default_refinements`]).
+    pub accuracy_refinements: Option<usize>,
 }
 
 impl WorstSettings {
@@ -36,6 +40,7 @@ impl WorstSettings {
             budget: scene.search.budget,
             seed: scene.search.seed,
             max_seconds: scene.search.max_seconds,
+            accuracy_refinements: None,
         }
     }
 
@@ -105,6 +110,13 @@ pub struct WorstOutcome {
     /// Share of the wall time spent in inner solves (summed over threads / wall / threads).
     pub inner_time_share: f64,
     pub inner: InnerSummary,
+    /// The discretisation-error estimate of every worst and best value (absent for a run cut
+    /// short by a cancel or its time limit, or with `accuracy_refinements: 0`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<AccuracyStatement>,
+    /// Warnings about the results, e.g. P1 locking at worst or best data with ν ≥ 0.49.
+    #[serde(default)]
+    pub warnings: Vec<String>,
 }
 
 impl WorstOutcome {
@@ -150,7 +162,18 @@ impl WorstOutcome {
                 factorisations: 0,
                 elastic_solves: 0,
             },
+            accuracy: None,
+            warnings: Vec::new(),
         }
+    }
+
+    /// Per criterion, the (value, point) of its worst and best.
+    pub fn extrema(&self) -> Extrema {
+        let pick = |o: &ObjectiveResult| o.best_value.zip(o.best_point.clone());
+        self.criteria
+            .iter()
+            .map(|c| [pick(&c.worst), pick(&c.best)])
+            .collect()
     }
 }
 
@@ -207,5 +230,7 @@ pub fn run(
             / (wall.max(1e-9) * rayon::current_num_threads() as f64),
         setup_seconds: problem.setup_seconds,
         inner,
+        accuracy: None,
+        warnings: Vec::new(),
     })
 }

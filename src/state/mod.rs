@@ -363,7 +363,17 @@ impl StateProblem {
             &dd_options,
             Some(&direct),
         );
+        // A DD answer that does not balance the loads is never returned as a solution.
+        let limit = DD_EQUILIBRIUM_LIMIT.max(100.0 * self.scene.solver.tolerance);
+        let unbalanced = |sol: &ContactSolution| sol.equilibrium_residual > limit;
         let (sol, dd) = match outcome {
+            Ok((sol, _)) if unbalanced(&sol) => {
+                let e = format!(
+                    "the result does not balance the loads (relative equilibrium residual {:.1e})",
+                    sol.equilibrium_residual
+                );
+                return self.direct_instead(&e, data, coefficients, rhs, fixed, options, report);
+            }
             Ok(done) => done,
             // A partition the user fixed is bad input, not a reason to switch solvers.
             Err(crate::dd::DdError::Partition(reason))
@@ -374,19 +384,14 @@ impl StateProblem {
             Err(e) => {
                 // DD cannot be set up for this scene (e.g. a cluster with an unsupported
                 // floating part): answer with the direct solver and say why.
-                report.solver = "direct (DD unavailable)".into();
-                report.warnings.push(format!(
-                    "domain decomposition: {e}; solved by the direct solver"
-                ));
-                let (factor, reused) = self.stiffness_factor(coefficients, options.par)?;
-                report.reused_factorisation = reused;
-                return self.contact.solve(
-                    &factor,
-                    elastic,
+                return self.direct_instead(
+                    &e.to_string(),
+                    data,
+                    coefficients,
                     rhs,
                     fixed,
-                    data,
-                    options.warm.as_ref(),
+                    options,
+                    report,
                 );
             }
         };
@@ -402,6 +407,34 @@ impl StateProblem {
         }
         report.dd = Some(Box::new(dd.report));
         Ok(sol)
+    }
+
+    /// The direct solver's answer when DD cannot give one, with the reason as a warning.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_instead(
+        &self,
+        reason: &str,
+        data: &Data,
+        coefficients: &[[f64; 2]],
+        rhs: &[f64],
+        fixed: &[f64],
+        options: &SolveOptions,
+        report: &mut SolveReport,
+    ) -> Result<ContactSolution, WsmError> {
+        report.solver = "direct (DD unavailable)".into();
+        report.warnings.push(format!(
+            "domain decomposition: {reason}; solved by the direct solver"
+        ));
+        let (factor, reused) = self.stiffness_factor(coefficients, options.par)?;
+        report.reused_factorisation = reused;
+        self.contact.solve(
+            &factor,
+            &self.elastic,
+            rhs,
+            fixed,
+            data,
+            options.warm.as_ref(),
+        )
     }
 
     /// The temperature field of the data (reused when the thermal data did not change).
@@ -433,8 +466,12 @@ impl StateProblem {
 /// Memory for cached body factors of a scene \[bytes\] (shared by its bodies).
 const BODY_CACHE_BYTES: usize = 1 << 28;
 
+/// Largest relative equilibrium residual ‖K u − f + Bᵀλ‖ / ‖f‖ of an accepted DD result (or 100 ×
+/// the DD tolerance when that is larger); above it the direct solver answers (with a warning).
+const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
+
 /// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
-fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {
+pub fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {
     coefficients
         .iter()
         .zip(&mesh.zones)

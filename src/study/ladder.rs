@@ -1,0 +1,70 @@
+//! Mesh levels of a scene: the same geometry with every mesh size (`mesh.max_size` and each
+//! local `mesh.refine[].max_size`) multiplied by one factor. Level k of a ladder has the factor
+//! `coarsest · ratio^(−k)`, so each level refines the previous one by `ratio` in h (about
+//! `ratio²` in unknowns). The meshes are not nested: the Delaunay mesher meshes each level anew.
+
+use crate::error::WsmError;
+use crate::scene::{Scene, SceneError};
+
+/// The scene with all mesh sizes multiplied by `factor` (> 0). A Gmsh mesh cannot be rescaled.
+pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
+    if scene.mesh.gmsh_file.is_some() {
+        return Err(SceneError::new(
+            "mesh.gmsh_file",
+            "an imported Gmsh mesh cannot be refined by wsm (make the finer meshes in Gmsh)",
+        )
+        .into());
+    }
+    if !(factor.is_finite() && factor > 0.0) {
+        return Err(SceneError::new(
+            "mesh.max_size",
+            format!("mesh size factor must be positive (got {factor})"),
+        )
+        .into());
+    }
+    let mut out = scene.clone();
+    out.mesh.max_size *= factor;
+    for r in &mut out.mesh.refine {
+        r.max_size *= factor;
+    }
+    Ok(out)
+}
+
+/// A sequence of mesh size factors, coarsest first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ladder {
+    /// Size factor of level 0.
+    pub coarsest: f64,
+    /// Refinement in h from one level to the next (> 1).
+    pub ratio: f64,
+    pub levels: usize,
+}
+
+impl Ladder {
+    /// Check the numbers; errors name the command-line option.
+    pub fn new(coarsest: f64, ratio: f64, levels: usize) -> Result<Ladder, WsmError> {
+        if !(coarsest.is_finite() && coarsest > 0.0) {
+            return Err(SceneError::new("--coarsest", "must be a positive factor").into());
+        }
+        if !(ratio.is_finite() && ratio > 1.0) {
+            return Err(SceneError::new("--ratio", "must be greater than 1").into());
+        }
+        if levels < 3 {
+            return Err(SceneError::new(
+                "--levels",
+                "at least 3 levels are needed for an extrapolation",
+            )
+            .into());
+        }
+        Ok(Ladder {
+            coarsest,
+            ratio,
+            levels,
+        })
+    }
+
+    /// The size factor of level k.
+    pub fn factor(&self, level: usize) -> f64 {
+        self.coarsest * self.ratio.powi(-(level as i32))
+    }
+}

@@ -1,0 +1,246 @@
+//! The accuracy statement of a worst-scenario result: the criteria at the worst and best data of
+//! every criterion re-evaluated on refined meshes (all mesh sizes halved, and halved again when
+//! affordable), the difference to the run's value reported as the discretisation-error estimate
+//! of each Φ (with two refinements: against the Richardson extrapolation of the three values,
+//! with the observed order). The values are those of the same data on finer meshes — the
+//! statement estimates the discretisation error of the reported extremum, not the shift of the
+//! maximiser.
+//!
+//! The refined solves are cold (no warm start) direct solves, sequential inside and parallel
+//! over the points, so the statement is bit-identical on any thread count and after a resume.
+//! Between points and levels `stop` is polled (cancel, time limit); a statement cut short says
+//! so in `complete`.
+
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::ladder::scaled;
+use super::richardson::extrapolate;
+use crate::error::WsmError;
+use crate::fem::Par;
+use crate::scene::params::{apply, Parameter};
+use crate::scene::{Criterion, Scene, SolverKind};
+use crate::state::{Needs, SolveOptions, StateProblem};
+
+/// Refinements by default: two while 16 × the run's unknowns stay below this, else one.
+pub const SECOND_REFINEMENT_UNKNOWNS: usize = 50_000;
+/// No refinement when 4 × the run's unknowns exceed this.
+pub const MAX_REFINED_UNKNOWNS: usize = 2_000_000;
+
+/// One mesh of the statement.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct StatementMesh {
+    /// Mesh sizes relative to the run's mesh (1, 1/2, 1/4).
+    pub size_factor: f64,
+    pub unknowns: usize,
+    pub triangles: usize,
+    /// Meshing, set-up and the solves on this mesh \[s\].
+    pub seconds: f64,
+}
+
+/// The accuracy of one extremum (the worst or best value of a criterion).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct ExtremumAccuracy {
+    /// The run's value (units of the criterion).
+    pub value: f64,
+    /// The same data on each refined mesh (`None` where that solve failed).
+    pub refined: Vec<Option<f64>>,
+    /// Estimated discretisation error of `value` (absolute): |value − refined| with one
+    /// refinement, |value − extrapolated| with two and monotone convergence, else the largest
+    /// difference.
+    pub estimate: Option<f64>,
+    /// `estimate / |value|`.
+    pub relative: Option<f64>,
+    /// The observed order in h (two refinements, monotone convergence).
+    pub observed_order: Option<f64>,
+    /// Richardson's value on an infinitely fine mesh (two refinements, monotone convergence).
+    pub extrapolated: Option<f64>,
+    /// Why a refined solve failed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+}
+
+/// The statement for one criterion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct CriterionAccuracy {
+    pub criterion: Criterion,
+    pub worst: Option<ExtremumAccuracy>,
+    pub best: Option<ExtremumAccuracy>,
+}
+
+/// The accuracy statement of a worst-scenario result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct AccuracyStatement {
+    /// The run's mesh first, then the refined ones.
+    pub meshes: Vec<StatementMesh>,
+    pub criteria: Vec<CriterionAccuracy>,
+    /// Distinct worst/best data re-solved.
+    pub points: usize,
+    /// Extra wall time of the statement \[s\].
+    pub seconds: f64,
+    /// False when a cancel or the time limit cut it short (or the mesh is too large to refine).
+    pub complete: bool,
+    pub method: String,
+}
+
+/// How many refinements the statement makes by default for a run on `unknowns` unknowns.
+pub fn default_refinements(unknowns: usize) -> usize {
+    if 16 * unknowns <= SECOND_REFINEMENT_UNKNOWNS {
+        2
+    } else if 4 * unknowns <= MAX_REFINED_UNKNOWNS {
+        1
+    } else {
+        0
+    }
+}
+
+/// The extremum values of a run, per criterion (worst, best): (value, point).
+pub type Extrema = Vec<[Option<(f64, Vec<f64>)>; 2]>;
+
+/// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
+/// refined meshes. `stop` is polled between meshes and points.
+pub fn statement(
+    problem: &StateProblem,
+    params: &[Parameter],
+    criteria: &[Criterion],
+    extrema: &Extrema,
+    refinements: usize,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Result<AccuracyStatement, WsmError> {
+    let start = Instant::now();
+    let mut points: Vec<&Vec<f64>> = Vec::new();
+    for pair in extrema {
+        for (_, p) in pair.iter().flatten() {
+            if !points.contains(&p) {
+                points.push(p);
+            }
+        }
+    }
+    let base = StatementMesh {
+        size_factor: 1.0,
+        unknowns: problem.elastic.dofs().n_free(),
+        triangles: problem.mesh().triangles.len(),
+        seconds: 0.0,
+    };
+    let mut meshes = vec![base];
+    // values[level][point][criterion]
+    let mut values: Vec<Vec<Result<Vec<Option<f64>>, String>>> = Vec::new();
+    let mut complete = true;
+    for level in 1..=refinements {
+        if stop() {
+            complete = false;
+            break;
+        }
+        let t0 = Instant::now();
+        let factor = 0.5_f64.powi(level as i32);
+        let mut scene: Scene = scaled(&problem.scene, factor)?;
+        scene.solver.kind = SolverKind::Direct;
+        let refined = StateProblem::new(scene)?;
+        let options = SolveOptions {
+            needs: Needs::for_criteria(&refined.scene, criteria),
+            par: Par::Seq,
+            warm: None,
+        };
+        let solved: Vec<Option<Result<Vec<Option<f64>>, String>>> = points
+            .par_iter()
+            .map(|p| {
+                if stop() {
+                    return None;
+                }
+                let data = apply(&refined.scene, &refined.nominal, params, p);
+                Some(
+                    refined
+                        .solve(&data, &options)
+                        .map(|s| criteria.iter().map(|c| s.criteria[*c as usize]).collect())
+                        .map_err(|e| e.to_string()),
+                )
+            })
+            .collect();
+        if solved.iter().any(Option::is_none) {
+            complete = false;
+            break;
+        }
+        values.push(solved.into_iter().flatten().collect());
+        meshes.push(StatementMesh {
+            size_factor: factor,
+            unknowns: refined.elastic.dofs().n_free(),
+            triangles: refined.mesh().triangles.len(),
+            seconds: t0.elapsed().as_secs_f64(),
+        });
+    }
+    if refinements == 0 {
+        complete = false;
+    }
+    let h: Vec<f64> = meshes
+        .iter()
+        .map(|m| (m.unknowns.max(1) as f64).powf(-0.5))
+        .collect();
+    let accuracy = |k: usize, extremum: &Option<(f64, Vec<f64>)>| {
+        let (value, point) = extremum.as_ref()?;
+        let index = points.iter().position(|q| *q == point)?;
+        let mut failure = None;
+        let refined: Vec<Option<f64>> = values
+            .iter()
+            .map(|level| match &level[index] {
+                Ok(v) => v[k],
+                Err(e) => {
+                    failure.get_or_insert_with(|| e.clone());
+                    None
+                }
+            })
+            .collect();
+        Some(extremum_accuracy(*value, refined, &h, failure))
+    };
+    let criteria = criteria
+        .iter()
+        .zip(extrema)
+        .enumerate()
+        .map(|(k, (&criterion, [worst, best]))| CriterionAccuracy {
+            criterion,
+            worst: accuracy(k, worst),
+            best: accuracy(k, best),
+        })
+        .collect();
+    Ok(AccuracyStatement {
+        meshes,
+        criteria,
+        points: points.len(),
+        seconds: start.elapsed().as_secs_f64(),
+        complete,
+        method: "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into(),
+    })
+}
+
+fn extremum_accuracy(
+    value: f64,
+    refined: Vec<Option<f64>>,
+    h: &[f64],
+    failure: Option<String>,
+) -> ExtremumAccuracy {
+    let differences: Vec<f64> = refined
+        .iter()
+        .flatten()
+        .map(|r| (value - r).abs())
+        .collect();
+    let mut out = ExtremumAccuracy {
+        value,
+        estimate: differences.iter().copied().reduce(f64::max),
+        relative: None,
+        observed_order: None,
+        extrapolated: None,
+        failure,
+        refined,
+    };
+    if let [Some(a), Some(b)] = out.refined[..] {
+        let sequence = [value, a, b];
+        if let Some(e) = extrapolate(&h[..3], &sequence).filter(|e| e.monotone && !e.at_bound) {
+            out.estimate = Some((value - e.value).abs());
+            out.observed_order = e.order;
+            out.extrapolated = Some(e.value);
+        }
+    }
+    out.relative = out.estimate.map(|e| e / value.abs().max(f64::MIN_POSITIVE));
+    out
+}
