@@ -73,6 +73,11 @@ enum Command {
         /// else 1).
         #[arg(long)]
         accuracy_refinements: Option<usize>,
+        /// Relative error (e.g. 0.01) the mesh must meet: the run takes the coarsest of the
+        /// scene's mesh sizes × 4, 2, 1, 1/2, … whose estimated error at the nominal data is
+        /// within it, and reports the choice in `mesh_choice`.
+        #[arg(long)]
+        target_error: Option<f64>,
         /// Write the full result as JSON.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -243,6 +248,7 @@ fn main() -> ExitCode {
             max_seconds,
             threads,
             accuracy_refinements,
+            target_error,
             out,
             log,
             resume,
@@ -255,6 +261,7 @@ fn main() -> ExitCode {
                 max_seconds,
                 threads,
                 accuracy_refinements,
+                target_error,
             };
             let files = cli::WorstFiles {
                 out,

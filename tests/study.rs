@@ -174,3 +174,59 @@ fn a_cancelled_run_has_no_accuracy_statement() {
     assert_eq!(outcome.status, Status::Cancelled);
     assert!(outcome.accuracy.is_none());
 }
+
+#[test]
+fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
+    let targeted = WorstRequest {
+        target_error: Some(0.02),
+        accuracy_refinements: Some(1),
+        ..request(2, None)
+    };
+    let a = run::worst(block(), &targeted, &RunControl::new()).unwrap();
+    let choice = a.mesh_choice.clone().expect("a mesh choice");
+    assert_eq!(choice.target_error, 0.02);
+    let chosen = choice
+        .candidates
+        .iter()
+        .find(|c| c.size_factor == choice.size_factor)
+        .unwrap();
+    assert!(choice.met && chosen.meets_target, "{choice:#?}");
+    assert!(chosen.relative_errors.iter().all(|r| r.unwrap() <= 0.02));
+    // The same run as one on the chosen mesh without a target, bit for bit; a different hash.
+    let plain = run::worst(
+        wsm::study::ladder::scaled(&block(), choice.size_factor).unwrap(),
+        &WorstRequest {
+            accuracy_refinements: Some(1),
+            ..request(1, None)
+        },
+        &RunControl::new(),
+    )
+    .unwrap();
+    assert!(plain.mesh_choice.is_none());
+    assert_ne!(a.run_hash, plain.run_hash);
+    for (x, y) in a.criteria.iter().zip(&plain.criteria) {
+        assert_eq!(x.worst.best_value, y.worst.best_value);
+        assert_eq!(x.worst.best_point, y.worst.best_point);
+        assert_eq!(x.best.best_value, y.best.best_value);
+    }
+    let (sa, sp) = (a.accuracy.unwrap(), plain.accuracy.unwrap());
+    for (x, y) in sa.criteria.iter().zip(&sp.criteria) {
+        assert_eq!(
+            x.worst.as_ref().unwrap().refined,
+            y.worst.as_ref().unwrap().refined
+        );
+    }
+    // Bad targets name the field.
+    for bad in [0.0, 1.5, f64::NAN] {
+        let e = run::worst(
+            block(),
+            &WorstRequest {
+                target_error: Some(bad),
+                ..request(1, None)
+            },
+            &RunControl::new(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("target_error"), "{e}");
+    }
+}

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 
 use super::{wait, JobInput, JobStore, TaskRecord};
 use crate::error::WsmError;
-use crate::run::{Evaluation, WorstRequest};
+use crate::run::{run_scene, Evaluation, WorstRequest};
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scene::params::parameters;
 use crate::state::StateProblem;
@@ -57,10 +57,11 @@ impl Model {
             .spawn(move || {
                 let built = pool.install(|| -> Result<_, WsmError> {
                     let scene = crate::scene::parse(&scene_text)?;
-                    let criteria = settings.settings(&scene)?.criteria;
+                    let settings = settings.settings(&scene)?;
                     let params = parameters(&scene)?;
+                    let (scene, _) = run_scene(scene, &settings, &|| false)?;
                     let problem = StateProblem::new(scene)?;
-                    Ok((problem, params, criteria))
+                    Ok((problem, params, settings.criteria))
                 });
                 let (problem, params, criteria) = match built {
                     Ok(parts) => parts,

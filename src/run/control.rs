@@ -16,6 +16,8 @@ use crate::scene::Criterion;
 #[serde(rename_all = "snake_case")]
 pub enum RunPhase {
     Queued,
+    /// The mesh ladder of a run with a target error (`crate::study::mesh_choice`).
+    MeshChoice,
     Meshing,
     /// The solvability condition at the vertices of the admissible box (SPEC §4.1).
     AdmissibleCheck,

@@ -26,6 +26,7 @@ pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveS
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::search::{ActiveBound, ObjectiveResult, Sense, Status};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
+pub use crate::study::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::study::statement::{CriterionAccuracy, ExtremumAccuracy, StatementMesh};
 
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -41,6 +42,7 @@ use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{apply, parameters, Parameter};
 use crate::scene::Scene;
 use crate::state::{locking_warnings, Needs, SolveOptions, StateProblem};
+use crate::study::mesh_choice::choose_mesh;
 use crate::study::statement::{default_refinements, statement, AccuracyStatement};
 use control::{best_so_far, phase_objective};
 use dispatch::Dispatched;
@@ -116,11 +118,28 @@ pub fn solve_at(
 /// The log header of a run: its hash, scene, criteria and parameter fields.
 pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, WsmError> {
     Ok(LogHeader::new(
-        run_hash(scene, &settings.criteria)?,
+        run_hash(scene, &settings.criteria, settings.target_error)?,
         scene.name.clone(),
         settings.criteria.clone(),
         scene.uncertain.iter().map(|u| u.field.clone()).collect(),
     ))
+}
+
+/// The scene a run solves: `scene` itself, or with a target error the scene on the coarsest
+/// mesh meeting it (`crate::study::mesh_choice`), with how it was chosen. `stop` is polled
+/// between the meshes tried. Workers call this too, so every process solves the same mesh.
+pub fn run_scene(
+    scene: Scene,
+    settings: &WorstSettings,
+    stop: &dyn Fn() -> bool,
+) -> Result<(Scene, Option<MeshChoice>), WsmError> {
+    match settings.target_error {
+        Some(target) => {
+            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop)?;
+            Ok((chosen, Some(choice)))
+        }
+        None => Ok((scene, None)),
+    }
 }
 
 /// A worst-scenario search on `scene`: the worst and best of each requested criterion over the
@@ -211,6 +230,27 @@ impl Run<'_> {
                 status,
             ))
         };
+        let mut mesh_choice = None;
+        let scene = if self.settings.target_error.is_some() {
+            if let Some(status) = self.enter(RunPhase::MeshChoice) {
+                return unstarted(&scene, status);
+            }
+            match run_scene(scene.clone(), self.settings, &|| {
+                self.stop_status().is_some()
+            }) {
+                Ok((chosen, choice)) => {
+                    mesh_choice = choice;
+                    chosen
+                }
+                Err(WsmError::Cancelled) => {
+                    let status = self.stop_status().unwrap_or(Status::Cancelled);
+                    return unstarted(&scene, status);
+                }
+                Err(e) => return Err(e),
+            }
+        } else {
+            scene
+        };
         if let Some(status) = self.enter(RunPhase::Meshing) {
             return unstarted(&scene, status);
         }
@@ -285,6 +325,10 @@ impl Run<'_> {
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
             outcome.accuracy = self.accuracy(&problem, &outcome)?;
         }
+        if let Some(choice) = &mesh_choice {
+            outcome.warnings.extend(target_warnings(choice, &outcome));
+        }
+        outcome.mesh_choice = mesh_choice;
         self.control
             .report(&self.event(RunPhase::Finished, outcome.evaluations));
         Ok(outcome)
@@ -376,4 +420,37 @@ impl Run<'_> {
             self.halt.store(true, Ordering::SeqCst);
         }
     }
+}
+
+/// Warnings of a run with a target error: no mesh met it, or the accuracy statement finds a
+/// worst or best value whose estimate exceeds it (the choice was made at the nominal data).
+fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let target = choice.target_error;
+    if !choice.met {
+        let finest = choice.candidates.last().map_or(0, |c| c.unknowns);
+        warnings.push(format!(
+            "target_error: no mesh up to {finest} unknowns met the target {target:e} at the \
+             nominal data; the run used the finest one (mesh sizes × {})",
+            choice.size_factor
+        ));
+    }
+    let Some(statement) = &outcome.accuracy else {
+        return warnings;
+    };
+    for c in &statement.criteria {
+        for (name, extremum) in [("worst", &c.worst), ("best", &c.best)] {
+            if let Some(relative) = extremum.as_ref().and_then(|e| e.relative) {
+                if relative > target {
+                    warnings.push(format!(
+                        "target_error: the accuracy statement estimates the {name} value of {} \
+                         to {relative:.2e} relative, above the target {target:e} met at the \
+                         nominal data",
+                        c.criterion.name()
+                    ));
+                }
+            }
+        }
+    }
+    warnings
 }

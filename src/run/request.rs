@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::WsmError;
 use crate::scenario::worst::WorstSettings;
 use crate::scene::{Criterion, Scene, SceneError, SolverKind};
+use crate::study::mesh_choice::check_target;
 
 /// A single state solve.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -43,6 +44,11 @@ pub struct WorstRequest {
     /// 1 — see the outcome's `accuracy`).
     #[serde(default)]
     pub accuracy_refinements: Option<usize>,
+    /// Relative error (0 < REL < 1) the run's mesh must meet: the run takes the coarsest mesh of
+    /// a ladder (the scene's mesh sizes × 4, 2, 1, 1/2, …) whose estimated error of every
+    /// criterion at the nominal data is within it (see the outcome's `mesh_choice`).
+    #[serde(default)]
+    pub target_error: Option<f64>,
 }
 
 impl WorstRequest {
@@ -90,6 +96,10 @@ impl WorstRequest {
                 .into());
             }
             settings.accuracy_refinements = Some(r);
+        }
+        if let Some(target) = self.target_error {
+            check_target(scene, target)?;
+            settings.target_error = Some(target);
         }
         if self.threads == Some(0) {
             return Err(SceneError::new("threads", "must be at least 1").into());

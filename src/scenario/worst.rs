@@ -19,6 +19,7 @@ use crate::error::WsmError;
 use crate::scene::params::Parameter;
 use crate::scene::{Criterion, Scene, SceneError};
 use crate::state::StateProblem;
+use crate::study::mesh_choice::MeshChoice;
 use crate::study::statement::{AccuracyStatement, Extrema};
 
 /// Settings of one worst-scenario run (defaults from the scene's `search`).
@@ -31,6 +32,9 @@ pub struct WorstSettings {
     /// Refined meshes of the accuracy statement (`None`: by the mesh size, see
     /// [`crate::study::statement::default_refinements`]).
     pub accuracy_refinements: Option<usize>,
+    /// Relative error the run's mesh must meet at the nominal data (`None`: the scene's mesh;
+    /// see [`crate::study::mesh_choice`]).
+    pub target_error: Option<f64>,
 }
 
 impl WorstSettings {
@@ -41,6 +45,7 @@ impl WorstSettings {
             seed: scene.search.seed,
             max_seconds: scene.search.max_seconds,
             accuracy_refinements: None,
+            target_error: None,
         }
     }
 
@@ -114,6 +119,9 @@ pub struct WorstOutcome {
     /// short by a cancel or its time limit, or with `accuracy_refinements: 0`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accuracy: Option<AccuracyStatement>,
+    /// How the mesh was chosen for the request's `target_error` (absent without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_choice: Option<MeshChoice>,
     /// Warnings about the results, e.g. P1 locking at worst or best data with ν ≥ 0.49.
     #[serde(default)]
     pub warnings: Vec<String>,
@@ -163,6 +171,7 @@ impl WorstOutcome {
                 elastic_solves: 0,
             },
             accuracy: None,
+            mesh_choice: None,
             warnings: Vec::new(),
         }
     }
@@ -231,6 +240,7 @@ pub fn run(
         setup_seconds: problem.setup_seconds,
         inner,
         accuracy: None,
+        mesh_choice: None,
         warnings: Vec::new(),
     })
 }

@@ -213,7 +213,7 @@ pub fn statement(
     })
 }
 
-fn extremum_accuracy(
+pub(crate) fn extremum_accuracy(
     value: f64,
     refined: Vec<Option<f64>>,
     h: &[f64],

@@ -149,6 +149,15 @@ def test_finished_job_shows_plots_and_numbers(page):
             shown = float(cell.text_content().split()[0])
             assert shown == pytest.approx(o["best_value"], rel=1e-5)
     assert int(page.locator("#stat-evaluations").get_attribute("data-value")) == result["evaluations"]
+    # The accuracy statement: the estimate of each extremum next to its value.
+    assert result["accuracy"], "the job's result has no accuracy statement"
+    expect(page.locator("#stat-accuracy")).to_contain_text("unknowns")
+    for c in result["accuracy"]["criteria"]:
+        for sense, a in (("max", c["worst"]), ("min", c["best"])):
+            cell = page.locator(f"#error-{c['criterion']}-{sense}")
+            if a and a["estimate"] is not None:
+                assert float(cell.get_attribute("data-relative")) == a["relative"]
+                assert "%" in cell.text_content()
     status = api(page, f"/v1/jobs/{job_id}")
     assert page.locator("#job-progress-text").get_attribute("data-evaluations") == str(status["evaluations"])
     # One convergence plot per criterion, painted.

@@ -51,9 +51,10 @@ export function facts(dl, pairs) {
 export const $ = (id) => document.getElementById(id);
 
 export const PHASES = {
-  queued: "queued", meshing: "meshing", admissible_check: "checking the admissible set",
+  queued: "queued", mesh_choice: "choosing the mesh for the target error", meshing: "meshing", admissible_check: "checking the admissible set",
   nominal_solve: "nominal solve", screening: "screening vertices", swarm: "swarm search",
-  polish: "polishing", sensitivities: "sensitivities", finished: "finished",
+  polish: "polishing", sensitivities: "sensitivities",
+  accuracy: "accuracy statement", finished: "finished",
 };
 
 export const CRITERIA = {

@@ -241,10 +241,21 @@ function yesNo(v) {
   return el("span", { class: v ? "yes" : "no" }, v ? "yes" : "no");
 }
 
+/** The accuracy statement's estimate of one extremum, as a table cell. */
+function errorCell(name, sense, a, unit) {
+  const attrs = { class: "num", id: `error-${name}-${sense}` };
+  if (!a || a.estimate === null) return el("td", attrs, a && a.failure ? `refined solve failed: ${a.failure}` : "—");
+  attrs["data-relative"] = String(a.relative);
+  const order = a.observed_order === null ? "" : `, order ${num(a.observed_order, 2)}`;
+  return el("td", attrs, `± ${num(a.estimate, 2)} ${unit} (${num(100 * a.relative, 2)} %${order})`);
+}
+
 function dataTables(result) {
+  const statement = result.accuracy ? result.accuracy.criteria : [];
   const blocks = result.criteria.map((c) => {
     const name = c.criterion;
     const [what, unit] = CRITERION_INFO[name] || [name, ""];
+    const accuracy = statement.find((a) => a.criterion === name);
     const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.best_value) },
       o.best_value === null ? "—" : `${num(o.best_value, 6)} ${unit}`);
     const rows = result.parameters.map((p, i) => el("tr", {},
@@ -265,6 +276,8 @@ function dataTables(result) {
         el("tbody", {},
           el("tr", {}, el("th", { scope: "row" }, `${CRITERIA[name] || name} value`), el("td"),
             value(c.worst, "max"), el("td"), value(c.best, "min"), el("td")),
+          accuracy ? el("tr", {}, el("th", { scope: "row" }, "Discretisation error (estimate)"), el("td"),
+            errorCell(name, "max", accuracy.worst, unit), el("td"), errorCell(name, "min", accuracy.best, unit), el("td")) : null,
           ...rows,
           el("tr", {}, el("th", { scope: "row" }, "At a vertex / vertex optimal"), el("td"),
             el("td", { class: "num" }, yesNo(c.worst.at_vertex), " / ", yesNo(c.worst.vertex_optimal)), el("td"),
@@ -296,6 +309,17 @@ function statistics(r) {
     ["Evaluations per second", num(r.evaluations_per_second, 4)],
     ["Inner-solver time share", `${num(100 * r.inner_time_share, 3)} %`],
   ];
+  const choice = r.mesh_choice;
+  if (choice) {
+    pairs.push(["Target error", `${num(100 * choice.target_error, 3)} % — ${choice.met ? "met" : "not met"} at the nominal data with mesh sizes × ${num(choice.size_factor)} (chosen in ${duration(choice.seconds)})`,
+      { id: "stat-target" }]);
+  }
+  const statement = r.accuracy;
+  if (statement) {
+    pairs.push(["Accuracy statement", `${statement.meshes.map((m) => m.unknowns).join(" → ")} unknowns, ${duration(statement.seconds)}${statement.complete ? "" : " (incomplete)"}`,
+      { id: "stat-accuracy" }]);
+  }
+  for (const w of r.warnings || []) pairs.push(["Warning", w]);
   for (const [k, v] of Object.entries(inner)) {
     const label = INNER_LABELS[k] || k.replaceAll("_", " ");
     const attrs = k === "max_kkt_residual" ? { id: "stat-kkt", "data-value": String(v) } : undefined;
