@@ -10,7 +10,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use wsm::jobs::sql::{Backend, SqlStore};
-use wsm::jobs::{wait, JobStore, NewJob};
+use wsm::jobs::{wait, JobStore, NewJob, TaskScope};
 use wsm::run::{Evaluation, WorstRequest};
 
 fn evaluation(point: &[f64]) -> Evaluation {
@@ -27,7 +27,7 @@ async fn task_loop(store: Arc<dyn JobStore>, owner: String) {
     let mut work = store.work_signal();
     loop {
         work.borrow_and_update();
-        match store.lease_task(&owner, 30.0).await {
+        match store.lease_task(&owner, 30.0, TaskScope::Others).await {
             Ok(Some(task)) => {
                 let evaluations: Vec<Evaluation> =
                     task.points.iter().map(|p| evaluation(p)).collect();

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use common::{postgres_url, PgSchema};
 use wsm::jobs::sql::SqlStore;
-use wsm::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey};
+use wsm::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskScope};
 use wsm::run::{Evaluation, WorstRequest};
 
 /// A fresh SQLite file.
@@ -190,17 +190,23 @@ async fn evaluations_are_stored_exactly_in_order_by_the_lease_holder_only(
     store.lease("w1", 30.0).await.unwrap().unwrap();
     for i in 0..5 {
         let seq = store
-            .append_evaluation("e", "w1", &evaluation(i as f64 + 0.1))
+            .append_evaluations("e", "w1", &[evaluation(i as f64 + 0.1)])
             .await
             .unwrap();
         assert_eq!(seq, i + 1);
     }
+    // A chunk in one call: consecutive sequence numbers, in the given order.
+    let chunk: Vec<Evaluation> = (5..8).map(|i| evaluation(i as f64 + 0.1)).collect();
+    assert_eq!(
+        store.append_evaluations("e", "w1", &chunk).await.unwrap(),
+        8
+    );
     assert!(store
-        .append_evaluation("e", "intruder", &evaluation(9.0))
+        .append_evaluations("e", "intruder", &[evaluation(9.0)])
         .await
         .is_err());
     let stored = store.evaluations("e", None).await.unwrap();
-    let expected: Vec<Evaluation> = (0..5).map(|i| evaluation(i as f64 + 0.1)).collect();
+    let expected: Vec<Evaluation> = (0..8).map(|i| evaluation(i as f64 + 0.1)).collect();
     assert_eq!(stored, expected, "bit-exact round trip, in order");
     let page = store
         .evaluations(
@@ -212,8 +218,8 @@ async fn evaluations_are_stored_exactly_in_order_by_the_lease_holder_only(
         )
         .await
         .unwrap();
-    assert_eq!(page, expected[3..]);
-    assert_eq!(store.get("e").await.unwrap().unwrap().evaluations, 5);
+    assert_eq!(page, expected[3..5]);
+    assert_eq!(store.get("e").await.unwrap().unwrap().evaluations, 8);
 }
 conformance!(
     evaluations_are_stored_exactly_in_order_by_the_lease_holder_only_on_every_backend,
@@ -245,7 +251,11 @@ async fn batch_tasks_are_leased_once_and_return_in_part_order(store: Arc<dyn Job
             tokio::spawn(async move {
                 let owner = format!("worker{w}");
                 let mut done = Vec::new();
-                while let Some(task) = store.lease_task(&owner, 30.0).await.unwrap() {
+                while let Some(task) = store
+                    .lease_task(&owner, 30.0, TaskScope::Others)
+                    .await
+                    .unwrap()
+                {
                     assert_eq!(task.run_hash, "hash-t");
                     let evaluations: Vec<Evaluation> = task
                         .points
@@ -290,6 +300,73 @@ conformance!(
     batch_tasks_are_leased_once_and_return_in_part_order
 );
 
+async fn a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_again(
+    store: Arc<dyn JobStore>,
+) {
+    store.insert(job("s")).await.unwrap();
+    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let attempt = coordinator.attempts;
+    let parts = [vec![vec![1.0]], vec![vec![2.0]]];
+    store
+        .post_tasks("s", "coord", attempt, 0, &parts)
+        .await
+        .unwrap();
+    // A worker's task loop never takes the tasks of a job its own process coordinates.
+    assert!(store
+        .lease_task("coord", 30.0, TaskScope::Others)
+        .await
+        .unwrap()
+        .is_none());
+    let batch = |batch| TaskScope::Batch {
+        job: "s",
+        attempt,
+        batch,
+    };
+    assert!(store
+        .lease_task("coord", 30.0, batch(1))
+        .await
+        .unwrap()
+        .is_none());
+    let mine = store
+        .lease_task("coord", 30.0, batch(0))
+        .await
+        .unwrap()
+        .expect("the coordinator takes a part of its batch");
+    let theirs = store
+        .lease_task("w", 30.0, TaskScope::Others)
+        .await
+        .unwrap()
+        .expect("a worker takes the other part");
+    assert_ne!(mine.key.part, theirs.key.part);
+    assert!(!store.release_task(&theirs.key, "intruder").await.unwrap());
+    assert!(store.release_task(&theirs.key, "w").await.unwrap());
+    assert!(
+        !store
+            .complete_task(&theirs.key, "w", &[evaluation(2.0)])
+            .await
+            .unwrap(),
+        "a released task is no longer the worker's"
+    );
+    let again = store
+        .lease_task("coord", 30.0, batch(0))
+        .await
+        .unwrap()
+        .expect("the released part");
+    assert_eq!(again.key, theirs.key);
+    for (task, value) in [(&mine, 1.0), (&again, 2.0)] {
+        assert!(store
+            .complete_task(&task.key, "coord", &[evaluation(value)])
+            .await
+            .unwrap());
+    }
+    let results = store.batch_results("s", attempt, 0).await.unwrap().unwrap();
+    assert_eq!(results, [evaluation(1.0), evaluation(2.0)]);
+}
+conformance!(
+    a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_again_on_every_backend,
+    a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_again
+);
+
 async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dropped(
     store: Arc<dyn JobStore>,
 ) {
@@ -299,13 +376,21 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
         .post_tasks("d", "coord1", first.attempts, 0, &[vec![vec![1.0]]])
         .await
         .unwrap();
-    let task = store.lease_task("dies", 0.2).await.unwrap().unwrap();
-    assert!(store.lease_task("other", 0.2).await.unwrap().is_none());
+    let task = store
+        .lease_task("dies", 0.2, TaskScope::Others)
+        .await
+        .unwrap()
+        .unwrap();
+    assert!(store
+        .lease_task("other", 0.2, TaskScope::Others)
+        .await
+        .unwrap()
+        .is_none());
     assert!(store.renew_task(&task.key, "dies", 0.2).await.unwrap());
     tokio::time::sleep(Duration::from_millis(350)).await;
     // The worker "dies" holding the task: its lease expires and another worker takes it.
     let again = store
-        .lease_task("other", 30.0)
+        .lease_task("other", 30.0, TaskScope::Others)
         .await
         .unwrap()
         .expect("expired task");
@@ -329,7 +414,11 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
             .unwrap(),
         "tasks of an earlier attempt are gone"
     );
-    assert!(store.lease_task("other", 30.0).await.unwrap().is_none());
+    assert!(store
+        .lease_task("other", 30.0, TaskScope::Others)
+        .await
+        .unwrap()
+        .is_none());
     assert!(store.evaluations("d", None).await.unwrap().is_empty());
     let stale = TaskKey {
         attempt: first.attempts,

@@ -1,26 +1,30 @@
 //! A coordinator's evaluation batches as tasks in the job store (the second level of
-//! distribution, issue #14): when other worker processes share the store, each chunk of a batch is
-//! split into one task per live evaluation thread, posted, and its evaluations are read back in
-//! input order once every task is done. The coordinator's own process evaluates tasks too (its
-//! task loop), so a job never waits on nobody. Alone (no other live worker), a batch is declined
-//! and evaluated in-process with no store round trips.
+//! distribution, issue #14). When other worker processes share the store, each chunk of a batch
+//! is dealt round robin to the live evaluation threads: this process's share is computed at once
+//! in the job's own pool and stored by one append that runs while the search goes on (awaited
+//! before the next append and by `flush`), the others' shares are posted as tasks, one per
+//! remote thread. Once its share is done the coordinator takes over any task of
+//! the batch that nobody has started or whose worker died, then reads the evaluations back and
+//! returns them in input order. Alone (no other live worker), a batch is declined and evaluated
+//! in-process as usual.
 //!
-//! Called from the search's blocking thread; talks to the store through the runtime's handle.
+//! Chunks hold about `CHUNK_SECONDS` of solves per live thread, so the store's round trips stay
+//! a small share and a cancel is seen soon. Called from the search's blocking thread; talks to the
+//! store through the runtime's handle.
 
+use std::collections::HashSet;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
-use super::{wait, JobStore};
+use super::{wait, JobStore, StoreResult, TaskScope};
 use crate::error::WsmError;
-use crate::run::{BatchDispatch, Evaluation};
-use crate::scenario::search::CHUNK_PER_THREAD;
+use crate::run::{BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate};
 
-/// Solve time of one fan-out chunk per live thread \[s\]: long enough that the store's round
-/// trips (a few ms per batch) stay a small share, short enough that a cancel is seen soon.
+/// Solve time of one chunk per live thread \[s\].
 const CHUNK_SECONDS: f64 = 0.5;
 /// Points per live thread in a chunk, before any solve time is known and at the least.
-const MIN_POINTS_PER_THREAD: usize = 4;
+const MIN_POINTS_PER_THREAD: usize = 2;
 /// Points per live thread in a chunk at the most.
 const MAX_POINTS_PER_THREAD: usize = 64;
 
@@ -31,7 +35,7 @@ pub struct StoreDispatch {
     pub job: String,
     pub owner: String,
     pub attempt: u32,
-    /// Evaluation threads of this process (the batch goes out only when others are live).
+    /// Evaluation threads of this process's job pool.
     pub own_threads: usize,
     /// Workers seen within this many seconds are live.
     pub lease_seconds: f64,
@@ -40,8 +44,8 @@ pub struct StoreDispatch {
     next_batch: AtomicU64,
     /// The live threads last counted, and when.
     live: Mutex<Option<(Instant, usize)>>,
-    /// Solve seconds and count of the evaluations returned so far.
-    solves: Mutex<(f64, usize)>,
+    /// The append of this process's last share, still running.
+    pending: Mutex<Option<tokio::task::JoinHandle<StoreResult<usize>>>>,
 }
 
 impl StoreDispatch {
@@ -67,19 +71,8 @@ impl StoreDispatch {
             lost,
             next_batch: AtomicU64::new(0),
             live: Mutex::new(None),
-            solves: Mutex::new((0.0, 0)),
+            pending: Mutex::new(None),
         }
-    }
-
-    /// Points per live thread in a chunk: about `CHUNK_SECONDS` of solves.
-    fn points_per_thread(&self) -> usize {
-        let (seconds, count) = *self.solves.lock().unwrap_or_else(PoisonError::into_inner);
-        if count == 0 || seconds <= 0.0 {
-            return MIN_POINTS_PER_THREAD;
-        }
-        let per_point = seconds / count as f64;
-        ((CHUNK_SECONDS / per_point).ceil() as usize)
-            .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD)
     }
 
     /// Evaluation threads of the live workers, counted again at most once a second.
@@ -98,39 +91,125 @@ impl StoreDispatch {
         }
     }
 
-    fn io(&self, e: impl std::fmt::Display) -> WsmError {
-        WsmError::io(format!("job {}", self.job), e)
-    }
-}
-
-impl BatchDispatch for StoreDispatch {
-    fn chunk_size(&self) -> usize {
-        let live = self.live_threads().max(self.own_threads);
-        if live > self.own_threads {
-            self.points_per_thread() * live
-        } else {
-            CHUNK_PER_THREAD * self.own_threads
+    /// Wait for the append of the last share; its error, if any.
+    fn settle(&self) -> Result<(), WsmError> {
+        let pending = self
+            .pending
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        match pending {
+            Some(append) => self
+                .runtime
+                .block_on(append)
+                .map_err(|e| self.io(e))?
+                .map(|_| ())
+                .map_err(|e| self.io(e)),
+            None => Ok(()),
         }
     }
 
-    fn evaluate(&self, points: &[Vec<f64>]) -> Result<Option<Vec<Evaluation>>, WsmError> {
+    /// Store this process's share in the background (after the previous share).
+    fn store_share(&self, evaluations: Vec<Evaluation>) -> Result<(), WsmError> {
+        self.settle()?;
+        let (store, job, owner) = (self.store.clone(), self.job.clone(), self.owner.clone());
+        let append = self
+            .runtime
+            .spawn(async move { store.append_evaluations(&job, &owner, &evaluations).await });
+        *self.pending.lock().unwrap_or_else(PoisonError::into_inner) = Some(append);
+        Ok(())
+    }
+
+    fn io(&self, e: impl std::fmt::Display) -> WsmError {
+        WsmError::io(format!("job {}", self.job), e)
+    }
+
+    /// Take over the batch's tasks nobody has started (or whose worker died), evaluate and
+    /// store them; the parts taken.
+    fn take_over(&self, batch: u64, local: &LocalEvaluate<'_>) -> Result<Vec<u32>, WsmError> {
+        let mut taken = Vec::new();
+        let scope = TaskScope::Batch {
+            job: &self.job,
+            attempt: self.attempt,
+            batch,
+        };
+        while let Some(task) = self
+            .runtime
+            .block_on(
+                self.store
+                    .lease_task(&self.owner, self.lease_seconds, scope),
+            )
+            .map_err(|e| self.io(e))?
+        {
+            let evaluations = local(&task.points);
+            let stored = self
+                .runtime
+                .block_on(
+                    self.store
+                        .complete_task(&task.key, &self.owner, &evaluations),
+                )
+                .map_err(|e| self.io(e))?;
+            if stored {
+                taken.push(task.key.part);
+            }
+        }
+        Ok(taken)
+    }
+}
+
+/// Round robin over `slots` threads: slot s gets points s, s + slots, …
+fn deal<T: Clone>(items: &[T], slots: usize, slot: usize) -> Vec<T> {
+    items.iter().skip(slot).step_by(slots).cloned().collect()
+}
+
+impl BatchDispatch for StoreDispatch {
+    fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize {
+        let per_thread = match seconds_per_point {
+            Some(s) if s > 0.0 => ((CHUNK_SECONDS / s).ceil() as usize)
+                .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD),
+            _ => MIN_POINTS_PER_THREAD,
+        };
+        per_thread * self.live_threads().max(self.own_threads)
+    }
+
+    fn evaluate(
+        &self,
+        points: &[Vec<f64>],
+        local: &LocalEvaluate<'_>,
+    ) -> Result<Option<DispatchedBatch>, WsmError> {
         let live = self.live_threads();
         if live <= self.own_threads || points.len() < 2 {
             return Ok(None);
         }
-        let parts_count = live.min(points.len());
-        let per_part = points.len().div_ceil(parts_count);
-        let parts: Vec<Vec<Vec<f64>>> = points.chunks(per_part).map(|c| c.to_vec()).collect();
+        // Slots 0..own are this process's, the others one task each. Round robin puts
+        // neighbouring points of a polish step (one coordinate each, the expensive material
+        // ones together) on different threads, which balances the shares.
+        let slots = live.min(points.len());
+        let own = self.own_threads.min(slots - 1);
+        let parts: Vec<Vec<Vec<f64>>> = (own..slots).map(|s| deal(points, slots, s)).collect();
         let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
         let mut done = self.store.results_signal();
         done.borrow_and_update();
+        // The tasks are posted while this process computes its share.
+        let post = {
+            let (store, job, owner, attempt) = (
+                self.store.clone(),
+                self.job.clone(),
+                self.owner.clone(),
+                self.attempt,
+            );
+            self.runtime
+                .spawn(async move { store.post_tasks(&job, &owner, attempt, batch, &parts).await })
+        };
+        let mine: Vec<Vec<f64>> = (0..own).flat_map(|s| deal(points, slots, s)).collect();
+        let own_evaluations = local(&mine);
         self.runtime
-            .block_on(
-                self.store
-                    .post_tasks(&self.job, &self.owner, self.attempt, batch, &parts),
-            )
+            .block_on(post)
+            .map_err(|e| self.io(e))?
             .map_err(|e| self.io(e))?;
-        loop {
+        self.store_share(own_evaluations.clone())?;
+        let mut taken: HashSet<u32> = HashSet::new();
+        let remote_evaluations = loop {
             if self.lost.load(Ordering::SeqCst) {
                 return Err(self.io("the job's lease was taken over"));
             }
@@ -138,17 +217,41 @@ impl BatchDispatch for StoreDispatch {
                 .runtime
                 .block_on(self.store.batch_results(&self.job, self.attempt, batch))
             {
-                Ok(Some(evaluations)) => {
-                    let mut solves = self.solves.lock().unwrap_or_else(PoisonError::into_inner);
-                    solves.0 += evaluations.iter().map(|e| e.solve_seconds).sum::<f64>();
-                    solves.1 += evaluations.len();
-                    return Ok(Some(evaluations));
-                }
+                Ok(Some(evaluations)) => break evaluations,
                 Ok(None) => {}
                 Err(e) => return Err(self.io(e)),
             }
-            self.runtime
-                .block_on(wait(&mut done, Duration::from_millis(200)));
+            let newly = self.take_over(batch, local)?;
+            if newly.is_empty() {
+                self.runtime
+                    .block_on(wait(&mut done, Duration::from_millis(200)));
+            }
+            taken.extend(newly);
+        };
+        // Back to input order: slot s's k-th point is point s + k·slots.
+        let n = points.len();
+        let mut slots_of: Vec<Option<(Evaluation, bool)>> = (0..n).map(|_| None).collect();
+        let own_targets = (0..own).flat_map(|s| (s..n).step_by(slots));
+        for (i, e) in own_targets.zip(own_evaluations) {
+            slots_of[i] = Some((e, false));
         }
+        let mut remote_iter = remote_evaluations.into_iter();
+        for (part, s) in (own..slots).enumerate() {
+            let remote = !taken.contains(&(part as u32));
+            for i in (s..n).step_by(slots) {
+                if let Some(e) = remote_iter.next() {
+                    slots_of[i] = Some((e, remote));
+                }
+            }
+        }
+        let (evaluations, remote) = slots_of.into_iter().flatten().unzip();
+        Ok(Some(DispatchedBatch {
+            evaluations,
+            remote,
+        }))
+    }
+
+    fn flush(&self) -> Result<(), WsmError> {
+        self.settle()
     }
 }

@@ -141,6 +141,21 @@ pub struct TaskKey {
     pub part: u32,
 }
 
+/// Which tasks a lease may take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TaskScope<'a> {
+    /// Tasks of jobs coordinated by someone else (a worker's task loop: a coordinator computes
+    /// its own share in its job's pool).
+    Others,
+    /// The tasks of one batch (its coordinator taking over a part nobody has started or whose
+    /// worker died).
+    Batch {
+        job: &'a str,
+        attempt: u32,
+        batch: u64,
+    },
+}
+
 /// A leased task.
 #[derive(Debug, Clone)]
 pub struct TaskRecord {
@@ -179,12 +194,12 @@ pub trait JobStore: Send + Sync + 'static {
     /// Extend the lease and read the job's cancel flag.
     async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease>;
     async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()>;
-    /// Store one evaluation; its 1-based sequence number.
-    async fn append_evaluation(
+    /// Store evaluations in order, in one transaction; the 1-based sequence number of the last.
+    async fn append_evaluations(
         &self,
         id: &str,
         owner: &str,
-        evaluation: &Evaluation,
+        evaluations: &[Evaluation],
     ) -> StoreResult<usize>;
     /// Evaluations of a job in order (`page` of them).
     async fn evaluations(&self, id: &str, page: Option<Page>) -> StoreResult<Vec<Evaluation>>;
@@ -204,8 +219,16 @@ pub trait JobStore: Send + Sync + 'static {
         batch: u64,
         parts: &[Vec<Vec<f64>>],
     ) -> StoreResult<()>;
-    /// Lease the oldest queued task, or a running one whose lease expired.
-    async fn lease_task(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<TaskRecord>>;
+    /// Lease the oldest queued task in `scope`, or a running one whose lease expired.
+    async fn lease_task(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        scope: TaskScope<'_>,
+    ) -> StoreResult<Option<TaskRecord>>;
+    /// Give a leased task back, queued for anyone (a worker whose model is not prepared yet);
+    /// false when it is no longer `owner`'s.
+    async fn release_task(&self, key: &TaskKey, owner: &str) -> StoreResult<bool>;
     /// Extend a task's lease; false when it is no longer `owner`'s.
     async fn renew_task(&self, key: &TaskKey, owner: &str, lease_seconds: f64)
         -> StoreResult<bool>;

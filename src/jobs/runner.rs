@@ -129,11 +129,11 @@ impl EvaluationLog for StoreLog {
         Ok(self.replay.clone())
     }
 
-    fn append(&self, evaluation: &Evaluation) -> Result<(), WsmError> {
+    fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError> {
         self.runtime
             .block_on(
                 self.store
-                    .append_evaluation(&self.job, &self.owner, evaluation),
+                    .append_evaluations(&self.job, &self.owner, evaluations),
             )
             .map(|_| ())
             .map_err(|e| WsmError::io(format!("job {}", self.job), e))

@@ -21,7 +21,7 @@ use tokio::sync::watch;
 
 use super::{
     JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, Signal, StoreError,
-    StoreResult, TaskKey, TaskRecord,
+    StoreResult, TaskKey, TaskRecord, TaskScope,
 };
 use crate::run::{Evaluation, ProgressEvent};
 
@@ -53,20 +53,15 @@ impl Backend {
 
     /// The transaction of a lease: SQLite takes the write lock at once (a deferred
     /// read-then-write transaction would fail with SQLITE_BUSY instead of waiting).
-    fn begin_write(self) -> &'static str {
-        match self {
-            Backend::Sqlite => "BEGIN IMMEDIATE",
-            Backend::Postgres => "BEGIN",
-        }
-    }
-
-    /// Task bookkeeping need not wait for the disk on PostgreSQL: a server crash can only lose
-    /// the last moments of task traffic, and a lost completion is recomputed (its evaluations
-    /// and the task's state are in one transaction, so they are lost together or not at all).
-    fn relaxed_commit(self) -> Option<&'static str> {
-        match self {
-            Backend::Sqlite => None,
-            Backend::Postgres => Some("SET LOCAL synchronous_commit TO OFF"),
+    /// The statement that opens a write transaction. Task bookkeeping (`relaxed`) need not wait
+    /// for the disk on PostgreSQL: a server crash can only lose the last moments of task
+    /// traffic, and a lost completion is recomputed (its evaluations and the task's state are in
+    /// one transaction, so they are lost together or not at all). One round trip either way.
+    fn begin_write(self, relaxed: bool) -> &'static str {
+        match (self, relaxed) {
+            (Backend::Sqlite, _) => "BEGIN IMMEDIATE",
+            (Backend::Postgres, false) => "BEGIN",
+            (Backend::Postgres, true) => "BEGIN; SET LOCAL synchronous_commit TO OFF",
         }
     }
 
@@ -223,15 +218,10 @@ impl SqlStore {
         relaxed: bool,
         error: &impl Fn(sqlx::Error) -> StoreError,
     ) -> StoreResult<sqlx::Transaction<'static, sqlx::Any>> {
-        let mut tx = self
-            .pool
-            .begin_with(self.backend.begin_write())
+        self.pool
+            .begin_with(self.backend.begin_write(relaxed))
             .await
-            .map_err(error)?;
-        if let Some(statement) = self.backend.relaxed_commit().filter(|_| relaxed) {
-            tx.execute(statement).await.map_err(error)?;
-        }
-        Ok(tx)
+            .map_err(error)
     }
 
     fn record(row: &AnyRow) -> StoreResult<JobRecord> {
@@ -432,11 +422,11 @@ impl JobStore for SqlStore {
         Ok(())
     }
 
-    async fn append_evaluation(
+    async fn append_evaluations(
         &self,
         id: &str,
         owner: &str,
-        evaluation: &Evaluation,
+        evaluations: &[Evaluation],
     ) -> StoreResult<usize> {
         let store = db("storing an evaluation");
         let mut tx = self.begin_write(false, &store).await?;
@@ -455,14 +445,7 @@ impl JobStore for SqlStore {
                 "storing an evaluation: job {id} is no longer leased by this worker"
             )));
         }
-        Self::append_in(
-            &mut tx,
-            self.backend.now(),
-            id,
-            owner,
-            std::slice::from_ref(evaluation),
-        )
-        .await?;
+        Self::append_in(&mut tx, self.backend.now(), id, owner, evaluations).await?;
         let seq: i64 = sqlx::query_scalar("SELECT evaluations FROM jobs WHERE id = $1")
             .bind(id)
             .fetch_one(&mut *tx)
@@ -622,25 +605,47 @@ impl JobStore for SqlStore {
         Ok(())
     }
 
-    async fn lease_task(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<TaskRecord>> {
+    async fn lease_task(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        scope: TaskScope<'_>,
+    ) -> StoreResult<Option<TaskRecord>> {
         let now = self.backend.now();
         let lease = db("leasing a task");
         let mut tx = self.begin_write(true, &lease).await?;
-        let row = sqlx::query(sql(format!(
-            "SELECT t.job_id, t.attempt, t.batch, t.part, t.points, j.run_hash
-             FROM tasks t JOIN jobs j ON j.id = t.job_id
-             WHERE t.state = 'queued' OR (t.state = 'running' AND t.lease_expires_at < {now})
-             ORDER BY t.created_at, t.job_id, t.batch, t.part LIMIT 1{}",
+        let filter = match scope {
+            TaskScope::Others => "COALESCE(j.lease_owner, '') <> $1",
+            TaskScope::Batch { .. } => "t.job_id = $3 AND t.attempt = $4 AND t.batch = $5",
+        };
+        // Pick and lease in one statement.
+        let statement = sql(format!(
+            "UPDATE tasks SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2
+             WHERE (job_id, attempt, batch, part) = (
+                 SELECT t.job_id, t.attempt, t.batch, t.part
+                 FROM tasks t JOIN jobs j ON j.id = t.job_id
+                 WHERE (t.state = 'queued' OR (t.state = 'running' AND t.lease_expires_at < {now}))
+                   AND {filter}
+                 ORDER BY t.created_at, t.job_id, t.batch, t.part LIMIT 1{})
+             RETURNING job_id, attempt, batch, part, points,
+                 (SELECT run_hash FROM jobs WHERE jobs.id = tasks.job_id) AS run_hash",
             match self.backend {
                 Backend::Sqlite => "",
                 Backend::Postgres => " FOR UPDATE OF t SKIP LOCKED",
             }
-        )))
-        .fetch_optional(&mut *tx)
-        .await
-        .map_err(&lease)?;
+        ));
+        let query = sqlx::query(statement).bind(owner).bind(lease_seconds);
+        let query = match scope {
+            TaskScope::Others => query,
+            TaskScope::Batch {
+                job,
+                attempt,
+                batch,
+            } => query.bind(job).bind(attempt as i64).bind(batch as i64),
+        };
+        let row = query.fetch_optional(&mut *tx).await.map_err(&lease)?;
+        tx.commit().await.map_err(&lease)?;
         let Some(row) = row else {
-            tx.commit().await.map_err(&lease)?;
             return Ok(None);
         };
         let key = TaskKey {
@@ -653,26 +658,32 @@ impl JobStore for SqlStore {
             &row.try_get::<String, _>("points").map_err(&lease)?,
             "points",
         )?;
-        let run_hash = row.try_get("run_hash").map_err(&lease)?;
-        sqlx::query(sql(format!(
-            "UPDATE tasks SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2
-             WHERE job_id = $3 AND attempt = $4 AND batch = $5 AND part = $6"
-        )))
-        .bind(owner)
-        .bind(lease_seconds)
+        Ok(Some(TaskRecord {
+            key,
+            points,
+            run_hash: row.try_get("run_hash").map_err(&lease)?,
+        }))
+    }
+
+    async fn release_task(&self, key: &TaskKey, owner: &str) -> StoreResult<bool> {
+        let n = sqlx::query(
+            "UPDATE tasks SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
+             WHERE job_id = $1 AND attempt = $2 AND batch = $3 AND part = $4
+               AND lease_owner = $5 AND state = 'running'",
+        )
         .bind(&key.job_id)
         .bind(key.attempt as i64)
         .bind(key.batch as i64)
         .bind(key.part as i64)
-        .execute(&mut *tx)
+        .bind(owner)
+        .execute(&self.pool)
         .await
-        .map_err(&lease)?;
-        tx.commit().await.map_err(&lease)?;
-        Ok(Some(TaskRecord {
-            key,
-            points,
-            run_hash,
-        }))
+        .map_err(db("releasing a task"))?
+        .rows_affected();
+        // Its coordinator waits on results and takes over what is queued; workers on work.
+        self.announce(RESULTS_CHANNEL).await;
+        self.announce(WORK_CHANNEL).await;
+        Ok(n == 1)
     }
 
     async fn renew_task(

@@ -1,4 +1,5 @@
-//! The evaluation side of a worker process: lease a task (some points of one batch of some job),
+//! The evaluation side of a worker process: lease a task (some points of one batch of a job that
+//! another process coordinates — a coordinator computes its own share in the job's pool),
 //! evaluate its points with the job's prepared model, and store the evaluations with the task's
 //! completion in one transaction. The lease is renewed by heartbeat while the points are solved;
 //! a task whose worker died is leased again by another once its lease expires, so a killed worker
@@ -15,7 +16,7 @@ use std::time::Duration;
 
 use rayon::prelude::*;
 
-use super::{wait, JobInput, JobStore, TaskRecord};
+use super::{wait, JobInput, JobStore, TaskRecord, TaskScope};
 use crate::error::WsmError;
 use crate::run::{run_scene, Evaluation, WorstRequest};
 use crate::scenario::evaluator::ScenarioEvaluator;
@@ -148,8 +149,24 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
     let mut work = store.work_signal();
     loop {
         work.borrow_and_update();
-        match store.lease_task(&config.owner, config.lease_seconds).await {
-            Ok(Some(task)) => run_task(&store, &config, &mut models, task).await,
+        match store
+            .lease_task(&config.owner, config.lease_seconds, TaskScope::Others)
+            .await
+        {
+            Ok(Some(task)) => match models.get(&task.run_hash) {
+                Some(model) => run_task(&store, &config, model, task).await,
+                // Not prepared yet: give the task back at once (its coordinator or a prepared
+                // worker takes it rather than wait for this one), then prepare the model.
+                None => {
+                    if let Err(e) = store.release_task(&task.key, &config.owner).await {
+                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                    }
+                    if let Err(e) = prepare(&store, &mut models, &task).await {
+                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                        tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
+                    }
+                }
+            },
             Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
             Err(e) => {
                 eprintln!("wsm: {e}");
@@ -163,7 +180,7 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
 async fn run_task(
     store: &Arc<dyn JobStore>,
     config: &TaskConfig,
-    models: &mut Models,
+    model: Arc<Model>,
     task: TaskRecord,
 ) {
     let heartbeat = {
@@ -180,7 +197,11 @@ async fn run_task(
             }
         })
     };
-    let evaluations = evaluate_task(store, models, &task).await;
+    let points = task.points.clone();
+    let evaluations = tokio::task::spawn_blocking(move || model.evaluate(points))
+        .await
+        .map_err(|e| WsmError::io("model thread", e))
+        .and_then(|r| r);
     heartbeat.abort();
     match evaluations {
         Ok(evaluations) => {
@@ -200,30 +221,22 @@ async fn run_task(
     }
 }
 
-async fn evaluate_task(
+/// Prepare and keep the model of `task`'s job.
+async fn prepare(
     store: &Arc<dyn JobStore>,
     models: &mut Models,
     task: &TaskRecord,
-) -> Result<Vec<Evaluation>, WsmError> {
-    let model = match models.get(&task.run_hash) {
-        Some(model) => model,
-        None => {
-            let input = store
-                .job_input(&task.key.job_id)
-                .await
-                .map_err(|e| WsmError::io(format!("job {}", task.key.job_id), e))?
-                .ok_or_else(|| {
-                    WsmError::io(format!("job {}", task.key.job_id), "the job is gone")
-                })?;
-            let pool = models.pool.clone();
-            let model = tokio::task::spawn_blocking(move || Model::prepare(&input, pool))
-                .await
-                .map_err(|e| WsmError::io("model thread", e))??;
-            models.insert(model)
-        }
-    };
-    let points = task.points.clone();
-    tokio::task::spawn_blocking(move || model.evaluate(points))
+) -> Result<(), WsmError> {
+    let job = &task.key.job_id;
+    let input = store
+        .job_input(job)
         .await
-        .map_err(|e| WsmError::io("model thread", e))?
+        .map_err(|e| WsmError::io(format!("job {job}"), e))?
+        .ok_or_else(|| WsmError::io(format!("job {job}"), "the job is gone"))?;
+    let pool = models.pool.clone();
+    let model = tokio::task::spawn_blocking(move || Model::prepare(&input, pool))
+        .await
+        .map_err(|e| WsmError::io("model thread", e))??;
+    models.insert(model);
+    Ok(())
 }

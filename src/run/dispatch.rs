@@ -1,8 +1,9 @@
 //! Evaluation batches computed elsewhere: a [`BatchDispatch`] (the service's job store, with
 //! worker processes behind it) takes the points of a batch and returns their evaluations in input
-//! order, while the search itself stays in this process. [`Dispatched`] puts a dispatch in front
-//! of the run's own evaluator, falling back to it when the dispatch declines a batch (no other
-//! worker is there), and keeps the inner-solver statistics of the remote evaluations.
+//! order — computing its own share with the run's evaluator — while the search itself stays in
+//! this process. [`Dispatched`] puts a dispatch in front of the run's own evaluator, falling back
+//! to it when the dispatch declines a batch (no other worker is there), and keeps the
+//! inner-solver statistics of the remote evaluations.
 //!
 //! The evaluation of a point is a function of (scene, θ) alone, so whoever computes it, the
 //! search sees the same values in the same order and ends with the same result, bit for bit.
@@ -10,17 +11,36 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
+use rayon::prelude::*;
+
 use crate::error::WsmError;
 use crate::scenario::evaluator::{Evaluation, InnerSummary, ScenarioEvaluator};
 use crate::scenario::search::{Evaluator, Outcome};
 
+/// Evaluates points in this process without logging them (the dispatch stores them itself).
+pub type LocalEvaluate<'a> = dyn Fn(&[Vec<f64>]) -> Vec<Evaluation> + Sync + 'a;
+
+/// A dispatched batch: its evaluations in input order, and which came from other processes.
+pub struct DispatchedBatch {
+    pub evaluations: Vec<Evaluation>,
+    pub remote: Vec<bool>,
+}
+
 /// Evaluates batches of points in other processes.
 pub trait BatchDispatch: Send + Sync {
-    /// Points handed out at once (one fan-out batch; cancellation is seen between batches).
-    fn chunk_size(&self) -> usize;
-    /// The evaluations of `points` in input order, stored by whoever computed them; `None`: not
-    /// dispatched (evaluate here).
-    fn evaluate(&self, points: &[Vec<f64>]) -> Result<Option<Vec<Evaluation>>, WsmError>;
+    /// Points handed out at once (one fan-out batch; cancellation is seen between batches),
+    /// given the mean solve time of a point so far (`None` before the first).
+    fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize;
+    /// The evaluations of `points` in input order, stored by whoever computed them — this
+    /// process's share computed with `local`; `None`: not dispatched (evaluate and log here).
+    fn evaluate(
+        &self,
+        points: &[Vec<f64>],
+        local: &LocalEvaluate<'_>,
+    ) -> Result<Option<DispatchedBatch>, WsmError>;
+    /// Wait until everything evaluated so far is stored (a dispatch may store its own share
+    /// while the search goes on); called when the search ends.
+    fn flush(&self) -> Result<(), WsmError>;
 }
 
 /// Statistics of the evaluations computed elsewhere.
@@ -91,15 +111,27 @@ impl<'a> Dispatched<'a> {
 
 impl Evaluator for Dispatched<'_> {
     fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
-        match self.dispatch.evaluate(points) {
-            Ok(Some(evaluations)) if evaluations.len() == points.len() => evaluations
+        let local = |points: &[Vec<f64>]| -> Vec<Evaluation> {
+            points
+                .par_iter()
+                .map(|p| self.local.evaluate_one(p))
+                .collect()
+        };
+        match self.dispatch.evaluate(points, &local) {
+            Ok(Some(DispatchedBatch {
+                evaluations,
+                remote,
+            })) if evaluations.len() == points.len() => evaluations
                 .iter()
-                .map(|e| {
-                    self.account(e);
+                .zip(remote)
+                .map(|(e, remote)| {
+                    if remote {
+                        self.account(e);
+                    }
                     e.outcome()
                 })
                 .collect(),
-            Ok(Some(evaluations)) => {
+            Ok(Some(DispatchedBatch { evaluations, .. })) => {
                 self.fail(WsmError::io(
                     "evaluation batch",
                     format!(
@@ -120,7 +152,12 @@ impl Evaluator for Dispatched<'_> {
     }
 
     fn chunk_size(&self) -> usize {
-        self.dispatch.chunk_size().max(self.local.chunk_size())
+        let summary = self.summary();
+        let seconds_per_point =
+            (summary.solves > 0).then(|| summary.solver_seconds / summary.solves as f64);
+        self.dispatch
+            .chunk_size(seconds_per_point)
+            .max(self.local.chunk_size())
     }
 }
 

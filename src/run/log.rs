@@ -58,8 +58,9 @@ pub trait EvaluationLog: Send + Sync {
     /// first (none for a new log). Refuses ([`WsmError::LogMismatch`]) a log of another run.
     fn open(&self, header: &LogHeader) -> Result<Vec<Evaluation>, WsmError>;
 
-    /// Store one evaluation, as it completes (called from the evaluating threads).
-    fn append(&self, evaluation: &Evaluation) -> Result<(), WsmError>;
+    /// Store the evaluations of one chunk of a batch, in input order, as soon as the chunk is
+    /// done (a few points per thread: a crash loses at most the chunk in flight).
+    fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError>;
 }
 
 /// Evaluations kept in memory (tests, and the table of a run without a log file).
@@ -87,11 +88,11 @@ impl EvaluationLog for MemoryLog {
         Ok(Vec::new())
     }
 
-    fn append(&self, evaluation: &Evaluation) -> Result<(), WsmError> {
+    fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError> {
         self.evaluations
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
-            .push(evaluation.clone());
+            .extend_from_slice(evaluations);
         Ok(())
     }
 }
@@ -238,14 +239,16 @@ impl EvaluationLog for JsonLinesLog {
         Ok(evaluations)
     }
 
-    fn append(&self, evaluation: &Evaluation) -> Result<(), WsmError> {
+    fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError> {
         let mut state = self.lock();
         let file = state
             .file
             .as_mut()
             .ok_or_else(|| self.io("the log was not opened"))?;
-        Self::write_line(file, evaluation).map_err(|e| self.io(e))?;
-        state.evaluations.push(evaluation.clone());
+        for evaluation in evaluations {
+            Self::write_line(file, evaluation).map_err(|e| self.io(e))?;
+        }
+        state.evaluations.extend_from_slice(evaluations);
         Ok(())
     }
 }

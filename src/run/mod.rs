@@ -16,7 +16,7 @@ mod request;
 mod table;
 
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
-pub use dispatch::BatchDispatch;
+pub use dispatch::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
 pub use request::{SolveRequest, WorstRequest};
@@ -268,7 +268,7 @@ impl Run<'_> {
         if let Some(status) = self.enter(RunPhase::NominalSolve) {
             return unstarted(&problem.scene, status);
         }
-        let observer = |evaluation: &Evaluation| self.record(evaluation);
+        let observer = |evaluations: &[Evaluation]| self.record(evaluations);
         let evaluator = ScenarioEvaluator::new(&problem, self.params, &self.settings.criteria)?
             .observed_by(&observer);
         if let Some(status) = self.stop_status() {
@@ -312,6 +312,9 @@ impl Run<'_> {
                 control,
             )?,
         };
+        if let Some(dispatch) = &self.control.dispatch {
+            dispatch.flush()?;
+        }
         if let Some(error) = self
             .log_error
             .lock()
@@ -387,10 +390,10 @@ impl Run<'_> {
         Ok(warnings)
     }
 
-    /// An evaluation completed: log it; pass a cancel request on to the search.
-    fn record(&self, evaluation: &Evaluation) {
+    /// A chunk of evaluations completed: log it; pass a cancel request on to the search.
+    fn record(&self, evaluations: &[Evaluation]) {
         if let Some(log) = &self.control.log {
-            if let Err(e) = log.append(evaluation) {
+            if let Err(e) = log.append(evaluations) {
                 let mut error = self
                     .log_error
                     .lock()

@@ -80,6 +80,9 @@ pub struct InnerSummary {
     pub elastic_solves: usize,
 }
 
+/// Sees the evaluations of every batch (the evaluation log of a run).
+pub type Observer<'a> = dyn Fn(&[Evaluation]) + Sync + 'a;
+
 /// The criteria of a scene as a black box for the search.
 pub struct ScenarioEvaluator<'a> {
     problem: &'a StateProblem,
@@ -88,7 +91,7 @@ pub struct ScenarioEvaluator<'a> {
     needs: Needs,
     warm: Option<WarmStart>,
     stats: InnerStats,
-    observer: Option<&'a (dyn Fn(&Evaluation) + Sync)>,
+    observer: Option<&'a Observer<'a>>,
 }
 
 impl<'a> ScenarioEvaluator<'a> {
@@ -115,8 +118,8 @@ impl<'a> ScenarioEvaluator<'a> {
         Ok(evaluator)
     }
 
-    /// Call `observer` with every evaluation as it completes (from the evaluating thread).
-    pub fn observed_by(mut self, observer: &'a (dyn Fn(&Evaluation) + Sync)) -> Self {
+    /// Call `observer` with the evaluations of every batch, in input order, once it is done.
+    pub fn observed_by(mut self, observer: &'a Observer<'a>) -> Self {
         self.observer = Some(observer);
         self
     }
@@ -220,15 +223,11 @@ impl<'a> ScenarioEvaluator<'a> {
 
 impl Evaluator for ScenarioEvaluator<'_> {
     fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
-        points
-            .par_iter()
-            .map(|p| {
-                let evaluation = self.evaluate_one(p);
-                if let Some(observe) = self.observer {
-                    observe(&evaluation);
-                }
-                evaluation.outcome()
-            })
-            .collect()
+        let evaluations: Vec<Evaluation> =
+            points.par_iter().map(|p| self.evaluate_one(p)).collect();
+        if let Some(observe) = self.observer {
+            observe(&evaluations);
+        }
+        evaluations.iter().map(Evaluation::outcome).collect()
     }
 }

@@ -233,17 +233,20 @@ impl<'a> Session<'a> {
 
     /// Evaluate `points` (distinct, not in the cache) and cache the answers, in chunks of a few
     /// points per thread so that cancellation and the time limit are honoured within a large
-    /// batch, with a progress report after each chunk but the last (the batch reports that).
+    /// batch, with a progress report after each chunk but the last (the batch reports that). The
+    /// chunk size is asked again before each chunk: a dispatch sizes it by the solve times seen.
     fn fill_cache(&self, ledger: &mut Ledger<'a>, points: Vec<Vec<f64>>) -> Result<(), Stop> {
-        let chunk = self.evaluator.chunk_size().max(1);
-        for (i, part) in points.chunks(chunk).enumerate() {
-            if i > 0 {
-                (self.control.on_progress)(&self.progress(ledger, i * chunk));
+        let mut done = 0;
+        while done < points.len() {
+            if done > 0 {
+                (self.control.on_progress)(&self.progress(ledger, done));
                 Self::update_halt(ledger, self);
                 if let Some(halt) = ledger.halt {
                     return Err(Stop(halt));
                 }
             }
+            let chunk = self.evaluator.chunk_size().max(1);
+            let part = &points[done..(done + chunk).min(points.len())];
             let mut answers = self.evaluator.evaluate(part).into_iter();
             ledger.fresh += part.len();
             for point in part {
@@ -252,6 +255,7 @@ impl<'a> Session<'a> {
                 });
                 ledger.cache.insert(point.clone(), sanitize(answer));
             }
+            done += part.len();
         }
         Ok(())
     }
