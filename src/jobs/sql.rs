@@ -299,6 +299,25 @@ impl SqlStore {
     }
 }
 
+/// A task still leased by a given owner: its key as `$1`…`$4`, the owner as `$5` (bound by
+/// [`bind_task_key`]; further parameters start at `$6`).
+const HELD_TASK: &str = "job_id = $1 AND attempt = $2 AND batch = $3 AND part = $4
+    AND lease_owner = $5 AND state = 'running'";
+
+/// Bind a task's key and its lease owner as `$1`…`$5` (see [`HELD_TASK`]).
+fn bind_task_key<'q>(
+    query: sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments>,
+    key: &'q TaskKey,
+    owner: &'q str,
+) -> sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments> {
+    query
+        .bind(&key.job_id)
+        .bind(key.attempt as i64)
+        .bind(key.batch as i64)
+        .bind(key.part as i64)
+        .bind(owner)
+}
+
 #[async_trait::async_trait]
 impl JobStore for SqlStore {
     async fn insert(&self, job: NewJob) -> StoreResult<()> {
@@ -666,16 +685,14 @@ impl JobStore for SqlStore {
     }
 
     async fn release_task(&self, key: &TaskKey, owner: &str) -> StoreResult<bool> {
-        let n = sqlx::query(
-            "UPDATE tasks SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
-             WHERE job_id = $1 AND attempt = $2 AND batch = $3 AND part = $4
-               AND lease_owner = $5 AND state = 'running'",
+        let n = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
+                 WHERE {HELD_TASK}"
+            ))),
+            key,
+            owner,
         )
-        .bind(&key.job_id)
-        .bind(key.attempt as i64)
-        .bind(key.batch as i64)
-        .bind(key.part as i64)
-        .bind(owner)
         .execute(&self.pool)
         .await
         .map_err(db("releasing a task"))?
@@ -692,18 +709,15 @@ impl JobStore for SqlStore {
         owner: &str,
         lease_seconds: f64,
     ) -> StoreResult<bool> {
-        let n = sqlx::query(sql(format!(
-            "UPDATE tasks SET lease_expires_at = {} + $1
-             WHERE job_id = $2 AND attempt = $3 AND batch = $4 AND part = $5
-               AND lease_owner = $6 AND state = 'running'",
-            self.backend.now()
-        )))
+        let n = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET lease_expires_at = {} + $6 WHERE {HELD_TASK}",
+                self.backend.now()
+            ))),
+            key,
+            owner,
+        )
         .bind(lease_seconds)
-        .bind(&key.job_id)
-        .bind(key.attempt as i64)
-        .bind(key.batch as i64)
-        .bind(key.part as i64)
-        .bind(owner)
         .execute(&self.pool)
         .await
         .map_err(db("renewing a task"))?
@@ -729,18 +743,16 @@ impl JobStore for SqlStore {
         .fetch_optional(&mut *tx)
         .await
         .map_err(&complete)?;
-        let claimed = sqlx::query(sql(format!(
-            "UPDATE tasks SET state = 'done', results = $1, finished_at = {now},
-                 lease_owner = $2, lease_expires_at = NULL
-             WHERE job_id = $3 AND attempt = $4 AND batch = $5 AND part = $6
-               AND state = 'running' AND lease_owner = $2"
-        )))
+        let claimed = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET state = 'done', results = $6, finished_at = {now},
+                     lease_expires_at = NULL
+                 WHERE {HELD_TASK}"
+            ))),
+            key,
+            owner,
+        )
         .bind(json(&evaluations)?)
-        .bind(owner)
-        .bind(&key.job_id)
-        .bind(key.attempt as i64)
-        .bind(key.batch as i64)
-        .bind(key.part as i64)
         .execute(&mut *tx)
         .await
         .map_err(&complete)?
