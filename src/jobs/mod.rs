@@ -1,5 +1,5 @@
 //! The job queue of the service (SPEC §5.4): worst-scenario jobs stored durably with their
-//! lease, progress, every evaluation as it completes and the outcome, behind the [`JobStore`]
+//! lease, progress, every evaluation (stored chunk by chunk) and the outcome, behind the [`JobStore`]
 //! trait (`sql`: SQLite, the embedded default, or PostgreSQL for scale-out), and the processes
 //! that work on them (`runner`: job coordinators; `tasks`: evaluation of fanned-out batches;
 //! `dispatch`: a coordinator's batches as tasks).

@@ -1,7 +1,7 @@
 //! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job
 //! from the store and coordinates it — runs it through the front door (`run::worst`) on a
 //! blocking thread (never on the async runtime), with its batches fanned out as tasks when other
-//! workers share the store (`dispatch`), stores every evaluation it computes as it completes,
+//! workers share the store (`dispatch`), stores the evaluations it computes chunk by chunk,
 //! renews the lease by heartbeat, passes cancel requests on, publishes progress, and stores how
 //! the job ended. A panic inside a job fails that job with the reason; the worker goes on. Beside
 //! the job slots run the task loop (`tasks`) and the heartbeat that announces the process.
@@ -107,7 +107,7 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
     });
 }
 
-/// The evaluation log of a job: its stored evaluations, appended to as they complete.
+/// The evaluation log of a job: its stored evaluations, appended to chunk by chunk.
 struct StoreLog {
     store: Arc<dyn JobStore>,
     runtime: tokio::runtime::Handle,

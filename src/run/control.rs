@@ -64,7 +64,7 @@ pub type ProgressFn = dyn Fn(&ProgressEvent) + Send + Sync;
 pub struct RunControl {
     pub cancel: Arc<AtomicBool>,
     pub progress: Option<Arc<ProgressFn>>,
-    /// Where every evaluation goes as it completes, and where a resumed run replays from.
+    /// Where every evaluation goes once its chunk is done, and where a resumed run replays from.
     pub log: Option<Arc<dyn EvaluationLog>>,
     /// Where evaluation batches are computed when not here (other worker processes).
     pub dispatch: Option<Arc<dyn BatchDispatch>>,

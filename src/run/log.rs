@@ -1,5 +1,6 @@
-//! The evaluation log (SPEC §5.4): every evaluation of a run goes to an [`EvaluationLog`] as it
-//! completes, and a restarted run replays what its log holds, so nothing stored is recomputed.
+//! The evaluation log (SPEC §5.4): every evaluation of a run goes to an [`EvaluationLog`] as soon
+//! as its chunk of a batch is done (a few points per thread), and a restarted run replays what its
+//! log holds, so nothing stored is recomputed.
 //! A log belongs to one run hash (see `hash`); a log of another scene or other criteria is
 //! refused.
 //!

@@ -2,7 +2,7 @@
 //! drive it. [`solve`] runs one state solve; [`worst`] runs a worst-scenario search through its
 //! phases (meshing, admissible-set check, nominal solve, screening, swarm, polish,
 //! sensitivities), reporting progress, honouring the cancel flag and the time limit in every
-//! phase, logging every evaluation as it completes and replaying a log to resume. A cancelled or
+//! phase, logging the evaluations of every chunk as it completes and replaying a log to resume. A cancelled or
 //! timed-out run returns its partial outcome with its status.
 //!
 //! Requests and outcomes are plain serde types; failures are [`WsmError`]s whose
