@@ -377,6 +377,16 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
             "settings.threads",
         ),
         (
+            json!({"example": "block-on-base", "settings": {"target_error": 2.0}}),
+            422,
+            "settings.target_error",
+        ),
+        (
+            json!({"example": "block-on-base", "settings": {"target_error": 0.0}}),
+            422,
+            "settings.target_error",
+        ),
+        (
             json!({"example": "block-on-base", "settings": {"seed": "x"}}),
             422,
             "settings.seed",

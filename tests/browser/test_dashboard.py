@@ -233,6 +233,15 @@ def test_validation_errors_next_to_fields(page):
     page.wait_for_timeout(300)
     assert STATE["expect_refusals"] == 0, "the refused submission was not logged"
     expect(page.get_by_label("Budget (solves)")).to_have_attribute("aria-invalid", "true")
+    # A target error out of range is caught before anything is sent.
+    page.get_by_label("Budget (solves)").fill("20")
+    page.get_by_label("Target error [%]").fill("150")
+    page.get_by_role("button", name="Submit job").click()
+    expect(page.locator("#error-target-error")).to_be_visible()
+    expect(page.locator("#error-target-error")).to_contain_text("between 0 and 100")
+    expect(page.get_by_label("Target error [%]")).to_have_attribute("aria-invalid", "true")
+    assert page.url.endswith("/#/")
+    page.get_by_label("Target error [%]").fill("")
     # A bad uploaded scene: Poisson's ratio out of range.
     scene = api(page, "/v1/examples/block-on-base")
     scene["materials"]["rock"]["nu"] = 0.7

@@ -82,7 +82,7 @@ async function refreshList() {
 
 // ---- submit form ----
 
-const FIELD_ERRORS = ["scene", "criteria", "budget", "seed", "general"];
+const FIELD_ERRORS = ["scene", "criteria", "budget", "seed", "target-error", "general"];
 
 function clearErrors() {
   for (const f of FIELD_ERRORS) {
@@ -105,6 +105,7 @@ function showError(field, message, path) {
     criteria: $("criteria"),
     budget: $("budget"),
     seed: $("seed"),
+    "target-error": $("target-error"),
   }[field];
   if (control) {
     control.setAttribute("aria-invalid", "true");
@@ -119,6 +120,8 @@ function placeError(err) {
     showError("budget", err.message, path);
   } else if (path.startsWith("settings.seed")) {
     showError("seed", err.message, path);
+  } else if (path.startsWith("settings.target_error")) {
+    showError("target-error", err.message, path);
   } else if (path.startsWith("settings.criteria")) {
     showError("criteria", err.message, path);
   } else if (path === "scene" || path.startsWith("scene.") || path.startsWith("scene[") || path === "example") {
@@ -220,6 +223,14 @@ async function submit(event) {
       return showError(f, `Must be a whole number ≥ ${f === "budget" ? 1 : 0}.`);
     }
     settings[f] = v;
+  }
+  const target = $("target-error").value.trim();
+  if (target !== "") {
+    const percent = Number(target);
+    if (!(percent > 0 && percent < 100)) {
+      return showError("target-error", "A percentage between 0 and 100, e.g. 1.");
+    }
+    settings.target_error = percent / 100;
   }
   const body = { settings };
   if (sourceIsUpload()) {
