@@ -10,6 +10,11 @@
 //!   (the particular solution φ⁰ ∈ Q, D05 5.10);
 //! - the kernel Z = Ker A (rigid motions surviving the subdomain's Dirichlet/roller constraints,
 //!   D05 3.29), found as the null space of A on the span of the three plane rigid motions.
+//!
+//! S and the Neumann trace map are formed once per block as dense n_Γ × n_Γ matrices (one
+//! multi-column solve with each factor, symmetrised), so the interface iterations — PCG1, PCG2
+//! and the outer steps, a few hundred applications per solve — cost small dense products instead
+//! of sparse triangular solves.
 
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatRef, Par};
@@ -341,9 +346,14 @@ pub struct LinearBlock {
     pub rho: Vec<f64>,
     k: Csr,
     dirichlet: KernelFactor,
-    neumann: KernelFactor,
     f_interior: Vec<f64>,
     gamma_load: Vec<f64>,
+    /// S = K_ΓΓ − K_ΓI K_II⁻¹ K_IΓ, dense (n_Γ × n_Γ).
+    schur: Mat<f64>,
+    /// The Neumann trace map g ↦ (P A⁺ [0; g])_Γ, dense (n_Γ × n_Γ).
+    neumann_trace: Mat<f64>,
+    /// Kernel of the local Neumann matrix (rows: local DOFs).
+    kernel: Mat<f64>,
 }
 
 impl LinearBlock {
@@ -362,15 +372,25 @@ impl LinearBlock {
         let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
         check_interior_kernel(&k, n_interior, dirichlet.kernel(), &f_interior)?;
         let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
+        let ng = gamma.len();
+        let schur = symmetrised(schur_columns(
+            &k,
+            n_interior,
+            &dirichlet,
+            Mat::identity(ng, ng).as_ref(),
+        ));
+        let neumann_trace = symmetrised(neumann_columns(&neumann, n_interior, ng));
         Ok(LinearBlock {
             n_interior,
             gamma,
             rho,
             k,
             dirichlet,
-            neumann,
             f_interior,
             gamma_load,
+            schur,
+            neumann_trace,
+            kernel: neumann.kernel().to_owned(),
         })
     }
 
@@ -380,7 +400,7 @@ impl LinearBlock {
 
     /// Kernel of the local Neumann matrix (rows: local DOFs).
     pub fn kernel(&self) -> MatRef<'_, f64> {
-        self.neumann.kernel()
+        self.kernel.as_ref()
     }
 
     fn ranges(&self) -> ((usize, usize), (usize, usize)) {
@@ -389,42 +409,21 @@ impl LinearBlock {
 
     /// S Y for the columns Y of local interface values (n_Γ × k).
     pub fn schur_mat(&self, y: MatRef<'_, f64>) -> Mat<f64> {
-        let (ri, rg) = self.ranges();
-        let (ni, ng) = (self.n_interior, self.n_gamma());
-        let mut kiy = Mat::<f64>::zeros(ni, y.ncols());
-        let mut out = Mat::<f64>::zeros(ng, y.ncols());
-        for j in 0..y.ncols() {
-            let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
-            let mut t = vec![0.0; ni];
-            self.k.mul_block(ri, rg, &col, &mut t);
-            for i in 0..ni {
-                kiy[(i, j)] = t[i];
-            }
-        }
-        let x = self.dirichlet.solve_mat(kiy.as_ref());
-        for j in 0..y.ncols() {
-            let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
-            let xi: Vec<f64> = (0..ni).map(|i| -x[(i, j)]).collect();
-            let mut s = vec![0.0; ng];
-            self.k.mul_block(rg, rg, &col, &mut s);
-            self.k.mul_block(rg, ri, &xi, &mut s);
-            for i in 0..ng {
-                out[(i, j)] = s[i];
-            }
-        }
+        let mut out = Mat::<f64>::zeros(self.n_gamma(), y.ncols());
+        faer::linalg::matmul::matmul(
+            out.as_mut(),
+            faer::Accum::Replace,
+            self.schur.as_ref(),
+            y,
+            1.0,
+            Par::Seq,
+        );
         out
     }
 
     /// S y.
     pub fn schur(&self, y: &[f64]) -> Vec<f64> {
-        let (ri, rg) = self.ranges();
-        let mut t = vec![0.0; self.n_interior];
-        self.k.mul_block(ri, rg, y, &mut t);
-        let x: Vec<f64> = self.dirichlet.solve(&t).iter().map(|v| -v).collect();
-        let mut s = vec![0.0; self.n_gamma()];
-        self.k.mul_block(rg, rg, y, &mut s);
-        self.k.mul_block(rg, ri, &x, &mut s);
-        s
+        dense_apply(self.schur.as_ref(), y)
     }
 
     /// The block's share of F: gamma_load − K_ΓI K_II⁻¹ f_I.
@@ -457,12 +456,91 @@ impl LinearBlock {
     /// Interface trace of the Neumann solution φ⁰ ∈ Q of A φ = [0; g] (g must annihilate the
     /// kernel's trace).
     pub fn neumann(&self, g: &[f64]) -> Vec<f64> {
-        let mut b = vec![0.0; self.k.dim()];
-        b[self.n_interior..].copy_from_slice(g);
-        let mut x = self.neumann.solve(&b);
-        self.neumann.project(&mut x);
-        x[self.n_interior..].to_vec()
+        dense_apply(self.neumann_trace.as_ref(), g)
     }
+}
+
+/// S Y = K_ΓΓ Y − K_ΓI K_II⁻¹ K_IΓ Y by sparse products and one multi-column Dirichlet solve.
+fn schur_columns(
+    k: &Csr,
+    n_interior: usize,
+    dirichlet: &KernelFactor,
+    y: MatRef<'_, f64>,
+) -> Mat<f64> {
+    let (ri, rg) = ((0, n_interior), (n_interior, k.dim()));
+    let (ni, ng) = (n_interior, k.dim() - n_interior);
+    let mut kiy = Mat::<f64>::zeros(ni, y.ncols());
+    let mut out = Mat::<f64>::zeros(ng, y.ncols());
+    let mut t = vec![0.0; ni];
+    for j in 0..y.ncols() {
+        let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
+        t.fill(0.0);
+        k.mul_block(ri, rg, &col, &mut t);
+        for i in 0..ni {
+            kiy[(i, j)] = t[i];
+        }
+    }
+    let x = dirichlet.solve_mat(kiy.as_ref());
+    let mut s = vec![0.0; ng];
+    for j in 0..y.ncols() {
+        let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
+        let xi: Vec<f64> = (0..ni).map(|i| -x[(i, j)]).collect();
+        s.fill(0.0);
+        k.mul_block(rg, rg, &col, &mut s);
+        k.mul_block(rg, ri, &xi, &mut s);
+        for i in 0..ng {
+            out[(i, j)] = s[i];
+        }
+    }
+    out
+}
+
+/// The Neumann trace map as columns: (P A⁺ [0; e_j])_Γ for every interface DOF j, by one
+/// multi-column solve with the pinned factor and the kernel projected out.
+fn neumann_columns(neumann: &KernelFactor, n_interior: usize, ng: usize) -> Mat<f64> {
+    let n = n_interior + ng;
+    let mut rhs = Mat::<f64>::zeros(n, ng);
+    for j in 0..ng {
+        rhs[(n_interior + j, j)] = 1.0;
+    }
+    let x = neumann.solve_mat(rhs.as_ref());
+    let mut out = Mat::<f64>::zeros(ng, ng);
+    let mut col = vec![0.0; n];
+    for j in 0..ng {
+        for (i, c) in col.iter_mut().enumerate() {
+            *c = x[(i, j)];
+        }
+        neumann.project(&mut col);
+        for i in 0..ng {
+            out[(i, j)] = col[n_interior + i];
+        }
+    }
+    out
+}
+
+/// (M + Mᵀ) / 2: the operators are symmetric; their computed columns are so to rounding.
+fn symmetrised(mut m: Mat<f64>) -> Mat<f64> {
+    for j in 0..m.ncols() {
+        for i in 0..j {
+            let v = 0.5 * (m[(i, j)] + m[(j, i)]);
+            m[(i, j)] = v;
+            m[(j, i)] = v;
+        }
+    }
+    m
+}
+
+/// M y, sequential (results independent of the thread count).
+fn dense_apply(m: MatRef<'_, f64>, y: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; m.nrows()];
+    for (j, &yj) in y.iter().enumerate() {
+        if yj != 0.0 {
+            for (o, &v) in out.iter_mut().zip(m.col(j).iter()) {
+                *o += v * yj;
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]
