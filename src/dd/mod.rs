@@ -6,8 +6,8 @@
 //!   §4.1, D03 Ω*_j), kept small (FGCS Remark 3.1).
 //! - [`decomposition`]: interface numbering, blocks and clusters built from a partition.
 //! - [`subdomain`]: local matrices, Dirichlet factors of K_II (Schur complements S_i = K_ΓΓ −
-//!   K_ΓI K_II⁻¹ K_IΓ, D05 4.24, applied matrix-free) and Neumann factors with the rigid-mode
-//!   kernel pinned and projected out (D05 5.1–5.2).
+//!   K_ΓI K_II⁻¹ K_IΓ, D05 4.24, formed densely once per block) and Neumann factors with the
+//!   rigid-mode kernel pinned and projected out (D05 5.1–5.2; their trace map formed densely).
 //! - [`pair`]: contact clusters — the tied auxiliary problem (D05 4.35–4.46, normal tie by
 //!   master/slave elimination) and the frictional local problem S_CON (D05 4.27–4.28), condensed
 //!   on the contact multipliers and solved by [`crate::contact::qp::solve_box_qp`].
