@@ -11,15 +11,16 @@
 //! - the kernel Z = Ker A (rigid motions surviving the subdomain's Dirichlet/roller constraints,
 //!   D05 3.29), found as the null space of A on the span of the three plane rigid motions.
 //!
-//! S and the Neumann trace map are formed once per block as dense n_Γ × n_Γ matrices (one
-//! multi-column solve with each factor, symmetrised), so the interface iterations — PCG1, PCG2
+//! S and the Neumann trace map are formed once per block as dense n_Γ × n_Γ matrices (S by one
+//! multi-column Dirichlet solve; the Neumann map from S when K_II is nonsingular, else by one
+//! multi-column solve with the pinned Neumann factor), so the interface iterations — PCG1, PCG2
 //! and the outer steps, a few hundred applications per solve — cost small dense products instead
 //! of sparse triangular solves.
 
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatRef, Par};
 
-use super::dense::{thin_svd, ThinSvd};
+use super::dense::{mul, thin_svd, Cholesky, ThinSvd};
 use super::DdProblem;
 use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
 use crate::fem::{Factor, Symbolic};
@@ -371,7 +372,6 @@ impl LinearBlock {
     ) -> Result<LinearBlock, String> {
         let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
         check_interior_kernel(&k, n_interior, dirichlet.kernel(), &f_interior)?;
-        let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
         let ng = gamma.len();
         let schur = symmetrised(schur_columns(
             &k,
@@ -379,7 +379,16 @@ impl LinearBlock {
             &dirichlet,
             Mat::identity(ng, ng).as_ref(),
         ));
-        let neumann_trace = symmetrised(neumann_columns(&neumann, n_interior, ng));
+        let (neumann_trace, kernel) = if dirichlet.kernel().ncols() == 0 {
+            // K_II is nonsingular: the Neumann map follows from S (no second factorisation).
+            let kernel = kernel(&k, k.dim(), candidates)?;
+            let map = neumann_from_schur(&k, n_interior, &dirichlet, &schur, kernel.as_ref())?;
+            (map, kernel)
+        } else {
+            let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
+            let map = neumann_columns(&neumann, n_interior, ng);
+            (map, neumann.kernel().to_owned())
+        };
         Ok(LinearBlock {
             n_interior,
             gamma,
@@ -390,7 +399,7 @@ impl LinearBlock {
             gamma_load,
             schur,
             neumann_trace,
-            kernel: neumann.kernel().to_owned(),
+            kernel,
         })
     }
 
@@ -518,7 +527,73 @@ fn neumann_columns(neumann: &KernelFactor, n_interior: usize, ng: usize) -> Mat<
     out
 }
 
-/// (M + Mᵀ) / 2: the operators are symmetric; their computed columns are so to rounding.
+/// The Neumann trace map from S when K_II is nonsingular. The solutions of A x = [0; g] are the
+/// harmonic extensions x = H y = [−K_II⁻¹ K_IΓ y; y] of the solutions y of S y = g; they differ by
+/// kernel vectors Z c (whose traces Z_Γ span Ker S), so the projected solution is
+/// (P H y)_Γ = y − Z_Γ (Zᵀ H y) for any of them, y = S⁺ g:
+/// T = (I − Z_Γ R) S⁺ with R = Z_Γᵀ − (K_II⁻¹ Z_I)ᵀ K_IΓ, and
+/// S⁺ = (S + α Q Qᵀ)⁻¹ − Q Qᵀ / α for an orthonormal basis Q of span(Z_Γ) and α the largest
+/// diagonal entry of S.
+fn neumann_from_schur(
+    k: &Csr,
+    n_interior: usize,
+    dirichlet: &KernelFactor,
+    schur: &Mat<f64>,
+    z: MatRef<'_, f64>,
+) -> Result<Mat<f64>, String> {
+    let (ni, ng, r) = (n_interior, schur.nrows(), z.ncols());
+    let zg = z.subrows(ni, ng);
+    let q = orthonormal_columns(zg);
+    let alpha = (0..ng)
+        .map(|i| schur[(i, i)])
+        .fold(f64::MIN_POSITIVE, f64::max);
+    let mut shifted = schur.clone();
+    for a in 0..q.ncols() {
+        for j in 0..ng {
+            for i in 0..ng {
+                shifted[(i, j)] += alpha * q[(i, a)] * q[(j, a)];
+            }
+        }
+    }
+    let cholesky = Cholesky::new(shifted.as_ref())
+        .ok_or("the Schur complement with its kernel shifted is not positive definite")?;
+    let mut pinv = cholesky.solve(Mat::<f64>::identity(ng, ng).as_ref());
+    // S⁺ is symmetric; the kernel correction below is not (it acts along Z_Γ only).
+    for a in 0..q.ncols() {
+        for j in 0..ng {
+            for i in 0..ng {
+                pinv[(i, j)] -= q[(i, a)] * q[(j, a)] / alpha;
+            }
+        }
+    }
+    let mut pinv = symmetrised(pinv);
+    if r == 0 {
+        return Ok(pinv);
+    }
+    // R = Z_Γᵀ − (K_II⁻¹ Z_I)ᵀ K_IΓ, row c from K_ΓI (K_II⁻¹ Z_I)_c.
+    let x = dirichlet.solve_mat(z.subrows(0, ni));
+    let mut rr = Mat::<f64>::zeros(r, ng);
+    let mut t = vec![0.0; ng];
+    for c in 0..r {
+        let xc: Vec<f64> = (0..ni).map(|i| x[(i, c)]).collect();
+        t.fill(0.0);
+        k.mul_block((ni, ni + ng), (0, ni), &xc, &mut t);
+        for j in 0..ng {
+            rr[(c, j)] = zg[(j, c)] - t[j];
+        }
+    }
+    // T = S⁺ − Z_Γ (R S⁺).
+    let rs = mul(rr.as_ref(), pinv.as_ref());
+    let correction = mul(zg, rs.as_ref());
+    for j in 0..ng {
+        for i in 0..ng {
+            pinv[(i, j)] -= correction[(i, j)];
+        }
+    }
+    Ok(pinv)
+}
+
+/// (M + Mᵀ) / 2 for a symmetric operator whose computed columns are symmetric to rounding only.
 fn symmetrised(mut m: Mat<f64>) -> Mat<f64> {
     for j in 0..m.ncols() {
         for i in 0..j {
@@ -606,5 +681,63 @@ mod tests {
         assert!((s[0] - (0.2 + 1.0)).abs() < 1e-12 && (s[1] + 1.0).abs() < 1e-12);
         let sm = block.schur_mat(Mat::from_fn(2, 1, |i, _| [1.0, 0.0][i]).as_ref());
         assert!((sm[(0, 0)] - s[0]).abs() < 1e-14);
+    }
+
+    #[test]
+    fn neumann_map_from_the_schur_complement_equals_the_pinned_solve_of_a_floating_block() {
+        // A floating chain of 7 springs with nonuniform stiffness, interface = both ends and the
+        // middle: kernel = constants, K_II nonsingular.
+        let n = 8;
+        let stiffness = [1.0, 3.0, 0.5, 2.0, 4.0, 1.5, 0.7];
+        let mut t = Vec::new();
+        for (i, c) in stiffness.iter().enumerate() {
+            t.extend([
+                (i, i, *c),
+                (i + 1, i + 1, *c),
+                (i, i + 1, -c),
+                (i + 1, i, -c),
+            ]);
+        }
+        // Local order [interior; interface]: interior DOFs 1, 2, 4, 5, 6; interface 0, 3, 7.
+        let order = [1, 2, 4, 5, 6, 0, 3, 7];
+        let mut new_index = [0; 8];
+        for (new, &old) in order.iter().enumerate() {
+            new_index[old] = new;
+        }
+        let t: Vec<(usize, usize, f64)> = t
+            .into_iter()
+            .map(|(i, j, v)| (new_index[i], new_index[j], v))
+            .collect();
+        let k = Csr::from_triplets(n, t);
+        let candidates = Mat::from_fn(n, 1, |_, _| 1.0);
+        let block = LinearBlock::new(
+            k.clone(),
+            5,
+            vec![0, 1, 2],
+            vec![1.0; 3],
+            vec![0.0; 5],
+            vec![0.0; 3],
+            candidates.as_ref(),
+        )
+        .unwrap();
+        assert_eq!(block.kernel().ncols(), 1);
+        let pinned = KernelFactor::new(&k, n, candidates.as_ref()).unwrap();
+        let reference = neumann_columns(&pinned, 5, 3);
+        // Compatible loads (sum zero): the same projected solution's trace.
+        for g in [[1.0, -0.25, -0.75], [0.0, 2.0, -2.0], [-3.0, 1.0, 2.0]] {
+            let new = block.neumann(&g);
+            let old = dense_apply(reference.as_ref(), &g);
+            for (a, b) in new.iter().zip(&old) {
+                assert!(
+                    (a - b).abs() < 1e-12 * (1.0 + b.abs()),
+                    "{new:?} vs {old:?}"
+                );
+            }
+            // It solves S y = g.
+            let sy = block.schur(&new);
+            for (a, b) in sy.iter().zip(&g) {
+                assert!((a - b).abs() < 1e-12, "{sy:?} vs {g:?}");
+            }
+        }
     }
 }
