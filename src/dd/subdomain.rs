@@ -18,7 +18,7 @@
 //! of sparse triangular solves.
 
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{Mat, MatRef, Par};
+use faer::{Mat, MatMut, MatRef, Par};
 
 use super::dense::{mul, thin_svd, Cholesky, ThinSvd};
 use super::DdProblem;
@@ -373,12 +373,7 @@ impl LinearBlock {
         let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
         check_interior_kernel(&k, n_interior, dirichlet.kernel(), &f_interior)?;
         let ng = gamma.len();
-        let schur = symmetrised(schur_columns(
-            &k,
-            n_interior,
-            &dirichlet,
-            Mat::identity(ng, ng).as_ref(),
-        ));
+        let schur = symmetrised(schur_dense(&k, n_interior, &dirichlet));
         let (neumann_trace, kernel) = if dirichlet.kernel().ncols() == 0 {
             // K_II is nonsingular: the Neumann map follows from S (no second factorisation).
             let kernel = kernel(&k, k.dim(), candidates)?;
@@ -469,36 +464,31 @@ impl LinearBlock {
     }
 }
 
-/// S Y = K_ΓΓ Y − K_ΓI K_II⁻¹ K_IΓ Y by sparse products and one multi-column Dirichlet solve.
-fn schur_columns(
-    k: &Csr,
-    n_interior: usize,
-    dirichlet: &KernelFactor,
-    y: MatRef<'_, f64>,
-) -> Mat<f64> {
-    let (ri, rg) = ((0, n_interior), (n_interior, k.dim()));
+/// S = K_ΓΓ − K_ΓI K_II⁻¹ K_IΓ, dense: the blocks read off the rows once, one multi-column
+/// Dirichlet solve X = K_II⁻¹ K_IΓ, then K_ΓI X row by row (K_ΓI is sparse).
+fn schur_dense(k: &Csr, n_interior: usize, dirichlet: &KernelFactor) -> Mat<f64> {
     let (ni, ng) = (n_interior, k.dim() - n_interior);
-    let mut kiy = Mat::<f64>::zeros(ni, y.ncols());
-    let mut out = Mat::<f64>::zeros(ng, y.ncols());
-    let mut t = vec![0.0; ni];
-    for j in 0..y.ncols() {
-        let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
-        t.fill(0.0);
-        k.mul_block(ri, rg, &col, &mut t);
-        for i in 0..ni {
-            kiy[(i, j)] = t[i];
+    let mut kig = Mat::<f64>::zeros(ni, ng);
+    let mut out = Mat::<f64>::zeros(ng, ng);
+    for r in 0..k.dim() {
+        for (c, v) in k.row(r).filter(|&(c, _)| c >= ni) {
+            if r < ni {
+                kig[(r, c - ni)] = v;
+            } else {
+                out[(r - ni, c - ni)] = v;
+            }
         }
     }
-    let x = dirichlet.solve_mat(kiy.as_ref());
-    let mut s = vec![0.0; ng];
-    for j in 0..y.ncols() {
-        let col: Vec<f64> = (0..ng).map(|i| y[(i, j)]).collect();
-        let xi: Vec<f64> = (0..ni).map(|i| -x[(i, j)]).collect();
-        s.fill(0.0);
-        k.mul_block(rg, rg, &col, &mut s);
-        k.mul_block(rg, ri, &xi, &mut s);
-        for i in 0..ng {
-            out[(i, j)] = s[i];
+    let x = dirichlet.solve_mat(kig.as_ref());
+    for j in 0..ng {
+        let xj = x.col(j);
+        for r in 0..ng {
+            let s: f64 = k
+                .row(ni + r)
+                .filter(|&(c, _)| c < ni)
+                .map(|(c, v)| v * xj[c])
+                .sum();
+            out[(r, j)] -= s;
         }
     }
     out
@@ -608,13 +598,14 @@ fn symmetrised(mut m: Mat<f64>) -> Mat<f64> {
 /// M y, sequential (results independent of the thread count).
 fn dense_apply(m: MatRef<'_, f64>, y: &[f64]) -> Vec<f64> {
     let mut out = vec![0.0; m.nrows()];
-    for (j, &yj) in y.iter().enumerate() {
-        if yj != 0.0 {
-            for (o, &v) in out.iter_mut().zip(m.col(j).iter()) {
-                *o += v * yj;
-            }
-        }
-    }
+    faer::linalg::matmul::matmul(
+        MatMut::from_column_major_slice_mut(&mut out, m.nrows(), 1),
+        faer::Accum::Replace,
+        m,
+        MatRef::from_column_major_slice(y, y.len(), 1),
+        1.0,
+        Par::Seq,
+    );
     out
 }
 
