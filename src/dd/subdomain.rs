@@ -413,16 +413,7 @@ impl LinearBlock {
 
     /// S Y for the columns Y of local interface values (n_Γ × k).
     pub fn schur_mat(&self, y: MatRef<'_, f64>) -> Mat<f64> {
-        let mut out = Mat::<f64>::zeros(self.n_gamma(), y.ncols());
-        faer::linalg::matmul::matmul(
-            out.as_mut(),
-            faer::Accum::Replace,
-            self.schur.as_ref(),
-            y,
-            1.0,
-            Par::Seq,
-        );
-        out
+        mul(self.schur.as_ref(), y)
     }
 
     /// S y.
@@ -537,26 +528,15 @@ fn neumann_from_schur(
     let alpha = (0..ng)
         .map(|i| schur[(i, i)])
         .fold(f64::MIN_POSITIVE, f64::max);
-    let mut shifted = schur.clone();
-    for a in 0..q.ncols() {
-        for j in 0..ng {
-            for i in 0..ng {
-                shifted[(i, j)] += alpha * q[(i, a)] * q[(j, a)];
-            }
-        }
-    }
+    let qqt = mul(q.as_ref(), q.transpose());
+    let shifted = Mat::from_fn(ng, ng, |i, j| schur[(i, j)] + alpha * qqt[(i, j)]);
     let cholesky = Cholesky::new(shifted.as_ref())
         .ok_or("the Schur complement with its kernel shifted is not positive definite")?;
-    let mut pinv = cholesky.solve(Mat::<f64>::identity(ng, ng).as_ref());
+    let inverse = cholesky.solve(Mat::<f64>::identity(ng, ng).as_ref());
     // S⁺ is symmetric; the kernel correction below is not (it acts along Z_Γ only).
-    for a in 0..q.ncols() {
-        for j in 0..ng {
-            for i in 0..ng {
-                pinv[(i, j)] -= q[(i, a)] * q[(j, a)] / alpha;
-            }
-        }
-    }
-    let mut pinv = symmetrised(pinv);
+    let mut pinv = symmetrised(Mat::from_fn(ng, ng, |i, j| {
+        inverse[(i, j)] - qqt[(i, j)] / alpha
+    }));
     if r == 0 {
         return Ok(pinv);
     }

@@ -2,9 +2,13 @@
 //! local `mesh.refine[].max_size`) multiplied by one factor. Level k of a ladder has the factor
 //! `coarsest · ratio^(−k)`, so each level refines the previous one by `ratio` in h (about
 //! `ratio²` in unknowns). The meshes are not nested: the Delaunay mesher meshes each level anew.
+//! [`DirectLevel`] is one level set up for cold, thread-count-independent direct solves of
+//! chosen criteria (the accuracy statement's refined meshes, the target-error ladder).
 
 use crate::error::WsmError;
-use crate::scene::{Scene, SceneError};
+use crate::fem::Par;
+use crate::scene::{Criterion, Data, Scene, SceneError, SolverKind};
+use crate::state::{Needs, SolveOptions, StateProblem};
 
 /// The scene with all mesh sizes multiplied by `factor` (> 0). A Gmsh mesh cannot be rescaled.
 pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
@@ -28,6 +32,59 @@ pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
         r.max_size *= factor;
     }
     Ok(out)
+}
+
+/// A scene on one mesh level, solved cold by the direct solver with sequential factorisations
+/// (results independent of the thread count): what the accuracy statement and the mesh choice
+/// re-solve.
+pub struct DirectLevel {
+    pub problem: StateProblem,
+    options: SolveOptions,
+    criteria: Vec<Criterion>,
+}
+
+impl DirectLevel {
+    /// Mesh and set up `scene` with its mesh sizes × `factor`, for `criteria`.
+    pub fn new(
+        scene: &Scene,
+        factor: f64,
+        criteria: &[Criterion],
+    ) -> Result<DirectLevel, WsmError> {
+        let mut scene = scaled(scene, factor)?;
+        scene.solver.kind = SolverKind::Direct;
+        let problem = StateProblem::new(scene)?;
+        let options = SolveOptions {
+            needs: Needs::for_criteria(&problem.scene, criteria),
+            par: Par::Seq,
+            warm: None,
+        };
+        Ok(DirectLevel {
+            problem,
+            options,
+            criteria: criteria.to_vec(),
+        })
+    }
+
+    /// The criteria at `data` (`None` where one is not defined), or why the solve failed.
+    pub fn criteria_at(&self, data: &Data) -> Result<Vec<Option<f64>>, String> {
+        self.problem
+            .solve(data, &self.options)
+            .map(|s| {
+                self.criteria
+                    .iter()
+                    .map(|c| s.criteria[*c as usize])
+                    .collect()
+            })
+            .map_err(|e| e.to_string())
+    }
+
+    pub fn unknowns(&self) -> usize {
+        self.problem.elastic.dofs().n_free()
+    }
+
+    pub fn triangles(&self) -> usize {
+        self.problem.mesh().triangles.len()
+    }
 }
 
 /// A sequence of mesh size factors, coarsest first.

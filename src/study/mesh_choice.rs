@@ -16,12 +16,10 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use super::ladder::scaled;
+use super::ladder::{scaled, DirectLevel};
 use super::statement::extremum_accuracy;
 use crate::error::WsmError;
-use crate::fem::Par;
-use crate::scene::{Criterion, Scene, SceneError, SolverKind};
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::scene::{Criterion, Scene, SceneError};
 
 /// Size factor of the coarsest level tried (relative to the scene's mesh sizes).
 pub const COARSEST_FACTOR: f64 = 4.0;
@@ -97,23 +95,12 @@ struct Level {
 
 fn solve_level(scene: &Scene, criteria: &[Criterion], factor: f64) -> Result<Level, WsmError> {
     let start = Instant::now();
-    let mut scene = scaled(scene, factor)?;
-    scene.solver.kind = SolverKind::Direct;
-    let problem = StateProblem::new(scene)?;
-    let options = SolveOptions {
-        needs: Needs::for_criteria(&problem.scene, criteria),
-        par: Par::Seq,
-        warm: None,
-    };
-    let values = problem
-        .solve(&problem.nominal, &options)
-        .map(|s| criteria.iter().map(|c| s.criteria[*c as usize]).collect())
-        .map_err(|e| e.to_string());
+    let level = DirectLevel::new(scene, factor, criteria)?;
     Ok(Level {
         factor,
-        unknowns: problem.elastic.dofs().n_free(),
-        triangles: problem.mesh().triangles.len(),
-        values,
+        unknowns: level.unknowns(),
+        triangles: level.triangles(),
+        values: level.criteria_at(&level.problem.nominal),
         seconds: start.elapsed().as_secs_f64(),
     })
 }
@@ -229,7 +216,7 @@ fn choose_mesh_within(
                     .values
                     .clone()
                     .unwrap_or_else(|_| vec![None; criteria.len()]),
-                meets_target: relative.iter().all(|r| r.is_some_and(|r| r <= target)),
+                meets_target: within(&relative, target),
                 relative_errors: relative,
                 seconds: level.seconds,
                 failure: level.values.as_ref().err().cloned(),
@@ -256,9 +243,12 @@ fn choose_mesh_within(
 }
 
 fn meets(level: &Level, finer: &[&Level], target: f64, criteria: &[Criterion]) -> bool {
-    relative_errors(level, finer, criteria.len())
-        .iter()
-        .all(|r| r.is_some_and(|r| r <= target))
+    within(&relative_errors(level, finer, criteria.len()), target)
+}
+
+/// Every estimate is known and within the target.
+fn within(relative: &[Option<f64>], target: f64) -> bool {
+    relative.iter().all(|r| r.is_some_and(|r| r <= target))
 }
 
 #[cfg(test)]

@@ -16,13 +16,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::ladder::scaled;
+use super::ladder::DirectLevel;
 use super::richardson::extrapolate;
 use crate::error::WsmError;
-use crate::fem::Par;
 use crate::scene::params::{apply, Parameter};
-use crate::scene::{Criterion, Scene, SolverKind};
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::scene::Criterion;
+use crate::state::StateProblem;
 
 /// Refinements by default: two while 16 × the run's unknowns stay below this, else one.
 pub const SECOND_REFINEMENT_UNKNOWNS: usize = 50_000;
@@ -135,27 +134,15 @@ pub fn statement(
         }
         let t0 = Instant::now();
         let factor = 0.5_f64.powi(level as i32);
-        let mut scene: Scene = scaled(&problem.scene, factor)?;
-        scene.solver.kind = SolverKind::Direct;
-        let refined = StateProblem::new(scene)?;
-        let options = SolveOptions {
-            needs: Needs::for_criteria(&refined.scene, criteria),
-            par: Par::Seq,
-            warm: None,
-        };
+        let refined = DirectLevel::new(&problem.scene, factor, criteria)?;
         let solved: Vec<Option<Result<Vec<Option<f64>>, String>>> = points
             .par_iter()
             .map(|p| {
                 if stop() {
                     return None;
                 }
-                let data = apply(&refined.scene, &refined.nominal, params, p);
-                Some(
-                    refined
-                        .solve(&data, &options)
-                        .map(|s| criteria.iter().map(|c| s.criteria[*c as usize]).collect())
-                        .map_err(|e| e.to_string()),
-                )
+                let level = &refined.problem;
+                Some(refined.criteria_at(&apply(&level.scene, &level.nominal, params, p)))
             })
             .collect();
         if solved.iter().any(Option::is_none) {
@@ -165,8 +152,8 @@ pub fn statement(
         values.push(solved.into_iter().flatten().collect());
         meshes.push(StatementMesh {
             size_factor: factor,
-            unknowns: refined.elastic.dofs().n_free(),
-            triangles: refined.mesh().triangles.len(),
+            unknowns: refined.unknowns(),
+            triangles: refined.triangles(),
             seconds: t0.elapsed().as_secs_f64(),
         });
     }
