@@ -157,11 +157,6 @@ impl StoreDispatch {
     }
 }
 
-/// Round robin over `slots` threads: slot s gets points s, s + slots, …
-fn deal<T: Clone>(items: &[T], slots: usize, slot: usize) -> Vec<T> {
-    items.iter().skip(slot).step_by(slots).cloned().collect()
-}
-
 impl BatchDispatch for StoreDispatch {
     fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize {
         let per_thread = match seconds_per_point {
@@ -184,9 +179,17 @@ impl BatchDispatch for StoreDispatch {
         // Slots 0..own are this process's, the others one task each. Round robin puts
         // neighbouring points of a polish step (one coordinate each, the expensive material
         // ones together) on different threads, which balances the shares.
-        let slots = live.min(points.len());
+        let n = points.len();
+        let slots = live.min(n);
         let own = self.own_threads.min(slots - 1);
-        let parts: Vec<Vec<Vec<f64>>> = (own..slots).map(|s| deal(points, slots, s)).collect();
+        // The point indices of each slot: s, s + slots, …
+        let by_slot: Vec<Vec<usize>> = (0..slots)
+            .map(|s| (s..n).step_by(slots).collect())
+            .collect();
+        let gather = |indices: &[usize]| -> Vec<Vec<f64>> {
+            indices.iter().map(|&i| points[i].clone()).collect()
+        };
+        let parts: Vec<Vec<Vec<f64>>> = by_slot[own..].iter().map(|ix| gather(ix)).collect();
         let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
         let mut done = self.store.results_signal();
         done.borrow_and_update();
@@ -201,7 +204,8 @@ impl BatchDispatch for StoreDispatch {
             self.runtime
                 .spawn(async move { store.post_tasks(&job, &owner, attempt, batch, &parts).await })
         };
-        let mine: Vec<Vec<f64>> = (0..own).flat_map(|s| deal(points, slots, s)).collect();
+        let mine_indices: Vec<usize> = by_slot[..own].concat();
+        let mine = gather(&mine_indices);
         let own_evaluations = local(&mine);
         self.runtime
             .block_on(post)
@@ -228,23 +232,19 @@ impl BatchDispatch for StoreDispatch {
             }
             taken.extend(newly);
         };
-        // Back to input order: slot s's k-th point is point s + k·slots.
-        let n = points.len();
-        let mut slots_of: Vec<Option<(Evaluation, bool)>> = (0..n).map(|_| None).collect();
-        let own_targets = (0..own).flat_map(|s| (s..n).step_by(slots));
-        for (i, e) in own_targets.zip(own_evaluations) {
-            slots_of[i] = Some((e, false));
+        // Back to input order, with who computed each.
+        let mut placed: Vec<Option<(Evaluation, bool)>> = (0..n).map(|_| None).collect();
+        for (&i, e) in mine_indices.iter().zip(own_evaluations) {
+            placed[i] = Some((e, false));
         }
-        let mut remote_iter = remote_evaluations.into_iter();
-        for (part, s) in (own..slots).enumerate() {
+        let mut remote_evaluations = remote_evaluations.into_iter();
+        for (part, indices) in by_slot[own..].iter().enumerate() {
             let remote = !taken.contains(&(part as u32));
-            for i in (s..n).step_by(slots) {
-                if let Some(e) = remote_iter.next() {
-                    slots_of[i] = Some((e, remote));
-                }
+            for (&i, e) in indices.iter().zip(remote_evaluations.by_ref()) {
+                placed[i] = Some((e, remote));
             }
         }
-        let (evaluations, remote) = slots_of.into_iter().flatten().unzip();
+        let (evaluations, remote) = placed.into_iter().flatten().unzip();
         Ok(Some(DispatchedBatch {
             evaluations,
             remote,
