@@ -12,7 +12,9 @@ use std::collections::HashSet;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{cli_worst, extrema, get, post, postgres_url, wait_finished, PgSchema, Server};
+use common::{
+    cli_worst, cli_worst_with, extrema, get, post, postgres_url, wait_finished, PgSchema, Server,
+};
 use serde_json::{json, Value};
 
 const EXAMPLE: &str = "tunnel-fault";
@@ -99,6 +101,13 @@ impl Db {
     fn task_holders(&self, job: &str) -> Vec<String> {
         self.column(
             "SELECT lease_owner FROM tasks WHERE job_id = $1 AND state = 'running'",
+            job,
+        )
+    }
+
+    fn chosen_scene(&self, job: &str) -> Vec<String> {
+        self.column(
+            "SELECT chosen_scene FROM jobs WHERE id = $1 AND chosen_scene IS NOT NULL",
             job,
         )
     }
@@ -202,4 +211,47 @@ fn three_workers_share_a_job_and_survive_sigkill_of_a_worker_and_of_the_coordina
     assert!(workers.kill_owner(&owner), "{owner} is one of ours");
     let status = check_finished(&server.addr, &db, &id, 4);
     assert_eq!(status["attempts"], 2, "taken over once");
+}
+
+#[test]
+fn workers_evaluate_a_target_error_job_on_the_scene_its_coordinator_chose() {
+    let Some(server_url) = postgres_url() else {
+        eprintln!("scale-out test skipped: WSM_TEST_POSTGRES_URL is not set");
+        return;
+    };
+    let schema = PgSchema::new(&server_url);
+    let server = Server::start(&schema.url, &["--workers", "0"]);
+    let _workers = Workers::start(&schema.url, 2);
+    let db = Db::open(&schema.url);
+    let (budget, seed) = (40, 6);
+    let reply = post(
+        &server.addr,
+        "/v1/jobs",
+        &json!({
+            "example": EXAMPLE,
+            "settings": {"criteria": ["phi3"], "budget": budget, "seed": seed, "target_error": 0.05}
+        }),
+    );
+    assert_eq!(
+        reply.status,
+        202,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    let id = reply.json()["id"].as_str().unwrap().to_string();
+    let status = wait_finished(&server.addr, &id, Duration::from_secs(300));
+    assert_eq!(status["state"], "succeeded", "{status}");
+    let result = get(&server.addr, &format!("/v1/jobs/{id}/result")).json();
+    let reference = cli_worst_with(EXAMPLE, "phi3", budget, seed, &["--target-error", "0.05"]);
+    assert_eq!(extrema(&result), extrema(&reference), "same as one process");
+    // The coordinator stored its choice; the workers' evaluations, made on it, are part of
+    // the bit-identical result.
+    let chosen: Value = serde_json::from_str(&db.chosen_scene(&id).pop().expect("stored")).unwrap();
+    let submitted = get(&server.addr, "/v1/examples/tunnel-fault").json();
+    assert_ne!(
+        chosen["mesh"]["max_size"], submitted["mesh"]["max_size"],
+        "the 5 % target takes another mesh"
+    );
+    let workers: HashSet<String> = db.evaluation_workers(&id).into_iter().collect();
+    assert!(workers.len() >= 2, "evaluations spread over {workers:?}");
 }

@@ -448,3 +448,32 @@ conformance!(
     workers_announce_their_threads_by_heartbeat_on_every_backend,
     workers_announce_their_threads_by_heartbeat
 );
+
+async fn the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers(
+    store: Arc<dyn JobStore>,
+) {
+    store.insert(job("c")).await.unwrap();
+    let input = store.job_input("c").await.unwrap().unwrap();
+    assert_eq!(input.chosen_scene, None, "nothing chosen before the run");
+    assert!(
+        !store.record_chosen_scene("c", "coord", "{}").await.unwrap(),
+        "a queued job has no coordinator"
+    );
+    store.lease("coord", 30.0).await.unwrap().unwrap();
+    assert!(!store
+        .record_chosen_scene("c", "intruder", "{\"x\": 1}")
+        .await
+        .unwrap());
+    let chosen = "{\"mesh\": {\"max_size\": 0.25}}";
+    assert!(store
+        .record_chosen_scene("c", "coord", chosen)
+        .await
+        .unwrap());
+    let input = store.job_input("c").await.unwrap().unwrap();
+    assert_eq!(input.chosen_scene.as_deref(), Some(chosen));
+    assert_eq!(input.scene, job("c").scene, "the submitted scene is kept");
+}
+conformance!(
+    the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers_on_every_backend,
+    the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers
+);

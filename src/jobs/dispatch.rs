@@ -20,6 +20,7 @@ use std::time::{Duration, Instant};
 use super::{wait, JobStore, StoreResult, TaskScope};
 use crate::error::WsmError;
 use crate::run::{BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate};
+use crate::scene::Scene;
 
 /// Solve time of one chunk per live thread \[s\].
 const CHUNK_SECONDS: f64 = 0.5;
@@ -249,6 +250,22 @@ impl BatchDispatch for StoreDispatch {
             evaluations,
             remote,
         }))
+    }
+
+    fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
+        let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
+        let held = self
+            .runtime
+            .block_on(
+                self.store
+                    .record_chosen_scene(&self.job, &self.owner, &text),
+            )
+            .map_err(|e| self.io(e))?;
+        if held {
+            Ok(())
+        } else {
+            Err(self.io("the job's lease was taken over"))
+        }
     }
 
     fn flush(&self) -> Result<(), WsmError> {

@@ -171,6 +171,8 @@ pub struct JobInput {
     pub scene: String,
     pub settings: WorstRequest,
     pub run_hash: String,
+    /// The scene its coordinator chose for the target error, once it has (JSON).
+    pub chosen_scene: Option<String>,
 }
 
 /// Store errors (database failures); the message names the operation.
@@ -209,6 +211,9 @@ pub trait JobStore: Send + Sync + 'static {
 
     /// The scene and settings of a job (what a worker needs to evaluate its points).
     async fn job_input(&self, id: &str) -> StoreResult<Option<JobInput>>;
+    /// Record the scene the coordinator chose for the job's target error (JSON), for the
+    /// workers; false when `owner` no longer holds the job's lease.
+    async fn record_chosen_scene(&self, id: &str, owner: &str, scene: &str) -> StoreResult<bool>;
     /// Post one batch of job `id` (whose lease `owner` holds) as tasks, one per part; tasks of
     /// the job's earlier attempts are dropped (their coordinator is gone).
     async fn post_tasks(

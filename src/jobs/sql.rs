@@ -554,11 +554,12 @@ impl JobStore for SqlStore {
     }
 
     async fn job_input(&self, id: &str) -> StoreResult<Option<JobInput>> {
-        let row = sqlx::query("SELECT scene, settings, run_hash FROM jobs WHERE id = $1")
-            .bind(id)
-            .fetch_optional(&self.pool)
-            .await
-            .map_err(db("reading a job"))?;
+        let row =
+            sqlx::query("SELECT scene, settings, run_hash, chosen_scene FROM jobs WHERE id = $1")
+                .bind(id)
+                .fetch_optional(&self.pool)
+                .await
+                .map_err(db("reading a job"))?;
         let Some(row) = row else { return Ok(None) };
         let read = db("reading a job");
         Ok(Some(JobInput {
@@ -568,7 +569,22 @@ impl JobStore for SqlStore {
                 "settings",
             )?,
             run_hash: row.try_get("run_hash").map_err(&read)?,
+            chosen_scene: row.try_get("chosen_scene").map_err(&read)?,
         }))
+    }
+
+    async fn record_chosen_scene(&self, id: &str, owner: &str, scene: &str) -> StoreResult<bool> {
+        let done = sqlx::query(
+            "UPDATE jobs SET chosen_scene = $3
+             WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+        )
+        .bind(id)
+        .bind(owner)
+        .bind(scene)
+        .execute(&self.pool)
+        .await
+        .map_err(db("storing the chosen scene"))?;
+        Ok(done.rows_affected() == 1)
     }
 
     async fn post_tasks(

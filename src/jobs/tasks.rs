@@ -20,7 +20,9 @@ use super::{wait, JobInput, JobStore, TaskRecord, TaskScope};
 use crate::error::WsmError;
 use crate::run::{run_scene, Evaluation, WorstRequest};
 use crate::scenario::evaluator::ScenarioEvaluator;
+use crate::scenario::worst::WorstSettings;
 use crate::scene::params::parameters;
+use crate::scene::Scene;
 use crate::state::StateProblem;
 
 /// Prepared models kept per worker process.
@@ -52,6 +54,7 @@ impl Model {
         let (requests, inbox) = mpsc::channel::<(Vec<Vec<f64>>, Reply)>();
         let (ready_tx, ready_rx) = mpsc::channel::<Result<(), WsmError>>();
         let scene_text = input.scene.clone();
+        let chosen_scene = input.chosen_scene.clone();
         let settings: WorstRequest = input.settings.clone();
         std::thread::Builder::new()
             .name("wsm-model".into())
@@ -60,7 +63,7 @@ impl Model {
                     let scene = crate::scene::parse(&scene_text)?;
                     let settings = settings.settings(&scene)?;
                     let params = parameters(&scene)?;
-                    let (scene, _) = run_scene(scene, &settings, &|| false)?;
+                    let scene = model_scene(scene, chosen_scene.as_deref(), &settings)?;
                     let problem = StateProblem::new(scene)?;
                     Ok((problem, params, settings.criteria))
                 });
@@ -176,6 +179,20 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
     }
 }
 
+/// The scene a job's points are evaluated on: the one its coordinator chose for the target
+/// error when it is stored, else the submitted scene with the same (deterministic) choice made
+/// here.
+fn model_scene(
+    scene: Scene,
+    chosen: Option<&str>,
+    settings: &WorstSettings,
+) -> Result<Scene, WsmError> {
+    match chosen {
+        Some(text) => Ok(crate::scene::parse(text)?),
+        None => Ok(run_scene(scene, settings, &|| false)?.0),
+    }
+}
+
 /// Evaluate one task and store its evaluations (unless its lease was lost meanwhile).
 async fn run_task(
     store: &Arc<dyn JobStore>,
@@ -239,4 +256,40 @@ async fn prepare(
         .map_err(|e| WsmError::io("model thread", e))??;
     models.insert(model);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A worker given the coordinator's chosen scene evaluates on exactly the scene it would
+    /// have chosen itself, without choosing.
+    #[test]
+    fn a_stored_choice_is_the_scene_the_worker_would_choose() {
+        let scene = crate::scene::parse(crate::examples::example("tunnel-fault").unwrap()).unwrap();
+        let request: WorstRequest = serde_json::from_value(serde_json::json!({
+            "criteria": ["phi3"],
+            "target_error": 0.05,
+        }))
+        .unwrap();
+        let settings = request.settings(&scene).unwrap();
+        let chosen = model_scene(scene.clone(), None, &settings).unwrap();
+        assert_ne!(
+            chosen.mesh.max_size, scene.mesh.max_size,
+            "the 5 % target picks another mesh than the scene's own"
+        );
+        let stored = serde_json::to_string(&chosen).unwrap();
+        // What is stored is used as it is (another mesh than any choice, to tell them apart).
+        let mut other = chosen.clone();
+        other.mesh.max_size *= 3.0;
+        let other_text = serde_json::to_string(&other).unwrap();
+        let used = model_scene(scene.clone(), Some(&other_text), &settings).unwrap();
+        assert_eq!(used.mesh.max_size, other.mesh.max_size);
+        // And the stored choice round-trips to the same scene.
+        let reused = model_scene(scene, Some(&stored), &settings).unwrap();
+        assert_eq!(
+            serde_json::to_value(&reused).unwrap(),
+            serde_json::to_value(&chosen).unwrap()
+        );
+    }
 }

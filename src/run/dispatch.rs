@@ -16,6 +16,7 @@ use rayon::prelude::*;
 use crate::error::WsmError;
 use crate::scenario::evaluator::{Evaluation, InnerSummary, ScenarioEvaluator};
 use crate::scenario::search::{Evaluator, Outcome};
+use crate::scene::Scene;
 
 /// Evaluates points in this process without logging them (the dispatch stores them itself).
 pub type LocalEvaluate<'a> = dyn Fn(&[Vec<f64>]) -> Vec<Evaluation> + Sync + 'a;
@@ -38,6 +39,9 @@ pub trait BatchDispatch: Send + Sync {
         points: &[Vec<f64>],
         local: &LocalEvaluate<'_>,
     ) -> Result<Option<DispatchedBatch>, WsmError>;
+    /// The scene this run chose for its target error, before any batch: the other processes
+    /// evaluate on it instead of choosing again.
+    fn share_scene(&self, scene: &Scene) -> Result<(), WsmError>;
     /// Wait until everything evaluated so far is stored (a dispatch may store its own share
     /// while the search goes on); called when the search ends.
     fn flush(&self) -> Result<(), WsmError>;

@@ -239,6 +239,9 @@ impl Run<'_> {
                 self.stop_status().is_some()
             }) {
                 Ok((chosen, choice)) => {
+                    if let Some(dispatch) = &self.control.dispatch {
+                        dispatch.share_scene(&chosen)?;
+                    }
                     mesh_choice = choice;
                     chosen
                 }

@@ -195,10 +195,22 @@ pub fn wait_finished(addr: &str, id: &str, limit: Duration) -> Value {
 
 /// `wsm worst` on one thread: the single-process reference of a job.
 pub fn cli_worst(example: &str, criteria: &str, budget: usize, seed: u64) -> Value {
+    cli_worst_with(example, criteria, budget, seed, &[])
+}
+
+/// As [`cli_worst`], with more options.
+pub fn cli_worst_with(
+    example: &str,
+    criteria: &str,
+    budget: usize,
+    seed: u64,
+    extra: &[&str],
+) -> Value {
     let output = Command::new(env!("CARGO_BIN_EXE_wsm"))
         .args(["worst", "--example", example, "--criteria", criteria])
         .args(["--threads", "1"])
         .args(["--budget", &budget.to_string(), "--seed", &seed.to_string()])
+        .args(extra)
         .output()
         .unwrap();
     assert!(output.status.success());
