@@ -18,6 +18,7 @@ pub mod error;
 pub mod examples;
 pub mod fem;
 pub mod jobs;
+mod memo;
 pub mod mesh;
 pub mod output;
 pub mod run;

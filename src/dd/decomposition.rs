@@ -7,7 +7,11 @@ use rayon::prelude::*;
 
 use super::pair::{ContactCluster, LocalRow};
 use super::partition::Partition;
-use super::subdomain::{assemble, rigid_candidates, Csr, LinearBlock};
+use std::sync::Arc;
+
+use super::subdomain::{
+    assemble, rigid_candidates, BlockOperators, Csr, LinearBlock, OperatorCache,
+};
 use super::{ContactRow, DdError, DdProblem};
 
 const NONE: usize = usize::MAX;
@@ -58,7 +62,13 @@ pub struct Decomposition {
 }
 
 impl Decomposition {
-    pub fn new(problem: &DdProblem, partition: Partition) -> Result<Decomposition, DdError> {
+    /// The decomposition of `problem`; the subdomain operators come from `operators` when it
+    /// holds them for the same stiffness.
+    pub fn new(
+        problem: &DdProblem,
+        partition: Partition,
+        operators: Option<&OperatorCache>,
+    ) -> Result<Decomposition, DdError> {
         let n = problem.n_dofs();
         let ns = partition.n_subdomains;
         let mut elements = vec![Vec::new(); ns];
@@ -121,15 +131,21 @@ impl Decomposition {
                 let all = dofs.all();
                 let k = Csr::from_triplets(all.len(), assemble(problem, &elements[s], &local));
                 let cand = rigid_candidates(problem, &all, &vec![0; all.len()]);
-                LinearBlock::new(
-                    k,
-                    dofs.interior.len(),
-                    dofs.gamma.clone(),
-                    vec![rho[s]; dofs.gamma.len()],
-                    dofs.interior.iter().map(|&d| problem.rhs[d]).collect(),
-                    vec![0.0; dofs.gamma.len()],
-                    cand.as_ref(),
-                )
+                let ni = dofs.interior.len();
+                let ops = match operators {
+                    Some(cache) => cache.get((s, ns), k, ni, cand.as_ref()),
+                    None => BlockOperators::new(k, ni, cand.as_ref()).map(Arc::new),
+                };
+                ops.and_then(|ops| {
+                    LinearBlock::with_operators(
+                        ops,
+                        ni,
+                        dofs.gamma.clone(),
+                        vec![rho[s]; dofs.gamma.len()],
+                        dofs.interior.iter().map(|&d| problem.rhs[d]).collect(),
+                        vec![0.0; dofs.gamma.len()],
+                    )
+                })
                 .map_err(|reason| DdError::Subdomain {
                     subdomain: s,
                     reason,

@@ -7,7 +7,10 @@
 //! Depends only on [`super::partition`] and [`crate::contact::qp`]; read by
 //! [`super::successive`] and recorded in [`super::report`].
 
+use std::sync::Arc;
+
 use super::partition::{PartitionRequest, CONTACT_LAYERS};
+use super::subdomain::OperatorCache;
 use crate::contact::qp::QpOptions;
 
 /// Default PCG1 tolerance: the auxiliary solution U⁰ (D05 4.48) is only the start of the
@@ -74,6 +77,8 @@ pub struct DdOptions {
     /// Always accelerate from the first step (for tests and comparisons).
     pub force_acceleration: bool,
     pub qp: QpOptions,
+    /// Subdomain operators kept across solves of one scene (none: built every solve).
+    pub operators: Option<Arc<OperatorCache>>,
 }
 
 impl Default for DdOptions {
@@ -94,6 +99,7 @@ impl Default for DdOptions {
             anderson_depth: 20,
             force_acceleration: false,
             qp: QpOptions::default(),
+            operators: None,
         }
     }
 }

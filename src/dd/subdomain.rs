@@ -17,6 +17,9 @@
 //! and the outer steps, a few hundred applications per solve — cost small dense products instead
 //! of sparse triangular solves.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, PoisonError};
+
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatMut, MatRef, Par};
 
@@ -24,6 +27,7 @@ use super::dense::{mul, thin_svd, Cholesky, ThinSvd};
 use super::DdProblem;
 use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
 use crate::fem::{Factor, Symbolic};
+use crate::memo::{self, Memo};
 
 /// Relative size ‖A z‖ / max diag(A) below which a unit rigid motion z counts as a kernel vector.
 const KERNEL_TOL: f64 = 1e-9;
@@ -336,6 +340,136 @@ fn check_interior_kernel(
     Ok(())
 }
 
+/// What a block's stiffness alone determines: the local matrix, the Dirichlet factor, S, the
+/// Neumann trace map and the kernel. Built once per distinct stiffness (see [`OperatorCache`]).
+#[derive(Debug)]
+pub struct BlockOperators {
+    k: Csr,
+    dirichlet: KernelFactor,
+    /// S = K_ΓΓ − K_ΓI K_II⁻¹ K_IΓ, dense (n_Γ × n_Γ).
+    schur: Mat<f64>,
+    /// The Neumann trace map g ↦ (P A⁺ [0; g])_Γ, dense (n_Γ × n_Γ).
+    neumann_trace: Mat<f64>,
+    /// Kernel of the local Neumann matrix (rows: local DOFs).
+    kernel: Mat<f64>,
+}
+
+impl BlockOperators {
+    /// `k`: local matrix (interior first); `candidates`: rigid motions (rows = local DOFs)
+    /// spanning the kernel of k.
+    pub fn new(
+        k: Csr,
+        n_interior: usize,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<BlockOperators, String> {
+        let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
+        let ng = k.dim() - n_interior;
+        let schur = symmetrised(schur_dense(&k, n_interior, &dirichlet));
+        let (neumann_trace, kernel) = if dirichlet.kernel().ncols() == 0 {
+            // K_II is nonsingular: the Neumann map follows from S (no second factorisation).
+            let kernel = kernel(&k, k.dim(), candidates)?;
+            let map = neumann_from_schur(&k, n_interior, &dirichlet, &schur, kernel.as_ref())?;
+            (map, kernel)
+        } else {
+            let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
+            let map = neumann_columns(&neumann, n_interior, ng);
+            (map, neumann.kernel().to_owned())
+        };
+        Ok(BlockOperators {
+            k,
+            dirichlet,
+            schur,
+            neumann_trace,
+            kernel,
+        })
+    }
+
+    /// Memory held \[bytes\] (the dense operators and the local matrix; the factor about as
+    /// much again as the matrix).
+    fn bytes(&self) -> usize {
+        let dense = self.schur.nrows() * self.schur.ncols() * 2 + self.kernel.nrows() * 3;
+        8 * (dense + 2 * self.k.val.len())
+    }
+}
+
+/// The operators of one subdomain by stiffness.
+type SubdomainMemo = Memo<Arc<BlockOperators>>;
+
+/// Memory for cached subdomain operators of a scene \[bytes\] (shared by its subdomains).
+const OPERATOR_CACHE_BYTES: usize = 1 << 28;
+
+/// The operators of each subdomain for the stiffness values seen last (keyed by their exact
+/// bits, so a cached operator equals a fresh one): an evaluation whose λ, μ leave a subdomain's
+/// stiffness unchanged — only loads or slip limits changed, or only other zones' materials —
+/// builds nothing for it. One per scene, shared by the evaluations.
+#[derive(Default)]
+pub struct OperatorCache {
+    /// Per subdomain, once it has been built.
+    subdomains: std::sync::Mutex<Vec<Option<Arc<SubdomainMemo>>>>,
+    built: AtomicUsize,
+    reused: AtomicUsize,
+}
+
+impl std::fmt::Debug for OperatorCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (built, reused) = self.counts();
+        write!(f, "OperatorCache {{ built: {built}, reused: {reused} }}")
+    }
+}
+
+impl OperatorCache {
+    /// The operators of subdomain `s` of `count` for its local matrix `k`, from the cache or
+    /// built.
+    pub fn get(
+        &self,
+        (s, count): (usize, usize),
+        k: Csr,
+        n_interior: usize,
+        candidates: MatRef<'_, f64>,
+    ) -> Result<Arc<BlockOperators>, String> {
+        let key = memo::key(k.val.iter().copied());
+        let existing = {
+            let mut subdomains = self
+                .subdomains
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner);
+            if subdomains.len() < count {
+                subdomains.resize(count, None);
+            }
+            subdomains[s].clone()
+        };
+        let memo = match existing {
+            Some(memo) => memo,
+            None => {
+                let ops = Arc::new(BlockOperators::new(k, n_interior, candidates)?);
+                self.built.fetch_add(1, Ordering::Relaxed);
+                let budget = OPERATOR_CACHE_BYTES / count.max(1);
+                let memo = Arc::new(Memo::new(memo::capacity(budget, ops.bytes())));
+                memo.get_or_try(key, || Ok::<_, String>(ops.clone()))?;
+                self.subdomains
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)[s]
+                    .get_or_insert(memo);
+                return Ok(ops);
+            }
+        };
+        let (ops, cached) = memo.get_or_try(key, || {
+            BlockOperators::new(k, n_interior, candidates).map(Arc::new)
+        })?;
+        let counter = if cached { &self.reused } else { &self.built };
+        counter.fetch_add(1, Ordering::Relaxed);
+        Ok(ops)
+    }
+
+    /// Subdomain operators (built, reused) so far.
+    pub fn counts(&self) -> (usize, usize) {
+        (
+            self.built.load(Ordering::Relaxed),
+            self.reused.load(Ordering::Relaxed),
+        )
+    }
+}
+
 /// A linear subdomain (or tied cluster): local matrix ordered [interior; interface].
 #[derive(Debug, Clone)]
 pub struct LinearBlock {
@@ -345,16 +479,9 @@ pub struct LinearBlock {
     pub gamma: Vec<usize>,
     /// Stiffness measure ρ of the subdomain owning each local interface DOF (D05 5.5).
     pub rho: Vec<f64>,
-    k: Csr,
-    dirichlet: KernelFactor,
+    ops: Arc<BlockOperators>,
     f_interior: Vec<f64>,
     gamma_load: Vec<f64>,
-    /// S = K_ΓΓ − K_ΓI K_II⁻¹ K_IΓ, dense (n_Γ × n_Γ).
-    schur: Mat<f64>,
-    /// The Neumann trace map g ↦ (P A⁺ [0; g])_Γ, dense (n_Γ × n_Γ).
-    neumann_trace: Mat<f64>,
-    /// Kernel of the local Neumann matrix (rows: local DOFs).
-    kernel: Mat<f64>,
 }
 
 impl LinearBlock {
@@ -370,31 +497,27 @@ impl LinearBlock {
         gamma_load: Vec<f64>,
         candidates: MatRef<'_, f64>,
     ) -> Result<LinearBlock, String> {
-        let dirichlet = KernelFactor::new(&k, n_interior, candidates.subrows(0, n_interior))?;
-        check_interior_kernel(&k, n_interior, dirichlet.kernel(), &f_interior)?;
-        let ng = gamma.len();
-        let schur = symmetrised(schur_dense(&k, n_interior, &dirichlet));
-        let (neumann_trace, kernel) = if dirichlet.kernel().ncols() == 0 {
-            // K_II is nonsingular: the Neumann map follows from S (no second factorisation).
-            let kernel = kernel(&k, k.dim(), candidates)?;
-            let map = neumann_from_schur(&k, n_interior, &dirichlet, &schur, kernel.as_ref())?;
-            (map, kernel)
-        } else {
-            let neumann = KernelFactor::new(&k, k.dim(), candidates)?;
-            let map = neumann_columns(&neumann, n_interior, ng);
-            (map, neumann.kernel().to_owned())
-        };
+        let ops = Arc::new(BlockOperators::new(k, n_interior, candidates)?);
+        LinearBlock::with_operators(ops, n_interior, gamma, rho, f_interior, gamma_load)
+    }
+
+    /// As [`Self::new`], with the operators built already.
+    pub fn with_operators(
+        ops: Arc<BlockOperators>,
+        n_interior: usize,
+        gamma: Vec<usize>,
+        rho: Vec<f64>,
+        f_interior: Vec<f64>,
+        gamma_load: Vec<f64>,
+    ) -> Result<LinearBlock, String> {
+        check_interior_kernel(&ops.k, n_interior, ops.dirichlet.kernel(), &f_interior)?;
         Ok(LinearBlock {
             n_interior,
             gamma,
             rho,
-            k,
-            dirichlet,
+            ops,
             f_interior,
             gamma_load,
-            schur,
-            neumann_trace,
-            kernel,
         })
     }
 
@@ -404,34 +527,35 @@ impl LinearBlock {
 
     /// Kernel of the local Neumann matrix (rows: local DOFs).
     pub fn kernel(&self) -> MatRef<'_, f64> {
-        self.kernel.as_ref()
+        self.ops.kernel.as_ref()
     }
 
     fn ranges(&self) -> ((usize, usize), (usize, usize)) {
-        ((0, self.n_interior), (self.n_interior, self.k.dim()))
+        ((0, self.n_interior), (self.n_interior, self.ops.k.dim()))
     }
 
     /// S Y for the columns Y of local interface values (n_Γ × k).
     pub fn schur_mat(&self, y: MatRef<'_, f64>) -> Mat<f64> {
-        mul(self.schur.as_ref(), y)
+        mul(self.ops.schur.as_ref(), y)
     }
 
     /// S y.
     pub fn schur(&self, y: &[f64]) -> Vec<f64> {
-        dense_apply(self.schur.as_ref(), y)
+        dense_apply(self.ops.schur.as_ref(), y)
     }
 
     /// The block's share of F: gamma_load − K_ΓI K_II⁻¹ f_I.
     pub fn condensed_load(&self) -> Vec<f64> {
         let (ri, rg) = self.ranges();
         let x: Vec<f64> = self
+            .ops
             .dirichlet
             .solve(&self.f_interior)
             .iter()
             .map(|v| -v)
             .collect();
         let mut s = self.gamma_load.clone();
-        self.k.mul_block(rg, ri, &x, &mut s);
+        self.ops.k.mul_block(rg, ri, &x, &mut s);
         s
     }
 
@@ -442,16 +566,16 @@ impl LinearBlock {
         let (ri, rg) = self.ranges();
         let mut b = self.f_interior.clone();
         let my: Vec<f64> = y.iter().map(|v| -v).collect();
-        self.k.mul_block(ri, rg, &my, &mut b);
-        let mut x = self.dirichlet.solve(&b);
-        self.dirichlet.project(&mut x);
+        self.ops.k.mul_block(ri, rg, &my, &mut b);
+        let mut x = self.ops.dirichlet.solve(&b);
+        self.ops.dirichlet.project(&mut x);
         x
     }
 
     /// Interface trace of the Neumann solution φ⁰ ∈ Q of A φ = [0; g] (g must annihilate the
     /// kernel's trace).
     pub fn neumann(&self, g: &[f64]) -> Vec<f64> {
-        dense_apply(self.neumann_trace.as_ref(), g)
+        dense_apply(self.ops.neumann_trace.as_ref(), g)
     }
 }
 

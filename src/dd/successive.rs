@@ -70,7 +70,7 @@ pub fn solve(
 ) -> Result<DdSolution, DdError> {
     let t0 = Instant::now();
     let partition = Partition::new(problem, &options.partition)?;
-    let dec = Decomposition::new(problem, partition)?;
+    let dec = Decomposition::new(problem, partition, options.operators.as_deref())?;
     let mut report = DdReport::new(problem, &dec);
     let setup = t0.elapsed().as_secs_f64();
     match iterate(problem, &dec, options, &mut report) {

@@ -172,7 +172,7 @@ fn coarse_dimensions_equal_the_counted_kernels() {
         },
     )
     .expect("partition");
-    let dec = Decomposition::new(&problem, part).expect("decomposition");
+    let dec = Decomposition::new(&problem, part, None).expect("decomposition");
     let kernels: usize = dec.blocks.iter().map(|b| b.kernel().ncols()).sum();
     let tied: usize = dec.tied.iter().map(|b| b.kernel().ncols()).sum();
     assert!(kernels > 0, "expected floating subdomains");
@@ -358,4 +358,26 @@ fn pcg1_iterations_stay_bounded_as_the_subdomain_count_grows() {
         *hi as f64 <= 1.5 * *lo as f64,
         "PCG1 iterations {counts:?} grow by more than 1.5"
     );
+}
+
+#[test]
+fn subdomain_operators_are_reused_while_the_stiffness_is_unchanged_with_the_same_bits() {
+    let cache = std::sync::Arc::new(subdomain::OperatorCache::default());
+    let cached = DdOptions {
+        operators: Some(cache.clone()),
+        ..options(8, 2)
+    };
+    let first = two_blocks(48, 8.0, 0.003).expect("problem");
+    let a = solve(&first, &cached, None).expect("dd");
+    let (built, reused) = cache.counts();
+    assert!(built > 0 && reused == 0, "{built} built, {reused} reused");
+    // Another prescribed displacement: the same stiffness, so nothing is built again, and the
+    // result equals a solve that builds everything.
+    let moved = two_blocks(48, 8.0, 0.004).expect("problem");
+    let b = solve(&moved, &cached, None).expect("dd");
+    assert_eq!(cache.counts(), (built, built), "every subdomain reused");
+    let fresh = solve(&moved, &options(8, 2), None).expect("dd");
+    assert_eq!(b.u, fresh.u);
+    assert_eq!(b.multipliers, fresh.multipliers);
+    assert_ne!(a.u, b.u, "the load did change");
 }

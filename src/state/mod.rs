@@ -11,7 +11,6 @@
 //! fresh ones); the DD partition is built once.
 
 mod criteria;
-mod memo;
 mod solution;
 
 pub use criteria::{evaluate as evaluate_criteria, Fields};
@@ -28,9 +27,9 @@ use crate::criteria::CriteriaGeometry;
 use crate::dd::DirectAnswer;
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, HeatProblem, Par};
+use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
-use memo::Memo;
 
 /// What a solve must compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -104,6 +103,8 @@ pub struct StateProblem {
     /// The DD partition, built on the first DD solve from the nominal data (it depends only on
     /// the mesh and the contact pairs).
     dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
+    /// The DD subdomain operators of the stiffnesses seen last.
+    pub dd_operators: Arc<crate::dd::subdomain::OperatorCache>,
     pub counters: Counters,
     /// Time to build the problem \[s\].
     pub setup_seconds: f64,
@@ -146,6 +147,7 @@ impl StateProblem {
             body_factors,
             temperatures: Memo::new(4),
             dd_partition: OnceLock::new(),
+            dd_operators: Arc::default(),
             counters: Counters::default(),
             setup_seconds: start.elapsed().as_secs_f64(),
         })
@@ -353,6 +355,7 @@ impl StateProblem {
         if let Ok(p) = partition {
             dd_options.partition = crate::dd::PartitionRequest::Given(Box::new(p.clone()));
         }
+        dd_options.operators = Some(self.dd_operators.clone());
         let outcome = crate::dd::from_scene::solve_elastic(
             elastic,
             &self.contact,

@@ -1,5 +1,6 @@
 //! A tiny shared memo: the last few values keyed by the exact bits of the numbers they were
-//! computed from (stiffness factorisations by λ, μ; temperature fields by the thermal data).
+//! computed from (stiffness factorisations by λ, μ; temperature fields by the thermal data; the
+//! DD subdomain operators by the subdomain's stiffness values).
 
 use std::collections::VecDeque;
 use std::sync::Mutex;
