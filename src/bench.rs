@@ -233,6 +233,8 @@ pub struct WorstRow {
     /// Local operators built: numeric factorisations of body blocks of K (direct solver and DD
     /// fallback) plus DD subdomain operators (factor, S, Neumann map).
     pub local_factorisations: usize,
+    /// DD subdomain operators taken from the cache.
+    pub reused_subdomains: usize,
     /// The worst (max) value of each criterion.
     pub worst: Vec<f64>,
 }
@@ -285,6 +287,7 @@ pub fn worst_benchmark(
             .body_factorisations
             .load(std::sync::atomic::Ordering::Relaxed)
             + problem.dd_operators.counts().0,
+        reused_subdomains: problem.dd_operators.counts().1,
         worst: outcome
             .criteria
             .iter()
@@ -296,7 +299,7 @@ pub fn worst_benchmark(
 /// `wsm bench --worst`: the worst-scenario loop on the tunnel, both solvers, as Markdown.
 pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, WsmError> {
     let mut out = format!(
-        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | local factorisations (body blocks; DD subdomains) | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | local factorisations (body blocks; DD subdomains, reused) | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
     );
     let mut kinds = vec![crate::scene::SolverKind::Direct];
@@ -309,11 +312,12 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
             let p = &r.phases;
             let share = |x: f64| x / r.solver_seconds.max(1e-12);
             out.push_str(&format!(
-                "| {} | {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}; {:.2} / {:.2} / {:.2} / {:.2}) | {:.2} | {} |\n",
+                "| {} | {} | {} | {} ({}) | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}; {:.2} / {:.2} / {:.2} / {:.2}) | {:.2} | {} |\n",
                 r.solver,
                 r.unknowns,
                 r.evaluations,
                 r.local_factorisations,
+                r.reused_subdomains,
                 r.wall,
                 r.evaluations_per_second,
                 1e3 * r.solver_seconds / r.evaluations.max(1) as f64,
