@@ -120,14 +120,12 @@ impl Db {
     }
 }
 
-fn submit(addr: &str, seed: u64) -> String {
+/// Submit the tunnel with `settings`; the job's id.
+fn submit_settings(addr: &str, settings: Value) -> String {
     let reply = post(
         addr,
         "/v1/jobs",
-        &json!({
-            "example": EXAMPLE,
-            "settings": {"criteria": ["phi3", "phi5"], "budget": BUDGET, "seed": seed}
-        }),
+        &json!({"example": EXAMPLE, "settings": settings}),
     );
     assert_eq!(
         reply.status,
@@ -136,6 +134,40 @@ fn submit(addr: &str, seed: u64) -> String {
         String::from_utf8_lossy(&reply.body)
     );
     reply.json()["id"].as_str().unwrap().to_string()
+}
+
+fn submit(addr: &str, seed: u64) -> String {
+    submit_settings(
+        addr,
+        json!({"criteria": ["phi3", "phi5"], "budget": BUDGET, "seed": seed}),
+    )
+}
+
+/// A `wsm serve` that only serves and `workers` worker processes on a fresh schema (`None`,
+/// and a note saying so, without `WSM_TEST_POSTGRES_URL`). Fields drop in order: the
+/// processes stop before the schema goes.
+struct Cluster {
+    db: Db,
+    workers: Workers,
+    server: Server,
+    _schema: PgSchema,
+}
+
+impl Cluster {
+    fn start(workers: usize) -> Option<Cluster> {
+        let Some(server_url) = postgres_url() else {
+            eprintln!("scale-out test skipped: WSM_TEST_POSTGRES_URL is not set");
+            return None;
+        };
+        let schema = PgSchema::new(&server_url);
+        let server = Server::start(&schema.url, &["--workers", "0"]);
+        Some(Cluster {
+            workers: Workers::start(&schema.url, workers),
+            db: Db::open(&schema.url),
+            server,
+            _schema: schema,
+        })
+    }
 }
 
 /// Wait until `pick` names a process to kill while the job runs (after some evaluations).
@@ -184,14 +216,10 @@ fn check_finished(addr: &str, db: &Db, id: &str, seed: u64) -> Value {
 
 #[test]
 fn three_workers_share_a_job_and_survive_sigkill_of_a_worker_and_of_the_coordinator() {
-    let Some(server_url) = postgres_url() else {
-        eprintln!("scale-out test skipped: WSM_TEST_POSTGRES_URL is not set");
+    let Some(mut cluster) = Cluster::start(3) else {
         return;
     };
-    let schema = PgSchema::new(&server_url);
-    let server = Server::start(&schema.url, &["--workers", "0"]);
-    let mut workers = Workers::start(&schema.url, 3);
-    let db = Db::open(&schema.url);
+    let (db, server) = (&cluster.db, &cluster.server);
 
     // A worker that holds a task (not the coordinator) dies mid-batch.
     let id = submit(&server.addr, 3);
@@ -201,44 +229,29 @@ fn three_workers_share_a_job_and_survive_sigkill_of_a_worker_and_of_the_coordina
             .into_iter()
             .find(|holder| *holder != coordinator)
     });
-    assert!(workers.kill_owner(&owner), "{owner} is one of ours");
-    let status = check_finished(&server.addr, &db, &id, 3);
+    assert!(cluster.workers.kill_owner(&owner), "{owner} is one of ours");
+    let status = check_finished(&server.addr, db, &id, 3);
     assert_eq!(status["attempts"], 1, "the coordinator kept the job");
 
     // The coordinating process dies: another worker takes the job over.
     let id = submit(&server.addr, 4);
     let owner = victim(&server.addr, &id, || db.coordinator(&id));
-    assert!(workers.kill_owner(&owner), "{owner} is one of ours");
-    let status = check_finished(&server.addr, &db, &id, 4);
+    assert!(cluster.workers.kill_owner(&owner), "{owner} is one of ours");
+    let status = check_finished(&server.addr, db, &id, 4);
     assert_eq!(status["attempts"], 2, "taken over once");
 }
 
 #[test]
 fn workers_evaluate_a_target_error_job_on_the_scene_its_coordinator_chose() {
-    let Some(server_url) = postgres_url() else {
-        eprintln!("scale-out test skipped: WSM_TEST_POSTGRES_URL is not set");
+    let Some(cluster) = Cluster::start(2) else {
         return;
     };
-    let schema = PgSchema::new(&server_url);
-    let server = Server::start(&schema.url, &["--workers", "0"]);
-    let _workers = Workers::start(&schema.url, 2);
-    let db = Db::open(&schema.url);
+    let (db, server) = (&cluster.db, &cluster.server);
     let (budget, seed) = (40, 6);
-    let reply = post(
+    let id = submit_settings(
         &server.addr,
-        "/v1/jobs",
-        &json!({
-            "example": EXAMPLE,
-            "settings": {"criteria": ["phi3"], "budget": budget, "seed": seed, "target_error": 0.05}
-        }),
+        json!({"criteria": ["phi3"], "budget": budget, "seed": seed, "target_error": 0.05}),
     );
-    assert_eq!(
-        reply.status,
-        202,
-        "{}",
-        String::from_utf8_lossy(&reply.body)
-    );
-    let id = reply.json()["id"].as_str().unwrap().to_string();
     let status = wait_finished(&server.addr, &id, Duration::from_secs(300));
     assert_eq!(status["state"], "succeeded", "{status}");
     let result = get(&server.addr, &format!("/v1/jobs/{id}/result")).json();

@@ -383,13 +383,14 @@ impl BlockOperators {
             kernel,
         })
     }
+}
 
-    /// Memory held \[bytes\] (the dense operators and the local matrix; the factor about as
-    /// much again as the matrix).
-    fn bytes(&self) -> usize {
-        let dense = self.schur.nrows() * self.schur.ncols() * 2 + self.kernel.nrows() * 3;
-        8 * (dense + 2 * self.k.val.len())
-    }
+/// Memory the operators of a block with local matrix `k` hold \[bytes\]: S and the Neumann map
+/// (n_Γ × n_Γ each), the kernel (≤ 3 columns) and the local matrix with its factor (about as
+/// much again as the matrix).
+fn operator_bytes(k: &Csr, n_interior: usize) -> usize {
+    let ng = k.dim() - n_interior;
+    8 * (2 * ng * ng + 3 * k.dim() + 2 * k.val.len())
 }
 
 /// The operators of one subdomain by stiffness.
@@ -428,7 +429,7 @@ impl OperatorCache {
         candidates: MatRef<'_, f64>,
     ) -> Result<Arc<BlockOperators>, String> {
         let key = memo::key(k.val.iter().copied());
-        let existing = {
+        let memo = {
             let mut subdomains = self
                 .subdomains
                 .lock()
@@ -436,22 +437,15 @@ impl OperatorCache {
             if subdomains.len() < count {
                 subdomains.resize(count, None);
             }
-            subdomains[s].clone()
-        };
-        let memo = match existing {
-            Some(memo) => memo,
-            None => {
-                let ops = Arc::new(BlockOperators::new(k, n_interior, candidates)?);
-                self.built.fetch_add(1, Ordering::Relaxed);
-                let budget = OPERATOR_CACHE_BYTES / count.max(1);
-                let memo = Arc::new(Memo::new(memo::capacity(budget, ops.bytes())));
-                memo.get_or_try(key, || Ok::<_, String>(ops.clone()))?;
-                self.subdomains
-                    .lock()
-                    .unwrap_or_else(PoisonError::into_inner)[s]
-                    .get_or_insert(memo);
-                return Ok(ops);
-            }
+            subdomains[s]
+                .get_or_insert_with(|| {
+                    let budget = OPERATOR_CACHE_BYTES / count.max(1);
+                    Arc::new(Memo::new(memo::capacity(
+                        budget,
+                        operator_bytes(&k, n_interior),
+                    )))
+                })
+                .clone()
         };
         let (ops, cached) = memo.get_or_try(key, || {
             BlockOperators::new(k, n_interior, candidates).map(Arc::new)

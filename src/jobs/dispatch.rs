@@ -13,9 +13,12 @@
 //! store through the runtime's handle.
 
 use std::collections::HashSet;
+use std::future::Future;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
+
+use tokio::task::JoinHandle;
 
 use super::{wait, JobStore, StoreResult, TaskScope};
 use crate::error::WsmError;
@@ -46,7 +49,7 @@ pub struct StoreDispatch {
     /// The live threads last counted, and when.
     live: Mutex<Option<(Instant, usize)>>,
     /// The append of this process's last share, still running.
-    pending: Mutex<Option<tokio::task::JoinHandle<StoreResult<usize>>>>,
+    pending: Mutex<Option<JoinHandle<StoreResult<usize>>>>,
 }
 
 impl StoreDispatch {
@@ -100,12 +103,7 @@ impl StoreDispatch {
             .unwrap_or_else(PoisonError::into_inner)
             .take();
         match pending {
-            Some(append) => self
-                .runtime
-                .block_on(append)
-                .map_err(|e| self.io(e))?
-                .map(|_| ())
-                .map_err(|e| self.io(e)),
+            Some(append) => self.join(append).map(|_| ()),
             None => Ok(()),
         }
     }
@@ -125,6 +123,19 @@ impl StoreDispatch {
         WsmError::io(format!("job {}", self.job), e)
     }
 
+    /// Wait for a store call; its error as this job's.
+    fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
+        self.runtime.block_on(call).map_err(|e| self.io(e))
+    }
+
+    /// Wait for a store call spawned on the runtime; its error (or the task's) as this job's.
+    fn join<T>(&self, task: JoinHandle<StoreResult<T>>) -> Result<T, WsmError> {
+        self.runtime
+            .block_on(task)
+            .map_err(|e| self.io(e))?
+            .map_err(|e| self.io(e))
+    }
+
     /// Take over the batch's tasks nobody has started (or whose worker died), evaluate and
     /// store them; the parts taken.
     fn take_over(&self, batch: u64, local: &LocalEvaluate<'_>) -> Result<Vec<u32>, WsmError> {
@@ -134,22 +145,17 @@ impl StoreDispatch {
             attempt: self.attempt,
             batch,
         };
-        while let Some(task) = self
-            .runtime
-            .block_on(
-                self.store
-                    .lease_task(&self.owner, self.lease_seconds, scope),
-            )
-            .map_err(|e| self.io(e))?
-        {
+        while let Some(task) = self.call(self.store.lease_task(
+            &self.owner,
+            self.lease_seconds,
+            scope,
+        ))? {
             let evaluations = local(&task.points);
-            let stored = self
-                .runtime
-                .block_on(
-                    self.store
-                        .complete_task(&task.key, &self.owner, &evaluations),
-                )
-                .map_err(|e| self.io(e))?;
+            let stored = self.call(self.store.complete_task(
+                &task.key,
+                &self.owner,
+                &evaluations,
+            ))?;
             if stored {
                 taken.push(task.key.part);
             }
@@ -208,23 +214,17 @@ impl BatchDispatch for StoreDispatch {
         let mine_indices: Vec<usize> = by_slot[..own].concat();
         let mine = gather(&mine_indices);
         let own_evaluations = local(&mine);
-        self.runtime
-            .block_on(post)
-            .map_err(|e| self.io(e))?
-            .map_err(|e| self.io(e))?;
+        self.join(post)?;
         self.store_share(own_evaluations.clone())?;
         let mut taken: HashSet<u32> = HashSet::new();
         let remote_evaluations = loop {
             if self.lost.load(Ordering::SeqCst) {
                 return Err(self.io("the job's lease was taken over"));
             }
-            match self
-                .runtime
-                .block_on(self.store.batch_results(&self.job, self.attempt, batch))
+            if let Some(evaluations) =
+                self.call(self.store.batch_results(&self.job, self.attempt, batch))?
             {
-                Ok(Some(evaluations)) => break evaluations,
-                Ok(None) => {}
-                Err(e) => return Err(self.io(e)),
+                break evaluations;
             }
             let newly = self.take_over(batch, local)?;
             if newly.is_empty() {
@@ -254,13 +254,10 @@ impl BatchDispatch for StoreDispatch {
 
     fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
         let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
-        let held = self
-            .runtime
-            .block_on(
-                self.store
-                    .record_chosen_scene(&self.job, &self.owner, &text),
-            )
-            .map_err(|e| self.io(e))?;
+        let held = self.call(
+            self.store
+                .record_chosen_scene(&self.job, &self.owner, &text),
+        )?;
         if held {
             Ok(())
         } else {
