@@ -8,8 +8,8 @@
 use std::time::Instant;
 
 use serde_json::{json, Value};
-use wsm::mesh::{generate, stats, Mesh};
-use wsm::scene::Scene;
+use wsm_core::mesh::{generate, stats, Mesh};
+use wsm_core::scene::Scene;
 
 /// Smallest angle of every triangle, degrees.
 fn min_angles(mesh: &Mesh) -> Vec<f64> {

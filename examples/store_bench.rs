@@ -9,9 +9,9 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use wsm::jobs::sql::{Backend, SqlStore};
-use wsm::jobs::{wait, JobStore, NewJob, TaskScope};
-use wsm::run::{Evaluation, WorstRequest};
+use wsm_core::run::{Evaluation, WorstRequest};
+use wsm_service::jobs::sql::{Backend, SqlStore};
+use wsm_service::jobs::{wait, JobStore, NewJob, TaskScope};
 
 fn evaluation(point: &[f64]) -> Evaluation {
     Evaluation {

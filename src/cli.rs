@@ -1,4 +1,4 @@
-//! What the `wsm` commands do, as a thin layer over the front door (`wsm::run`): reading scene
+//! What the `wsm` commands do, as a thin layer over the front door (`wsm_core::run`): reading scene
 //! files, a progress bar on stderr, writing result files, and one-line errors with an exit code
 //! per error kind.
 
@@ -8,12 +8,12 @@ use std::sync::Arc;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use wsm::error::{ErrorKind, WsmError};
-use wsm::run::{
+use wsm_core::error::{ErrorKind, WsmError};
+use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
     SolveRequest, WorstOutcome, WorstRequest,
 };
-use wsm::scene::{parse, Criterion, Scene, SceneError};
+use wsm_core::scene::{parse, Criterion, Scene, SceneError};
 
 /// Exit status of an error: 2 bad input or unknown name, 3 unsolvable, 4 solver failure,
 /// 5 files and logs, 6 cancelled.
@@ -31,7 +31,7 @@ pub fn exit_code(error: &WsmError) -> ExitCode {
 pub fn load_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {
         (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
-        (None, Some(name)) => wsm::examples::find(name)?.to_string(),
+        (None, Some(name)) => wsm_core::bundled::find(name)?.to_string(),
         _ => {
             return Err(
                 SceneError::new("SCENE", "give a scene file or --example NAME (not both)").into(),
@@ -177,19 +177,19 @@ fn without_histories(mut outcome: WorstOutcome) -> WorstOutcome {
 /// `wsm example`: a scene's JSON, or the list of names.
 pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     match (name, list) {
-        (Some(n), false) => Ok(wsm::examples::find(n)?.to_string()),
-        _ => Ok(wsm::examples::names().collect::<Vec<_>>().join("\n")),
+        (Some(n), false) => Ok(wsm_core::bundled::find(n)?.to_string()),
+        _ => Ok(wsm_core::bundled::names().collect::<Vec<_>>().join("\n")),
     }
 }
 
 /// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
-pub fn serve(config: wsm::server::ServeConfig) -> Result<String, WsmError> {
-    runtime()?.block_on(wsm::server::serve(config))?;
+pub fn serve(config: wsm_service::server::ServeConfig) -> Result<String, WsmError> {
+    runtime()?.block_on(wsm_service::server::serve(config))?;
     Ok("wsm: stopped".into())
 }
 
-pub fn worker(config: wsm::server::WorkerConfig) -> Result<String, WsmError> {
-    runtime()?.block_on(wsm::server::worker(config))?;
+pub fn worker(config: wsm_service::server::WorkerConfig) -> Result<String, WsmError> {
+    runtime()?.block_on(wsm_service::server::worker(config))?;
     Ok("wsm: stopped".into())
 }
 
@@ -211,8 +211,8 @@ pub fn study_case(
     path: Option<&Path>,
     example: Option<&str>,
     analytic: Option<&str>,
-) -> Result<wsm::study::accuracy::Case, WsmError> {
-    use wsm::study::accuracy::Case;
+) -> Result<wsm_study::accuracy::Case, WsmError> {
+    use wsm_study::accuracy::Case;
     match (path, example) {
         (None, Some(name)) if analytic.is_none() => Case::example(name),
         (None, Some(_)) => Err(SceneError::new(
@@ -251,12 +251,12 @@ fn write_in(dir: &Path, name: &str, text: &str) -> Result<(), WsmError> {
 /// `wsm study accuracy`: the Markdown report on stdout; with `--out`, the report, the CSV table
 /// and the SVG plot in that directory.
 pub fn study_accuracy(
-    case: &wsm::study::accuracy::Case,
-    options: &wsm::study::accuracy::AccuracyOptions,
+    case: &wsm_study::accuracy::Case,
+    options: &wsm_study::accuracy::AccuracyOptions,
     out: Option<&Path>,
 ) -> Result<String, WsmError> {
-    use wsm::study::report;
-    let study = wsm::study::accuracy::run(case, options)?;
+    use wsm_study::report;
+    let study = wsm_study::accuracy::run(case, options)?;
     let markdown = report::markdown(&study, &command_line());
     if let Some(dir) = out {
         let name = slug(&study.case);
@@ -270,7 +270,7 @@ pub fn study_accuracy(
 /// `wsm study stability`: the catalogue as Markdown (and JSON with `--out`); an error when a case
 /// fails its expectation.
 pub fn study_stability(out: Option<&Path>) -> Result<String, WsmError> {
-    use wsm::study::stability;
+    use wsm_study::stability;
     let results = stability::run_catalogue(&stability::catalogue());
     let markdown = stability::markdown(&results, &command_line());
     if let Some(dir) = out {

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
-use wsm::run::{SolveRequest, WorstRequest};
+use wsm_core::run::{SolveRequest, WorstRequest};
 
 #[derive(Parser)]
 #[command(
@@ -231,8 +231,8 @@ fn main() -> ExitCode {
         } => {
             let request = SolveRequest {
                 solver: solver.map(|s| match s {
-                    SolverArg::Direct => wsm::scene::SolverKind::Direct,
-                    SolverArg::Dd => wsm::scene::SolverKind::Dd,
+                    SolverArg::Direct => wsm_core::scene::SolverKind::Direct,
+                    SolverArg::Dd => wsm_core::scene::SolverKind::Dd,
                 }),
                 fields: false,
             };
@@ -281,18 +281,18 @@ fn main() -> ExitCode {
             max_active_jobs,
             max_triangles,
             max_body_bytes,
-        } => cli::serve(wsm::server::ServeConfig {
+        } => cli::serve(wsm_service::server::ServeConfig {
             addr,
             db,
             workers,
             threads_per_job,
             lease_seconds,
-            limits: wsm::api::Limits {
+            limits: wsm_service::api::Limits {
                 max_budget,
                 max_active_jobs,
                 max_triangles,
                 max_body_bytes,
-                ..wsm::api::Limits::default()
+                ..wsm_service::api::Limits::default()
             },
             token: std::env::var("WSM_API_TOKEN")
                 .ok()
@@ -303,15 +303,15 @@ fn main() -> ExitCode {
             threads,
             jobs,
             lease_seconds,
-        } => cli::worker(wsm::server::WorkerConfig {
+        } => cli::worker(wsm_service::server::WorkerConfig {
             db,
             threads,
             jobs,
             lease_seconds,
         }),
-        Command::Openapi => wsm::api::openapi_json()
+        Command::Openapi => wsm_service::api::openapi_json()
             .map(|t| t.trim_end().to_string())
-            .map_err(|e| wsm::error::WsmError::io("OpenAPI document", e)),
+            .map_err(|e| wsm_core::error::WsmError::io("OpenAPI document", e)),
         Command::Bench {
             sizes,
             runs,
@@ -320,9 +320,9 @@ fn main() -> ExitCode {
             budget,
         } => {
             if worst {
-                wsm::bench::run_worst(&sizes, budget, dd)
+                wsm_study::bench::run_worst(&sizes, budget, dd)
             } else {
-                wsm::bench::run(&sizes, runs, dd)
+                wsm_study::bench::run(&sizes, runs, dd)
             }
         }
         Command::Example { name, list } => cli::example(name.as_deref(), list),
@@ -341,8 +341,8 @@ fn main() -> ExitCode {
                 out,
             } => cli::study_case(scene.as_deref(), example.as_deref(), analytic.as_deref())
                 .and_then(|case| {
-                    let options = wsm::study::accuracy::AccuracyOptions {
-                        ladder: wsm::study::ladder::Ladder::new(coarsest, ratio, levels)?,
+                    let options = wsm_study::accuracy::AccuracyOptions {
+                        ladder: wsm_core::estimate::ladder::Ladder::new(coarsest, ratio, levels)?,
                         dd_tolerances: if direct_only { Vec::new() } else { tolerances },
                         repeats,
                         threads,

@@ -4,7 +4,7 @@ use faer::Mat;
 use proptest::prelude::*;
 use std::time::{Duration, Instant};
 
-use wsm::contact::qp::{
+use wsm_core::contact::qp::{
     kkt_residuals, solve_box_qp, BoxQp, QpError, QpMethod, QpOptions, QpSolution, WarmStart,
 };
 

@@ -1,19 +1,19 @@
-//! Contact verification (SPEC §6, issue "Contact"): 2D Hertz, the contact patch test, Tresca
+//! Contact verification (design §6, issue "Contact"): 2D Hertz, the contact patch test, Tresca
 //! limits, stick/slip thresholds, and KKT residuals of every example.
 
 use serde_json::{json, Value};
-use wsm::scene::{parse, Data, Scene};
-use wsm::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::scene::{parse, Data, Scene};
+use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
 
 fn options(scene: &Scene) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(scene),
-        par: wsm::fem::Par::Seq,
+        par: wsm_core::fem::Par::Seq,
         warm: None,
     }
 }
 
-fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm::error::WsmError> {
+fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::error::WsmError> {
     let scene = parse(&v.to_string())?;
     let problem = StateProblem::new(scene)?;
     let sol = problem.solve(&problem.nominal, &options(&problem.scene))?;
@@ -176,7 +176,7 @@ fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
 
 #[test]
 fn hertz_half_width_and_peak_pressure() {
-    let base: Value = serde_json::from_str(wsm::examples::example("hertz").unwrap()).unwrap();
+    let base: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
     let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
     let (r, load) = (0.5, 4.0 * 2.5e8);
     let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
@@ -226,7 +226,7 @@ fn hertz_half_width_and_peak_pressure() {
 
 #[test]
 fn every_example_solves_with_small_kkt_residuals() {
-    for (name, text) in wsm::examples::EXAMPLES {
+    for (name, text) in wsm_core::bundled::EXAMPLES {
         let scene = parse(text).unwrap();
         let problem = StateProblem::new(scene).unwrap_or_else(|e| panic!("{name}: {e}"));
         let sol = problem
@@ -249,9 +249,9 @@ fn contact_resultants_balance_the_applied_loads() {
     // block-on-base: the floating block carries 1e6 Pa on its 1 m top plus its weight
     // 2.45e4 N/m³ × 0.5 m², and is pushed by 4e5 Pa on its 0.5 m side.
     let scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     let (problem, sol) = solve_value(&scene).unwrap();
-    let zones = wsm::state::zone_summaries(
+    let zones = wsm_core::state::zone_summaries(
         &["joint".to_string()],
         &problem.contact.geometry,
         &sol.contact,
@@ -275,7 +275,7 @@ fn mean_contact_pressure_on_a_contact_piece() {
     scene["criteria"] = json!({"boundary_pieces": [
         {"name": "middle", "segment": "upper_bottom", "from": [0.25, 0.5], "to": [0.75, 0.5]}]});
     let (problem, sol) = solve_value(&scene).unwrap();
-    let pieces = wsm::state::piece_pressures(
+    let pieces = wsm_core::state::piece_pressures(
         &problem.criteria.pieces,
         &problem.contact.geometry,
         &sol.contact,

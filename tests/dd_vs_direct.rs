@@ -3,8 +3,8 @@
 //! states, DD converged by itself (no fallback), partition of unity and coarse orthogonality.
 
 use serde_json::{json, Value};
-use wsm::scene::{parse, SolverKind};
-use wsm::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::scene::{parse, SolverKind};
+use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 
 fn solve(scene: &Value, kind: SolverKind) -> (StateProblem, Solution) {
     let mut scene = parse(&scene.to_string()).unwrap();
@@ -13,7 +13,7 @@ fn solve(scene: &Value, kind: SolverKind) -> (StateProblem, Solution) {
     let problem = StateProblem::new(scene).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm::fem::Par::Seq,
+        par: wsm_core::fem::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();
@@ -82,14 +82,15 @@ fn compare(name: &str, scene: Value) {
 #[test]
 fn block_on_base_dd_equals_direct() {
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     compare("block-on-base", scene);
 }
 
 #[test]
 fn hertz_dd_equals_direct() {
-    let mut scene: Value = serde_json::from_str(wsm::examples::example("hertz").unwrap()).unwrap();
+    let mut scene: Value =
+        serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
     scene["mesh"]["refine"][0]["max_size"] = json!(0.02);
     compare("hertz", scene);
 }
@@ -99,7 +100,7 @@ fn tunnel_fault_dd_equals_direct() {
     // The paper's geomechanical example (D05 §8.1): the successive approximations do not contract
     // on the long fault bands (2β² ≥ 1), the safeguarded Newton steps converge without fallback.
     let scene: Value =
-        serde_json::from_str(wsm::examples::example("tunnel-fault").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
     compare("tunnel-fault", scene);
     // Measured: outer 10, PCG1 84, PCG2 65, 6 Newton steps with 123 PCG iterations (the paper
     // reports 21 / 15 / 39 with plain successive approximations on its own mesh).
@@ -110,13 +111,13 @@ fn knee_dd_equals_direct() {
     // Three bodies, one cluster holding the insert and the whole floating femur; the femur's
     // frictionless sliding is determined by nothing (interior kernel of the cluster without
     // interface trace): both solvers report the displacement with no component along it.
-    let scene: Value = serde_json::from_str(wsm::examples::example("knee").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
     compare("knee", scene);
 }
 
 #[test]
 fn knee_reports_the_undetermined_sliding_with_either_solver() {
-    let scene: Value = serde_json::from_str(wsm::examples::example("knee").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
     for kind in [SolverKind::Direct, SolverKind::Dd] {
         let (problem, sol) = solve(&scene, kind);
         assert_eq!(sol.report.undetermined_modes, 1, "{kind:?}");
@@ -146,13 +147,13 @@ fn tunnel_at_the_papers_size_converges_to_1e_6() {
     // D05 §8.1 / FGCS §5: 10,428 unknowns, 12 subdomains, 89 contact conditions; the paper needs
     // 21 PCG1 / 15 outer / 39 PCG2 iterations. Fault mesh size 0.8 gives the same sizes here.
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("tunnel-fault").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
     scene["mesh"]["refine"][0]["max_size"] = json!(0.8);
     scene["solver"] = json!({"kind": "dd", "subdomains": 12, "tolerance": 1e-6});
     let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm::fem::Par::Seq,
+        par: wsm_core::fem::Par::Seq,
         warm: None,
     };
     let dd = problem.solve(&problem.nominal, &options).unwrap();
@@ -188,7 +189,7 @@ fn block_on_base_with_an_explicit_partition_equals_direct() {
     // of the base falls into two edge-disconnected pieces (left strip, right part), which become
     // two subdomains.
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     scene["solver"]["partition"] = json!([
         [[0.3, 0.3], [1.7, 0.3], [1.7, 1.1], [0.3, 1.1]],
@@ -202,14 +203,14 @@ fn block_on_base_with_an_explicit_partition_equals_direct() {
 #[test]
 fn an_explicit_partition_that_cuts_a_contact_zone_is_refused_naming_the_field() {
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     scene["solver"] =
         json!({"kind": "dd", "partition": [[[0.0, 0.0], [1.0, 0.0], [1.0, 1.1], [0.0, 1.1]]]});
     let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm::fem::Par::Seq,
+        par: wsm_core::fem::Par::Seq,
         warm: None,
     };
     let err = problem
@@ -227,6 +228,6 @@ fn thick_cylinder_without_contact_dd_equals_direct() {
     // No contact: DD is plain balancing Neumann–Neumann. The automatic partition is a chain of
     // three subdomains, whose rigid coarse traces are dependent (dropped, not refused).
     let scene: Value =
-        serde_json::from_str(wsm::examples::example("thick-cylinder").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("thick-cylinder").unwrap()).unwrap();
     compare("thick-cylinder", scene);
 }

@@ -1,14 +1,16 @@
-//! FEM verification (SPEC §6, FEM part): patch tests, manufactured solutions with measured
+//! FEM verification (design §6, FEM part): patch tests, manufactured solutions with measured
 //! convergence rates, the thick-walled cylinder (Lamé), free thermal expansion, heat across a
 //! perfect thermal contact, floating bodies and conflicting constraints.
 
 use std::f64::consts::PI;
 
-use wsm::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
-use wsm::mesh::structured::{perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks};
-use wsm::mesh::{Mesh, MeshSegment};
-use wsm::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
-use wsm::study::analytic::{field_errors, points, ExactField, LameCylinder, Manufactured};
+use wsm_core::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
+use wsm_core::mesh::structured::{
+    perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks,
+};
+use wsm_core::mesh::{Mesh, MeshSegment};
+use wsm_core::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
+use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder, Manufactured};
 
 // ---------- helpers ----------
 
@@ -601,7 +603,7 @@ fn conflicting_and_invalid_data_give_errors() {
 fn benchmark_direct_pipeline() {
     for (nx, ny) in [(100, 50), (320, 160)] {
         for (name, par) in [("seq", Par::Seq), ("rayon", Par::rayon(0))] {
-            let t = wsm::fem::bench::elastic_benchmark(nx, ny, 5, par).unwrap();
+            let t = wsm_core::fem::bench::elastic_benchmark(nx, ny, 5, par).unwrap();
             println!(
                 "{nx}x{ny} {name}: {} free DOFs, nnz(L) {}, assembly {:.4}s, symbolic {:.4}s, numeric {:.4}s, solve {:.4}s, (numeric+solve)/first = {:.3}",
                 t.free_dofs, t.factor_nnz, t.assembly, t.symbolic, t.numeric, t.solve, t.refactor_ratio

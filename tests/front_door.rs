@@ -1,4 +1,4 @@
-//! The front door (`wsm::run`) and the `wsm worst` command around it: cancellation and the time
+//! The front door (`wsm_core::run`) and the `wsm worst` command around it: cancellation and the time
 //! limit return partial outcomes with their status, an evaluation log survives SIGKILL and a
 //! resumed run ends bit-identical to an uninterrupted one, logs of other runs are refused, a
 //! cut last line is redone, the CSV table has one row per evaluation, and the thread count does
@@ -12,17 +12,17 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
-use wsm::error::WsmError;
-use wsm::run::{
+use wsm_core::error::WsmError;
+use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, RunControl, RunPhase, Status,
     WorstOutcome, WorstRequest,
 };
-use wsm::scene::{parse, Criterion, Scene};
+use wsm_core::scene::{parse, Criterion, Scene};
 
 /// The block pushed on a base with a coarse mesh (fast solves).
 fn block(max_size: f64) -> Scene {
     let mut v: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     v["mesh"] = json!({ "max_size": max_size });
     parse(&v.to_string()).unwrap()
 }

@@ -11,10 +11,10 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use serde_json::{json, Value};
-use wsm::fem::Par;
-use wsm::mesh::{generate, stats, Mesh};
-use wsm::scene::{validate, Scene};
-use wsm::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::fem::Par;
+use wsm_core::mesh::{generate, stats, Mesh};
+use wsm_core::scene::{validate, Scene};
+use wsm_core::state::{Needs, SolveOptions, StateProblem};
 
 type P = [f64; 2];
 

@@ -1,10 +1,10 @@
 //! Bad scenes are refused before any work, with an error naming the offending JSON field.
 
 use serde_json::{json, Value};
-use wsm::scene::parse;
+use wsm_core::scene::parse;
 
 fn base() -> Value {
-    serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap()
+    serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap()
 }
 
 /// Apply `edit` to the block-on-base example and check the error path starts with `path`.

@@ -230,7 +230,7 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
     );
     let addr = &server.addr;
     let scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     let with = |path: &str, value: Value| {
         let mut s = scene.clone();
         let mut target = &mut s;

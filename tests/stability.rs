@@ -1,4 +1,4 @@
-//! Stiff and extreme cases (SPEC §6 "Stability", issue 13): the catalogue of `wsm study
+//! Stiff and extreme cases (design §6 "Stability", issue 13): the catalogue of `wsm study
 //! stability` — stiffness contrasts to 1e9, ν to 0.4999, slip limits 0 … 1e12, loads near
 //! lift-off, floating bodies, aspect ratios to 1e3, units, a four-decade interval, each with the
 //! direct and the DD solver — must pass case by case: solved with KKT residuals under the
@@ -6,10 +6,10 @@
 //! never a NaN or a success above tolerance.
 
 use serde_json::json;
-use wsm::run::{self, RunControl, WorstRequest};
-use wsm::scene::{parse, Criterion};
-use wsm::state::{Needs, SolveOptions, StateProblem};
-use wsm::study::stability::{catalogue, pushed_block, run_catalogue};
+use wsm_core::run::{self, RunControl, WorstRequest};
+use wsm_core::scene::{parse, Criterion};
+use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_study::stability::{catalogue, pushed_block, run_catalogue};
 
 #[test]
 fn every_case_of_the_catalogue_passes_with_both_solvers() {
@@ -62,7 +62,7 @@ fn near_lift_off_the_contact_carries_exactly_the_net_load() {
     let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm::fem::Par::Seq,
+        par: wsm_core::fem::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();

@@ -11,9 +11,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use common::{postgres_url, PgSchema};
-use wsm::jobs::sql::SqlStore;
-use wsm::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskScope};
-use wsm::run::{Evaluation, WorstRequest};
+use wsm_core::run::{Evaluation, WorstRequest};
+use wsm_service::jobs::sql::SqlStore;
+use wsm_service::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskScope};
 
 /// A fresh SQLite file.
 async fn sqlite() -> Arc<dyn JobStore> {

@@ -1,14 +1,14 @@
-//! Accuracy as a product output (SPEC §6, issue 13): `wsm study accuracy` measures the orders
+//! Accuracy as a product output (design §6, issue 13): `wsm study accuracy` measures the orders
 //! theory predicts (≈ 2 in L², ≈ 1 in energy for the smooth manufactured solution, ≈ 1 in energy
 //! for the Lamé cylinder; Hertz errors shrinking with h) and DD rows equal to direct ones; the
 //! accuracy statement of a worst-scenario result is deterministic, refines the mesh and stops
 //! with the run.
 
 use serde_json::{json, Value};
-use wsm::run::{self, RunControl, Status, WorstRequest};
-use wsm::scene::{parse, Criterion, Scene};
-use wsm::study::accuracy::{run as study, AccuracyOptions, AccuracyStudy, Case, Reference};
-use wsm::study::ladder::Ladder;
+use wsm_core::estimate::ladder::Ladder;
+use wsm_core::run::{self, RunControl, Status, WorstRequest};
+use wsm_core::scene::{parse, Criterion, Scene};
+use wsm_study::accuracy::{run as study, AccuracyOptions, AccuracyStudy, Case, Reference};
 
 fn options(coarsest: f64, ratio: f64, levels: usize, dd: Vec<f64>) -> AccuracyOptions {
     AccuracyOptions {
@@ -58,11 +58,11 @@ fn manufactured_solution_converges_at_order_two_in_l2_and_one_in_energy() {
             assert!((a - b).abs() <= 1e-5 * a, "{a} vs {b}");
         }
     }
-    let markdown = wsm::study::report::markdown(&s, "test");
+    let markdown = wsm_study::report::markdown(&s, "test");
     assert!(markdown.contains("| L² | exact field |"), "{markdown}");
-    let csv = wsm::study::report::csv(&s).unwrap();
+    let csv = wsm_study::report::csv(&s).unwrap();
     assert_eq!(csv.lines().count(), 1 + s.rows.len());
-    assert!(wsm::study::report::plot(&s).contains("<polyline"));
+    assert!(wsm_study::report::plot(&s).contains("<polyline"));
 }
 
 #[test]
@@ -112,7 +112,7 @@ fn hertz_errors_shrink_with_the_mesh() {
 /// The block pushed on a base with a coarse mesh.
 fn block() -> Scene {
     let mut v: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     v["mesh"] = json!({ "max_size": 0.2 });
     parse(&v.to_string()).unwrap()
 }
@@ -194,7 +194,7 @@ fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
     assert!(chosen.relative_errors.iter().all(|r| r.unwrap() <= 0.02));
     // The same run as one on the chosen mesh without a target, bit for bit; a different hash.
     let plain = run::worst(
-        wsm::study::ladder::scaled(&block(), choice.size_factor).unwrap(),
+        wsm_core::estimate::ladder::scaled(&block(), choice.size_factor).unwrap(),
         &WorstRequest {
             accuracy_refinements: Some(1),
             ..request(1, None)

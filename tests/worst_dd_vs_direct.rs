@@ -5,12 +5,12 @@
 //! factorisations give the same bits as fresh ones; a warm-started solve equals a cold one to
 //! the solver tolerance).
 
-use wsm::bench::scaled_scene;
-use wsm::run::{self, RunControl, WorstOutcome, WorstRequest};
-use wsm::scenario::evaluator::ScenarioEvaluator;
-use wsm::scene::params::parameters;
-use wsm::scene::{Scene, SolverKind};
-use wsm::state::StateProblem;
+use wsm_core::run::{self, RunControl, WorstOutcome, WorstRequest};
+use wsm_core::scenario::evaluator::ScenarioEvaluator;
+use wsm_core::scene::params::parameters;
+use wsm_core::scene::{Scene, SolverKind};
+use wsm_core::state::StateProblem;
+use wsm_study::bench::scaled_scene;
 
 fn scene(example: &str, coarsen: f64, kind: SolverKind) -> Scene {
     let mut scene = scaled_scene(example, coarsen).unwrap();
@@ -134,18 +134,19 @@ fn an_evaluation_does_not_depend_on_the_ones_before_it() {
 /// tolerance.
 #[test]
 fn a_warm_started_solve_equals_a_cold_one() {
-    use wsm::state::{Needs, SolveOptions};
+    use wsm_core::state::{Needs, SolveOptions};
     for kind in [SolverKind::Direct, SolverKind::Dd] {
         let problem = StateProblem::new(scene("tunnel-fault", 3.0, kind)).unwrap();
         let params = parameters(&problem.scene).unwrap();
         let options = |warm| SolveOptions {
             needs: Needs::all(&problem.scene),
-            par: wsm::fem::Par::Seq,
+            par: wsm_core::fem::Par::Seq,
             warm,
         };
         let nominal = problem.solve(&problem.nominal, &options(None)).unwrap();
         for theta in points(&problem, 3) {
-            let data = wsm::scene::params::apply(&problem.scene, &problem.nominal, &params, &theta);
+            let data =
+                wsm_core::scene::params::apply(&problem.scene, &problem.nominal, &params, &theta);
             let warm = problem
                 .solve(&data, &options(nominal.warm_start.clone()))
                 .unwrap();

@@ -1,13 +1,13 @@
-//! Worst-scenario engine acceptance, through the front door (`wsm::run::worst`): known worst
+//! Worst-scenario engine acceptance, through the front door (`wsm_core::run::worst`): known worst
 //! cases, a two-parameter contact case against a dense grid, a thermal case that needs only the
 //! heat solve, and bad admissible sets refused before any solve.
 
 use serde_json::{json, Value};
-use wsm::run::{worst as run_worst, RunControl, WorstOutcome, WorstRequest};
-use wsm::scenario::evaluator::ScenarioEvaluator;
-use wsm::scene::params::parameters;
-use wsm::scene::{parse, Criterion};
-use wsm::state::StateProblem;
+use wsm_core::run::{worst as run_worst, RunControl, WorstOutcome, WorstRequest};
+use wsm_core::scenario::evaluator::ScenarioEvaluator;
+use wsm_core::scene::params::parameters;
+use wsm_core::scene::{parse, Criterion};
+use wsm_core::state::StateProblem;
 
 /// Search a scene for the given criteria (fresh run, never cancelled).
 fn worst(scene: &Value, criteria: &[Criterion], budget: usize, seed: u64) -> WorstOutcome {
@@ -41,7 +41,7 @@ fn loaded_block() -> Value {
     })
 }
 
-fn point(o: &wsm::run::ObjectiveResult) -> Vec<f64> {
+fn point(o: &wsm_core::run::ObjectiveResult) -> Vec<f64> {
     o.best_point.clone().expect("a best point")
 }
 
@@ -73,7 +73,7 @@ fn monotone_stress_criterion_worst_is_the_max_load() {
 #[test]
 fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluations() {
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [0.0, 4.0e5]},
@@ -104,7 +104,7 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
 #[test]
 fn thermal_criteria_use_the_heat_solve_only() {
     let scene: Value =
-        serde_json::from_str(wsm::examples::example("heated-plate").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("heated-plate").unwrap()).unwrap();
     let r = worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30, 7);
     assert!(r.inner.heat_solves > 0);
     assert_eq!(
@@ -119,7 +119,7 @@ fn thermal_criteria_use_the_heat_solve_only() {
 #[test]
 fn changing_only_loads_and_slip_limits_never_refactorises() {
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 4.0e5]},
@@ -138,7 +138,7 @@ fn changing_only_loads_and_slip_limits_never_refactorises() {
 fn unbalanced_vertex_is_refused_before_any_solve() {
     // The block floats: at traction 6e5 Pa × 0.5 m = 3e5 N/m > g L = 2.5e5 N/m it slides away.
     let mut scene: Value =
-        serde_json::from_str(wsm::examples::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 6.0e5]},
@@ -147,7 +147,7 @@ fn unbalanced_vertex_is_refused_before_any_solve() {
     let parsed = parse(&scene.to_string()).unwrap();
     let err = run_worst(parsed, &WorstRequest::default(), &RunControl::new())
         .expect_err("must be refused");
-    assert_eq!(err.kind(), wsm::error::ErrorKind::BadInput);
+    assert_eq!(err.kind(), wsm_core::error::ErrorKind::BadInput);
     let msg = err.to_string();
     assert!(
         msg.starts_with("uncertain") && msg.contains("block"),

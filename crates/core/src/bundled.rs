@@ -1,0 +1,60 @@
+//! Bundled example scenes (`wsm example NAME`, `GET /v1/examples`), compiled into the binary
+//! from `scenes/*.json`.
+
+/// (name, JSON text) of every bundled scene.
+pub const EXAMPLES: &[(&str, &str)] = &[
+    (
+        "block-on-base",
+        include_str!("../../../scenes/block-on-base.json"),
+    ),
+    (
+        "heated-plate",
+        include_str!("../../../scenes/heated-plate.json"),
+    ),
+    ("hertz", include_str!("../../../scenes/hertz.json")),
+    ("knee", include_str!("../../../scenes/knee.json")),
+    (
+        "loaded-block",
+        include_str!("../../../scenes/loaded-block.json"),
+    ),
+    (
+        "thick-cylinder",
+        include_str!("../../../scenes/thick-cylinder.json"),
+    ),
+    (
+        "tunnel-fault",
+        include_str!("../../../scenes/tunnel-fault.json"),
+    ),
+];
+
+/// The JSON text of a bundled example.
+pub fn example(name: &str) -> Option<&'static str> {
+    EXAMPLES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+}
+
+/// The JSON text of a bundled example, or an error naming the unknown name.
+pub fn find(name: &str) -> Result<&'static str, crate::error::WsmError> {
+    example(name).ok_or_else(|| crate::error::WsmError::NotFound {
+        what: "bundled example",
+        name: name.to_string(),
+    })
+}
+
+/// The names of the bundled examples.
+pub fn names() -> impl Iterator<Item = &'static str> {
+    EXAMPLES.iter().map(|(n, _)| *n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_example_parses_and_validates() {
+        for (name, text) in EXAMPLES {
+            if let Err(e) = crate::scene::parse(text) {
+                panic!("example {name}: {e}");
+            }
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! Contact (design §2.1–2.4, §3.1): unilateral contact with Tresca friction and bilateral contact
+//! between bodies on matching node pairs, solved exactly.
+//!
+//! - `pairs`: discrete contact geometry — normals, tangents, nodal contact lengths, initial
+//!   gaps, the contact operator B on the reduced DOFs, and the multiplier bounds.
+//! - `qp`: the dense box- and equality-constrained QP in the contact multipliers.
+//! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
+//! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
+//!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
+
+pub(crate) mod bodies;
+pub(crate) mod direct;
+pub(crate) mod pairs;
+pub mod qp;

@@ -1,0 +1,169 @@
+//! Discrete contact geometry (design §2.4, D05 §3): for every node pair m of every contact zone,
+//! the normal n_m (outward of body k, averaged at kinks), the tangent t_m = (−n_y, n_x), the
+//! nodal share w_m of the contact length (friction lumped at nodes: j_h(v) = Σ g(s_m) w_m
+//! |t_m·(v^k_m − v^l_m)|), the initial gap g0_m, and the rows of the contact operator B on the
+//! reduced (free, rotated) DOFs: (B u)_{2m} = n_m·(u^k_m − u^l_m), (B u)_{2m+1} = t_m·(u^k_m − u^l_m).
+
+use std::collections::HashMap;
+
+use crate::fem::{DofMap, Slot};
+use crate::mesh::Mesh;
+use crate::scene::{piecewise_linear, ContactKind, Data, InitialGap, Scene};
+
+/// One contact node pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactPair {
+    /// Contact zone index (scene order).
+    pub zone: usize,
+    /// Node of body k and node of body l (same position).
+    pub nodes: [usize; 2],
+    /// Unit normal, outward of body k.
+    pub normal: [f64; 2],
+    /// Unit tangent (−n_y, n_x).
+    pub tangent: [f64; 2],
+    /// Nodal share of the contact length \[m\].
+    pub weight: f64,
+    /// Arc-length fraction along the zone (for g(s)).
+    pub fraction: f64,
+    /// Tied normal, frictionless.
+    pub bilateral: bool,
+    /// Initial normal gap g0 ≥ 0 \[m\].
+    pub gap: f64,
+}
+
+/// A row of B: coefficients on free DOFs and on prescribed DOFs.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactRow {
+    pub free: Vec<(usize, f64)>,
+    pub fixed: Vec<(usize, f64)>,
+}
+
+impl ContactRow {
+    /// B_row · x for a free-DOF vector.
+    pub fn dot(&self, x: &[f64]) -> f64 {
+        self.free.iter().map(|&(i, c)| c * x[i]).sum()
+    }
+
+    /// The contribution of prescribed values.
+    pub fn dot_fixed(&self, fixed: &[f64]) -> f64 {
+        self.fixed.iter().map(|&(i, c)| c * fixed[i]).sum()
+    }
+}
+
+/// All contact pairs of a scene and their B rows.
+#[derive(Debug, Clone, Default)]
+pub struct ContactGeometry {
+    pub pairs: Vec<ContactPair>,
+    /// 2 rows per pair: normal, tangential.
+    pub rows: Vec<ContactRow>,
+}
+
+impl ContactGeometry {
+    /// Pairs in zone order, each zone along body k's segment.
+    pub fn new(scene: &Scene, mesh: &Mesh, dofs: &DofMap) -> ContactGeometry {
+        let mut pairs = Vec::new();
+        for (z, zone) in mesh.contacts.iter().enumerate() {
+            let contact = &scene.contacts[z];
+            let segment = &mesh.segments[zone.segment_k];
+            let normals: HashMap<usize, [f64; 2]> = crate::fem::segment_node_normals(mesh, segment)
+                .into_iter()
+                .collect();
+            let mut weights = HashMap::<usize, f64>::new();
+            for &[a, b] in &segment.edges {
+                let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
+                let half = 0.5 * (pb[0] - pa[0]).hypot(pb[1] - pa[1]);
+                *weights.entry(a).or_insert(0.0) += half;
+                *weights.entry(b).or_insert(0.0) += half;
+            }
+            for (&[k, l], &fraction) in zone.pairs.iter().zip(&zone.fraction) {
+                let normal = normals.get(&k).copied().unwrap_or([0.0, 0.0]);
+                let position = mesh.nodes[k];
+                pairs.push(ContactPair {
+                    zone: z,
+                    nodes: [k, l],
+                    normal,
+                    tangent: [-normal[1], normal[0]],
+                    weight: weights.get(&k).copied().unwrap_or(0.0),
+                    fraction,
+                    bilateral: contact.kind == ContactKind::Bilateral,
+                    gap: initial_gap(contact.initial_gap.as_ref(), position, fraction),
+                });
+            }
+        }
+        let rows = pairs
+            .iter()
+            .flat_map(|p| [row(dofs, p, p.normal), row(dofs, p, p.tangent)])
+            .collect();
+        ContactGeometry { pairs, rows }
+    }
+
+    /// Number of multipliers (2 per pair).
+    pub fn dim(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Box bounds of the multipliers for the data: normal [0, ∞) (bilateral: free), tangential
+    /// [−g w, g w] (bilateral: 0).
+    pub fn bounds(&self, data: &Data) -> (Vec<f64>, Vec<f64>) {
+        let mut lower = Vec::with_capacity(self.dim());
+        let mut upper = Vec::with_capacity(self.dim());
+        for p in &self.pairs {
+            if p.bilateral {
+                lower.extend([f64::NEG_INFINITY, 0.0]);
+                upper.extend([f64::INFINITY, 0.0]);
+            } else {
+                let slip = &data.slip[p.zone];
+                let g = piecewise_linear(&slip.knots, &slip.values, p.fraction).max(0.0) * p.weight;
+                lower.extend([0.0, -g]);
+                upper.extend([f64::INFINITY, g]);
+            }
+        }
+        (lower, upper)
+    }
+
+    /// B x for a free-DOF vector.
+    pub fn apply(&self, x: &[f64]) -> Vec<f64> {
+        self.rows.iter().map(|r| r.dot(x)).collect()
+    }
+
+    /// y += Bᵀ λ on the free DOFs.
+    pub fn add_transpose(&self, lambda: &[f64], y: &mut [f64]) {
+        for (r, &l) in self.rows.iter().zip(lambda) {
+            for &(i, c) in &r.free {
+                y[i] += c * l;
+            }
+        }
+    }
+}
+
+/// The row v·(u^k − u^l) in local DOFs: u_global = e0 u0 + e1 u1 per node.
+fn row(dofs: &DofMap, pair: &ContactPair, v: [f64; 2]) -> ContactRow {
+    let mut out = ContactRow::default();
+    for (node, sign) in [(pair.nodes[0], 1.0), (pair.nodes[1], -1.0)] {
+        let basis = dofs.basis(node);
+        for (c, slot) in dofs.slots(node).into_iter().enumerate() {
+            let coef = sign * (v[0] * basis[c][0] + v[1] * basis[c][1]);
+            if coef == 0.0 {
+                continue;
+            }
+            match slot {
+                Slot::Free(i) => out.free.push((i, coef)),
+                Slot::Fixed(i) => out.fixed.push((i, coef)),
+            }
+        }
+    }
+    out
+}
+
+fn initial_gap(gap: Option<&InitialGap>, position: [f64; 2], fraction: f64) -> f64 {
+    match gap {
+        None => 0.0,
+        Some(InitialGap::Parabola { radius, touch_at }) => {
+            let d2 = (position[0] - touch_at[0]).powi(2) + (position[1] - touch_at[1]).powi(2);
+            d2 / (2.0 * radius)
+        }
+        Some(InitialGap::PiecewiseLinear { knots, values }) => {
+            piecewise_linear(knots, values, fraction)
+        }
+    }
+}

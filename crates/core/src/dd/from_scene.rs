@@ -1,0 +1,168 @@
+//! DD for a scene's elastic contact problem (design §3.2 wired into the state layer): the scene's
+//! solver settings become [`DdOptions`], the contact rows come from the direct solver's
+//! [`crate::contact::pairs::ContactGeometry`] (same discrete problem), and the answer is returned
+//! in the direct solver's [`ContactSolution`] form, with gaps and equilibrium residual from the
+//! same [`DirectContact`] functions, so that contact results, stresses and criteria stay shared
+//! between the two solvers.
+//!
+//! Depends on [`super::options`], [`super::successive`] (the solve), [`super::partition`] and
+//! the input types of [`super`], and on [`crate::contact`], [`crate::fem`], [`crate::mesh`] and
+//! [`crate::scene`]; only the state layer depends on it.
+
+use std::collections::HashMap;
+
+use super::options::{DdOptions, PCG1_TOL};
+use super::partition::CONTACT_LAYERS;
+use super::successive::{solve, DdSolution, Fallback};
+use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
+use crate::contact::direct::{ContactSolution, DirectContact};
+use crate::contact::pairs::ContactGeometry;
+use crate::fem::ElasticProblem;
+use crate::mesh::geom::point_in_ring;
+use crate::mesh::Mesh;
+use crate::scene::{Data, SolverSettings};
+
+/// Elements per subdomain when the scene asks for an automatic count (`subdomains: 0`): about
+/// the paper's tunnel (9676 elements on 12 subdomains).
+const AUTO_ELEMENTS: usize = 800;
+
+/// Fewest elements per requested subdomain: a larger `subdomains` count is capped (subdomains of
+/// a few elements make nearly dependent coarse directions and gain nothing).
+const MIN_ELEMENTS: usize = 16;
+
+/// Tightest relative PCG residual asked for: below it rounding stalls PCG on the bundled scenes
+/// (hertz: 4.6e-10 after 500 iterations).
+const PCG_FLOOR: f64 = 1e-9;
+
+/// DD options of a scene: `partition` polygons fix the subdomains (`explicit_partition`),
+/// otherwise `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements per
+/// subdomain; at most one per `MIN_ELEMENTS` elements); `tolerance` is the relative stopping tolerance of the successive approximations
+/// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
+/// U⁰).
+pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
+    let layers = CONTACT_LAYERS;
+    let partition = match settings.subdomains {
+        _ if !settings.partition.is_empty() => {
+            PartitionRequest::Explicit(explicit_partition(&settings.partition, mesh))
+        }
+        0 => PartitionRequest::BySize {
+            elements: AUTO_ELEMENTS,
+            contact_layers: layers,
+        },
+        n => PartitionRequest::Automatic {
+            subdomains: n.min(mesh.triangles.len() / MIN_ELEMENTS).max(1),
+            contact_layers: layers,
+        },
+    };
+    let tol = settings.tolerance;
+    DdOptions {
+        partition,
+        outer_tol: tol,
+        pcg1_tol: PCG1_TOL.max(tol * 1e-1),
+        pcg2_tol: (tol * 1e-1).max(PCG_FLOOR),
+        ..DdOptions::default()
+    }
+}
+
+/// The subdomain of every triangle for the scene's partition polygons: the first polygon that
+/// contains the centroid, per body; triangles in no polygon form one subdomain per body.
+/// Subdomains are numbered in order of first appearance.
+pub fn explicit_partition(polygons: &[Vec<[f64; 2]>], mesh: &Mesh) -> Vec<usize> {
+    let mut ids: HashMap<(usize, usize), usize> = HashMap::new();
+    mesh.triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let body = mesh.zones[mesh.triangle_zone[t]].body;
+            let c = tri.iter().fold([0.0, 0.0], |c, &n| {
+                [c[0] + mesh.nodes[n][0] / 3.0, c[1] + mesh.nodes[n][1] / 3.0]
+            });
+            let region = polygons
+                .iter()
+                .position(|p| point_in_ring(c, p))
+                .unwrap_or(polygons.len());
+            let next = ids.len();
+            *ids.entry((region, body)).or_insert(next)
+        })
+        .collect()
+}
+
+/// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
+/// bounds, so that DD and direct solve the same discrete problem): normal rows
+/// B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
+pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> Vec<DdContactPair> {
+    let (lower, upper) = geometry.bounds(data);
+    geometry
+        .pairs
+        .iter()
+        .enumerate()
+        .map(|(m, p)| {
+            let row = |r: usize, gap: f64| ContactRow {
+                entries: geometry.rows[r].free.clone(),
+                value: gap - geometry.rows[r].dot_fixed(fixed),
+                lower: lower[r],
+                upper: upper[r],
+            };
+            DdContactPair {
+                nodes: p.nodes,
+                normal: row(2 * m, p.gap),
+                tangent: row(2 * m + 1, 0.0),
+            }
+        })
+        .collect()
+}
+
+/// The partition of `options` for the scene's mesh and contact pairs (it does not depend on the
+/// data; built once per scene and passed on as [`PartitionRequest::Given`]).
+pub fn partition(
+    elastic: &ElasticProblem,
+    direct: &DirectContact,
+    data: &Data,
+    options: &DdOptions,
+) -> Result<Partition, DdError> {
+    let coefficients = elastic.coefficients(data)?;
+    let fixed = elastic.fixed_values(data)?;
+    let pairs = contact_pairs(&direct.geometry, data, &fixed);
+    let rhs = vec![0.0; elastic.dofs().n_free()];
+    let problem = DdProblem::from_elastic(elastic, &coefficients, rhs, pairs)?;
+    Partition::new(&problem, &options.partition)
+}
+
+/// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
+/// values) by DD on the contact rows of `direct`; `fallback` is the direct solver, used only when
+/// DD fails (and reported). Undetermined rigid motions get the direct solver's normal form.
+#[allow(clippy::too_many_arguments)]
+pub fn solve_elastic(
+    elastic: &ElasticProblem,
+    direct: &DirectContact,
+    data: &Data,
+    coefficients: &[[f64; 2]],
+    rhs: &[f64],
+    fixed: &[f64],
+    options: &DdOptions,
+    fallback: Option<Fallback>,
+) -> Result<(ContactSolution, DdSolution), DdError> {
+    let geometry = &direct.geometry;
+    let pairs = contact_pairs(geometry, data, fixed);
+    let problem = DdProblem::from_elastic(elastic, coefficients, rhs.to_vec(), pairs)?;
+    let mut sol = solve(&problem, options, fallback)?;
+    let free_motions = direct
+        .normalise_free_motions(&mut sol.u, data)
+        .map_err(|e| DdError::Input(e.to_string()))?;
+    let multipliers: Vec<f64> = sol.multipliers.iter().flatten().copied().collect();
+    let values = elastic.operator().assemble(coefficients)?;
+    let equilibrium_residual =
+        direct.equilibrium_residual(elastic, &values, &sol.u, &multipliers, rhs);
+    let contact = ContactSolution {
+        equilibrium_residual,
+        gaps: direct.gaps(&sol.u, fixed),
+        u_free: sol.u.clone(),
+        multipliers,
+        rigid: Vec::new(),
+        qp: None,
+        free_motions,
+        qp_seconds: 0.0,
+        refinements: 0,
+    };
+    Ok((contact, sol))
+}

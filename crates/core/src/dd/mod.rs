@@ -1,0 +1,215 @@
+//! Domain decomposition solver for multibody contact with Tresca friction: the papers' method
+//! (D03, D05 §4–7, FGCS §3; design §3.2), in the matrix form of the reference notes §2.11.
+//!
+//! - `partition`: bodies → subdomains (automatic, or fixed by the scene); interfaces never cut a
+//!   contact zone (D05 4.4), each contact zone's two subdomains form one nonlinear cluster (D05
+//!   §4.1, D03 Ω*_j), kept small (FGCS Remark 3.1).
+//! - `decomposition`: interface numbering, blocks and clusters built from a partition.
+//! - `subdomain`: local matrices, Dirichlet factors of K_II (Schur complements S_i = K_ΓΓ −
+//!   K_ΓI K_II⁻¹ K_IΓ, D05 4.24, formed densely once per block) and Neumann factors with the
+//!   rigid-mode kernel pinned and projected out (D05 5.1–5.2; their trace map formed densely).
+//! - `pair`: contact clusters — the tied auxiliary problem (D05 4.35–4.46, normal tie by
+//!   master/slave elimination) and the frictional local problem S_CON (D05 4.27–4.28), condensed
+//!   on the contact multipliers and solved by [`crate::contact::qp::solve_box_qp`].
+//! - `dense`: sequential dense Cholesky and products (results independent of the thread count).
+//! - `coarse`: balancing Neumann–Neumann preconditioner: injections D (D05 5.5–5.8), coarse space
+//!   V_H (5.11), S-orthogonal projection (5.12–5.14), coarse start (5.15); the reduced variant D̊,
+//!   V_0H for S0 (D05 6.4–6.8), also used for PCG1 by default, and the rigid-motion coarse
+//!   enrichment that keeps the iteration counts bounded in the subdomain count
+//!   ([`options::Pcg1Preconditioner`], [`options::CoarseKind`]).
+//! - `coarse_space`: a coarse space W with A W and the factored G = Wᵀ A W: the A-orthogonal
+//!   projection and the coarse start (D05 5.12–5.15), shared by `coarse`, `pcg` and
+//!   `newton`.
+//! - `pcg`: PCG1 / PCG2 (D05 §5, §6).
+//! - `options`: solver options (partition request, PCG1 preconditioner, coarse space,
+//!   tolerances, acceleration).
+//! - `newton`: safeguarded semismooth Newton steps on S0 U + S_CON(U) = F for when the
+//!   successive approximations do not contract (2β² ≥ 1) and Anderson mixing stagnates.
+//! - `successive`: successive approximations S0 U^k = F − S_CON(U^{k−1}) (D05 4.37 / 6.1–6.3)
+//!   with inexact warm-started PCG2, contraction monitoring (Thm 7.1, Cor 7.1; FGCS 3.37–3.38),
+//!   Anderson acceleration, Newton steps (`newton`) and a direct fallback.
+//! - `report`: iteration counts, coarse dimensions, contraction factors, error bound, times.
+//! - `from_scene`: DD for a scene's elastic contact problem, the entry of the state layer
+//!   (`solver.kind = "dd"`): options from the scene's solver settings, contact rows from the
+//!   direct solver's geometry, the answer in the direct solver's form.
+//! - [`mod@bench`]: scalability tables for `wsm bench dd`.
+//!
+//! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
+//! rotated nodal bases); [`DdProblem::from_elastic`] builds the input from it.
+
+pub mod bench;
+mod coarse;
+mod coarse_space;
+mod decomposition;
+mod dense;
+pub(crate) mod from_scene;
+mod newton;
+mod options;
+mod pair;
+mod partition;
+mod pcg;
+mod report;
+pub(crate) mod subdomain;
+mod successive;
+
+use crate::fem::{ElasticProblem, FemError, Slot};
+
+pub use from_scene::{options as scene_options, solve_elastic};
+pub use options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+pub use partition::{Partition, PartitionRequest};
+pub use report::DdReport;
+pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
+
+/// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
+/// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DdElement {
+    pub nodes: [usize; 3],
+    pub dofs: [Option<usize>; 6],
+    pub matrix: [[f64; 6]; 6],
+}
+
+/// One constraint row of a contact node pair: its multiplier x lies in [lower, upper] and the
+/// primal term is the support function σ_[lower, upper](Σ entries·u − value) — a unilateral
+/// normal ([0, ∞): Σ a_j u_j ≤ value), a Tresca tangential ([−g w, g w]: g w |Σ a_j u_j − value|),
+/// a bilateral normal ((−∞, ∞)) or a frictionless tangential ([0, 0]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactRow {
+    /// (reduced DOF, coefficient).
+    pub entries: Vec<(usize, f64)>,
+    pub value: f64,
+    pub lower: f64,
+    pub upper: f64,
+}
+
+/// A contact node pair (node of body k, node of body l) with its normal and tangential rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DdContactPair {
+    pub nodes: [usize; 2],
+    pub normal: ContactRow,
+    pub tangent: ContactRow,
+}
+
+/// The discrete contact problem min ½uᵀKu − fᵀu + Σ_rows σ(B_r u − e_r), K = Σ_e K_e.
+#[derive(Debug, Clone)]
+pub struct DdProblem {
+    pub nodes: Vec<[f64; 2]>,
+    pub node_body: Vec<usize>,
+    pub elements: Vec<DdElement>,
+    /// Node and global direction (unit vector) of each reduced DOF.
+    pub dof_node: Vec<usize>,
+    pub dof_direction: Vec<[f64; 2]>,
+    /// Reduced right-hand side (loads minus the lifting of prescribed values).
+    pub rhs: Vec<f64>,
+    pub pairs: Vec<DdContactPair>,
+    /// Bodies whose supports leave rigid motions free (held only by contact).
+    pub floating_bodies: Vec<usize>,
+}
+
+impl DdProblem {
+    /// Number of reduced DOFs.
+    pub fn n_dofs(&self) -> usize {
+        self.rhs.len()
+    }
+
+    /// Body of element `e`.
+    pub fn element_body(&self, e: usize) -> usize {
+        self.node_body[self.elements[e].nodes[0]]
+    }
+
+    /// Build the input from an elasticity problem, its zone coefficients [λ_z, μ_z], the reduced
+    /// right-hand side and the contact rows (from the contact assembly).
+    pub fn from_elastic(
+        problem: &ElasticProblem,
+        coefficients: &[[f64; 2]],
+        rhs: Vec<f64>,
+        pairs: Vec<DdContactPair>,
+    ) -> Result<DdProblem, DdError> {
+        let mesh = problem.mesh();
+        let dofs = problem.dofs();
+        if rhs.len() != dofs.n_free() {
+            return Err(DdError::Input(format!(
+                "right-hand side has {} entries, the problem {} free DOFs",
+                rhs.len(),
+                dofs.n_free()
+            )));
+        }
+        let mut elements = Vec::with_capacity(mesh.triangles.len());
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let (slots, matrix) = problem.element_matrix(t, coefficients)?;
+            let dofs = slots.map(|s| match s {
+                Slot::Free(i) => Some(i),
+                Slot::Fixed(_) => None,
+            });
+            elements.push(DdElement {
+                nodes: *tri,
+                dofs,
+                matrix,
+            });
+        }
+        let mut dof_node = vec![0; dofs.n_free()];
+        let mut dof_direction = vec![[0.0; 2]; dofs.n_free()];
+        for node in 0..mesh.nodes.len() {
+            let basis = dofs.basis(node);
+            for (slot, dir) in dofs.slots(node).into_iter().zip(basis) {
+                if let Slot::Free(i) = slot {
+                    dof_node[i] = node;
+                    dof_direction[i] = dir;
+                }
+            }
+        }
+        let n = rhs.len();
+        for p in &pairs {
+            for row in [&p.normal, &p.tangent] {
+                if row.entries.iter().any(|&(d, _)| d >= n) || row.lower > row.upper {
+                    return Err(DdError::Input(format!(
+                        "contact pair at nodes {:?}: row with a DOF out of range or empty bounds",
+                        p.nodes
+                    )));
+                }
+            }
+        }
+        Ok(DdProblem {
+            nodes: mesh.nodes.clone(),
+            node_body: mesh.node_body.clone(),
+            elements,
+            dof_node,
+            dof_direction,
+            rhs,
+            pairs,
+            floating_bodies: problem.floating_bodies().to_vec(),
+        })
+    }
+}
+
+/// Errors of the DD solver; each says which part failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DdError {
+    #[error("invalid DD input: {0}")]
+    Input(String),
+    #[error("partition: {0}")]
+    Partition(String),
+    #[error("subdomain {subdomain}: {reason}")]
+    Subdomain { subdomain: usize, reason: String },
+    #[error("contact cluster {cluster}: {reason}")]
+    Cluster { cluster: usize, reason: String },
+    #[error("coarse problem: {0}")]
+    Coarse(String),
+    #[error(
+        "{solver} did not converge: relative residual {residual:.3e} after {iterations} iterations"
+    )]
+    NotConverged {
+        solver: &'static str,
+        iterations: usize,
+        residual: f64,
+    },
+    #[error("successive approximations failed ({reason}) and no direct fallback was given")]
+    Diverged { reason: String },
+    #[error("direct fallback failed: {0}")]
+    Fallback(String),
+    #[error(transparent)]
+    Fem(#[from] FemError),
+}
+
+#[cfg(test)]
+mod tests;

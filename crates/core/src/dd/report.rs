@@ -1,0 +1,181 @@
+//! What a DD solve did (design §3.2 "Report per solve"): sizes, coarse dimensions, PCG1 / outer /
+//! PCG2 iteration counts, Newton steps, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
+//! 7.1, FGCS 3.37), the a-priori error bound of D05 Cor. 7.1 / FGCS 3.38
+//! ‖U^k − U‖ ≤ q^k / (1 − q) ‖U⁰ − U¹‖ with the observed q, checks (partition of unity, residual
+//! orthogonality to the coarse spaces), acceleration / fallback, and times per phase.
+//!
+//! Depends on [`super::options`] (the recorded variants), [`super::decomposition`] (sizes) and
+//! [`super::DdProblem`]; filled in by [`super::successive`], which depends on it, not the
+//! other way round.
+
+use std::fmt;
+
+use super::decomposition::Decomposition;
+use super::options::{CoarseKind, Pcg1Preconditioner};
+use super::DdProblem;
+
+/// Wall-clock seconds per phase.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct Times {
+    /// Partition, local assembly and factorisations, condensed contact operators.
+    pub setup: f64,
+    /// Auxiliary problem (coarse operator + PCG1).
+    pub pcg1: f64,
+    /// Successive approximations in total, of which S_CON evaluations and PCG2 (with the Newton
+    /// steps' PCG).
+    pub outer: f64,
+    pub scon: f64,
+    pub pcg2: f64,
+    /// Interior and multiplier recovery.
+    pub recovery: f64,
+    pub total: f64,
+}
+
+/// Report of one DD solve.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct DdReport {
+    pub n_dofs: usize,
+    pub n_interface: usize,
+    pub n_subdomains: usize,
+    pub n_contact_subdomains: usize,
+    pub n_clusters: usize,
+    pub n_pairs: usize,
+    /// Clusters whose auxiliary tie needed the tangential rows too (a sliding mode was left).
+    pub auxiliary_full_stick: usize,
+    /// The preconditioner PCG1 used and the coarse space of all balancing preconditioners.
+    pub pcg1_preconditioner: Pcg1Preconditioner,
+    pub coarse: CoarseKind,
+    pub coarse_dim_pcg1: usize,
+    pub coarse_dim_pcg2: usize,
+    pub pcg1_iterations: usize,
+    pub outer_iterations: usize,
+    pub pcg2_iterations: usize,
+    pub pcg2_per_outer: Vec<usize>,
+    /// ‖T(U^k) − U^k‖ per outer step (Euclidean norm of the interface trace).
+    pub outer_residuals: Vec<f64>,
+    /// q_k = r_k / r_{k−1}.
+    pub contraction: Vec<f64>,
+    /// Observed contraction factor q (largest of the last three q_k) when below 1.
+    pub contraction_estimate: Option<f64>,
+    /// Cor. 7.1 with the observed q: q^k / (1 − q) ‖U⁰ − U¹‖ at the last step.
+    pub error_bound: Option<f64>,
+    /// max |Σ D_s R_s − 1| for PCG1 and PCG2 weights (D05 5.8, 6.6).
+    pub partition_of_unity_error: [f64; 2],
+    /// max |w_jᵀ r| / ‖b‖ over all PCG1 / PCG2 iterations (Lemma 5.1 / 6.1).
+    pub coarse_residual: [f64; 2],
+    /// Rigid modes of floating bodies handled inside the clusters.
+    pub floating_modes: usize,
+    pub qp_iterations: usize,
+    /// Safeguarded semismooth Newton steps taken after Anderson stagnated, and their PCG
+    /// iterations in total.
+    pub newton_steps: usize,
+    pub newton_pcg_iterations: usize,
+    pub acceleration: Option<String>,
+    pub fallback: Option<String>,
+    pub threads: usize,
+    pub times: Times,
+}
+
+impl DdReport {
+    pub(crate) fn new(problem: &DdProblem, dec: &Decomposition) -> DdReport {
+        DdReport {
+            n_dofs: problem.n_dofs(),
+            n_interface: dec.n_interface(),
+            n_subdomains: dec.partition.n_subdomains,
+            n_contact_subdomains: dec.partition.contact.iter().filter(|&&c| c).count(),
+            n_clusters: dec.clusters.len(),
+            n_pairs: problem.pairs.len(),
+            auxiliary_full_stick: dec.full_stick.iter().filter(|&&f| f).count(),
+            threads: rayon::current_num_threads(),
+            ..DdReport::default()
+        }
+    }
+
+    /// Fill the contraction estimate and the Cor. 7.1 bound from the recorded steps.
+    pub(crate) fn finish_contraction(&mut self) {
+        let tail: Vec<f64> = self.contraction.iter().rev().take(3).copied().collect();
+        let q = tail.iter().copied().fold(0.0, f64::max);
+        if !tail.is_empty() && q < 1.0 && self.acceleration.is_none() {
+            self.contraction_estimate = Some(q);
+            let k = self.outer_residuals.len() as i32;
+            if let Some(&r0) = self.outer_residuals.first() {
+                self.error_bound = Some(q.powi(k) / (1.0 - q) * r0);
+            }
+        }
+    }
+}
+
+impl fmt::Display for DdReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "DD: {} DOFs, {} interface DOFs, {} subdomains ({} in contact, {} clusters, {} pairs), {} threads",
+            self.n_dofs,
+            self.n_interface,
+            self.n_subdomains,
+            self.n_contact_subdomains,
+            self.n_clusters,
+            self.n_pairs,
+            self.threads
+        )?;
+        writeln!(
+            f,
+            "  coarse dimension ({:?}): PCG1 {}, PCG2 {}; partition of unity error {:.1e} / {:.1e}; coarse residual {:.1e} / {:.1e}",
+            self.coarse,
+            self.coarse_dim_pcg1,
+            self.coarse_dim_pcg2,
+            self.partition_of_unity_error[0],
+            self.partition_of_unity_error[1],
+            self.coarse_residual[0],
+            self.coarse_residual[1]
+        )?;
+        writeln!(
+            f,
+            "  iterations: PCG1 {} ({:?} preconditioner), outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
+            self.pcg1_iterations,
+            self.pcg1_preconditioner,
+            self.outer_iterations,
+            self.pcg2_iterations,
+            self.newton_steps,
+            self.newton_pcg_iterations
+        )?;
+        let qs: Vec<String> = self.contraction.iter().map(|q| format!("{q:.3}")).collect();
+        writeln!(f, "  contraction q_k: [{}]", qs.join(", "))?;
+        match (self.contraction_estimate, self.error_bound) {
+            (Some(q), Some(b)) => writeln!(
+                f,
+                "  observed q = {q:.3} (theory: 2β² < 1); Cor. 7.1 bound q^k/(1−q)‖U⁰−U¹‖ = {b:.3e}"
+            )?,
+            _ => writeln!(
+                f,
+                "  no contraction estimate (accelerated or too few steps)"
+            )?,
+        }
+        if self.auxiliary_full_stick > 0 {
+            writeln!(
+                f,
+                "  auxiliary problem: {} cluster(s) tied in both directions (normal tie left a sliding mode)",
+                self.auxiliary_full_stick
+            )?;
+        }
+        if self.floating_modes > 0 {
+            writeln!(
+                f,
+                "  floating-body modes fixed by contact inside clusters: {}",
+                self.floating_modes
+            )?;
+        }
+        if let Some(a) = &self.acceleration {
+            writeln!(f, "  acceleration: {a}")?;
+        }
+        if let Some(fb) = &self.fallback {
+            writeln!(f, "  FALLBACK: {fb}")?;
+        }
+        let t = &self.times;
+        write!(
+            f,
+            "  times [s]: setup {:.3}, PCG1 {:.3}, outer {:.3} (S_CON {:.3}, PCG2 {:.3}), recovery {:.3}, total {:.3}",
+            t.setup, t.pcg1, t.outer, t.scon, t.pcg2, t.recovery, t.total
+        )
+    }
+}

@@ -1,0 +1,123 @@
+//! The crate's error type: every failure a user can cause names its cause, and every variant
+//! belongs to one [`ErrorKind`] that a caller maps to an HTTP status or an exit code without
+//! reading the text.
+
+use crate::fem::FemError;
+use crate::scene::SceneError;
+use wsm_search::SearchError;
+
+/// Which inner solver failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverStage {
+    /// The contact problem (direct solver: free motions, dual QP).
+    Contact,
+    /// The heat problem.
+    Heat,
+}
+
+impl std::fmt::Display for SolverStage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SolverStage::Contact => "contact solver",
+            SolverStage::Heat => "heat solver",
+        })
+    }
+}
+
+/// Errors of meshing, solving, searching and of the run around them.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum WsmError {
+    /// A bad scene or request: the JSON path of the field and the reason.
+    #[error("{0}")]
+    Scene(#[from] SceneError),
+    /// The finite-element layer refused the data (or, for a matrix that is not positive
+    /// definite, failed).
+    #[error("{0}")]
+    Fem(#[from] FemError),
+    /// A body has no support at all.
+    #[error("body '{body}' cannot be balanced: {reason}")]
+    Unbalanced { body: String, reason: String },
+    /// The semi-coercive solvability condition fails (CZ Thm 1.2, D05 Thm 2.1).
+    #[error("body '{body}' cannot be balanced by contact and friction: the loads drive a rigid {motion} that the contact zones cannot hold")]
+    UnbalancedMode { body: String, motion: String },
+    /// An inner solver failed on admissible data.
+    #[error("{stage}: {reason}")]
+    Solver { stage: SolverStage, reason: String },
+    /// The outer search could not run.
+    #[error("search: {0}")]
+    Search(#[from] SearchError),
+    /// The work was cancelled before it had anything to report.
+    #[error("cancelled")]
+    Cancelled,
+    /// A named thing (a bundled example, a job) does not exist.
+    #[error("no {what} '{name}'")]
+    NotFound { what: &'static str, name: String },
+    /// An evaluation log belongs to another scene or other settings.
+    #[error("the log {path} belongs to another run: its hash is {found}, this run's is {expected} (scene or criteria differ)")]
+    LogMismatch {
+        path: String,
+        expected: String,
+        found: String,
+    },
+    /// Reading or writing a file (or another store), or encoding a result.
+    #[error("{path}: {reason}")]
+    Io { path: String, reason: String },
+}
+
+/// The class of an error, for status codes and exit codes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorKind {
+    /// The input is wrong (the message names the field): HTTP 422, exit code 2.
+    BadInput,
+    /// The input is well formed but the physics has no solution (a body cannot be balanced).
+    Unsolvable,
+    /// A solver or the search failed on valid input (a defect or a numerical breakdown).
+    Solver,
+    Cancelled,
+    NotFound,
+    /// Files, stores, logs of other runs.
+    Io,
+}
+
+impl WsmError {
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            WsmError::Scene(_) => ErrorKind::BadInput,
+            WsmError::Fem(e) => match e {
+                FemError::FloatingBody { .. } => ErrorKind::Unsolvable,
+                FemError::NotPositiveDefinite { .. } | FemError::Solver(_) => ErrorKind::Solver,
+                _ => ErrorKind::BadInput,
+            },
+            WsmError::Unbalanced { .. } | WsmError::UnbalancedMode { .. } => ErrorKind::Unsolvable,
+            WsmError::Solver { .. } | WsmError::Search(_) => ErrorKind::Solver,
+            WsmError::Cancelled => ErrorKind::Cancelled,
+            WsmError::NotFound { .. } => ErrorKind::NotFound,
+            WsmError::LogMismatch { .. } | WsmError::Io { .. } => ErrorKind::Io,
+        }
+    }
+
+    /// The JSON path of the offending field, where the error names one.
+    pub fn path(&self) -> Option<&str> {
+        match self {
+            WsmError::Scene(e) => Some(&e.path),
+            _ => None,
+        }
+    }
+
+    /// A file or store error.
+    pub fn io(path: impl std::fmt::Display, reason: impl std::fmt::Display) -> WsmError {
+        WsmError::Io {
+            path: path.to_string(),
+            reason: reason.to_string(),
+        }
+    }
+
+    /// A contact-solver failure.
+    pub fn contact(reason: impl Into<String>) -> WsmError {
+        WsmError::Solver {
+            stage: SolverStage::Contact,
+            reason: reason.into(),
+        }
+    }
+}

@@ -1,0 +1,328 @@
+//! The mesh of a run with a target error (`--target-error REL`, design §6): the scene on a ladder
+//! of meshes — every mesh size multiplied by 4, 2, 1, 1/2, … — solved at the nominal data, the
+//! discretisation error of each level's criteria estimated from the next two finer levels
+//! exactly as in the accuracy statement (Richardson extrapolation when the three values converge
+//! monotonically, else the largest difference; one finer level where the ladder ends), and the
+//! run takes the coarsest level whose estimate of every requested criterion is within the
+//! target. The ladder stops before a level would exceed [`MAX_CHOICE_UNKNOWNS`]; when no level
+//! meets the target the run takes the finest one built and says so.
+//!
+//! The choice is made at the nominal data, before the search; the accuracy statement of the
+//! result then checks it at the worst and best data. The solves are cold sequential direct
+//! solves, so the choice is a function of the scene and the target alone (bit-identical on any
+//! thread count, machine or resume) and belongs to the run hash.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::ladder::{scaled, DirectLevel};
+use super::statement::extremum_accuracy;
+use crate::error::WsmError;
+use crate::scene::{Criterion, Scene, SceneError};
+
+/// Size factor of the coarsest level tried (relative to the scene's mesh sizes).
+pub const COARSEST_FACTOR: f64 = 4.0;
+/// No level of the ladder beyond this many unknowns.
+pub const MAX_CHOICE_UNKNOWNS: usize = 400_000;
+
+/// One level of the ladder.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct CandidateMesh {
+    /// Mesh sizes relative to the scene's (4, 2, 1, 1/2, …).
+    pub size_factor: f64,
+    pub unknowns: usize,
+    pub triangles: usize,
+    /// The requested criteria at the nominal data on this mesh (`None`: not defined or the solve
+    /// failed).
+    pub values: Vec<Option<f64>>,
+    /// Estimated relative discretisation error of each value (`None`: no finer level to compare
+    /// with, or a failed solve).
+    pub relative_errors: Vec<Option<f64>>,
+    /// Every estimate is within the target.
+    pub meets_target: bool,
+    /// Meshing, set-up and the solve \[s\].
+    pub seconds: f64,
+    /// Why this level could not be meshed or solved.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure: Option<String>,
+}
+
+/// How the run's mesh was chosen for a target error.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct MeshChoice {
+    /// The requested relative error of every criterion.
+    pub target_error: f64,
+    /// The chosen level's size factor (the run's mesh sizes are the scene's × this).
+    pub size_factor: f64,
+    /// Whether the chosen level's estimate meets the target; false when no level up to
+    /// [`MAX_CHOICE_UNKNOWNS`] unknowns did (the finest level built is used).
+    pub met: bool,
+    /// The levels built, coarsest first.
+    pub candidates: Vec<CandidateMesh>,
+    /// Wall time of the choice \[s\].
+    pub seconds: f64,
+    pub method: String,
+}
+
+/// Check a target error (the request field `target_error`).
+pub fn check_target(scene: &Scene, target: f64) -> Result<(), WsmError> {
+    if !(target.is_finite() && target > 0.0 && target < 1.0) {
+        return Err(SceneError::new(
+            "target_error",
+            format!("a relative error between 0 and 1, e.g. 0.01 for 1 % (got {target})"),
+        )
+        .into());
+    }
+    if scene.mesh.gmsh_file.is_some() {
+        return Err(SceneError::new(
+            "target_error",
+            "an imported Gmsh mesh cannot be coarsened or refined by wsm: leave target_error out",
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A level's criteria at the nominal data.
+struct Level {
+    factor: f64,
+    unknowns: usize,
+    triangles: usize,
+    values: Result<Vec<Option<f64>>, String>,
+    seconds: f64,
+}
+
+fn solve_level(scene: &Scene, criteria: &[Criterion], factor: f64) -> Result<Level, WsmError> {
+    let start = Instant::now();
+    let level = DirectLevel::new(scene, factor, criteria)?;
+    Ok(Level {
+        factor,
+        unknowns: level.unknowns(),
+        triangles: level.triangles(),
+        values: level.criteria_at(&level.problem.nominal),
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The relative error estimates of `level`'s values from the finer levels after it (one or
+/// two), relative to the largest magnitude on those levels; a criterion that is zero on all of
+/// them has error 0.
+fn relative_errors(level: &Level, finer: &[&Level], criteria: usize) -> Vec<Option<f64>> {
+    let h: Vec<f64> = std::iter::once(level)
+        .chain(finer.iter().copied())
+        .map(|l| (l.unknowns.max(1) as f64).powf(-0.5))
+        .collect();
+    (0..criteria)
+        .map(|k| {
+            let value = level.values.as_ref().ok()?[k]?;
+            let refined: Vec<Option<f64>> = finer
+                .iter()
+                .map(|l| l.values.as_ref().ok().and_then(|v| v[k]))
+                .collect();
+            if refined.iter().any(Option::is_none) {
+                return None;
+            }
+            let estimate = extremum_accuracy(value, refined.clone(), &h, None).estimate?;
+            let scale = refined
+                .iter()
+                .flatten()
+                .fold(value.abs(), |m, r| m.max(r.abs()));
+            Some(if scale > 0.0 { estimate / scale } else { 0.0 })
+        })
+        .collect()
+}
+
+/// The scene on the coarsest mesh whose estimated error of every criterion at the nominal data
+/// is within `target` (relative), and how it was chosen. `stop` is polled between levels
+/// (cancel: `WsmError::Cancelled`).
+pub fn choose_mesh(
+    scene: &Scene,
+    criteria: &[Criterion],
+    target: f64,
+    stop: &dyn Fn() -> bool,
+) -> Result<(Scene, MeshChoice), WsmError> {
+    choose_mesh_within(scene, criteria, target, MAX_CHOICE_UNKNOWNS, stop)
+}
+
+/// [`choose_mesh`] with a ladder of at most `max_unknowns` unknowns.
+fn choose_mesh_within(
+    scene: &Scene,
+    criteria: &[Criterion],
+    target: f64,
+    max_unknowns: usize,
+    stop: &dyn Fn() -> bool,
+) -> Result<(Scene, MeshChoice), WsmError> {
+    check_target(scene, target)?;
+    let start = Instant::now();
+    let mut levels: Vec<Level> = Vec::new();
+    let mut chosen: Option<usize> = None;
+    loop {
+        if stop() {
+            return Err(WsmError::Cancelled);
+        }
+        if levels.last().is_some_and(|l| 4 * l.unknowns > max_unknowns) {
+            break;
+        }
+        let factor = COARSEST_FACTOR * 0.5_f64.powi(levels.len() as i32);
+        let level = match solve_level(scene, criteria, factor) {
+            Ok(level) => level,
+            // The scene's own mesh (and every finer one) must build: its error is the run's.
+            Err(e) if factor <= 1.0 => return Err(e),
+            Err(e) => Level {
+                factor,
+                unknowns: 0,
+                triangles: 0,
+                values: Err(e.to_string()),
+                seconds: 0.0,
+            },
+        };
+        levels.push(level);
+        let n = levels.len();
+        if n >= 3
+            && meets(
+                &levels[n - 3],
+                &[&levels[n - 2], &levels[n - 1]],
+                target,
+                criteria,
+            )
+        {
+            chosen = Some(n - 3);
+            break;
+        }
+    }
+    let n = levels.len();
+    // The ladder ended at the cap: the second finest level with one refinement.
+    if chosen.is_none() && n >= 2 && meets(&levels[n - 2], &[&levels[n - 1]], target, criteria) {
+        chosen = Some(n - 2);
+    }
+    let met = chosen.is_some();
+    let index = chosen.unwrap_or(n - 1);
+    let candidates = levels
+        .iter()
+        .enumerate()
+        .map(|(i, level)| {
+            let finer: Vec<&Level> = levels[i + 1..].iter().take(2).collect();
+            let relative = if finer.is_empty() {
+                vec![None; criteria.len()]
+            } else {
+                relative_errors(level, &finer, criteria.len())
+            };
+            CandidateMesh {
+                size_factor: level.factor,
+                unknowns: level.unknowns,
+                triangles: level.triangles,
+                values: level
+                    .values
+                    .clone()
+                    .unwrap_or_else(|_| vec![None; criteria.len()]),
+                meets_target: within(&relative, target),
+                relative_errors: relative,
+                seconds: level.seconds,
+                failure: level.values.as_ref().err().cloned(),
+            }
+        })
+        .collect();
+    let size_factor = levels[index].factor;
+    let choice = MeshChoice {
+        target_error: target,
+        size_factor,
+        met,
+        candidates,
+        seconds: start.elapsed().as_secs_f64(),
+        method: format!(
+            "the scene's mesh sizes × {COARSEST_FACTOR}, × {}, … solved at the nominal data \
+             (direct solver, cold); a level's error is estimated from the next two finer levels \
+             (Richardson extrapolation when monotone, else the largest difference), relative to \
+             the largest magnitude; the coarsest level meeting the target for every criterion is \
+             used, or the finest built (at most {max_unknowns} unknowns) when none does",
+            COARSEST_FACTOR / 2.0
+        ),
+    };
+    Ok((scaled(scene, size_factor)?, choice))
+}
+
+fn meets(level: &Level, finer: &[&Level], target: f64, criteria: &[Criterion]) -> bool {
+    within(&relative_errors(level, finer, criteria.len()), target)
+}
+
+/// Every estimate is known and within the target.
+fn within(relative: &[Option<f64>], target: f64) -> bool {
+    relative.iter().all(|r| r.is_some_and(|r| r <= target))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene() -> Scene {
+        crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap()
+    }
+
+    #[test]
+    fn picks_the_coarsest_level_meeting_the_target() {
+        let scene = scene();
+        let criteria = [Criterion::Phi3];
+        let (loose_scene, loose) = choose_mesh(&scene, &criteria, 0.05, &|| false).unwrap();
+        let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false).unwrap();
+        for choice in [&loose, &tight] {
+            let i = choice
+                .candidates
+                .iter()
+                .position(|c| c.size_factor == choice.size_factor)
+                .unwrap();
+            if choice.met {
+                assert!(choice.candidates[i].meets_target, "{choice:#?}");
+                assert!(choice.candidates[i].relative_errors[0].unwrap() <= choice.target_error);
+            }
+            // Coarsest: no coarser level meets the target.
+            assert!(choice.candidates[..i].iter().all(|c| !c.meets_target));
+        }
+        assert!(
+            tight.size_factor < loose.size_factor,
+            "{loose:#?}\n{tight:#?}"
+        );
+        assert_eq!(
+            loose_scene.mesh.max_size,
+            scene.mesh.max_size * loose.size_factor
+        );
+        // Deterministic: the same choice, bit for bit.
+        assert_eq!(
+            choose_mesh(&scene, &criteria, 0.05, &|| false)
+                .unwrap()
+                .1
+                .candidates
+                .iter()
+                .map(|c| c.values.clone())
+                .collect::<Vec<_>>(),
+            loose
+                .candidates
+                .iter()
+                .map(|c| c.values.clone())
+                .collect::<Vec<_>>()
+        );
+    }
+
+    #[test]
+    fn an_unreachable_target_takes_the_finest_level_within_the_cap_and_says_so() {
+        let cap = 20_000;
+        let (_, choice) =
+            choose_mesh_within(&scene(), &[Criterion::Phi3], 1e-12, cap, &|| false).unwrap();
+        assert!(!choice.met);
+        let last = choice.candidates.last().unwrap();
+        assert_eq!(choice.size_factor, last.size_factor);
+        assert!(4 * last.unknowns > cap);
+        let before = &choice.candidates[choice.candidates.len() - 2];
+        assert!(4 * before.unknowns <= cap);
+    }
+
+    #[test]
+    fn bad_targets_and_cancels_are_refused() {
+        for bad in [0.0, -0.1, 1.0, f64::NAN, f64::INFINITY] {
+            let e = choose_mesh(&scene(), &[Criterion::Phi3], bad, &|| false).unwrap_err();
+            assert!(e.to_string().contains("target_error"), "{e}");
+        }
+        let e = choose_mesh(&scene(), &[Criterion::Phi3], 0.01, &|| true).unwrap_err();
+        assert!(matches!(e, WsmError::Cancelled));
+    }
+}

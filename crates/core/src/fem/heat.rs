@@ -1,0 +1,421 @@
+//! Stationary heat (FGCS problem P1, design §2.1 thermal, §3.3): −div(κ_z ∇T) = W_z in each zone,
+//! T = T1 on `Temperature` segments, inward flux κ ∂T/∂n = q on `HeatFlux` segments, zero flux
+//! elsewhere, perfect thermal contact across every contact zone (T continuous). Weak form:
+//! Σ_z ∫ κ_z ∇T·∇w = Σ_z ∫ W_z w + ∫ q w ds, P1, with the zoned operator of `operator`.
+//!
+//! Perfect contact: the two nodes of each contact pair are ONE thermal unknown (union-find).
+//! Every connected thermal component needs a prescribed temperature, otherwise the problem is
+//! singular and is refused at construction.
+
+use faer::Par;
+
+use crate::mesh::Mesh;
+use crate::scene::{BoundaryValue, Data, Scene};
+
+use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
+use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
+use super::{boundary_segment, expect_len, material_of, FemError};
+
+/// Union-find with path halving.
+#[derive(Debug, Clone)]
+struct UnionFind {
+    parent: Vec<usize>,
+}
+
+impl UnionFind {
+    fn new(n: usize) -> Self {
+        UnionFind {
+            parent: (0..n).collect(),
+        }
+    }
+
+    fn find(&mut self, mut i: usize) -> usize {
+        while self.parent[i] != i {
+            self.parent[i] = self.parent[self.parent[i]];
+            i = self.parent[i];
+        }
+        i
+    }
+
+    fn union(&mut self, a: usize, b: usize) {
+        let (ra, rb) = (self.find(a), self.find(b));
+        if ra != rb {
+            self.parent[ra.max(rb)] = ra.min(rb);
+        }
+    }
+}
+
+/// The heat problem of a mesh and scene topology.
+#[derive(Debug, Clone)]
+pub struct HeatProblem {
+    mesh: Mesh,
+    /// Thermal unknown of each node (merged across contact pairs).
+    unknown_of: Vec<usize>,
+    /// Slot of each thermal unknown.
+    slots: Vec<Slot>,
+    /// Per fixed unknown: a node of it and the `Temperature` conditions prescribing it.
+    fixed_sources: Vec<(usize, Vec<usize>)>,
+    operator: ZonedOperator<1>,
+    /// Load weights per zone and per boundary condition.
+    unit_loads: UnitLoads,
+}
+
+impl HeatProblem {
+    /// Build the thermal numbering, the operator (symbolic factorisation included) and unit loads.
+    pub fn new(mesh: &Mesh, data: &Data) -> Result<HeatProblem, FemError> {
+        check_mesh(mesh)?;
+        let unknown_of = merge_contact_nodes(mesh);
+        let n_unknowns = unknown_of.iter().max().map_or(0, |m| m + 1);
+        let sources = temperature_sources(mesh, data, &unknown_of, n_unknowns)?;
+        check_components(mesh, &unknown_of, &sources)?;
+        let (slots, fixed_sources) = number_unknowns(&unknown_of, sources);
+        let gradients = element_gradients(mesh);
+        let n_fixed = fixed_sources.len();
+        let operator = build_operator(mesh, &unknown_of, &slots, n_fixed, &gradients)?;
+        Ok(HeatProblem {
+            unit_loads: UnitLoads::new(mesh, &data.boundary, &gradients),
+            mesh: mesh.clone(),
+            unknown_of,
+            slots,
+            fixed_sources,
+            operator,
+        })
+    }
+
+    /// [`HeatProblem::new`] with the data of a validated scene.
+    pub fn from_scene(mesh: &Mesh, scene: &Scene) -> Result<HeatProblem, FemError> {
+        HeatProblem::new(mesh, &Data::from_scene(scene))
+    }
+
+    pub fn mesh(&self) -> &Mesh {
+        &self.mesh
+    }
+
+    /// The reduced operator K_ff(κ) with coefficient \[κ_z\] per zone.
+    pub fn operator(&self) -> &ZonedOperator<1> {
+        &self.operator
+    }
+
+    /// Slot of the thermal unknown of `node`.
+    pub fn slot(&self, node: usize) -> Slot {
+        self.slots[self.unknown_of[node]]
+    }
+
+    /// Conductivity κ_z per zone, validated positive.
+    pub fn coefficients(&self, data: &Data) -> Result<Vec<[f64; 1]>, FemError> {
+        self.mesh
+            .zones
+            .iter()
+            .map(|zone| {
+                let kappa = material_of(data, zone)?.conductivity;
+                if kappa > 0.0 && kappa.is_finite() {
+                    Ok([kappa])
+                } else {
+                    Err(FemError::InvalidMaterial {
+                        material: zone.material,
+                        reason: format!("conductivity κ = {kappa} must be positive"),
+                    })
+                }
+            })
+            .collect()
+    }
+
+    /// Assemble and factorise K_ff(κ) on the shared symbolic factorisation.
+    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<1>, FemError> {
+        self.operator.factor(&self.coefficients(data)?, par)
+    }
+
+    /// Nodal heat loads ∫ W φ_i + ∫ q φ_i ds, before merging and constraints.
+    pub fn loads(&self, data: &Data) -> Result<Vec<f64>, FemError> {
+        expect_len(
+            "boundary conditions",
+            data.boundary.len(),
+            self.unit_loads.segments.len(),
+        )?;
+        let mut f = vec![0.0; self.mesh.nodes.len()];
+        for (zone, weights) in self.mesh.zones.iter().zip(&self.unit_loads.zones) {
+            let w = material_of(data, zone)?.heat_source;
+            for &(node, weight) in weights {
+                f[node] += w * weight;
+            }
+        }
+        for (bc, load) in data.boundary.iter().zip(&self.unit_loads.segments) {
+            if let BoundaryValue::HeatFlux(q) = bc.value {
+                for &(node, weight) in &load.weights {
+                    f[node] += q * weight;
+                }
+            }
+        }
+        Ok(f)
+    }
+
+    /// Prescribed temperatures of the fixed unknowns; conditions meeting at a node must agree.
+    pub fn fixed_values(&self, data: &Data) -> Result<Vec<f64>, FemError> {
+        self.fixed_sources
+            .iter()
+            .map(|(node, bcs)| {
+                let values = bcs
+                    .iter()
+                    .map(|&bc| match data.boundary.get(bc).map(|b| &b.value) {
+                        Some(BoundaryValue::Temperature(t)) => Ok(*t),
+                        _ => Err(FemError::InvalidBoundary {
+                            index: bc,
+                            reason:
+                                "no longer a temperature condition (the problem was built with one)"
+                                    .into(),
+                        }),
+                    })
+                    .collect::<Result<Vec<f64>, FemError>>()?;
+                agreed_value(&self.mesh, *node, &values)
+            })
+            .collect()
+    }
+
+    /// Prescribed temperatures taken from a nodal field (e.g. an exact solution).
+    pub fn fixed_values_from(&self, field: &[f64]) -> Result<Vec<f64>, FemError> {
+        expect_len("nodal temperatures", field.len(), self.mesh.nodes.len())?;
+        Ok(self
+            .fixed_sources
+            .iter()
+            .map(|&(node, _)| field[node])
+            .collect())
+    }
+
+    /// Reduced right-hand side b = f|_free − K_fd(κ) T_d for the data.
+    pub fn rhs(&self, data: &Data) -> Result<Vec<f64>, FemError> {
+        self.rhs_with(
+            &self.coefficients(data)?,
+            &self.loads(data)?,
+            &self.fixed_values(data)?,
+        )
+    }
+
+    /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values.
+    pub fn rhs_with(
+        &self,
+        coefficients: &[[f64; 1]],
+        loads: &[f64],
+        fixed: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        expect_len("nodal heat loads", loads.len(), self.mesh.nodes.len())?;
+        let mut b = vec![0.0; self.operator.n_free()];
+        for (node, &f) in loads.iter().enumerate() {
+            if let Slot::Free(i) = self.slot(node) {
+                b[i] += f;
+            }
+        }
+        self.operator.lift(coefficients, fixed, &mut b)?;
+        Ok(b)
+    }
+
+    /// Solve for the nodal temperature with a factor of the same data.
+    pub fn solve(&self, factor: &OperatorFactor<1>, data: &Data) -> Result<Vec<f64>, FemError> {
+        if factor.coefficients != self.coefficients(data)? {
+            return Err(FemError::Input(
+                "the factor was computed for other conductivities".into(),
+            ));
+        }
+        self.solve_with(factor, &self.loads(data)?, &self.fixed_values(data)?)
+    }
+
+    /// Solve with explicit nodal loads and prescribed values.
+    pub fn solve_with(
+        &self,
+        factor: &OperatorFactor<1>,
+        loads: &[f64],
+        fixed: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        let b = self.rhs_with(&factor.coefficients, loads, fixed)?;
+        let x = factor.factor.solve(&b);
+        Ok((0..self.mesh.nodes.len())
+            .map(|node| match self.slot(node) {
+                Slot::Free(i) => x[i],
+                Slot::Fixed(i) => fixed[i],
+            })
+            .collect())
+    }
+}
+
+/// Thermal unknown per node: contact pairs merged, numbered compactly in node order.
+fn merge_contact_nodes(mesh: &Mesh) -> Vec<usize> {
+    let mut uf = UnionFind::new(mesh.nodes.len());
+    for contact in &mesh.contacts {
+        for &[a, b] in &contact.pairs {
+            uf.union(a, b);
+        }
+    }
+    let mut id = vec![usize::MAX; mesh.nodes.len()];
+    let mut next = 0;
+    (0..mesh.nodes.len())
+        .map(|node| {
+            let root = uf.find(node);
+            if id[root] == usize::MAX {
+                id[root] = next;
+                next += 1;
+            }
+            id[root]
+        })
+        .collect()
+}
+
+/// The `Temperature` conditions acting on each thermal unknown.
+fn temperature_sources(
+    mesh: &Mesh,
+    data: &Data,
+    unknown_of: &[usize],
+    n_unknowns: usize,
+) -> Result<Vec<Vec<usize>>, FemError> {
+    let mut sources = vec![Vec::new(); n_unknowns];
+    for (bc, b) in data.boundary.iter().enumerate() {
+        if !matches!(b.value, BoundaryValue::Temperature(_)) {
+            continue;
+        }
+        let segment = boundary_segment(mesh, bc, b.segment)?;
+        for &node in &segment.nodes {
+            let s: &mut Vec<usize> = &mut sources[unknown_of[node]];
+            if !s.contains(&bc) {
+                s.push(bc);
+            }
+        }
+    }
+    Ok(sources)
+}
+
+/// Every connected thermal component must have a prescribed temperature.
+fn check_components(
+    mesh: &Mesh,
+    unknown_of: &[usize],
+    sources: &[Vec<usize>],
+) -> Result<(), FemError> {
+    let mut uf = UnionFind::new(sources.len());
+    for tri in &mesh.triangles {
+        uf.union(unknown_of[tri[0]], unknown_of[tri[1]]);
+        uf.union(unknown_of[tri[0]], unknown_of[tri[2]]);
+    }
+    let mut held = vec![false; sources.len()];
+    for (u, s) in sources.iter().enumerate() {
+        if !s.is_empty() {
+            let root = uf.find(u);
+            held[root] = true;
+        }
+    }
+    for (node, &u) in unknown_of.iter().enumerate() {
+        if !held[uf.find(u)] {
+            return Err(FemError::NoTemperature {
+                node,
+                body: mesh
+                    .bodies
+                    .get(mesh.node_body[node])
+                    .cloned()
+                    .unwrap_or_default(),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Free/fixed slot of each unknown, and per fixed unknown a representative node and its sources.
+fn number_unknowns(
+    unknown_of: &[usize],
+    sources: Vec<Vec<usize>>,
+) -> (Vec<Slot>, Vec<(usize, Vec<usize>)>) {
+    let mut node_of = vec![0; sources.len()];
+    for (node, &u) in unknown_of.iter().enumerate().rev() {
+        node_of[u] = node;
+    }
+    let mut n_free = 0;
+    let mut fixed = Vec::new();
+    let slots = sources
+        .into_iter()
+        .enumerate()
+        .map(|(u, s)| {
+            if s.is_empty() {
+                n_free += 1;
+                Slot::Free(n_free - 1)
+            } else {
+                fixed.push((node_of[u], s));
+                Slot::Fixed(fixed.len() - 1)
+            }
+        })
+        .collect();
+    (slots, fixed)
+}
+
+/// The common value of temperature conditions meeting at a node, or a conflict error.
+fn agreed_value(mesh: &Mesh, node: usize, values: &[f64]) -> Result<f64, FemError> {
+    let first = values.first().copied().unwrap_or(0.0);
+    let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    match values.iter().find(|v| (**v - first).abs() > 1e-12 * scale) {
+        None => Ok(first),
+        Some(other) => Err(FemError::ConflictingConstraints {
+            node,
+            x: mesh.nodes[node][0],
+            y: mesh.nodes[node][1],
+            reason: format!("temperature conditions prescribe both {first} and {other}"),
+        }),
+    }
+}
+
+/// Per element K_e = κ area (∇φ_i·∇φ_j) on the merged unknowns.
+fn build_operator(
+    mesh: &Mesh,
+    unknown_of: &[usize],
+    slots: &[Slot],
+    n_fixed: usize,
+    gradients: &[TriangleGradients],
+) -> Result<ZonedOperator<1>, FemError> {
+    let n_free = slots.len() - n_fixed;
+    let mut builder = OperatorBuilder::<1>::new(n_free, n_fixed, mesh.zones.len());
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let g = &gradients[t];
+        let element_slots = tri.map(|n| slots[unknown_of[n]]);
+        builder.add_element(mesh.triangle_zone[t], &element_slots, |i, j| {
+            [g.area * (g.dx[i] * g.dx[j] + g.dy[i] * g.dy[j])]
+        });
+    }
+    builder.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::structured::stacked_blocks;
+    use crate::scene::{BoundaryData, Elastic, Expansion, MaterialData};
+
+    #[test]
+    fn contact_pairs_become_one_unknown() {
+        let mesh = stacked_blocks(1.0, 1.0, 1.0, 4, 2, 2);
+        let material = MaterialData {
+            elastic: Elastic::Lame {
+                lambda: 1.0,
+                mu: 1.0,
+            },
+            specific_weight: 0.0,
+            body_force: [0.0; 2],
+            conductivity: 1.0,
+            heat_source: 0.0,
+            expansion: Expansion::Beta(0.0),
+        };
+        let data = Data {
+            materials: vec![material.clone(), material],
+            boundary: vec![BoundaryData {
+                segment: mesh.segment_index("lower_bottom").unwrap(),
+                value: BoundaryValue::Temperature(1.0),
+            }],
+            slip: Vec::new(),
+            reference_temperature: 0.0,
+        };
+        let problem = HeatProblem::new(&mesh, &data).unwrap();
+        let unknowns = problem.operator().n_free() + problem.operator().n_fixed();
+        assert_eq!(unknowns, mesh.nodes.len() - mesh.contacts[0].pairs.len());
+        assert_eq!(problem.operator().n_fixed(), 5);
+        for &[a, b] in &mesh.contacts[0].pairs {
+            assert_eq!(problem.slot(a), problem.slot(b));
+        }
+        // No source, no flux: uniform T = 1 everywhere, through the contact.
+        let t = problem
+            .solve(&problem.factor(&data, Par::Seq).unwrap(), &data)
+            .unwrap();
+        assert!(t.iter().all(|&v| (v - 1.0).abs() < 1e-13));
+    }
+}

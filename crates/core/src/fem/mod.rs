@@ -1,0 +1,100 @@
+//! Finite elements: P1 triangles, plane-strain isotropic elasticity with thermal stress, and
+//! stationary heat (design §2, §3.1, §3.3).
+//!
+//! - [`ElasticProblem`]: a(u, v) = Σ_z ∫ λ_z tr e(u) tr e(v) + 2μ_z e(u):e(v) and
+//!   S(v, T) = Σ ∫ F·v + ∫_{Γτ} P·v + Σ ∫ (T − T0) β tr e(v) (FGCS 2.13', 2.16; D05 Def. 2.1, §3),
+//!   Dirichlet components and rollers in any direction through rotated nodal DOFs ([`DofMap`]).
+//! - [`HeatProblem`]: Σ_z ∫ κ_z ∇T·∇w = Σ_z ∫ W_z w + ∫ q w ds, perfect thermal contact
+//!   (FGCS problem P1).
+//! - Both are a [`ZonedOperator`]: per-zone matrices on one pattern, re-assembled by a linear
+//!   combination, factorised by faer Cholesky on a symbolic analysis computed once ([`Factor`]).
+//! - [`stress`]: element stresses τ11, τ22, τ12, τ33 and I2²; reactions K u − f.
+//! - [`rigid`]: floating bodies and their rigid-motion kernels (design §2.3).
+//!
+//! Typical use: `let p = ElasticProblem::new(&mesh, &data)?; let k = p.factor(&data, Par::Seq)?;
+//! let u = p.solve(&k, &data, None)?;` and for a new data set only `factor` and `solve` again.
+
+pub mod bench;
+mod dofs;
+mod elasticity;
+mod geometry;
+mod heat;
+mod linear;
+mod operator;
+pub mod rigid;
+pub mod stress;
+
+pub use dofs::DofMap;
+pub use elasticity::ElasticProblem;
+pub use geometry::{segment_node_normals, TriangleGradients};
+pub use heat::HeatProblem;
+pub use linear::{Factor, Symbolic};
+pub use operator::{OperatorFactor, Slot, ZonedOperator};
+pub use rigid::RigidModes;
+pub use stress::{ElementStress, ZoneMaterial};
+
+pub use faer::Par;
+
+/// Errors of the FEM layer; each names what is wrong in the user's data.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FemError {
+    #[error("body '{name}' (index {body}) is floating: its displacement and roller conditions do not remove all rigid motions")]
+    FloatingBody { body: usize, name: String },
+    #[error("conflicting conditions at node {node} ({x}, {y}): {reason}")]
+    ConflictingConstraints {
+        node: usize,
+        x: f64,
+        y: f64,
+        reason: String,
+    },
+    #[error("material {material}: {reason}")]
+    InvalidMaterial { material: usize, reason: String },
+    #[error("boundary condition {index}: {reason}")]
+    InvalidBoundary { index: usize, reason: String },
+    #[error("no prescribed temperature on the thermal component of node {node} (body '{body}'): the heat problem is singular")]
+    NoTemperature { node: usize, body: String },
+    #[error("the matrix is not positive definite (pivot {pivot} of the reordered system)")]
+    NotPositiveDefinite { pivot: usize },
+    #[error("{0}")]
+    Input(String),
+    #[error("sparse solver: {0}")]
+    Solver(String),
+}
+
+/// The material data of a mesh zone.
+fn material_of<'a>(
+    data: &'a crate::scene::Data,
+    zone: &crate::mesh::MeshZone,
+) -> Result<&'a crate::scene::MaterialData, FemError> {
+    data.materials
+        .get(zone.material)
+        .ok_or_else(|| FemError::InvalidMaterial {
+            material: zone.material,
+            reason: format!("zone '{}' refers to a missing material", zone.name),
+        })
+}
+
+/// The mesh segment of boundary condition `bc` (an unknown segment index is an error).
+fn boundary_segment(
+    mesh: &crate::mesh::Mesh,
+    bc: usize,
+    segment: usize,
+) -> Result<&crate::mesh::MeshSegment, FemError> {
+    mesh.segments
+        .get(segment)
+        .ok_or_else(|| FemError::InvalidBoundary {
+            index: bc,
+            reason: format!("segment index {segment} is not in the mesh"),
+        })
+}
+
+/// An input array of the wrong length is an error, not a panic.
+fn expect_len(what: &str, given: usize, expected: usize) -> Result<(), FemError> {
+    if given == expected {
+        Ok(())
+    } else {
+        Err(FemError::Input(format!(
+            "{given} {what} given, {expected} expected"
+        )))
+    }
+}

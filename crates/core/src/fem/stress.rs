@@ -1,0 +1,104 @@
+//! Post-processing: element strain and plane-strain stress, I2², nodal internal forces.
+//!
+//! Duhamel–Neumann law (FGCS 2.7) in plane strain: τ = λ tr e I + 2μ e − β (T − T0) I in-plane,
+//! τ33 = λ tr e − β (T − T0) (design §3). I2² = τᴰ:τᴰ with τ33 included (design §4.2, FGCS 4.33).
+//! Internal forces Σ_e area Bᵀτ equal K u − f_thermal, so subtracting the mechanical loads gives
+//! the residual K u − f: the reaction forces at constrained DOFs.
+
+use crate::mesh::Mesh;
+
+use super::geometry::TriangleGradients;
+
+/// Material constants of a zone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZoneMaterial {
+    pub lambda: f64,
+    pub mu: f64,
+    /// Thermal stress coefficient β.
+    pub beta: f64,
+}
+
+/// Strain and stress of one element (constant for P1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ElementStress {
+    /// (e11, e22, e12) — tensor shear component.
+    pub strain: [f64; 3],
+    /// (τ11, τ22, τ12, τ33).
+    pub stress: [f64; 4],
+}
+
+impl ElementStress {
+    /// I2² = (2/3)[τ11² + τ22² + τ33² − τ11τ22 − τ11τ33 − τ22τ33] + 2τ12².
+    pub fn i2_squared(&self) -> f64 {
+        i2_squared(self.stress)
+    }
+}
+
+/// I2² of (τ11, τ22, τ12, τ33).
+pub fn i2_squared([s11, s22, s12, s33]: [f64; 4]) -> f64 {
+    2.0 / 3.0 * (s11 * s11 + s22 * s22 + s33 * s33 - s11 * s22 - s11 * s33 - s22 * s33)
+        + 2.0 * s12 * s12
+}
+
+/// Stress of a strain (e11, e22, e12) with temperature excess ΔT = T − T0.
+pub fn plane_strain_stress(m: &ZoneMaterial, strain: [f64; 3], delta_t: f64) -> [f64; 4] {
+    let tr = strain[0] + strain[1];
+    let iso = m.lambda * tr - m.beta * delta_t;
+    [
+        iso + 2.0 * m.mu * strain[0],
+        iso + 2.0 * m.mu * strain[1],
+        2.0 * m.mu * strain[2],
+        iso,
+    ]
+}
+
+/// Element strains and stresses; `thermal` is the nodal temperature and T0.
+/// The six nodal displacement components of a triangle, node-major (u₁ₓ, u₁ᵧ, u₂ₓ, …).
+pub fn element_displacements(u: &[[f64; 2]], tri: [usize; 3]) -> [f64; 6] {
+    let [a, b, c] = tri;
+    [u[a][0], u[a][1], u[b][0], u[b][1], u[c][0], u[c][1]]
+}
+
+pub fn element_stresses(
+    mesh: &Mesh,
+    gradients: &[TriangleGradients],
+    materials: &[ZoneMaterial],
+    u: &[[f64; 2]],
+    thermal: Option<(&[f64], f64)>,
+) -> Vec<ElementStress> {
+    mesh.triangles
+        .iter()
+        .enumerate()
+        .map(|(t, tri)| {
+            let v = element_displacements(u, *tri);
+            let [e11, e22, gamma] = gradients[t].strain(&v);
+            let strain = [e11, e22, gamma / 2.0];
+            let delta_t = thermal.map_or(0.0, |(temp, t0)| {
+                tri.iter().map(|&n| temp[n]).sum::<f64>() / 3.0 - t0
+            });
+            let m = &materials[mesh.triangle_zone[t]];
+            ElementStress {
+                strain,
+                stress: plane_strain_stress(m, strain, delta_t),
+            }
+        })
+        .collect()
+}
+
+/// Nodal internal forces Σ_e area Bᵀ(τ11, τ22, τ12) in global components.
+pub fn internal_forces(
+    mesh: &Mesh,
+    gradients: &[TriangleGradients],
+    stresses: &[ElementStress],
+) -> Vec<[f64; 2]> {
+    let mut f = vec![[0.0; 2]; mesh.nodes.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let s = stresses[t].stress;
+        let fe = gradients[t].nodal_forces([s[0], s[1], s[2]]);
+        for (i, &node) in tri.iter().enumerate() {
+            f[node][0] += fe[2 * i];
+            f[node][1] += fe[2 * i + 1];
+        }
+    }
+    f
+}

@@ -1,0 +1,92 @@
+//! Mesh: P1 triangles of all bodies, with zones, named boundary segments and contact node pairs.
+//!
+//! Bodies are meshed together so that nodes match on both sides of every contact zone (design §2.4:
+//! node-to-node contact as in all the papers), then every node shared by two bodies is split into
+//! one copy per body. A contact zone is the list of node pairs (node of body k, node of body l) at
+//! the same position, ordered along body k's segment.
+
+pub(crate) mod assemble;
+mod check;
+mod generate;
+pub(crate) mod geom;
+mod gmsh;
+mod input;
+mod refine;
+mod rows;
+mod size;
+pub mod structured;
+#[cfg(test)]
+pub(crate) mod tests;
+mod tri;
+
+pub use generate::{generate, stats, MeshStats};
+pub use gmsh::import_gmsh;
+
+/// A material zone of the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshZone {
+    pub name: String,
+    /// Index of the body in `Mesh::bodies`.
+    pub body: usize,
+    /// Index of the material (scene materials in name order).
+    pub material: usize,
+}
+
+/// A named boundary segment resolved on the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSegment {
+    pub name: String,
+    pub body: usize,
+    /// Nodes on the segment, ordered along its polyline.
+    pub nodes: Vec<usize>,
+    /// Boundary edges on the segment, each oriented with the body on its left, so that the
+    /// outward normal of edge [a, b] is (y_b − y_a, −(x_b − x_a)) / length.
+    pub edges: Vec<[usize; 2]>,
+}
+
+/// A contact zone Γ^kl: matching node pairs between body k and body l.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshContact {
+    pub name: String,
+    /// Index of body k's segment in `Mesh::segments` (the normal is outward of body k).
+    pub segment_k: usize,
+    /// Index of body l's segment in `Mesh::segments`.
+    pub segment_l: usize,
+    /// (node of body k, node of body l), ordered along body k's segment.
+    pub pairs: Vec<[usize; 2]>,
+    /// Arc-length fraction s ∈ [0, 1] of each pair along the zone (for slip limits g(s)).
+    pub fraction: Vec<f64>,
+}
+
+/// The mesh of a scene.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    pub nodes: Vec<[f64; 2]>,
+    /// Triangles, counter-clockwise.
+    pub triangles: Vec<[usize; 3]>,
+    /// Zone of each triangle (index into `zones`).
+    pub triangle_zone: Vec<usize>,
+    pub zones: Vec<MeshZone>,
+    /// Body names.
+    pub bodies: Vec<String>,
+    /// Body of each node.
+    pub node_body: Vec<usize>,
+    /// Segments in scene order (names sorted).
+    pub segments: Vec<MeshSegment>,
+    /// Contact zones in scene order.
+    pub contacts: Vec<MeshContact>,
+}
+
+impl Mesh {
+    /// Signed area of triangle `t` (positive for counter-clockwise).
+    pub fn triangle_area(&self, t: usize) -> f64 {
+        let [a, b, c] = self.triangles[t];
+        let (pa, pb, pc) = (self.nodes[a], self.nodes[b], self.nodes[c]);
+        0.5 * ((pb[0] - pa[0]) * (pc[1] - pa[1]) - (pc[0] - pa[0]) * (pb[1] - pa[1]))
+    }
+
+    /// Index of the segment with this name.
+    pub fn segment_index(&self, name: &str) -> Option<usize> {
+        self.segments.iter().position(|s| s.name == name)
+    }
+}

@@ -1,0 +1,143 @@
+//! The lifecycle of a run as its caller sees it: the cancel flag, the progress events (one per
+//! phase change and per evaluation batch), the evaluation log and where batches are evaluated.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use super::log::EvaluationLog;
+use super::remote::BatchDispatch;
+use crate::scene::Criterion;
+use wsm_search::{Phase, Progress, Sense};
+
+/// The phase a run is in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RunPhase {
+    Queued,
+    /// The mesh ladder of a run with a target error (`crate::estimate::mesh_choice`).
+    MeshChoice,
+    Meshing,
+    /// The solvability condition at the vertices of the admissible box (design §4.1).
+    AdmissibleCheck,
+    /// The solve at the nominal data (the warm start of every evaluation).
+    NominalSolve,
+    Screening,
+    Swarm,
+    Polish,
+    Sensitivities,
+    /// The accuracy statement: worst and best data re-solved on refined meshes.
+    Accuracy,
+    Finished,
+}
+
+/// The best value so far of one objective (max or min of one criterion).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct BestSoFar {
+    pub criterion: Criterion,
+    pub sense: Sense,
+    /// `None` while no feasible point was evaluated (units of the criterion).
+    pub value: Option<f64>,
+}
+
+/// A progress report: sent at every phase change and after every evaluation batch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct ProgressEvent {
+    pub phase: RunPhase,
+    /// The criterion the swarm or polish works on (`None` in shared phases).
+    pub objective: Option<BestSoFar>,
+    /// Distinct points evaluated so far (including replayed ones).
+    pub evaluations: usize,
+    pub budget: usize,
+    pub best: Vec<BestSoFar>,
+    /// Since the run started \[s\].
+    pub elapsed_seconds: f64,
+}
+
+/// A progress callback.
+pub type ProgressFn = dyn Fn(&ProgressEvent) + Send + Sync;
+
+/// What the caller holds on to during a run: a cancel flag (honoured in every phase, within one
+/// evaluation batch in the search), progress reports and an evaluation log.
+#[derive(Clone, Default)]
+pub struct RunControl {
+    pub cancel: Arc<AtomicBool>,
+    pub progress: Option<Arc<ProgressFn>>,
+    /// Where every evaluation goes once its chunk is done, and where a resumed run replays from.
+    pub log: Option<Arc<dyn EvaluationLog>>,
+    /// Where evaluation batches are computed when not here (other worker processes).
+    pub dispatch: Option<Arc<dyn BatchDispatch>>,
+}
+
+impl RunControl {
+    pub fn new() -> RunControl {
+        RunControl::default()
+    }
+
+    pub fn with_progress(
+        mut self,
+        progress: impl Fn(&ProgressEvent) + Send + Sync + 'static,
+    ) -> Self {
+        self.progress = Some(Arc::new(progress));
+        self
+    }
+
+    pub fn with_log(mut self, log: Arc<dyn EvaluationLog>) -> Self {
+        self.log = Some(log);
+        self
+    }
+
+    pub fn with_dispatch(mut self, dispatch: Arc<dyn BatchDispatch>) -> Self {
+        self.dispatch = Some(dispatch);
+        self
+    }
+
+    pub fn with_cancel(mut self, cancel: Arc<AtomicBool>) -> Self {
+        self.cancel = cancel;
+        self
+    }
+
+    pub fn is_cancelled(&self) -> bool {
+        self.cancel.load(Ordering::SeqCst)
+    }
+
+    pub(super) fn report(&self, event: &ProgressEvent) {
+        if let Some(progress) = &self.progress {
+            progress(event);
+        }
+    }
+}
+
+impl RunPhase {
+    pub(super) fn of(phase: Phase) -> RunPhase {
+        match phase {
+            Phase::Screening => RunPhase::Screening,
+            Phase::Global { .. } => RunPhase::Swarm,
+            Phase::Polish { .. } => RunPhase::Polish,
+            Phase::Sensitivity => RunPhase::Sensitivities,
+        }
+    }
+}
+
+/// The objective a search phase works on.
+pub(super) fn phase_objective(phase: Phase) -> Option<usize> {
+    match phase {
+        Phase::Global { objective } | Phase::Polish { objective } => Some(objective),
+        Phase::Screening | Phase::Sensitivity => None,
+    }
+}
+
+/// Best values per objective (max, min of each criterion in order) from a search report.
+pub(super) fn best_so_far(criteria: &[Criterion], progress: &Progress) -> Vec<BestSoFar> {
+    criteria
+        .iter()
+        .flat_map(|&c| [(c, Sense::Max), (c, Sense::Min)])
+        .zip(&progress.best)
+        .map(|((criterion, sense), value)| BestSoFar {
+            criterion,
+            sense,
+            value: *value,
+        })
+        .collect()
+}

@@ -1,0 +1,475 @@
+//! The front door of the engine: the one way the command line, the HTTP service and workers
+//! drive it. [`solve`] runs one state solve; [`worst`] runs a worst-scenario search through its
+//! phases (meshing, admissible-set check, nominal solve, screening, swarm, polish,
+//! sensitivities), reporting progress, honouring the cancel flag and the time limit in every
+//! phase, logging the evaluations of every chunk as it completes and replaying a log to resume. A cancelled or
+//! timed-out run returns its partial outcome with its status.
+//!
+//! Requests and outcomes are plain serde types; failures are [`WsmError`]s whose
+//! [`crate::error::ErrorKind`] maps onto HTTP statuses and exit codes.
+
+mod control;
+mod hash;
+mod log;
+mod model;
+mod remote;
+mod request;
+mod table;
+
+pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
+pub use hash::{canonical_json, run_hash};
+pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
+pub use model::{evaluate_points, parameter_info, PreparedModel};
+pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
+pub use request::{SolveRequest, WorstRequest};
+pub use table::{columns as table_columns, write_csv};
+
+pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
+pub use crate::estimate::statement::{CriterionAccuracy, ExtremumAccuracy, StatementMesh};
+pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
+pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
+pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
+pub use wsm_search::{ActiveBound, ObjectiveResult, Sense, Status};
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, PoisonError};
+use std::time::Instant;
+
+use crate::error::WsmError;
+use crate::estimate::mesh_choice::choose_mesh;
+use crate::estimate::statement::{default_refinements, statement, AccuracyStatement};
+use crate::fem::Par;
+use crate::scenario::solvability::check_balance_on_vertices;
+use crate::scenario::worst::{self as engine, WorstSettings};
+use crate::scene::params::{apply, parameters, Parameter};
+use crate::scene::Scene;
+use crate::state::{locking_warnings, Needs, SolveOptions, StateProblem};
+use control::{best_so_far, phase_objective};
+use remote::Dispatched;
+use wsm_search::{EvalCache, Progress, SearchControl};
+
+/// The result of [`solve`].
+#[derive(Debug, Clone, serde::Serialize, utoipa::ToSchema)]
+pub struct SolveOutput {
+    pub summary: SolveSummary,
+    /// The fields, when requested.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fields: Option<SolveFields>,
+    /// The solution as a VTU document for ParaView, when fields were requested.
+    #[serde(skip)]
+    pub vtu: Option<String>,
+}
+
+/// One state solve of `scene` at its nominal data.
+///
+/// ```
+/// use wsm_core::run::{solve, SolveRequest};
+///
+/// let scene = wsm_core::scene::parse(wsm_core::bundled::find("block-on-base")?)?;
+/// let output = solve(scene, &SolveRequest::default())?;
+/// // The block presses on its base: the mean contact pressure of the criteria region is positive.
+/// assert!(output.summary.criteria.phi6.is_some_and(|p| p > 0.0));
+/// assert!(output.summary.report.contact_pairs > 0);
+/// # Ok::<(), wsm_core::error::WsmError>(())
+/// ```
+pub fn solve(scene: Scene, request: &SolveRequest) -> Result<SolveOutput, WsmError> {
+    solve_at(scene, None, request)
+}
+
+/// One state solve at given values of the uncertain parameters (in the order of the scene's
+/// `uncertain` list; `None`: the nominal data) — e.g. the worst scenario of a criterion.
+pub fn solve_at(
+    mut scene: Scene,
+    point: Option<&[f64]>,
+    request: &SolveRequest,
+) -> Result<SolveOutput, WsmError> {
+    if let Some(kind) = request.solver {
+        scene.solver.kind = kind;
+    }
+    let params = parameters(&scene)?;
+    if let Some(p) = point {
+        if p.len() != params.len() {
+            return Err(crate::scene::SceneError::new(
+                "point",
+                format!(
+                    "{} values for {} uncertain parameters",
+                    p.len(),
+                    params.len()
+                ),
+            )
+            .into());
+        }
+    }
+    let problem = StateProblem::new(scene)?;
+    let data = match point {
+        Some(p) => apply(&problem.scene, &problem.nominal, &params, p),
+        None => problem.nominal.clone(),
+    };
+    let options = SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: Par::rayon(0),
+        warm: None,
+    };
+    let solution = problem.solve(&data, &options)?;
+    let summary = crate::output::result::summary(&problem, &solution);
+    let (fields, vtu) = if request.fields {
+        (
+            Some(crate::output::result::fields(&problem, &solution)),
+            Some(crate::output::result::vtu(&problem, &solution)),
+        )
+    } else {
+        (None, None)
+    };
+    Ok(SolveOutput {
+        summary,
+        fields,
+        vtu,
+    })
+}
+
+/// The log header of a run: its hash, scene, criteria and parameter fields.
+pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, WsmError> {
+    Ok(LogHeader::new(
+        run_hash(scene, &settings.criteria, settings.target_error)?,
+        scene.name.clone(),
+        settings.criteria.clone(),
+        scene.uncertain.iter().map(|u| u.field.clone()).collect(),
+    ))
+}
+
+/// The scene a run solves: `scene` itself, or with a target error the scene on the coarsest
+/// mesh meeting it (`crate::estimate::mesh_choice`), with how it was chosen. `stop` is polled
+/// between the meshes tried. Workers call this too, so every process solves the same mesh.
+pub fn run_scene(
+    scene: Scene,
+    settings: &WorstSettings,
+    stop: &dyn Fn() -> bool,
+) -> Result<(Scene, Option<MeshChoice>), WsmError> {
+    match settings.target_error {
+        Some(target) => {
+            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop)?;
+            Ok((chosen, Some(choice)))
+        }
+        None => Ok((scene, None)),
+    }
+}
+
+/// A worst-scenario search on `scene`: the worst and best of each requested criterion over the
+/// admissible box. Runs in its own thread pool when `request.threads` is set.
+pub fn worst(
+    scene: Scene,
+    request: &WorstRequest,
+    control: &RunControl,
+) -> Result<WorstOutcome, WsmError> {
+    let settings = request.settings(&scene)?;
+    let params = parameters(&scene)?;
+    let header = log_header(&scene, &settings)?;
+    let replay = match &control.log {
+        Some(log) => log.open(&header)?,
+        None => Vec::new(),
+    };
+    let run = Run {
+        control,
+        settings: &settings,
+        params: &params,
+        start: Instant::now(),
+        halt: AtomicBool::new(false),
+        log_error: Mutex::new(None),
+    };
+    let mut outcome = match request.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| WsmError::io("thread pool", e))?
+            .install(|| run.execute(scene, replay))?,
+        None => run.execute(scene, replay)?,
+    };
+    outcome.run_hash = header.run_hash;
+    Ok(outcome)
+}
+
+/// One worst-scenario run in progress.
+struct Run<'a> {
+    control: &'a RunControl,
+    settings: &'a WorstSettings,
+    params: &'a [Parameter],
+    start: Instant,
+    /// Raised (for the search) by a cancel request or a failed log write or dispatch.
+    halt: AtomicBool,
+    /// A failed log write or dispatch: the run stops with it.
+    log_error: Mutex<Option<WsmError>>,
+}
+
+impl Run<'_> {
+    /// Cancelled or out of time: the status to stop with.
+    fn stop_status(&self) -> Option<Status> {
+        if self.control.is_cancelled() || self.halt.load(Ordering::SeqCst) {
+            Some(Status::Cancelled)
+        } else if self
+            .settings
+            .max_seconds
+            .is_some_and(|t| self.start.elapsed().as_secs_f64() >= t)
+        {
+            Some(Status::TimeLimit)
+        } else {
+            None
+        }
+    }
+
+    fn event(&self, phase: RunPhase, evaluations: usize) -> ProgressEvent {
+        ProgressEvent {
+            phase,
+            objective: None,
+            evaluations,
+            budget: self.settings.budget,
+            best: Vec::new(),
+            elapsed_seconds: self.start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Report a phase before the search; the status to stop with, if any.
+    fn enter(&self, phase: RunPhase) -> Option<Status> {
+        self.control.report(&self.event(phase, 0));
+        self.stop_status()
+    }
+
+    fn execute(&self, scene: Scene, replay: Vec<Evaluation>) -> Result<WorstOutcome, WsmError> {
+        let unstarted = |scene: &Scene, status| {
+            Ok(WorstOutcome::unstarted(
+                scene,
+                self.params,
+                self.settings,
+                status,
+            ))
+        };
+        let mut mesh_choice = None;
+        let scene = if self.settings.target_error.is_some() {
+            if let Some(status) = self.enter(RunPhase::MeshChoice) {
+                return unstarted(&scene, status);
+            }
+            match run_scene(scene.clone(), self.settings, &|| {
+                self.stop_status().is_some()
+            }) {
+                Ok((chosen, choice)) => {
+                    if let Some(dispatch) = &self.control.dispatch {
+                        dispatch.share_scene(&chosen)?;
+                    }
+                    mesh_choice = choice;
+                    chosen
+                }
+                Err(WsmError::Cancelled) => {
+                    let status = self.stop_status().unwrap_or(Status::Cancelled);
+                    return unstarted(&scene, status);
+                }
+                Err(e) => return Err(e),
+            }
+        } else {
+            scene
+        };
+        if let Some(status) = self.enter(RunPhase::Meshing) {
+            return unstarted(&scene, status);
+        }
+        let model =
+            PreparedModel::new(scene, self.params.to_vec(), self.settings.criteria.clone())?;
+        let problem = model.problem();
+        if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
+            return unstarted(&problem.scene, status);
+        }
+        match check_balance_on_vertices(problem, self.params, &|| self.stop_status().is_some()) {
+            Err(WsmError::Cancelled) => {
+                let status = self.stop_status().unwrap_or(Status::Cancelled);
+                return unstarted(&problem.scene, status);
+            }
+            other => other?,
+        }
+        if let Some(status) = self.enter(RunPhase::NominalSolve) {
+            return unstarted(&problem.scene, status);
+        }
+        let observer = |evaluations: &[Evaluation]| self.record(evaluations);
+        let evaluator = model.evaluator()?.observed_by(&observer);
+        if let Some(status) = self.stop_status() {
+            return unstarted(&problem.scene, status);
+        }
+        let mut cache = EvalCache::new();
+        for evaluation in replay {
+            cache.insert(evaluation.point.clone(), evaluation.outcome());
+        }
+        // The search's clock starts now: give it what is left of the run's time.
+        let mut settings = self.settings.clone();
+        settings.max_seconds = settings
+            .max_seconds
+            .map(|t| (t - self.start.elapsed().as_secs_f64()).max(0.0));
+        let on_progress = |p: &Progress| self.search_progress(p);
+        let control = SearchControl {
+            cancel: &self.halt,
+            on_progress: &on_progress,
+        };
+        let mut outcome = match &self.control.dispatch {
+            Some(dispatch) => {
+                let dispatched =
+                    Dispatched::new(&evaluator, dispatch.as_ref(), &self.log_error, &self.halt);
+                engine::run(
+                    problem,
+                    self.params,
+                    &settings,
+                    &dispatched,
+                    &|| dispatched.summary(),
+                    &mut cache,
+                    control,
+                )?
+            }
+            None => engine::run(
+                problem,
+                self.params,
+                &settings,
+                &evaluator,
+                &|| evaluator.summary(),
+                &mut cache,
+                control,
+            )?,
+        };
+        if let Some(dispatch) = &self.control.dispatch {
+            dispatch.flush()?;
+        }
+        if let Some(error) = self
+            .log_error
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+        {
+            return Err(error);
+        }
+        outcome.setup_seconds = problem.setup_seconds;
+        outcome.warnings = self.warnings(problem, &outcome)?;
+        if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
+            outcome.accuracy = self.accuracy(problem, &outcome)?;
+        }
+        if let Some(choice) = &mesh_choice {
+            outcome.warnings.extend(target_warnings(choice, &outcome));
+        }
+        outcome.mesh_choice = mesh_choice;
+        self.control
+            .report(&self.event(RunPhase::Finished, outcome.evaluations));
+        Ok(outcome)
+    }
+
+    /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`).
+    fn accuracy(
+        &self,
+        problem: &StateProblem,
+        outcome: &WorstOutcome,
+    ) -> Result<Option<AccuracyStatement>, WsmError> {
+        let refinements = self
+            .settings
+            .accuracy_refinements
+            .unwrap_or_else(|| default_refinements(problem.elastic.dofs().n_free()));
+        if refinements == 0 {
+            return Ok(None);
+        }
+        self.control
+            .report(&self.event(RunPhase::Accuracy, outcome.evaluations));
+        let stop = || self.stop_status().is_some();
+        statement(
+            problem,
+            self.params,
+            &self.settings.criteria,
+            &outcome.extrema(),
+            refinements,
+            &stop,
+        )
+        .map(Some)
+    }
+
+    /// Warnings about the result: P1 locking (ν ≥ 0.49) at the nominal, worst or best data,
+    /// one per zone.
+    fn warnings(
+        &self,
+        problem: &StateProblem,
+        outcome: &WorstOutcome,
+    ) -> Result<Vec<String>, WsmError> {
+        let mut data = vec![problem.nominal.clone()];
+        for [worst, best] in outcome.extrema() {
+            for (_, point) in [worst, best].into_iter().flatten() {
+                data.push(apply(&problem.scene, &problem.nominal, self.params, &point));
+            }
+        }
+        let mut warnings: Vec<String> = Vec::new();
+        for d in &data {
+            let coefficients = problem.elastic.coefficients(d)?;
+            for w in locking_warnings(&coefficients, problem.mesh()) {
+                let zone = w.split(':').next().unwrap_or_default().to_string();
+                if !warnings.iter().any(|v| v.starts_with(&zone)) {
+                    warnings.push(w);
+                }
+            }
+        }
+        Ok(warnings)
+    }
+
+    /// A chunk of evaluations completed: log it; pass a cancel request on to the search.
+    fn record(&self, evaluations: &[Evaluation]) {
+        if let Some(log) = &self.control.log {
+            if let Err(e) = log.append(evaluations) {
+                let mut error = self
+                    .log_error
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner);
+                error.get_or_insert(e);
+                self.halt.store(true, Ordering::SeqCst);
+            }
+        }
+        if self.control.is_cancelled() {
+            self.halt.store(true, Ordering::SeqCst);
+        }
+    }
+
+    fn search_progress(&self, progress: &Progress) {
+        let best = best_so_far(&self.settings.criteria, progress);
+        let objective = phase_objective(progress.phase).and_then(|k| best.get(k).cloned());
+        self.control.report(&ProgressEvent {
+            phase: RunPhase::of(progress.phase),
+            objective,
+            evaluations: progress.evaluations,
+            budget: progress.budget,
+            best,
+            elapsed_seconds: self.start.elapsed().as_secs_f64(),
+        });
+        // A cancel raised by the progress callback itself stops the next batch.
+        if self.control.is_cancelled() {
+            self.halt.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Warnings of a run with a target error: no mesh met it, or the accuracy statement finds a
+/// worst or best value whose estimate exceeds it (the choice was made at the nominal data).
+fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let target = choice.target_error;
+    if !choice.met {
+        let finest = choice.candidates.last().map_or(0, |c| c.unknowns);
+        warnings.push(format!(
+            "target_error: no mesh up to {finest} unknowns met the target {target:e} at the \
+             nominal data; the run used the finest one (mesh sizes × {})",
+            choice.size_factor
+        ));
+    }
+    let Some(statement) = &outcome.accuracy else {
+        return warnings;
+    };
+    for c in &statement.criteria {
+        for (name, extremum) in [("worst", &c.worst), ("best", &c.best)] {
+            if let Some(relative) = extremum.as_ref().and_then(|e| e.relative) {
+                if relative > target {
+                    warnings.push(format!(
+                        "target_error: the accuracy statement estimates the {name} value of {} \
+                         to {relative:.2e} relative, above the target {target:e} met at the \
+                         nominal data",
+                        c.criterion.name()
+                    ));
+                }
+            }
+        }
+    }
+    warnings
+}

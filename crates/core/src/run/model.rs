@@ -1,0 +1,125 @@
+//! A prepared model: the one way anything outside the engine builds what evaluations need — the
+//! uncertain parameters of a scene, its mesh (after the target-error choice), the per-zone
+//! operators and symbolic factorisations ([`StateProblem`]) — and evaluates points with it.
+//! [`super::worst`] prepares one per run; the service's workers prepare one per job they help
+//! with, from the scene the job's coordinator chose, so every process solves the same model.
+
+use rayon::prelude::*;
+
+use super::request::WorstRequest;
+use super::run_scene;
+use crate::error::WsmError;
+use crate::scenario::evaluator::{Evaluation, ScenarioEvaluator};
+use crate::scenario::worst::ParameterInfo;
+use crate::scene::params::{parameters, Parameter};
+use crate::scene::{Criterion, Scene};
+use crate::state::StateProblem;
+
+/// The uncertain parameters of `scene` as results report them (field path, interval, nominal),
+/// after checking every `uncertain` entry (its field exists, its interval is admissible).
+pub fn parameter_info(scene: &Scene) -> Result<Vec<ParameterInfo>, WsmError> {
+    let params = parameters(scene)?;
+    Ok(ParameterInfo::list(scene, &params))
+}
+
+/// A scene meshed and assembled for evaluations of the given criteria at points of its box.
+pub struct PreparedModel {
+    problem: StateProblem,
+    params: Vec<Parameter>,
+    criteria: Vec<Criterion>,
+}
+
+impl PreparedModel {
+    /// Mesh `scene` and build its operators (the solve-ready scene: a target-error choice has
+    /// been made before).
+    pub fn new(
+        scene: Scene,
+        params: Vec<Parameter>,
+        criteria: Vec<Criterion>,
+    ) -> Result<Self, WsmError> {
+        Ok(PreparedModel {
+            problem: StateProblem::new(scene)?,
+            params,
+            criteria,
+        })
+    }
+
+    /// The model a worker evaluates for a job: the submitted scene text and settings, on the
+    /// mesh the job's coordinator chose (`chosen_scene`; without one, chosen here the same way).
+    pub fn for_job(
+        scene_text: &str,
+        request: &WorstRequest,
+        chosen_scene: Option<&str>,
+    ) -> Result<Self, WsmError> {
+        let scene = crate::scene::parse(scene_text)?;
+        let settings = request.settings(&scene)?;
+        let params = parameters(&scene)?;
+        let scene = match chosen_scene {
+            Some(text) => crate::scene::parse(text)?,
+            None => run_scene(scene, &settings, &|| false)?.0,
+        };
+        PreparedModel::new(scene, params, settings.criteria)
+    }
+
+    /// The state problem (mesh, operators, nominal data).
+    pub fn problem(&self) -> &StateProblem {
+        &self.problem
+    }
+
+    /// The uncertain parameters, in the order of the scene's `uncertain` list.
+    pub fn params(&self) -> &[Parameter] {
+        &self.params
+    }
+
+    /// The evaluator of this model: solves the nominal state once (its contact state
+    /// warm-starts every later solve).
+    pub fn evaluator(&self) -> Result<ScenarioEvaluator<'_>, WsmError> {
+        ScenarioEvaluator::new(&self.problem, &self.params, &self.criteria)
+    }
+}
+
+/// Evaluate `points` with `evaluator` in the current thread pool, in input order.
+pub fn evaluate_points(evaluator: &ScenarioEvaluator<'_>, points: &[Vec<f64>]) -> Vec<Evaluation> {
+    points
+        .par_iter()
+        .map(|p| evaluator.evaluate_one(p))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene_json(model: &PreparedModel) -> serde_json::Value {
+        serde_json::to_value(&model.problem().scene).unwrap()
+    }
+
+    /// A worker given the coordinator's chosen scene evaluates on exactly the scene it would
+    /// have chosen itself, without choosing.
+    #[test]
+    fn a_stored_choice_is_the_scene_the_worker_would_choose() {
+        let text = crate::bundled::example("tunnel-fault").unwrap();
+        let scene = crate::scene::parse(text).unwrap();
+        let request: WorstRequest = serde_json::from_value(serde_json::json!({
+            "criteria": ["phi3"],
+            "target_error": 0.05,
+        }))
+        .unwrap();
+        let chosen = PreparedModel::for_job(text, &request, None).unwrap();
+        let chosen_scene = chosen.problem().scene.clone();
+        assert_ne!(
+            chosen_scene.mesh.max_size, scene.mesh.max_size,
+            "the 5 % target picks another mesh than the scene's own"
+        );
+        let stored = serde_json::to_string(&chosen_scene).unwrap();
+        // What is stored is used as it is (another mesh than any choice, to tell them apart).
+        let mut other = chosen_scene.clone();
+        other.mesh.max_size *= 3.0;
+        let other_text = serde_json::to_string(&other).unwrap();
+        let used = PreparedModel::for_job(text, &request, Some(&other_text)).unwrap();
+        assert_eq!(used.problem().scene.mesh.max_size, other.mesh.max_size);
+        // And the stored choice round-trips to the same scene.
+        let reused = PreparedModel::for_job(text, &request, Some(&stored)).unwrap();
+        assert_eq!(scene_json(&reused), scene_json(&chosen));
+    }
+}

@@ -1,0 +1,112 @@
+//! What a caller asks of a run, as plain serde types: a single solve, or a worst-scenario search
+//! with settings that override the scene's `search` block. Each request is checked against the
+//! scene; a bad value is a [`SceneError`] naming the request field.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::WsmError;
+use crate::estimate::mesh_choice::check_target;
+use crate::scenario::worst::WorstSettings;
+use crate::scene::{Criterion, Scene, SceneError, SolverKind};
+
+/// A single state solve.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SolveRequest {
+    /// Inner solver (default: the scene's `solver.kind`).
+    #[serde(default)]
+    pub solver: Option<SolverKind>,
+    /// Also return the nodal and element fields.
+    #[serde(default)]
+    pub fields: bool,
+}
+
+/// A worst-scenario search. Every field left out takes the scene's `search` value.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct WorstRequest {
+    /// Criteria to maximise and minimise (`phi1` … `phi6`).
+    #[serde(default)]
+    pub criteria: Option<Vec<Criterion>>,
+    /// Inner solves at most (≥ 1).
+    #[serde(default)]
+    pub budget: Option<usize>,
+    /// Seed of every random choice of the search.
+    #[serde(default)]
+    pub seed: Option<u64>,
+    /// Wall-time limit of the whole run, meshing included \[s\] (> 0).
+    #[serde(default)]
+    pub max_seconds: Option<f64>,
+    /// Threads of the run's own pool (default: rayon's global pool).
+    #[serde(default)]
+    pub threads: Option<usize>,
+    /// Refined meshes of the accuracy statement (0, 1 or 2; default: 2 for small meshes, else
+    /// 1 — see the outcome's `accuracy`).
+    #[serde(default)]
+    pub accuracy_refinements: Option<usize>,
+    /// Relative error (0 < REL < 1) the run's mesh must meet: the run takes the coarsest mesh of
+    /// a ladder (the scene's mesh sizes × 4, 2, 1, 1/2, …) whose estimated error of every
+    /// criterion at the nominal data is within it (see the outcome's `mesh_choice`).
+    #[serde(default)]
+    pub target_error: Option<f64>,
+}
+
+impl WorstRequest {
+    /// The settings of the run on `scene`, checked. Errors name the request field
+    /// (`criteria[1]`, `budget`, …).
+    pub fn settings(&self, scene: &Scene) -> Result<WorstSettings, WsmError> {
+        let mut settings = WorstSettings::from_scene(scene);
+        if let Some(criteria) = &self.criteria {
+            if criteria.is_empty() {
+                return Err(SceneError::new("criteria", "give at least one criterion").into());
+            }
+            let mut check = scene.clone();
+            check.search.criteria = criteria.clone();
+            crate::scene::validate(&check).map_err(|e| {
+                // The scene was valid: a new error comes from the criteria.
+                SceneError::new(e.path.replacen("search.criteria", "criteria", 1), e.reason)
+            })?;
+            settings.criteria = criteria.clone();
+        }
+        if let Some(budget) = self.budget {
+            if budget == 0 {
+                return Err(SceneError::new("budget", "must be at least 1").into());
+            }
+            settings.budget = budget;
+        }
+        if let Some(seed) = self.seed {
+            settings.seed = seed;
+        }
+        if let Some(limit) = self.max_seconds {
+            if !(limit.is_finite() && limit > 0.0) {
+                return Err(SceneError::new(
+                    "max_seconds",
+                    format!("must be a positive number of seconds (got {limit})"),
+                )
+                .into());
+            }
+            settings.max_seconds = Some(limit);
+        }
+        if let Some(r) = self.accuracy_refinements {
+            if r > 2 {
+                return Err(SceneError::new(
+                    "accuracy_refinements",
+                    format!("0, 1 or 2 refined meshes (got {r})"),
+                )
+                .into());
+            }
+            settings.accuracy_refinements = Some(r);
+        }
+        if let Some(target) = self.target_error {
+            check_target(scene, target)?;
+            settings.target_error = Some(target);
+        }
+        if self.threads == Some(0) {
+            return Err(SceneError::new("threads", "must be at least 1").into());
+        }
+        if settings.criteria.is_empty() {
+            return Err(SceneError::new("search.criteria", "no criterion requested").into());
+        }
+        Ok(settings)
+    }
+}

@@ -1,0 +1,233 @@
+//! The physics behind the black box of the outer search (FGCS 4.35–4.36): Φ_i(θ) for the
+//! requested criteria by one state solve at the data θ (only what the criteria need), with the
+//! solve's largest KKT residual and its time, and inner-solver statistics over the run.
+//!
+//! Evaluations of a batch run in parallel (rayon, sequential factorisations inside); each
+//! warm-starts its contact solve from the nominal solution, so results do not depend on the
+//! thread count or the evaluation order. An observer sees every evaluation as it completes (the
+//! evaluation log of a run).
+
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::contact::qp::WarmStart;
+use crate::error::WsmError;
+use crate::fem::Par;
+use crate::scene::params::{apply, Parameter};
+use crate::scene::Criterion;
+use crate::state::{Needs, SolveOptions, StateProblem, Timings};
+use wsm_search::{Evaluator, Outcome};
+
+/// One evaluation of the criteria at a point θ.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct Evaluation {
+    /// Physical parameter values, in the order of the scene's `uncertain` list.
+    pub point: Vec<f64>,
+    /// The requested criteria, in request order (`None` when the point is infeasible).
+    pub values: Option<Vec<f64>>,
+    /// Why the point is infeasible (the inner solver's error).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+    /// Largest relative KKT residual of the contact solution (`None` without contact).
+    pub max_kkt_residual: Option<f64>,
+    /// Wall time of the state solve \[s\].
+    pub solve_seconds: f64,
+}
+
+impl Evaluation {
+    /// What the search sees: the criteria vector or the reason it is missing.
+    pub fn outcome(&self) -> Outcome {
+        match (&self.values, &self.error) {
+            (Some(v), _) => Ok(v.clone()),
+            (None, Some(e)) => Err(e.clone()),
+            (None, None) => Err("no value recorded".into()),
+        }
+    }
+}
+
+/// Inner-solver statistics accumulated over the evaluations.
+#[derive(Debug, Default)]
+struct InnerStats {
+    solves: AtomicUsize,
+    failures: AtomicUsize,
+    reused_factorisations: AtomicUsize,
+    qp_iterations: AtomicUsize,
+    nanos: AtomicU64,
+    max_kkt: Mutex<f64>,
+    /// Phase times summed over the solves.
+    phases: Mutex<Timings>,
+}
+
+/// Inner-solver statistics of a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct InnerSummary {
+    pub solves: usize,
+    pub failures: usize,
+    pub reused_factorisations: usize,
+    pub mean_qp_iterations: f64,
+    /// Summed over threads \[s\].
+    pub solver_seconds: f64,
+    pub max_kkt_residual: f64,
+    /// Heat solves, stiffness factorisations and elastic solves of the run, the nominal solve
+    /// included (only what the criteria need is computed; factorisations are reused while λ, μ
+    /// do not change).
+    pub heat_solves: usize,
+    pub factorisations: usize,
+    pub elastic_solves: usize,
+}
+
+/// Sees the evaluations of every batch (the evaluation log of a run).
+pub type Observer<'a> = dyn Fn(&[Evaluation]) + Sync + 'a;
+
+/// The criteria of a scene as a black box for the search.
+pub struct ScenarioEvaluator<'a> {
+    problem: &'a StateProblem,
+    params: &'a [Parameter],
+    criteria: &'a [Criterion],
+    needs: Needs,
+    warm: Option<WarmStart>,
+    stats: InnerStats,
+    observer: Option<&'a Observer<'a>>,
+}
+
+impl<'a> ScenarioEvaluator<'a> {
+    /// Prepare: the nominal solve gives the warm start of every contact solve.
+    pub fn new(
+        problem: &'a StateProblem,
+        params: &'a [Parameter],
+        criteria: &'a [Criterion],
+    ) -> Result<ScenarioEvaluator<'a>, WsmError> {
+        let needs = Needs::for_criteria(&problem.scene, criteria);
+        let mut evaluator = ScenarioEvaluator {
+            problem,
+            params,
+            criteria,
+            needs,
+            warm: None,
+            stats: InnerStats::default(),
+            observer: None,
+        };
+        if needs.elastic && problem.contact.geometry.dim() > 0 {
+            let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
+            evaluator.warm = nominal.warm_start;
+        }
+        Ok(evaluator)
+    }
+
+    /// Call `observer` with the evaluations of every batch, in input order, once it is done.
+    pub fn observed_by(mut self, observer: &'a Observer<'a>) -> Self {
+        self.observer = Some(observer);
+        self
+    }
+
+    fn options(&self, par: Par) -> SolveOptions {
+        SolveOptions {
+            needs: self.needs,
+            par,
+            warm: self.warm.clone(),
+        }
+    }
+
+    /// The requested criteria at θ, with the solve's residual and time.
+    pub fn evaluate_one(&self, theta: &[f64]) -> Evaluation {
+        let start = Instant::now();
+        let data = apply(
+            &self.problem.scene,
+            &self.problem.nominal,
+            self.params,
+            theta,
+        );
+        let result = self.problem.solve(&data, &self.options(Par::Seq));
+        let seconds = start.elapsed().as_secs_f64();
+        self.stats
+            .nanos
+            .fetch_add((seconds * 1e9) as u64, Ordering::Relaxed);
+        self.stats.solves.fetch_add(1, Ordering::Relaxed);
+        let mut evaluation = Evaluation {
+            point: theta.to_vec(),
+            values: None,
+            error: None,
+            max_kkt_residual: None,
+            solve_seconds: seconds,
+        };
+        let solution = match result {
+            Ok(s) => s,
+            Err(e) => {
+                self.stats.failures.fetch_add(1, Ordering::Relaxed);
+                evaluation.error = Some(e.to_string());
+                return evaluation;
+            }
+        };
+        let report = &solution.report;
+        if let Ok(mut p) = self.stats.phases.lock() {
+            p.add(&report.timings);
+        }
+        if report.reused_factorisation {
+            self.stats
+                .reused_factorisations
+                .fetch_add(1, Ordering::Relaxed);
+        }
+        self.stats
+            .qp_iterations
+            .fetch_add(report.qp_iterations, Ordering::Relaxed);
+        if report.contact_pairs > 0 {
+            let kkt = report.kkt.max();
+            evaluation.max_kkt_residual = Some(kkt);
+            if let Ok(mut m) = self.stats.max_kkt.lock() {
+                *m = m.max(kkt);
+            }
+        }
+        let values: Result<Vec<f64>, String> = self
+            .criteria
+            .iter()
+            .map(|c| {
+                solution.criteria[*c as usize]
+                    .ok_or_else(|| format!("{} is not defined for this scene", c.name()))
+            })
+            .collect();
+        match values {
+            Ok(v) => evaluation.values = Some(v),
+            Err(e) => evaluation.error = Some(e),
+        }
+        evaluation
+    }
+
+    /// Phase times of the evaluations so far, summed over threads \[s\].
+    pub fn phase_seconds(&self) -> Timings {
+        self.stats.phases.lock().map(|p| *p).unwrap_or_default()
+    }
+
+    /// Statistics of the evaluations so far.
+    pub fn summary(&self) -> InnerSummary {
+        let stats = &self.stats;
+        let solves = stats.solves.load(Ordering::Relaxed);
+        let (heat_solves, factorisations, elastic_solves) = self.problem.counters.snapshot();
+        InnerSummary {
+            solves,
+            failures: stats.failures.load(Ordering::Relaxed),
+            reused_factorisations: stats.reused_factorisations.load(Ordering::Relaxed),
+            mean_qp_iterations: stats.qp_iterations.load(Ordering::Relaxed) as f64
+                / solves.max(1) as f64,
+            solver_seconds: stats.nanos.load(Ordering::Relaxed) as f64 * 1e-9,
+            max_kkt_residual: stats.max_kkt.lock().map(|m| *m).unwrap_or(0.0),
+            heat_solves,
+            factorisations,
+            elastic_solves,
+        }
+    }
+}
+
+impl Evaluator for ScenarioEvaluator<'_> {
+    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
+        let evaluations: Vec<Evaluation> =
+            points.par_iter().map(|p| self.evaluate_one(p)).collect();
+        if let Some(observe) = self.observer {
+            observe(&evaluations);
+        }
+        evaluations.iter().map(Evaluation::outcome).collect()
+    }
+}

@@ -1,0 +1,6 @@
+//! The worst-scenario method (design §4): the admissible set checks, the physics evaluator, the
+//! generic outer search and the engine that joins them.
+
+pub mod evaluator;
+pub mod solvability;
+pub mod worst;

@@ -1,0 +1,246 @@
+//! The worst-scenario engine (design §4, FGCS 4.35–4.36): runs the outer search for the max and
+//! min of each requested criterion Φ_i over the box of the admissible set U_ad (`scene::params`),
+//! with the physics evaluator of `evaluator`, and assembles the outcome: worst and best value and
+//! data per criterion, sensitivities, history, and the inner-solver statistics.
+//!
+//! The phases before the search (meshing, the admissible-set check of `admissible`, the nominal
+//! solve) are run by the caller (`crate::run`), which reports them as progress.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use super::evaluator::InnerSummary;
+use crate::error::WsmError;
+use crate::estimate::mesh_choice::MeshChoice;
+use crate::estimate::statement::{AccuracyStatement, Extrema};
+use crate::scene::params::Parameter;
+use crate::scene::{Criterion, Scene, SceneError};
+use crate::state::StateProblem;
+use wsm_search::{
+    search, EvalCache, Evaluator, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense,
+    Status,
+};
+
+/// Settings of one worst-scenario run (defaults from the scene's `search`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorstSettings {
+    pub criteria: Vec<Criterion>,
+    pub budget: usize,
+    pub seed: u64,
+    pub max_seconds: Option<f64>,
+    /// Refined meshes of the accuracy statement (`None`: by the mesh size, see
+    /// [`crate::estimate::statement::default_refinements`]).
+    pub accuracy_refinements: Option<usize>,
+    /// Relative error the run's mesh must meet at the nominal data (`None`: the scene's mesh;
+    /// see [`crate::estimate::mesh_choice`]).
+    pub target_error: Option<f64>,
+}
+
+impl WorstSettings {
+    pub fn from_scene(scene: &Scene) -> WorstSettings {
+        WorstSettings {
+            criteria: scene.search.criteria.clone(),
+            budget: scene.search.budget,
+            seed: scene.search.seed,
+            max_seconds: scene.search.max_seconds,
+            accuracy_refinements: None,
+            target_error: None,
+        }
+    }
+
+    /// The objectives of the search: max then min of each criterion, in request order.
+    pub fn objectives(&self) -> Vec<Objective> {
+        (0..self.criteria.len())
+            .flat_map(|criterion| {
+                [Sense::Max, Sense::Min].map(|sense| Objective { criterion, sense })
+            })
+            .collect()
+    }
+}
+
+/// Worst (max) and best (min) of one criterion.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct CriterionOutcome {
+    pub criterion: Criterion,
+    pub worst: ObjectiveResult,
+    pub best: ObjectiveResult,
+}
+
+/// A parameter of the admissible set.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct ParameterInfo {
+    /// The parameter's name (the scene's `uncertain[i].name`, else its field path).
+    pub name: String,
+    /// The JSON path of the scene number it varies.
+    pub field: String,
+    /// Admissible interval \[lo, hi\] (units of the field).
+    pub interval: [f64; 2],
+}
+
+impl ParameterInfo {
+    pub fn list(scene: &Scene, params: &[Parameter]) -> Vec<ParameterInfo> {
+        params
+            .iter()
+            .zip(&scene.uncertain)
+            .map(|(p, u)| ParameterInfo {
+                name: p.name.clone(),
+                field: u.field.clone(),
+                interval: [p.lo, p.hi],
+            })
+            .collect()
+    }
+}
+
+/// The outcome of a worst-scenario run (complete or partial: see `status`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct WorstOutcome {
+    pub scene: String,
+    /// Stable hash of everything that determines an evaluation's value (scene and criteria).
+    pub run_hash: String,
+    pub status: Status,
+    pub parameters: Vec<ParameterInfo>,
+    /// Per criterion; the `best_point` of each extremum is aligned with `parameters`.
+    pub criteria: Vec<CriterionOutcome>,
+    pub budget: usize,
+    /// Distinct points used, including those replayed from a log.
+    pub evaluations: usize,
+    /// Points solved by this run.
+    pub new_evaluations: usize,
+    /// Wall time of the search \[s\].
+    pub wall_seconds: f64,
+    /// Meshing and operator set-up \[s\].
+    pub setup_seconds: f64,
+    pub evaluations_per_second: f64,
+    /// Share of the wall time spent in inner solves (summed over threads / wall / threads).
+    pub inner_time_share: f64,
+    pub inner: InnerSummary,
+    /// The discretisation-error estimate of every worst and best value (absent for a run cut
+    /// short by a cancel or its time limit, or with `accuracy_refinements: 0`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<AccuracyStatement>,
+    /// How the mesh was chosen for the request's `target_error` (absent without one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh_choice: Option<MeshChoice>,
+    /// Warnings about the results, e.g. P1 locking at worst or best data with ν ≥ 0.49.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+impl WorstOutcome {
+    /// A run that stopped (cancel or time limit) before its search began: no values yet.
+    pub fn unstarted(
+        scene: &Scene,
+        params: &[Parameter],
+        settings: &WorstSettings,
+        status: Status,
+    ) -> WorstOutcome {
+        let n = params.len();
+        let objective = |criterion, sense| ObjectiveResult::empty(criterion, sense, status, n);
+        WorstOutcome {
+            scene: scene.name.clone(),
+            run_hash: String::new(),
+            status,
+            parameters: ParameterInfo::list(scene, params),
+            criteria: settings
+                .criteria
+                .iter()
+                .enumerate()
+                .map(|(i, &criterion)| CriterionOutcome {
+                    criterion,
+                    worst: objective(i, Sense::Max),
+                    best: objective(i, Sense::Min),
+                })
+                .collect(),
+            budget: settings.budget,
+            evaluations: 0,
+            new_evaluations: 0,
+            wall_seconds: 0.0,
+            setup_seconds: 0.0,
+            evaluations_per_second: 0.0,
+            inner_time_share: 0.0,
+            inner: InnerSummary {
+                solves: 0,
+                failures: 0,
+                reused_factorisations: 0,
+                mean_qp_iterations: 0.0,
+                solver_seconds: 0.0,
+                max_kkt_residual: 0.0,
+                heat_solves: 0,
+                factorisations: 0,
+                elastic_solves: 0,
+            },
+            accuracy: None,
+            mesh_choice: None,
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Per criterion, the (value, point) of its worst and best.
+    pub fn extrema(&self) -> Extrema {
+        let pick = |o: &ObjectiveResult| o.best_value.zip(o.best_point.clone());
+        self.criteria
+            .iter()
+            .map(|c| [pick(&c.worst), pick(&c.best)])
+            .collect()
+    }
+}
+
+/// Run the search for max and min of each requested criterion, evaluating through `cache`
+/// (pre-loaded to resume); `inner` gives the inner-solver statistics of the evaluations. A
+/// cancelled or timed-out search returns its partial outcome.
+pub fn run(
+    problem: &StateProblem,
+    params: &[Parameter],
+    settings: &WorstSettings,
+    evaluator: &dyn Evaluator,
+    inner: &dyn Fn() -> InnerSummary,
+    cache: &mut EvalCache,
+    control: SearchControl<'_>,
+) -> Result<WorstOutcome, WsmError> {
+    if settings.criteria.is_empty() {
+        return Err(SceneError::new("search.criteria", "no criterion requested").into());
+    }
+    let start = Instant::now();
+    let search_problem = SearchProblem {
+        bounds: params.iter().map(|p| [p.lo, p.hi]).collect(),
+        objectives: settings.objectives(),
+        budget: settings.budget,
+        max_seconds: settings.max_seconds,
+        seed: settings.seed,
+    };
+    let result = search(&search_problem, evaluator, cache, control)?;
+    let mut objectives = result.objectives.into_iter();
+    let criteria = settings
+        .criteria
+        .iter()
+        .filter_map(|&criterion| {
+            Some(CriterionOutcome {
+                criterion,
+                worst: objectives.next()?,
+                best: objectives.next()?,
+            })
+        })
+        .collect();
+    let wall = start.elapsed().as_secs_f64();
+    let inner = inner();
+    Ok(WorstOutcome {
+        scene: problem.scene.name.clone(),
+        run_hash: String::new(),
+        status: result.status,
+        parameters: ParameterInfo::list(&problem.scene, params),
+        criteria,
+        budget: settings.budget,
+        evaluations: result.evaluations,
+        new_evaluations: result.new_evaluations,
+        wall_seconds: wall,
+        evaluations_per_second: result.new_evaluations as f64 / wall.max(1e-9),
+        inner_time_share: inner.solver_seconds
+            / (wall.max(1e-9) * rayon::current_num_threads() as f64),
+        setup_seconds: problem.setup_seconds,
+        inner,
+        accuracy: None,
+        mesh_choice: None,
+        warnings: Vec::new(),
+    })
+}

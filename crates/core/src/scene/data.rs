@@ -1,0 +1,211 @@
+//! The numeric data of a scene in resolved form: everything a solve needs besides the mesh.
+//!
+//! The worst-scenario engine varies exactly these numbers (design §4.1); the mesh and the
+//! topology (which zone uses which material, which condition acts on which segment) never change
+//! between evaluations. Indices follow the scene: materials in name order (the `BTreeMap` order),
+//! boundary conditions and contacts in list order, segments in name order.
+
+use super::model::{BoundaryCondition, Material, Scene, SlipLimit};
+
+/// Elastic constants as the user gave them; converted to Lamé constants on use.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Elastic {
+    /// Young's modulus E \[Pa\] and Poisson's ratio ν.
+    Young { e: f64, nu: f64 },
+    /// Lamé constants λ, μ \[Pa\].
+    Lame { lambda: f64, mu: f64 },
+}
+
+impl Elastic {
+    /// (λ, μ) exactly: λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)).
+    pub fn lame(self) -> (f64, f64) {
+        match self {
+            Elastic::Young { e, nu } => (
+                e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+                e / (2.0 * (1.0 + nu)),
+            ),
+            Elastic::Lame { lambda, mu } => (lambda, mu),
+        }
+    }
+}
+
+/// Thermal expansion as given: α (β = (3λ + 2μ)α) or β directly.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Expansion {
+    Alpha(f64),
+    Beta(f64),
+}
+
+/// Numeric data of one material.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialData {
+    pub elastic: Elastic,
+    /// Specific weight ρg [N/m³] (acts in −y).
+    pub specific_weight: f64,
+    /// Additional body force [N/m³].
+    pub body_force: [f64; 2],
+    /// Conductivity κ [W/(m K)].
+    pub conductivity: f64,
+    /// Heat source W [W/m³].
+    pub heat_source: f64,
+    pub expansion: Expansion,
+}
+
+impl MaterialData {
+    /// Total body force F [N/m³].
+    pub fn force(&self) -> [f64; 2] {
+        [
+            self.body_force[0],
+            self.body_force[1] - self.specific_weight,
+        ]
+    }
+
+    /// Thermal stress coefficient β [Pa/K] (FGCS 2.7, isotropic).
+    pub fn beta(&self) -> f64 {
+        match self.expansion {
+            Expansion::Beta(b) => b,
+            Expansion::Alpha(a) => {
+                let (l, m) = self.elastic.lame();
+                (3.0 * l + 2.0 * m) * a
+            }
+        }
+    }
+}
+
+/// The numbers of one boundary condition.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BoundaryValue {
+    Displacement([Option<f64>; 2]),
+    Traction([f64; 2]),
+    Pressure(f64),
+    /// Roller with a given direction, or the segment normal when `None`.
+    Roller(Option<[f64; 2]>),
+    Temperature(f64),
+    HeatFlux(f64),
+}
+
+impl BoundaryValue {
+    /// Whether the condition belongs to the heat problem.
+    pub fn is_thermal(&self) -> bool {
+        matches!(
+            self,
+            BoundaryValue::Temperature(_) | BoundaryValue::HeatFlux(_)
+        )
+    }
+}
+
+/// A boundary condition resolved to its segment index.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoundaryData {
+    pub segment: usize,
+    pub value: BoundaryValue,
+}
+
+/// Slip limit g of a contact zone: piecewise linear in the fraction s ∈ [0, 1] of the zone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SlipData {
+    pub knots: Vec<f64>,
+    pub values: Vec<f64>,
+}
+
+/// Linear interpolation of `values` at increasing `knots`, constant outside; 0 without knots.
+pub fn piecewise_linear(knots: &[f64], values: &[f64], s: f64) -> f64 {
+    let n = knots.len().min(values.len());
+    if n == 0 {
+        return 0.0;
+    }
+    if s <= knots[0] {
+        return values[0];
+    }
+    for i in 1..n {
+        if s <= knots[i] {
+            let w = (s - knots[i - 1]) / (knots[i] - knots[i - 1]);
+            return values[i - 1] * (1.0 - w) + values[i] * w;
+        }
+    }
+    values[n - 1]
+}
+
+/// All numbers a solve depends on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Data {
+    pub materials: Vec<MaterialData>,
+    pub boundary: Vec<BoundaryData>,
+    pub slip: Vec<SlipData>,
+    pub reference_temperature: f64,
+}
+
+impl Data {
+    /// Resolve the numbers of a scene that `validate` accepted (missing values read as zero).
+    pub fn from_scene(scene: &Scene) -> Data {
+        let segment_index = |name: &str| scene.segments.keys().position(|k| k == name).unwrap_or(0);
+        Data {
+            materials: scene.materials.values().map(material_data).collect(),
+            boundary: scene
+                .boundary
+                .iter()
+                .map(|bc| BoundaryData {
+                    segment: segment_index(&bc.segment),
+                    value: boundary_value(bc),
+                })
+                .collect(),
+            slip: scene
+                .contacts
+                .iter()
+                .map(|c| match &c.slip_limit {
+                    SlipLimit::Constant(g) => SlipData {
+                        knots: vec![0.0],
+                        values: vec![*g],
+                    },
+                    SlipLimit::PiecewiseLinear { knots, values, .. } => SlipData {
+                        knots: knots.clone(),
+                        values: values.clone(),
+                    },
+                })
+                .collect(),
+            reference_temperature: scene
+                .thermal
+                .as_ref()
+                .map_or(0.0, |t| t.reference_temperature),
+        }
+    }
+}
+
+fn material_data(m: &Material) -> MaterialData {
+    let elastic = match (m.young, m.nu, m.lambda, m.mu) {
+        (Some(e), Some(nu), _, _) => Elastic::Young { e, nu },
+        (_, _, Some(lambda), Some(mu)) => Elastic::Lame { lambda, mu },
+        _ => Elastic::Lame {
+            lambda: 0.0,
+            mu: 0.0,
+        },
+    };
+    MaterialData {
+        elastic,
+        specific_weight: m.specific_weight.unwrap_or(0.0),
+        body_force: m.body_force.unwrap_or([0.0, 0.0]),
+        conductivity: m.conductivity.unwrap_or(0.0),
+        heat_source: m.heat_source.unwrap_or(0.0),
+        expansion: match (m.expansion, m.beta) {
+            (_, Some(b)) => Expansion::Beta(b),
+            (Some(a), None) => Expansion::Alpha(a),
+            (None, None) => Expansion::Beta(0.0),
+        },
+    }
+}
+
+fn boundary_value(bc: &BoundaryCondition) -> BoundaryValue {
+    if let Some(d) = bc.displacement {
+        BoundaryValue::Displacement(d)
+    } else if let Some(t) = bc.traction {
+        BoundaryValue::Traction(t)
+    } else if let Some(p) = bc.pressure {
+        BoundaryValue::Pressure(p)
+    } else if let Some(r) = &bc.roller {
+        BoundaryValue::Roller(r.direction)
+    } else if let Some(t) = bc.temperature {
+        BoundaryValue::Temperature(t)
+    } else {
+        BoundaryValue::HeatFlux(bc.heat_flux.unwrap_or(0.0))
+    }
+}

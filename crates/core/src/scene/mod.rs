@@ -1,0 +1,42 @@
+//! Scene: the JSON document a user submits (design §5.2), its validation, its numeric data and
+//! its uncertain parameters.
+//!
+//! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
+//! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
+//! `rules` holds the sign and range rules (materials, slip limit) both of them check.
+
+mod data;
+mod model;
+pub mod params;
+mod rules;
+mod validate;
+
+pub use data::*;
+pub use model::*;
+pub use validate::{parse, validate};
+
+use std::fmt;
+
+/// A scene error: the JSON path of the offending field and the reason.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError {
+    pub path: String,
+    pub reason: String,
+}
+
+impl SceneError {
+    pub fn new(path: impl Into<String>, reason: impl Into<String>) -> SceneError {
+        SceneError {
+            path: path.into(),
+            reason: reason.into(),
+        }
+    }
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.path, self.reason)
+    }
+}
+
+impl std::error::Error for SceneError {}

@@ -1,0 +1,473 @@
+//! Serde model of the scene document (design §5.2, format version 1).
+//!
+//! A scene is one JSON document: bodies made of material zones (polygons with holes), named
+//! boundary segments, boundary conditions by segment name, materials, contact zones between two
+//! bodies' segments, an optional thermal part, mesh controls, criteria regions, the admissible set
+//! of uncertain data and the search settings. All quantities are SI (m, Pa, N/m³, K, W/m³, W/m²).
+//! This module only describes the shape of the document; `validate` checks its meaning.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A point `[x, y]` in metres.
+pub type Point = [f64; 2];
+
+/// The whole scene document.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Format version; only `1` exists.
+    pub version: u32,
+    /// Human-readable name.
+    #[serde(default)]
+    pub name: String,
+    /// Free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// Elastic bodies Ω^ι, each the union of its zones.
+    pub bodies: Vec<Body>,
+    /// Named boundary segments (polylines on a body's boundary).
+    #[serde(default)]
+    pub segments: BTreeMap<String, Segment>,
+    /// Materials by name.
+    pub materials: BTreeMap<String, Material>,
+    /// Boundary conditions by segment name; each entry sets exactly one condition.
+    #[serde(default)]
+    pub boundary: Vec<BoundaryCondition>,
+    /// Contact zones Γ^kl between two bodies.
+    #[serde(default)]
+    pub contacts: Vec<Contact>,
+    /// Stationary heat problem (FGCS P1); absent means no thermal part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<Thermal>,
+    /// Mesh controls.
+    pub mesh: MeshControls,
+    /// Criteria regions G_r and boundary pieces G'_r.
+    #[serde(default)]
+    pub criteria: CriteriaRegions,
+    /// Uncertain data: each entry points at a scene number and gives its interval.
+    #[serde(default)]
+    pub uncertain: Vec<Uncertain>,
+    /// Worst-scenario search settings.
+    #[serde(default)]
+    pub search: SearchSettings,
+    /// Inner solver settings.
+    #[serde(default)]
+    pub solver: SolverSettings,
+}
+
+/// One elastic body.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Body {
+    pub name: String,
+    /// Material zones Ω^ι_j; they must not overlap and together form the body.
+    pub zones: Vec<Zone>,
+}
+
+/// A material zone: a simple polygon (either orientation) with optional holes.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Zone {
+    pub name: String,
+    /// Name of an entry of `materials`.
+    pub material: String,
+    pub polygon: Vec<Point>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub holes: Vec<Vec<Point>>,
+}
+
+/// A boundary segment: the part of a body's boundary lying on a polyline.
+///
+/// Either `from`/`to` (a straight piece) or `path` (a polyline, `closed` for a whole loop such as
+/// the rim of a hole) must be given.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Segment {
+    pub body: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<Point>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<Point>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<Vec<Point>>,
+    #[serde(default)]
+    pub closed: bool,
+}
+
+impl Segment {
+    /// The polyline of the segment (closed loops repeat their first point at the end).
+    pub fn polyline(&self) -> Vec<Point> {
+        let mut pts = match (&self.path, self.from, self.to) {
+            (Some(p), _, _) => p.clone(),
+            (None, Some(a), Some(b)) => vec![a, b],
+            _ => Vec::new(),
+        };
+        if self.closed && pts.len() > 2 && pts.first() != pts.last() {
+            pts.push(pts[0]);
+        }
+        pts
+    }
+}
+
+/// Isotropic material. Give either (`E`, `nu`) or (`lambda`, `mu`).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Young's modulus \[Pa\].
+    #[serde(rename = "E", default, skip_serializing_if = "Option::is_none")]
+    pub young: Option<f64>,
+    /// Poisson's ratio [-].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nu: Option<f64>,
+    /// Lamé's first parameter λ \[Pa\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lambda: Option<f64>,
+    /// Shear modulus μ \[Pa\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mu: Option<f64>,
+    /// Specific weight ρg [N/m³]: body force (0, −specific_weight).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specific_weight: Option<f64>,
+    /// Body force [N/m³], added to the specific weight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub body_force: Option<[f64; 2]>,
+    /// Thermal conductivity κ [W/(m K)]: a scalar.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub conductivity: Option<f64>,
+    /// Heat source W [W/m³].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heat_source: Option<f64>,
+    /// Linear thermal expansion α [1/K]; β = (3λ + 2μ) α.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub expansion: Option<f64>,
+    /// Thermal stress coefficient β [Pa/K], instead of `expansion`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub beta: Option<f64>,
+}
+
+/// One boundary condition on a named segment. Exactly one of the condition fields is set.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryCondition {
+    pub segment: String,
+    /// Prescribed displacement \[m\] per component; `null` leaves the component free.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub displacement: Option<[Option<f64>; 2]>,
+    /// Surface traction \[Pa\] (force per area, global x/y components).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub traction: Option<[f64; 2]>,
+    /// Normal pressure \[Pa\]: traction −p·n with n the outward normal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pressure: Option<f64>,
+    /// Bilateral contact with a rigid foundation (Γo): u·d = 0, zero tangential traction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roller: Option<Roller>,
+    /// Prescribed temperature T1 \[K\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<f64>,
+    /// Prescribed inward heat flux [W/m²] (0 is the default insulated boundary).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heat_flux: Option<f64>,
+}
+
+/// Roller direction: `{}` uses the segment's outward normal, `{"direction": [dx, dy]}` a given one.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Roller {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub direction: Option<[f64; 2]>,
+}
+
+/// Contact kind on Γ^kl.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactKind {
+    /// Signorini contact with Tresca friction.
+    #[default]
+    Unilateral,
+    /// Tied normal displacement, frictionless.
+    Bilateral,
+}
+
+/// A contact zone between a segment of body k and a segment of body l (zero initial gap).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Contact {
+    pub name: String,
+    /// `[segment of body k, segment of body l]`; the normal is the outward normal of body k.
+    pub between: [String; 2],
+    #[serde(default)]
+    pub kind: ContactKind,
+    /// Tresca slip limit g \[Pa\]; 0 means frictionless.
+    #[serde(default)]
+    pub slip_limit: SlipLimit,
+    /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
+    /// flat contact line model curved surfaces, e.g. the 2D Hertz setting.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_gap: Option<InitialGap>,
+}
+
+/// Initial normal gap of a contact zone.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum InitialGap {
+    /// g0 = d²/(2R), d the distance from the touching point (a cylinder of radius R on a flat,
+    /// or two cylinders with 1/R = 1/R1 + 1/R2).
+    Parabola { radius: f64, touch_at: Point },
+    /// Piecewise linear in the arc-length fraction s ∈ [0, 1] along body k's segment.
+    PiecewiseLinear { knots: Vec<f64>, values: Vec<f64> },
+}
+
+/// Slip limit: a constant, or piecewise linear on knots given as fractions of the zone length.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SlipLimit {
+    Constant(f64),
+    PiecewiseLinear {
+        /// Knot positions, fractions 0..1 of the arc length along body k's segment, increasing.
+        knots: Vec<f64>,
+        /// g at the knots \[Pa\].
+        values: Vec<f64>,
+        /// Optional bound C on |dg/ds| [Pa/m] (FGCS 4.15).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_slope: Option<f64>,
+    },
+}
+
+impl Default for SlipLimit {
+    fn default() -> Self {
+        SlipLimit::Constant(0.0)
+    }
+}
+
+/// Stationary heat problem settings.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Thermal {
+    /// Reference temperature T0 \[K\] of the stress-free state.
+    #[serde(default)]
+    pub reference_temperature: f64,
+}
+
+/// Mesh controls.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshControls {
+    /// Maximal element edge length \[m\].
+    pub max_size: f64,
+    /// Local refinement near segments or inside polygons.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub refine: Vec<Refinement>,
+    /// Minimal angle of the quality refinement \[deg\] (≤ 30).
+    #[serde(default = "default_min_angle")]
+    pub min_angle: f64,
+    /// Import a Gmsh .msh 4.1 (ASCII) file instead of meshing the polygons. Physical names of
+    /// 2D entities map to zone names, of 1D entities to segment names.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gmsh_file: Option<String>,
+}
+
+fn default_min_angle() -> f64 {
+    28.0
+}
+
+/// A local refinement: along the given segments and/or inside a polygon.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Refinement {
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub segments: Vec<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub polygon: Option<Vec<Point>>,
+    pub max_size: f64,
+}
+
+/// Criteria regions (FGCS 4.29–4.34).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CriteriaRegions {
+    /// Small areas G_r.
+    #[serde(default)]
+    pub regions: Vec<CriterionRegion>,
+    /// Boundary pieces G'_r.
+    #[serde(default)]
+    pub boundary_pieces: Vec<BoundaryPiece>,
+}
+
+/// An area G_r with the point X_r whose outward normal is used by Φ3 and Φ6.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CriterionRegion {
+    pub name: String,
+    pub polygon: Vec<Point>,
+    /// X_r: a boundary point; the outward normal of the region's body there is n(X_r).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_at: Option<Point>,
+    /// An explicit unit direction instead of `normal_at`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<[f64; 2]>,
+}
+
+/// A boundary piece G'_r: the part of a segment between two points.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundaryPiece {
+    pub name: String,
+    pub segment: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub from: Option<Point>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<Point>,
+    /// X_r; defaults to the piece's midpoint.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_at: Option<Point>,
+}
+
+/// One uncertain datum: the scene field it varies and its interval.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Uncertain {
+    /// Path of a scene number, e.g. `materials.rock.E`, `boundary[2].traction[0]`,
+    /// `contacts[0].slip_limit`, `contacts[0].slip_limit.values[1]`.
+    pub field: String,
+    pub interval: [f64; 2],
+    /// Display name; defaults to `field`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+}
+
+/// The criteria Φ1–Φ6 (FGCS numbering).
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    Serialize,
+    Deserialize,
+    utoipa::ToSchema,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Criterion {
+    Phi1,
+    Phi2,
+    Phi3,
+    Phi4,
+    Phi5,
+    Phi6,
+}
+
+impl Criterion {
+    pub const ALL: [Criterion; 6] = [
+        Criterion::Phi1,
+        Criterion::Phi2,
+        Criterion::Phi3,
+        Criterion::Phi4,
+        Criterion::Phi5,
+        Criterion::Phi6,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Criterion::Phi1 => "phi1",
+            Criterion::Phi2 => "phi2",
+            Criterion::Phi3 => "phi3",
+            Criterion::Phi4 => "phi4",
+            Criterion::Phi5 => "phi5",
+            Criterion::Phi6 => "phi6",
+        }
+    }
+
+    /// Whether the criterion needs the temperature field only (Φ1, Φ2).
+    pub fn is_thermal(self) -> bool {
+        matches!(self, Criterion::Phi1 | Criterion::Phi2)
+    }
+
+    pub fn parse(s: &str) -> Option<Criterion> {
+        Criterion::ALL
+            .into_iter()
+            .find(|c| c.name() == s.trim().to_ascii_lowercase())
+    }
+}
+
+/// Worst-scenario search settings (design §4.3).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SearchSettings {
+    #[serde(default)]
+    pub criteria: Vec<Criterion>,
+    /// Maximal number of inner solves (shared by all criteria).
+    #[serde(default = "default_budget")]
+    pub budget: usize,
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Wall-time limit \[s\].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_seconds: Option<f64>,
+}
+
+fn default_budget() -> usize {
+    300
+}
+fn default_seed() -> u64 {
+    1
+}
+
+impl Default for SearchSettings {
+    fn default() -> Self {
+        SearchSettings {
+            criteria: Vec::new(),
+            budget: default_budget(),
+            seed: default_seed(),
+            max_seconds: None,
+        }
+    }
+}
+
+/// Which inner solver runs the state problem.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, utoipa::ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum SolverKind {
+    #[default]
+    Direct,
+    Dd,
+}
+
+/// Inner solver settings.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSettings {
+    #[serde(default)]
+    pub kind: SolverKind,
+    /// Requested total number of subdomains for the DD solver (0 = automatic, about 800
+    /// elements each).
+    #[serde(default)]
+    pub subdomains: usize,
+    /// Relative tolerance of the DD iterations.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// An explicit DD partition instead of the automatic one: every element goes to the first
+    /// polygon that contains its centroid (one subdomain per polygon and body), the elements in
+    /// no polygon to one subdomain per body. No interface may cut a contact zone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub partition: Vec<Vec<Point>>,
+}
+
+fn default_tolerance() -> f64 {
+    1e-10
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            kind: SolverKind::Direct,
+            subdomains: 0,
+            tolerance: default_tolerance(),
+            partition: Vec::new(),
+        }
+    }
+}

@@ -1,0 +1,366 @@
+//! Uncertain parameters (design §4.1): resolve each `uncertain[i].field` path to the scene number
+//! it varies, check its interval, and write a parameter vector θ into the numeric `Data`.
+//!
+//! Supported paths: `materials.M.{E, nu, lambda, mu, specific_weight, body_force[c],
+//! conductivity, heat_source, expansion, beta}`, `boundary[i].{displacement[c], traction[c],
+//! pressure, temperature, heat_flux}`, `contacts[i].slip_limit` (constant g) and
+//! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g), and
+//! `thermal.reference_temperature`.
+//!
+//! A piecewise linear slip limit with `max_slope` C lives in the set {0 ≤ g, |dg/ds| ≤ C} (FGCS
+//! 4.15). The box of knot values is mapped onto that set by the Euclidean projection (Dykstra's
+//! algorithm over the slope slabs and the box), so every admissible g is reached (it is its own
+//! image) and every θ in the box gives an admissible g.
+
+use super::data::{BoundaryValue, Data, Elastic, Expansion};
+use super::model::{Scene, SlipLimit, Uncertain};
+use super::rules::Constant;
+use super::SceneError;
+
+/// The scene number an uncertain parameter varies.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamTarget {
+    Young(usize),
+    Poisson(usize),
+    Lambda(usize),
+    Mu(usize),
+    SpecificWeight(usize),
+    BodyForce(usize, usize),
+    Conductivity(usize),
+    HeatSource(usize),
+    Expansion(usize),
+    Beta(usize),
+    Displacement(usize, usize),
+    Traction(usize, usize),
+    Pressure(usize),
+    Temperature(usize),
+    HeatFlux(usize),
+    SlipConstant(usize),
+    SlipKnot(usize, usize),
+    ReferenceTemperature,
+}
+
+impl ParamTarget {
+    /// The sign or range rule of the varied number, if it has one.
+    fn constant(self) -> Option<Constant> {
+        match self {
+            ParamTarget::Young(_) => Some(Constant::Young),
+            ParamTarget::Poisson(_) => Some(Constant::Poisson),
+            ParamTarget::Lambda(_) => Some(Constant::Lambda),
+            ParamTarget::Mu(_) => Some(Constant::Mu),
+            ParamTarget::Conductivity(_) => Some(Constant::Conductivity),
+            ParamTarget::SlipConstant(_) | ParamTarget::SlipKnot(..) => Some(Constant::SlipLimit),
+            _ => None,
+        }
+    }
+}
+
+/// One resolved uncertain parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    pub name: String,
+    pub target: ParamTarget,
+    pub lo: f64,
+    pub hi: f64,
+}
+
+/// Split `a.b[2].c` into tokens: names and indices.
+fn tokens(path: &str) -> Option<Vec<Token<'_>>> {
+    let mut out = Vec::new();
+    for part in path.split('.') {
+        let (name, mut rest) = match part.find('[') {
+            Some(p) => (&part[..p], &part[p..]),
+            None => (part, ""),
+        };
+        if !name.is_empty() {
+            out.push(Token::Name(name));
+        }
+        while !rest.is_empty() {
+            let close = rest.find(']')?;
+            out.push(Token::Index(rest.get(1..close)?.trim().parse().ok()?));
+            rest = &rest[close + 1..];
+        }
+    }
+    Some(out)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Token<'a> {
+    Name(&'a str),
+    Index(usize),
+}
+
+/// Resolve `uncertain[i]` against the scene and check its interval.
+pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter, SceneError> {
+    let field_path = format!("uncertain[{i}].field");
+    let unknown = |why: &str| SceneError::new(field_path.clone(), format!("'{}': {why}", u.field));
+    let toks = tokens(&u.field).ok_or_else(|| unknown("not a valid field path"))?;
+    use Token::{Index as I, Name as N};
+    let target = match toks.as_slice() {
+        [N("materials"), N(m), rest @ ..] => {
+            let idx = scene
+                .materials
+                .keys()
+                .position(|k| k == m)
+                .ok_or_else(|| unknown("unknown material"))?;
+            let mat = &scene.materials[*m];
+            match rest {
+                [N("E")] if mat.young.is_some() => ParamTarget::Young(idx),
+                [N("nu")] if mat.nu.is_some() => ParamTarget::Poisson(idx),
+                [N("lambda")] if mat.lambda.is_some() => ParamTarget::Lambda(idx),
+                [N("mu")] if mat.mu.is_some() => ParamTarget::Mu(idx),
+                [N("E" | "nu" | "lambda" | "mu")] => {
+                    return Err(unknown(
+                        "the material is given by the other pair of elastic constants",
+                    ))
+                }
+                [N("specific_weight")] => ParamTarget::SpecificWeight(idx),
+                [N("body_force"), I(c)] if *c < 2 => ParamTarget::BodyForce(idx, *c),
+                [N("conductivity")] => ParamTarget::Conductivity(idx),
+                [N("heat_source")] => ParamTarget::HeatSource(idx),
+                [N("expansion")] if mat.beta.is_none() => ParamTarget::Expansion(idx),
+                [N("beta")] if mat.expansion.is_none() => ParamTarget::Beta(idx),
+                _ => return Err(unknown("not an uncertain-capable material field")),
+            }
+        }
+        [N("boundary"), I(b), rest @ ..] => {
+            let bc = scene
+                .boundary
+                .get(*b)
+                .ok_or_else(|| unknown("no such boundary condition"))?;
+            match rest {
+                [N("displacement"), I(c)]
+                    if bc
+                        .displacement
+                        .is_some_and(|d| d.get(*c).is_some_and(Option::is_some)) =>
+                {
+                    ParamTarget::Displacement(*b, *c)
+                }
+                [N("traction"), I(c)] if bc.traction.is_some() && *c < 2 => {
+                    ParamTarget::Traction(*b, *c)
+                }
+                [N("pressure")] if bc.pressure.is_some() => ParamTarget::Pressure(*b),
+                [N("temperature")] if bc.temperature.is_some() => ParamTarget::Temperature(*b),
+                [N("heat_flux")] if bc.heat_flux.is_some() => ParamTarget::HeatFlux(*b),
+                _ => return Err(unknown("the boundary condition has no such number")),
+            }
+        }
+        [N("contacts"), I(c), N("slip_limit"), rest @ ..] => {
+            let contact = scene
+                .contacts
+                .get(*c)
+                .ok_or_else(|| unknown("no such contact zone"))?;
+            match (rest, &contact.slip_limit) {
+                ([], SlipLimit::Constant(_)) => ParamTarget::SlipConstant(*c),
+                ([N("values"), I(k)], SlipLimit::PiecewiseLinear { values, .. })
+                    if *k < values.len() =>
+                {
+                    ParamTarget::SlipKnot(*c, *k)
+                }
+                _ => {
+                    return Err(unknown(
+                        "use slip_limit for a constant g, slip_limit.values[k] for knots",
+                    ))
+                }
+            }
+        }
+        [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
+            ParamTarget::ReferenceTemperature
+        }
+        _ => return Err(unknown("unknown field")),
+    };
+    let [lo, hi] = u.interval;
+    let ipath = format!("uncertain[{i}].interval");
+    if !lo.is_finite() || !hi.is_finite() {
+        return Err(SceneError::new(ipath, "bounds must be finite"));
+    }
+    if lo > hi {
+        return Err(SceneError::new(
+            ipath,
+            format!("inverted interval [{lo}, {hi}]"),
+        ));
+    }
+    if let Some(constant) = target.constant() {
+        constant
+            .check_interval(lo, hi)
+            .map_err(|reason| SceneError::new(ipath, reason))?;
+    }
+    Ok(Parameter {
+        name: u.name.clone().unwrap_or_else(|| u.field.clone()),
+        target,
+        lo,
+        hi,
+    })
+}
+
+/// Resolve all uncertain parameters of a scene.
+pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
+    let params: Vec<Parameter> = scene
+        .uncertain
+        .iter()
+        .enumerate()
+        .map(|(i, u)| resolve_uncertain(scene, i, u))
+        .collect::<Result<_, _>>()?;
+    for (i, p) in params.iter().enumerate() {
+        if params[..i].iter().any(|q| q.target == p.target) {
+            return Err(SceneError::new(
+                format!("uncertain[{i}].field"),
+                format!(
+                    "'{}' is already uncertain in an earlier entry",
+                    scene.uncertain[i].field
+                ),
+            ));
+        }
+    }
+    Ok(params)
+}
+
+/// Write θ into a copy of the nominal data, then map piecewise slip limits onto their
+/// slope-constrained sets.
+pub fn apply(scene: &Scene, nominal: &Data, params: &[Parameter], theta: &[f64]) -> Data {
+    let mut data = nominal.clone();
+    for (p, &v) in params.iter().zip(theta) {
+        set(&mut data, p.target, v);
+    }
+    for (c, contact) in scene.contacts.iter().enumerate() {
+        if let SlipLimit::PiecewiseLinear {
+            max_slope: Some(slope),
+            ..
+        } = contact.slip_limit
+        {
+            let bounds: Vec<(f64, f64)> = (0..data.slip[c].values.len())
+                .map(|k| {
+                    params
+                        .iter()
+                        .find(|p| p.target == ParamTarget::SlipKnot(c, k))
+                        .map_or((0.0, f64::INFINITY), |p| (p.lo, p.hi))
+                })
+                .collect();
+            let slip = &mut data.slip[c];
+            slip.values = project_slope(&slip.values, &slip.knots, slope, &bounds);
+        }
+    }
+    data
+}
+
+fn set(data: &mut Data, target: ParamTarget, v: f64) {
+    use ParamTarget as T;
+    match target {
+        T::Young(m) | T::Poisson(m) | T::Lambda(m) | T::Mu(m) => {
+            let el = &mut data.materials[m].elastic;
+            match (target, el) {
+                (T::Young(_), Elastic::Young { e, .. }) => *e = v,
+                (T::Poisson(_), Elastic::Young { nu, .. }) => *nu = v,
+                (T::Lambda(_), Elastic::Lame { lambda, .. }) => *lambda = v,
+                (T::Mu(_), Elastic::Lame { mu, .. }) => *mu = v,
+                _ => {}
+            }
+        }
+        T::SpecificWeight(m) => data.materials[m].specific_weight = v,
+        T::BodyForce(m, c) => data.materials[m].body_force[c] = v,
+        T::Conductivity(m) => data.materials[m].conductivity = v,
+        T::HeatSource(m) => data.materials[m].heat_source = v,
+        T::Expansion(m) => data.materials[m].expansion = Expansion::Alpha(v),
+        T::Beta(m) => data.materials[m].expansion = Expansion::Beta(v),
+        T::Displacement(b, c) => {
+            if let BoundaryValue::Displacement(d) = &mut data.boundary[b].value {
+                d[c] = Some(v);
+            }
+        }
+        T::Traction(b, c) => {
+            if let BoundaryValue::Traction(t) = &mut data.boundary[b].value {
+                t[c] = v;
+            }
+        }
+        T::Pressure(b) => data.boundary[b].value = BoundaryValue::Pressure(v),
+        T::Temperature(b) => data.boundary[b].value = BoundaryValue::Temperature(v),
+        T::HeatFlux(b) => data.boundary[b].value = BoundaryValue::HeatFlux(v),
+        T::SlipConstant(c) => data.slip[c].values = vec![v],
+        T::SlipKnot(c, k) => data.slip[c].values[k] = v,
+        T::ReferenceTemperature => data.reference_temperature = v,
+    }
+}
+
+/// Euclidean projection of knot values onto {lo ≤ g ≤ hi, g ≥ 0, |g_{k+1} − g_k| ≤ C (s_{k+1} − s_k)}
+/// by Dykstra's alternating projections (exact limit; iterated to 1e-13 relative).
+/// `knots` are fractions of the zone; the caller scales C to fractions (C × zone length) if needed.
+pub fn project_slope(values: &[f64], knots: &[f64], slope: f64, bounds: &[(f64, f64)]) -> Vec<f64> {
+    let n = values.len();
+    let mut x = values.to_vec();
+    // One correction vector per constraint set: the box and each slab.
+    let mut p_box = vec![0.0; n];
+    let mut p_slab = vec![[0.0; 2]; n.saturating_sub(1)];
+    let scale = values.iter().fold(1e-300_f64, |m, v| m.max(v.abs()));
+    for _ in 0..10_000 {
+        let before = x.clone();
+        for k in 0..n {
+            let y = x[k] + p_box[k];
+            let (lo, hi) = bounds.get(k).copied().unwrap_or((0.0, f64::INFINITY));
+            x[k] = y.clamp(lo.max(0.0), hi.max(lo.max(0.0)));
+            p_box[k] = y - x[k];
+        }
+        for k in 0..n.saturating_sub(1) {
+            let limit = slope * (knots[k + 1] - knots[k]);
+            let (a, b) = (x[k] + p_slab[k][0], x[k + 1] + p_slab[k][1]);
+            let diff = b - a;
+            let excess = diff.abs() - limit;
+            let (na, nb) = if excess > 0.0 {
+                let shift = 0.5 * excess * diff.signum();
+                (a + shift, b - shift)
+            } else {
+                (a, b)
+            };
+            p_slab[k] = [a - na, b - nb];
+            x[k] = na;
+            x[k + 1] = nb;
+        }
+        let change = x
+            .iter()
+            .zip(&before)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        if change <= 1e-13 * scale {
+            break;
+        }
+    }
+    x
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tokens_parse_names_and_indices() {
+        assert_eq!(
+            tokens("boundary[2].traction[0]").unwrap(),
+            vec![
+                Token::Name("boundary"),
+                Token::Index(2),
+                Token::Name("traction"),
+                Token::Index(0)
+            ]
+        );
+        assert!(tokens("boundary[x]").is_none());
+    }
+
+    #[test]
+    fn slope_projection_is_identity_inside_and_feasible_outside() {
+        let knots = [0.0, 0.5, 1.0];
+        let b = [(0.0, 10.0); 3];
+        let inside = project_slope(&[1.0, 1.2, 1.4], &knots, 1.0, &b);
+        assert!(inside
+            .iter()
+            .zip([1.0, 1.2, 1.4])
+            .all(|(a, b)| (a - b).abs() < 1e-12));
+        let out = project_slope(&[0.0, 5.0, 0.0], &knots, 1.0, &b);
+        for k in 0..2 {
+            assert!((out[k + 1] - out[k]).abs() <= 0.5 + 1e-9, "{out:?}");
+        }
+        // Symmetric input, symmetric projection; the middle is pulled down by the same amount the
+        // ends are pulled up: (0+a, 5-2a, 0+a) with 5-3a = 0.5 → a = 1.5.
+        assert!(
+            (out[0] - 1.5).abs() < 1e-6 && (out[1] - 2.0).abs() < 1e-6,
+            "{out:?}"
+        );
+    }
+}

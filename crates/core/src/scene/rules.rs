@@ -1,0 +1,79 @@
+//! Admissible values of the scene numbers with a sign or range rule (design §5.2, §4.1): the
+//! single source of the material rules — E > 0, ν ∈ (−1, ½), λ ≥ 0, μ > 0 (positive definite
+//! plane elasticity) and κ > 0 (heat conduction) — and of the slip limit g ≥ 0 (Tresca, FGCS
+//! 4.15). Used by the validation of the nominal scene ([`super::validate`]) and by the
+//! uncertain intervals ([`super::params`]), with the same wording.
+//!
+//! Depends on nothing else in the crate.
+
+/// A scene number with a rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Constant {
+    Young,
+    Poisson,
+    Lambda,
+    Mu,
+    Conductivity,
+    SlipLimit,
+}
+
+impl Constant {
+    /// Whether `v` is admissible (false for NaN).
+    pub(crate) fn admits(self, v: f64) -> bool {
+        match self {
+            Constant::Young | Constant::Mu | Constant::Conductivity => v > 0.0,
+            Constant::Lambda | Constant::SlipLimit => v >= 0.0,
+            Constant::Poisson => v > -1.0 && v < 0.5,
+        }
+    }
+
+    /// The rule, as reported to the user.
+    pub(crate) fn rule(self) -> &'static str {
+        match self {
+            Constant::Young => "Young's modulus E must be > 0",
+            Constant::Poisson => "Poisson's ratio nu must lie in (-1, 0.5)",
+            Constant::Lambda => "Lamé's lambda must be >= 0",
+            Constant::Mu => "the shear modulus mu must be > 0",
+            Constant::Conductivity => "the conductivity must be > 0",
+            Constant::SlipLimit => "the slip limit must be >= 0",
+        }
+    }
+
+    /// Check one value; the error is the rule.
+    pub(crate) fn check(self, v: f64) -> Result<(), String> {
+        if self.admits(v) {
+            Ok(())
+        } else {
+            Err(self.rule().to_string())
+        }
+    }
+
+    /// Check an interval [lo, hi] with lo ≤ hi: every admissible set is an interval, so its two
+    /// ends decide.
+    pub(crate) fn check_interval(self, lo: f64, hi: f64) -> Result<(), String> {
+        if self.admits(lo) && self.admits(hi) {
+            Ok(())
+        } else {
+            Err(format!("{} on the whole interval", self.rule()))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rules_and_intervals_agree() {
+        assert!(Constant::Young.check(1.0).is_ok() && Constant::Young.check(0.0).is_err());
+        assert!(Constant::Lambda.check(0.0).is_ok() && Constant::Lambda.check(-1e-9).is_err());
+        assert!(Constant::Poisson.check(0.3).is_ok() && Constant::Poisson.check(0.5).is_err());
+        assert!(Constant::Poisson.check_interval(-0.5, 0.49).is_ok());
+        assert!(Constant::Poisson.check_interval(0.2, 0.5).is_err());
+        assert!(Constant::Mu.check(f64::NAN).is_err());
+        assert_eq!(
+            Constant::SlipLimit.check_interval(-1.0, 1.0).unwrap_err(),
+            "the slip limit must be >= 0 on the whole interval"
+        );
+    }
+}

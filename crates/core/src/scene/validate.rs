@@ -1,0 +1,588 @@
+//! Validation of a scene before any work (design §5.2): every error names the JSON path of the
+//! offending field and the reason. Geometric checks that need the mesh (segments on the boundary,
+//! matching contact nodes, overlapping zones) are done by the mesher with the same error type.
+
+use super::model::*;
+use super::params::resolve_uncertain;
+use super::rules::Constant;
+use super::SceneError;
+use std::collections::BTreeSet;
+
+/// Parse a scene from JSON text; parse errors carry the JSON path.
+pub fn parse(text: &str) -> Result<Scene, SceneError> {
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let scene: Scene = serde_path_to_error::deserialize(de).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { String::from("$") } else { path };
+        SceneError::new(path, e.into_inner().to_string())
+    })?;
+    validate(&scene)?;
+    Ok(scene)
+}
+
+/// Check the meaning of a parsed scene.
+pub fn validate(scene: &Scene) -> Result<(), SceneError> {
+    if scene.version != 1 {
+        return Err(SceneError::new("version", "only version 1 is supported"));
+    }
+    check_bodies(scene)?;
+    check_materials(scene)?;
+    check_segments(scene)?;
+    check_boundary(scene)?;
+    check_contacts(scene)?;
+    check_mesh(&scene.mesh, scene)?;
+    check_criteria(scene)?;
+    check_search(scene)?;
+    for (i, u) in scene.uncertain.iter().enumerate() {
+        resolve_uncertain(scene, i, u)?;
+    }
+    Ok(())
+}
+
+fn finite(path: &str, v: f64) -> Result<f64, SceneError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(SceneError::new(path, "must be a finite number"))
+    }
+}
+
+/// A finite value that obeys the rule of `constant` ([`Constant::check`]).
+fn admissible(path: &str, v: f64, constant: Constant) -> Result<(), SceneError> {
+    constant
+        .check(finite(path, v)?)
+        .map_err(|reason| SceneError::new(path, reason))
+}
+
+/// Record the name of the entry at `path` (a `what`): a name used before is an error at
+/// `{path}.name`.
+fn unique_name<'a>(
+    names: &mut BTreeSet<&'a str>,
+    name: &'a str,
+    path: &str,
+    what: &str,
+) -> Result<(), SceneError> {
+    if names.insert(name) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            format!("{path}.name"),
+            format!("{what} name '{name}' used twice"),
+        ))
+    }
+}
+
+fn check_points(path: &str, pts: &[Point]) -> Result<(), SceneError> {
+    for (k, p) in pts.iter().enumerate() {
+        if !p[0].is_finite() || !p[1].is_finite() {
+            return Err(SceneError::new(
+                format!("{path}[{k}]"),
+                "coordinates must be finite",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Twice the signed area of a closed polygon.
+pub(crate) fn signed_area2(pts: &[Point]) -> f64 {
+    (0..pts.len())
+        .map(|i| {
+            let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
+}
+
+fn orient(a: Point, b: Point, c: Point) -> f64 {
+    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+}
+
+/// Whether closed segments [a, b] and [c, d] intersect (touching counts).
+fn segments_intersect(a: Point, b: Point, c: Point, d: Point) -> bool {
+    let (d1, d2) = (orient(c, d, a), orient(c, d, b));
+    let (d3, d4) = (orient(a, b, c), orient(a, b, d));
+    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
+        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
+    {
+        return true;
+    }
+    let on = |p: Point, q: Point, r: Point, o: f64| {
+        o == 0.0
+            && r[0] >= p[0].min(q[0])
+            && r[0] <= p[0].max(q[0])
+            && r[1] >= p[1].min(q[1])
+            && r[1] <= p[1].max(q[1])
+    };
+    on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4)
+}
+
+/// A simple polygon: at least 3 points, non-zero area, no two non-adjacent edges meeting.
+fn check_polygon(path: &str, pts: &[Point]) -> Result<(), SceneError> {
+    check_points(path, pts)?;
+    let mut pts = pts.to_vec();
+    if pts.len() > 3 && pts.first() == pts.last() {
+        pts.pop();
+    }
+    let n = pts.len();
+    if n < 3 {
+        return Err(SceneError::new(path, "a polygon needs at least 3 points"));
+    }
+    let scale = pts
+        .iter()
+        .flat_map(|p| [p[0].abs(), p[1].abs()])
+        .fold(0.0, f64::max)
+        .max(f64::MIN_POSITIVE);
+    if signed_area2(&pts).abs() <= 1e-14 * scale * scale {
+        return Err(SceneError::new(path, "the polygon has zero area"));
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            let adjacent = j == i + 1 || (i == 0 && j == n - 1);
+            if adjacent {
+                continue;
+            }
+            if segments_intersect(pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n]) {
+                return Err(SceneError::new(
+                    path,
+                    format!("the polygon intersects itself (edges {i} and {j})"),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_bodies(scene: &Scene) -> Result<(), SceneError> {
+    if scene.bodies.is_empty() {
+        return Err(SceneError::new("bodies", "at least one body is required"));
+    }
+    let mut names = BTreeSet::new();
+    let mut zone_names = BTreeSet::new();
+    for (b, body) in scene.bodies.iter().enumerate() {
+        if body.name.trim().is_empty() || !names.insert(body.name.as_str()) {
+            return Err(SceneError::new(
+                format!("bodies[{b}].name"),
+                format!("body name '{}' is empty or used twice", body.name),
+            ));
+        }
+        if body.zones.is_empty() {
+            return Err(SceneError::new(
+                format!("bodies[{b}].zones"),
+                "a body needs at least one zone",
+            ));
+        }
+        for (z, zone) in body.zones.iter().enumerate() {
+            let path = format!("bodies[{b}].zones[{z}]");
+            if zone.name.trim().is_empty() || !zone_names.insert(zone.name.as_str()) {
+                return Err(SceneError::new(
+                    format!("{path}.name"),
+                    format!("zone name '{}' is empty or used twice", zone.name),
+                ));
+            }
+            if !scene.materials.contains_key(&zone.material) {
+                return Err(SceneError::new(
+                    format!("{path}.material"),
+                    format!("unknown material '{}'", zone.material),
+                ));
+            }
+            check_polygon(&format!("{path}.polygon"), &zone.polygon)?;
+            for (h, hole) in zone.holes.iter().enumerate() {
+                check_polygon(&format!("{path}.holes[{h}]"), hole)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_materials(scene: &Scene) -> Result<(), SceneError> {
+    if scene.materials.is_empty() {
+        return Err(SceneError::new(
+            "materials",
+            "at least one material is required",
+        ));
+    }
+    for (name, m) in &scene.materials {
+        let path = format!("materials.{name}");
+        match (m.young, m.nu, m.lambda, m.mu) {
+            (Some(e), Some(nu), None, None) => {
+                admissible(&format!("{path}.E"), e, Constant::Young)?;
+                admissible(&format!("{path}.nu"), nu, Constant::Poisson)?;
+            }
+            (None, None, Some(l), Some(mu)) => {
+                admissible(&format!("{path}.mu"), mu, Constant::Mu)?;
+                admissible(&format!("{path}.lambda"), l, Constant::Lambda)?;
+            }
+            _ => {
+                return Err(SceneError::new(
+                    path,
+                    "give exactly one pair of elastic constants: (E, nu) or (lambda, mu)",
+                ))
+            }
+        }
+        if let Some(w) = m.specific_weight {
+            finite(&format!("{path}.specific_weight"), w)?;
+        }
+        if let Some(f) = m.body_force {
+            check_points(&format!("{path}.body_force"), &[f])?;
+        }
+        if m.expansion.is_some() && m.beta.is_some() {
+            return Err(SceneError::new(
+                path,
+                "give either expansion (alpha) or beta, not both",
+            ));
+        }
+        if let Some(k) = m.conductivity {
+            admissible(&format!("{path}.conductivity"), k, Constant::Conductivity)?;
+        }
+        for (field, v) in [
+            ("heat_source", m.heat_source),
+            ("expansion", m.expansion),
+            ("beta", m.beta),
+        ] {
+            if let Some(v) = v {
+                finite(&format!("{path}.{field}"), v)?;
+            }
+        }
+        if scene.thermal.is_some() && m.conductivity.is_none() {
+            let used = scene
+                .bodies
+                .iter()
+                .flat_map(|b| &b.zones)
+                .any(|z| &z.material == name);
+            if used {
+                return Err(SceneError::new(
+                    format!("{path}.conductivity"),
+                    "the scene has a thermal part, so every used material needs a conductivity",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_segments(scene: &Scene) -> Result<(), SceneError> {
+    for (name, s) in &scene.segments {
+        let path = format!("segments.{name}");
+        if !scene.bodies.iter().any(|b| b.name == s.body) {
+            return Err(SceneError::new(
+                format!("{path}.body"),
+                format!("unknown body '{}'", s.body),
+            ));
+        }
+        let geometry = s.path.is_some() || (s.from.is_some() && s.to.is_some());
+        if !geometry && scene.mesh.gmsh_file.is_none() {
+            return Err(SceneError::new(
+                path,
+                "give `from` and `to`, or a `path` polyline",
+            ));
+        }
+        if s.path.is_some() && (s.from.is_some() || s.to.is_some()) {
+            return Err(SceneError::new(
+                path,
+                "give either `from`/`to` or `path`, not both",
+            ));
+        }
+        let pts = s.polyline();
+        check_points(&format!("{path}.path"), &pts)?;
+        if geometry && pts.windows(2).any(|w| w[0] == w[1]) {
+            return Err(SceneError::new(
+                path,
+                "the polyline has a zero-length piece",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn segment_known(scene: &Scene, path: String, name: &str) -> Result<(), SceneError> {
+    if scene.segments.contains_key(name) {
+        Ok(())
+    } else {
+        Err(SceneError::new(path, format!("unknown segment '{name}'")))
+    }
+}
+
+fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
+    for (i, bc) in scene.boundary.iter().enumerate() {
+        let path = format!("boundary[{i}]");
+        segment_known(scene, format!("{path}.segment"), &bc.segment)?;
+        let set = [
+            bc.displacement.is_some(),
+            bc.traction.is_some(),
+            bc.pressure.is_some(),
+            bc.roller.is_some(),
+            bc.temperature.is_some(),
+            bc.heat_flux.is_some(),
+        ]
+        .iter()
+        .filter(|&&x| x)
+        .count();
+        if set != 1 {
+            return Err(SceneError::new(
+                path,
+                "set exactly one of displacement, traction, pressure, roller, temperature, heat_flux",
+            ));
+        }
+        if let Some(d) = bc.displacement {
+            if d.iter().all(Option::is_none) {
+                return Err(SceneError::new(
+                    format!("{path}.displacement"),
+                    "both components are free",
+                ));
+            }
+            for (c, v) in d.iter().enumerate() {
+                if let Some(v) = v {
+                    finite(&format!("{path}.displacement[{c}]"), *v)?;
+                }
+            }
+        }
+        if let Some(t) = bc.traction {
+            check_points(&format!("{path}.traction"), &[t])?;
+        }
+        if let Some(p) = bc.pressure {
+            finite(&format!("{path}.pressure"), p)?;
+        }
+        if let Some(Roller { direction: Some(d) }) = bc.roller {
+            check_points(&format!("{path}.roller.direction"), &[d])?;
+            if d[0].hypot(d[1]) == 0.0 {
+                return Err(SceneError::new(
+                    format!("{path}.roller.direction"),
+                    "the direction is zero",
+                ));
+            }
+        }
+        for (field, v) in [("temperature", bc.temperature), ("heat_flux", bc.heat_flux)] {
+            if let Some(v) = v {
+                finite(&format!("{path}.{field}"), v)?;
+                if scene.thermal.is_none() {
+                    return Err(SceneError::new(
+                        format!("{path}.{field}"),
+                        "a thermal condition needs the scene's `thermal` section",
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
+    let mut names = BTreeSet::new();
+    let mut used = BTreeSet::new();
+    for (i, c) in scene.contacts.iter().enumerate() {
+        let path = format!("contacts[{i}]");
+        unique_name(&mut names, &c.name, &path, "contact")?;
+        for (k, seg) in c.between.iter().enumerate() {
+            segment_known(scene, format!("{path}.between[{k}]"), seg)?;
+            if !used.insert(seg.as_str()) {
+                return Err(SceneError::new(
+                    format!("{path}.between[{k}]"),
+                    format!("segment '{seg}' is already used by another contact zone"),
+                ));
+            }
+        }
+        let body = |k: usize| scene.segments.get(&c.between[k]).map(|s| s.body.as_str());
+        if body(0) == body(1) {
+            return Err(SceneError::new(
+                format!("{path}.between"),
+                "a contact zone joins segments of two different bodies",
+            ));
+        }
+        let slip_path = format!("{path}.slip_limit");
+        match &c.slip_limit {
+            SlipLimit::Constant(g) => admissible(&slip_path, *g, Constant::SlipLimit)?,
+            SlipLimit::PiecewiseLinear {
+                knots,
+                values,
+                max_slope,
+            } => {
+                check_knots(&slip_path, knots, values)?;
+                if let Some(c) = max_slope {
+                    if finite(&format!("{slip_path}.max_slope"), *c)? < 0.0 {
+                        return Err(SceneError::new(
+                            format!("{slip_path}.max_slope"),
+                            "must be >= 0",
+                        ));
+                    }
+                }
+            }
+        }
+        match &c.initial_gap {
+            Some(InitialGap::Parabola { radius, touch_at }) => {
+                if finite(&format!("{path}.initial_gap.parabola.radius"), *radius)? <= 0.0 {
+                    return Err(SceneError::new(
+                        format!("{path}.initial_gap.parabola.radius"),
+                        "must be > 0",
+                    ));
+                }
+                check_points(
+                    &format!("{path}.initial_gap.parabola.touch_at"),
+                    &[*touch_at],
+                )?;
+            }
+            Some(InitialGap::PiecewiseLinear { knots, values }) => {
+                check_knots(
+                    &format!("{path}.initial_gap.piecewise_linear"),
+                    knots,
+                    values,
+                )?;
+            }
+            None => {}
+        }
+        if c.kind == ContactKind::Bilateral
+            && !matches!(c.slip_limit, SlipLimit::Constant(g) if g == 0.0)
+        {
+            return Err(SceneError::new(
+                slip_path,
+                "a bilateral contact zone is frictionless: omit slip_limit",
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Knots strictly increasing in [0, 1], one non-negative finite value per knot.
+fn check_knots(path: &str, knots: &[f64], values: &[f64]) -> Result<(), SceneError> {
+    if knots.len() != values.len() || knots.is_empty() {
+        return Err(SceneError::new(
+            format!("{path}.knots"),
+            "knots and values must be non-empty and of equal length",
+        ));
+    }
+    if knots.iter().any(|k| !(0.0..=1.0).contains(k)) || knots.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(SceneError::new(
+            format!("{path}.knots"),
+            "knots must increase strictly within [0, 1]",
+        ));
+    }
+    for (k, v) in values.iter().enumerate() {
+        if finite(&format!("{path}.values[{k}]"), *v)? < 0.0 {
+            return Err(SceneError::new(
+                format!("{path}.values[{k}]"),
+                "must be >= 0",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
+    if finite("mesh.max_size", mesh.max_size)? <= 0.0 {
+        return Err(SceneError::new("mesh.max_size", "must be > 0"));
+    }
+    if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {
+        return Err(SceneError::new(
+            "mesh.min_angle",
+            "must lie in (0, 30] degrees",
+        ));
+    }
+    for (i, r) in mesh.refine.iter().enumerate() {
+        let path = format!("mesh.refine[{i}]");
+        if finite(&format!("{path}.max_size"), r.max_size)? <= 0.0 {
+            return Err(SceneError::new(format!("{path}.max_size"), "must be > 0"));
+        }
+        for (j, s) in r.segments.iter().enumerate() {
+            segment_known(scene, format!("{path}.segments[{j}]"), s)?;
+        }
+        if let Some(p) = &r.polygon {
+            check_polygon(&format!("{path}.polygon"), p)?;
+        }
+        if r.segments.is_empty() && r.polygon.is_none() {
+            return Err(SceneError::new(
+                path,
+                "give `segments` or a `polygon` to refine",
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
+    let mut names = BTreeSet::new();
+    for (r, g) in scene.criteria.regions.iter().enumerate() {
+        let path = format!("criteria.regions[{r}]");
+        unique_name(&mut names, &g.name, &path, "region")?;
+        check_polygon(&format!("{path}.polygon"), &g.polygon)?;
+        if let Some(n) = g.normal {
+            check_points(&format!("{path}.normal"), &[n])?;
+            if n[0].hypot(n[1]) == 0.0 {
+                return Err(SceneError::new(
+                    format!("{path}.normal"),
+                    "the normal is zero",
+                ));
+            }
+        }
+        if let Some(x) = g.normal_at {
+            check_points(&format!("{path}.normal_at"), &[x])?;
+        }
+    }
+    for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
+        let path = format!("criteria.boundary_pieces[{r}]");
+        unique_name(&mut names, &piece.name, &path, "boundary piece")?;
+        segment_known(scene, format!("{path}.segment"), &piece.segment)?;
+        for p in [piece.from, piece.to, piece.normal_at]
+            .into_iter()
+            .flatten()
+        {
+            check_points(&path, &[p])?;
+        }
+    }
+    Ok(())
+}
+
+fn check_search(scene: &Scene) -> Result<(), SceneError> {
+    for (k, c) in scene.search.criteria.iter().enumerate() {
+        let path = format!("search.criteria[{k}]");
+        if c.is_thermal() && scene.thermal.is_none() {
+            return Err(SceneError::new(
+                path,
+                format!("{} needs the scene's `thermal` section", c.name()),
+            ));
+        }
+        let has_areas = !scene.criteria.regions.is_empty();
+        let has_pieces = !scene.criteria.boundary_pieces.is_empty();
+        let needs_pieces = matches!(c, Criterion::Phi2 | Criterion::Phi4);
+        if (needs_pieces && !has_pieces) || (!needs_pieces && !has_areas) {
+            let what = if needs_pieces {
+                "criteria.boundary_pieces"
+            } else {
+                "criteria.regions"
+            };
+            return Err(SceneError::new(
+                path,
+                format!("{} needs at least one entry in {what}", c.name()),
+            ));
+        }
+        if matches!(c, Criterion::Phi3 | Criterion::Phi6)
+            && scene
+                .criteria
+                .regions
+                .iter()
+                .all(|g| g.normal.is_none() && g.normal_at.is_none())
+        {
+            return Err(SceneError::new(
+                path,
+                format!("{} needs a region with `normal_at` or `normal`", c.name()),
+            ));
+        }
+        if *c == Criterion::Phi6 && scene.contacts.is_empty() {
+            return Err(SceneError::new(path, "phi6 needs a contact zone"));
+        }
+    }
+    if scene.search.budget == 0 {
+        return Err(SceneError::new("search.budget", "must be at least 1"));
+    }
+    if let Some(t) = scene.search.max_seconds {
+        if finite("search.max_seconds", t)? <= 0.0 {
+            return Err(SceneError::new("search.max_seconds", "must be > 0"));
+        }
+    }
+    if !(scene.solver.tolerance > 0.0 && scene.solver.tolerance < 1.0) {
+        return Err(SceneError::new("solver.tolerance", "must lie in (0, 1)"));
+    }
+    for (k, polygon) in scene.solver.partition.iter().enumerate() {
+        check_polygon(&format!("solver.partition[{k}]"), polygon)?;
+    }
+    Ok(())
+}

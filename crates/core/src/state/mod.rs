@@ -1,0 +1,491 @@
+//! The state problem (design §2–§3): for one data set, the heat solve (only when needed), the
+//! elastic contact solve (direct solver; DD when the scene asks for it), stresses, contact
+//! results with KKT residuals, and the criteria Φ1–Φ6.
+//!
+//! Everything that depends only on the mesh and the topology is built once in
+//! [`StateProblem::new`]: mesh, criteria weights, DOF map, per-zone operators, symbolic
+//! factorisations, contact geometry and the floating-body kernel. Per data set only numeric work
+//! remains: K is factorised body by body, and a body's factor (with its share of the contact
+//! Schur complement C) is reused when the λ, μ of its zones did not change, a temperature field
+//! when the thermal data did not change (memos keyed by the exact bits, so reused values equal
+//! fresh ones); the DD partition is built once.
+
+mod criterion_values;
+mod solution;
+
+pub use criterion_values::{evaluate as evaluate_criteria, Fields};
+pub use solution::*;
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::Instant;
+
+use crate::contact::bodies::BodyFactor;
+use crate::contact::direct::{ContactSolution, DirectContact, StiffnessFactor};
+use crate::contact::qp::WarmStart;
+use crate::dd::DirectAnswer;
+use crate::error::WsmError;
+use crate::fem::{ElasticProblem, HeatProblem, Par};
+use crate::memo::{self, Memo};
+use crate::mesh::Mesh;
+use crate::regions::CriteriaGeometry;
+use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
+
+/// What a solve must compute.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Needs {
+    pub heat: bool,
+    pub elastic: bool,
+}
+
+impl Needs {
+    /// Only what the criteria need: no heat solve without a thermal part, no elastic solve for
+    /// Φ1/Φ2 alone.
+    pub fn for_criteria(scene: &Scene, criteria: &[Criterion]) -> Needs {
+        let elastic = criteria.iter().any(|c| !c.is_thermal());
+        let thermal = scene.thermal.is_some();
+        Needs {
+            heat: thermal && (elastic || criteria.iter().any(|c| c.is_thermal())),
+            elastic,
+        }
+    }
+
+    /// Everything the scene has.
+    pub fn all(scene: &Scene) -> Needs {
+        Needs::for_criteria(scene, &Criterion::ALL)
+    }
+}
+
+/// Options of one solve.
+#[derive(Debug, Clone)]
+pub struct SolveOptions {
+    pub needs: Needs,
+    /// Parallelism inside factorisations (`Par::Seq` when many solves run in parallel).
+    pub par: Par,
+    /// Contact multipliers of a nearby solution to start from.
+    pub warm: Option<WarmStart>,
+}
+
+/// How often the expensive parts ran (for reports and for tests of "compute only what is needed").
+#[derive(Debug, Default)]
+pub struct Counters {
+    pub heat_solves: AtomicUsize,
+    /// Stiffness factors built (at least one body block factorised numerically).
+    pub factorisations: AtomicUsize,
+    /// Body blocks factorised numerically.
+    pub body_factorisations: AtomicUsize,
+    pub elastic_solves: AtomicUsize,
+}
+
+impl Counters {
+    /// (heat solves, stiffness factorisations, elastic solves) so far.
+    pub fn snapshot(&self) -> (usize, usize, usize) {
+        (
+            self.heat_solves.load(Ordering::Relaxed),
+            self.factorisations.load(Ordering::Relaxed),
+            self.elastic_solves.load(Ordering::Relaxed),
+        )
+    }
+}
+
+/// Everything built once per scene.
+pub struct StateProblem {
+    pub scene: Scene,
+    pub nominal: Data,
+    pub criteria: CriteriaGeometry,
+    pub elastic: ElasticProblem,
+    pub heat: Option<HeatProblem>,
+    pub contact: DirectContact,
+    factors: Memo<Arc<StiffnessFactor>>,
+    /// Per body block of K: its factors keyed by the coefficients of its zones.
+    body_factors: Vec<Memo<Arc<BodyFactor>>>,
+    temperatures: Memo<Arc<Vec<f64>>>,
+    /// The DD partition, built on the first DD solve from the nominal data (it depends only on
+    /// the mesh and the contact pairs).
+    dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
+    /// The DD subdomain operators of the stiffnesses seen last.
+    pub dd_operators: Arc<crate::dd::subdomain::OperatorCache>,
+    pub counters: Counters,
+    /// Time to build the problem \[s\].
+    pub setup_seconds: f64,
+}
+
+impl StateProblem {
+    /// Mesh the scene and build the operators (the scene must be validated).
+    pub fn new(scene: Scene) -> Result<StateProblem, WsmError> {
+        let start = Instant::now();
+        let mesh = crate::mesh::generate(&scene)?;
+        StateProblem::with_mesh(scene, mesh, start)
+    }
+
+    /// Build on a given mesh.
+    pub fn with_mesh(scene: Scene, mesh: Mesh, start: Instant) -> Result<StateProblem, WsmError> {
+        let nominal = Data::from_scene(&scene);
+        let criteria = crate::regions::build(&scene, &mesh)?;
+        let heat = match scene.thermal {
+            Some(_) => Some(HeatProblem::new(&mesh, &nominal)?),
+            None => None,
+        };
+        let elastic = ElasticProblem::new(&mesh, &nominal)?;
+        let contact = DirectContact::new(&scene, &elastic)?;
+        let body_factors = contact
+            .bodies()
+            .iter()
+            .map(|b| {
+                let budget = BODY_CACHE_BYTES / contact.bodies().len();
+                Memo::new(memo::capacity(budget, 8 * b.factor_nnz()))
+            })
+            .collect();
+        Ok(StateProblem {
+            scene,
+            nominal,
+            criteria,
+            elastic,
+            heat,
+            contact,
+            factors: Memo::new(4),
+            body_factors,
+            temperatures: Memo::new(4),
+            dd_partition: OnceLock::new(),
+            dd_operators: Arc::default(),
+            counters: Counters::default(),
+            setup_seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    pub fn mesh(&self) -> &Mesh {
+        self.elastic.mesh()
+    }
+
+    /// Solve the state problem for `data`.
+    pub fn solve(&self, data: &Data, options: &SolveOptions) -> Result<Solution, WsmError> {
+        let start = Instant::now();
+        let mesh = self.mesh();
+        let mut report = SolveReport {
+            solver: "direct".into(),
+            nodes: mesh.nodes.len(),
+            triangles: mesh.triangles.len(),
+            unknowns: self.elastic.dofs().n_free(),
+            contact_pairs: self.contact.geometry.pairs.len(),
+            floating_modes: self.contact.kernel_dim(),
+            ..SolveReport::default()
+        };
+        let temperature = if options.needs.heat {
+            let t0 = Instant::now();
+            let t = self.temperature(data, options.par)?;
+            report.timings.heat = t0.elapsed().as_secs_f64();
+            Some(t)
+        } else {
+            if self.heat.is_some() {
+                report
+                    .skipped
+                    .push("heat solve (no requested criterion needs it)".into());
+            }
+            None
+        };
+        let mut solution = Solution::default();
+        if options.needs.elastic {
+            self.solve_elastic(
+                data,
+                options,
+                temperature.as_deref().map(Vec::as_slice),
+                &mut solution,
+                &mut report,
+            )?;
+        } else {
+            report
+                .skipped
+                .push("elastic contact solve (only thermal criteria requested)".into());
+        }
+        let t0 = Instant::now();
+        solution.criteria = evaluate_criteria(
+            &self.criteria,
+            &Fields {
+                temperature: temperature.as_deref().map(Vec::as_slice),
+                displacement: options
+                    .needs
+                    .elastic
+                    .then_some(solution.displacement.as_slice()),
+                stresses: options
+                    .needs
+                    .elastic
+                    .then_some(solution.stresses.as_slice()),
+            },
+        );
+        solution.temperature = temperature.map(|t| t.as_ref().clone());
+        report.timings.post += t0.elapsed().as_secs_f64();
+        report.timings.total = start.elapsed().as_secs_f64();
+        solution.report = report;
+        Ok(solution)
+    }
+
+    fn solve_elastic(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        temperature: Option<&[f64]>,
+        solution: &mut Solution,
+        report: &mut SolveReport,
+    ) -> Result<(), WsmError> {
+        let elastic = &self.elastic;
+        let t0 = Instant::now();
+        let coefficients = elastic.coefficients(data)?;
+        report
+            .warnings
+            .extend(locking_warnings(&coefficients, elastic.mesh()));
+        let fixed = elastic.fixed_values(data)?;
+        let loads = elastic.loads(data, temperature)?;
+        let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
+        report.timings.assembly = t0.elapsed().as_secs_f64();
+        self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
+        let t1 = Instant::now();
+        let sol = if self.scene.solver.kind == SolverKind::Dd {
+            self.solve_dd(data, &coefficients, &rhs, &fixed, options, report)?
+        } else {
+            let (factor, reused) = self.stiffness_factor(&coefficients, options.par)?;
+            report.reused_factorisation = reused;
+            report.timings.factor = t1.elapsed().as_secs_f64();
+            if !reused {
+                [report.timings.numeric, report.timings.hessian] = factor.seconds;
+            }
+            let t1 = Instant::now();
+            let sol =
+                self.contact
+                    .solve(&factor, elastic, &rhs, &fixed, data, options.warm.as_ref())?;
+            report.timings.contact = t1.elapsed().as_secs_f64();
+            report.timings.qp = sol.qp_seconds;
+            sol
+        };
+        let t2 = Instant::now();
+        let u = elastic.dofs().expand(&sol.u_free, &fixed);
+        let u_scale = u
+            .iter()
+            .fold(0.0_f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+        let (nodes, kkt) = contact_results(
+            &self.contact.geometry,
+            &sol,
+            data,
+            &elastic.mesh().nodes,
+            u_scale,
+        );
+        report.kkt = kkt;
+        if let Some(qp) = &sol.qp {
+            report.qp_iterations = qp.iterations;
+            report.qp_fallback_iterations = qp.fallback_iterations;
+            report.active_set_changes = qp.active_set_changes;
+            report.undetermined_modes = qp.undetermined_modes;
+        }
+        report.undetermined_modes = report.undetermined_modes.max(sol.free_motions);
+        if report.undetermined_modes > 0 {
+            report.warnings.push(format!(
+                "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the displacement with no component along them is reported",
+                report.undetermined_modes
+            ));
+        }
+        solution.stresses = elastic.stresses(data, &u, temperature)?;
+        solution.displacement = u;
+        solution.contact = nodes;
+        solution.warm_start = Some(WarmStart {
+            x: sol.multipliers.clone(),
+            alpha: sol.rigid.clone(),
+        });
+        report.timings.post += t2.elapsed().as_secs_f64();
+        Ok(())
+    }
+
+    /// The stiffness factorisation of the direct solver for the coefficients (memoised), and
+    /// whether it was reused whole. Body blocks whose zone coefficients were seen before reuse
+    /// their factor (keyed by the exact bits, so a reused factor equals a fresh one).
+    fn stiffness_factor(
+        &self,
+        coefficients: &[[f64; 2]],
+        par: Par,
+    ) -> Result<(Arc<StiffnessFactor>, bool), WsmError> {
+        let key = memo::key(coefficients.iter().flatten().copied());
+        let body = |b: usize, block: &crate::contact::bodies::BodyBlock, values: &[f64]| {
+            let key = memo::key(block.zones.iter().flat_map(|&z| coefficients[z]));
+            self.body_factors[b].get_or_try(key, || {
+                self.counters
+                    .body_factorisations
+                    .fetch_add(1, Ordering::Relaxed);
+                block.factor(values).map(Arc::new)
+            })
+        };
+        self.factors.get_or_try(key, || {
+            let factor = self
+                .contact
+                .factor_with(&self.elastic, coefficients, par, &body)?;
+            if factor.reused_bodies < self.contact.bodies().len() {
+                self.counters.factorisations.fetch_add(1, Ordering::Relaxed);
+            }
+            Ok(Arc::new(factor))
+        })
+    }
+
+    /// The elastic contact solve by domain decomposition (design §3.2); the direct solver is the
+    /// fallback, used (and reported in `report.dd.fallback`) only when DD fails.
+    fn solve_dd(
+        &self,
+        data: &Data,
+        coefficients: &[[f64; 2]],
+        rhs: &[f64],
+        fixed: &[f64],
+        options: &SolveOptions,
+        report: &mut SolveReport,
+    ) -> Result<ContactSolution, WsmError> {
+        let elastic = &self.elastic;
+        let direct = || -> Result<DirectAnswer, String> {
+            let (factor, _) = self
+                .stiffness_factor(coefficients, options.par)
+                .map_err(|e| e.to_string())?;
+            let sol = self
+                .contact
+                .solve(&factor, elastic, rhs, fixed, data, options.warm.as_ref())
+                .map_err(|e| e.to_string())?;
+            Ok(DirectAnswer {
+                u: sol.u_free,
+                multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
+            })
+        };
+        let mut dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let partition = self.dd_partition.get_or_init(|| {
+            crate::dd::from_scene::partition(elastic, &self.contact, &self.nominal, &dd_options)
+        });
+        // A partition error is left to the solve below, which reports it as before.
+        if let Ok(p) = partition {
+            dd_options.partition = crate::dd::PartitionRequest::Given(Box::new(p.clone()));
+        }
+        dd_options.operators = Some(self.dd_operators.clone());
+        let outcome = crate::dd::from_scene::solve_elastic(
+            elastic,
+            &self.contact,
+            data,
+            coefficients,
+            rhs,
+            fixed,
+            &dd_options,
+            Some(&direct),
+        );
+        // A DD answer that does not balance the loads is never returned as a solution.
+        let limit = DD_EQUILIBRIUM_LIMIT.max(100.0 * self.scene.solver.tolerance);
+        let unbalanced = |sol: &ContactSolution| sol.equilibrium_residual > limit;
+        let (sol, dd) = match outcome {
+            Ok((sol, _)) if unbalanced(&sol) => {
+                let e = format!(
+                    "the result does not balance the loads (relative equilibrium residual {:.1e})",
+                    sol.equilibrium_residual
+                );
+                return self.direct_instead(&e, data, coefficients, rhs, fixed, options, report);
+            }
+            Ok(done) => done,
+            // A partition the user fixed is bad input, not a reason to switch solvers.
+            Err(crate::dd::DdError::Partition(reason))
+                if !self.scene.solver.partition.is_empty() =>
+            {
+                return Err(SceneError::new("solver.partition", reason).into());
+            }
+            Err(e) => {
+                // DD cannot be set up for this scene (e.g. a cluster with an unsupported
+                // floating part): answer with the direct solver and say why.
+                return self.direct_instead(
+                    &e.to_string(),
+                    data,
+                    coefficients,
+                    rhs,
+                    fixed,
+                    options,
+                    report,
+                );
+            }
+        };
+        report.solver = "dd".into();
+        let times = &dd.report.times;
+        report.timings.contact = times.total;
+        report.timings.dd_setup = times.setup;
+        report.timings.dd_pcg1 = times.pcg1;
+        report.timings.dd_outer = times.outer;
+        report.timings.dd_recovery = times.recovery;
+        if let Some(fallback) = &dd.report.fallback {
+            report.warnings.push(format!("DD: {fallback}"));
+        }
+        report.dd = Some(Box::new(dd.report));
+        Ok(sol)
+    }
+
+    /// The direct solver's answer when DD cannot give one, with the reason as a warning.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_instead(
+        &self,
+        reason: &str,
+        data: &Data,
+        coefficients: &[[f64; 2]],
+        rhs: &[f64],
+        fixed: &[f64],
+        options: &SolveOptions,
+        report: &mut SolveReport,
+    ) -> Result<ContactSolution, WsmError> {
+        report.solver = "direct (DD unavailable)".into();
+        report.warnings.push(format!(
+            "domain decomposition: {reason}; solved by the direct solver"
+        ));
+        let (factor, reused) = self.stiffness_factor(coefficients, options.par)?;
+        report.reused_factorisation = reused;
+        self.contact.solve(
+            &factor,
+            &self.elastic,
+            rhs,
+            fixed,
+            data,
+            options.warm.as_ref(),
+        )
+    }
+
+    /// The temperature field of the data (reused when the thermal data did not change).
+    fn temperature(&self, data: &Data, par: Par) -> Result<Arc<Vec<f64>>, WsmError> {
+        let Some(heat) = &self.heat else {
+            return Err(WsmError::Solver {
+                stage: crate::error::SolverStage::Heat,
+                reason: "the scene has no thermal part".into(),
+            });
+        };
+        let thermal_numbers = data
+            .materials
+            .iter()
+            .flat_map(|m| [m.conductivity, m.heat_source])
+            .chain(data.boundary.iter().filter_map(|b| match b.value {
+                BoundaryValue::Temperature(v) | BoundaryValue::HeatFlux(v) => Some(v),
+                _ => None,
+            }));
+        let key = memo::key(thermal_numbers);
+        let (t, _) = self.temperatures.get_or_try(key, || {
+            self.counters.heat_solves.fetch_add(1, Ordering::Relaxed);
+            let factor = heat.factor(data, par)?;
+            Ok::<_, WsmError>(Arc::new(heat.solve(&factor, data)?))
+        })?;
+        Ok(t)
+    }
+}
+
+/// Memory for cached body factors of a scene \[bytes\] (shared by its bodies).
+const BODY_CACHE_BYTES: usize = 1 << 28;
+
+/// Largest relative equilibrium residual ‖K u − f + Bᵀλ‖ / ‖f‖ of an accepted DD result (or 100 ×
+/// the DD tolerance when that is larger); above it the direct solver answers (with a warning).
+const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
+
+/// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
+pub fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {
+    coefficients
+        .iter()
+        .zip(&mesh.zones)
+        .filter_map(|([lambda, mu], zone)| {
+            let nu = lambda / (2.0 * (lambda + mu));
+            (nu >= 0.49).then(|| {
+                format!(
+                    "zone '{}': Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)",
+                    zone.name
+                )
+            })
+        })
+        .collect()
+}

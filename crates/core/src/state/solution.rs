@@ -1,0 +1,318 @@
+//! What one state solve returns: fields, contact results with their KKT residuals, criteria
+//! values and the solver report.
+
+use serde::Serialize;
+
+use crate::contact::direct::ContactSolution;
+use crate::contact::pairs::ContactGeometry;
+use crate::contact::qp::WarmStart;
+use crate::fem::ElementStress;
+use crate::scene::{piecewise_linear, Data};
+
+/// Contact status of a node pair.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, utoipa::ToSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactState {
+    Open,
+    Stick,
+    Slip,
+}
+
+/// Results at one contact node pair.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct ContactNode {
+    pub zone: usize,
+    pub position: [f64; 2],
+    /// Normal contact pressure \[Pa\] (≥ 0 in unilateral contact).
+    pub pressure: f64,
+    /// Tangential contact stress \[Pa\] along the tangent t = (−n_y, n_x).
+    pub shear: f64,
+    /// Normal separation \[m\] (≥ 0; 0 when closed).
+    pub gap: f64,
+    /// Relative tangential displacement t·(u^k − u^l) \[m\].
+    pub slip: f64,
+    pub state: ContactState,
+}
+
+/// KKT residuals of the contact solution, each relative (forces to the largest multiplier,
+/// displacements to the largest nodal displacement).
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct ContactKkt {
+    pub penetration: f64,
+    pub negative_pressure: f64,
+    pub friction_excess: f64,
+    pub complementarity: f64,
+    pub stick_slip: f64,
+    /// ‖K u − f + Bᵀλ‖ / ‖f‖.
+    pub equilibrium: f64,
+}
+
+impl ContactKkt {
+    /// The largest residual.
+    pub fn max(&self) -> f64 {
+        [
+            self.penetration,
+            self.negative_pressure,
+            self.friction_excess,
+            self.complementarity,
+            self.stick_slip,
+            self.equilibrium,
+        ]
+        .into_iter()
+        .fold(0.0, f64::max)
+    }
+}
+
+/// Timings \[s\] of the phases of a solve.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Timings {
+    pub heat: f64,
+    /// Loads, prescribed values and the right-hand side.
+    pub assembly: f64,
+    /// The stiffness factor with C (zero when it was reused whole).
+    pub factor: f64,
+    /// Of `factor`: numeric factorisations of the body blocks with their shares of C.
+    pub numeric: f64,
+    /// Of `factor`: assembly of C and the floating-body projection.
+    pub hessian: f64,
+    /// The contact solve (direct: condensation, QP, recovery; DD: the whole DD solve).
+    pub contact: f64,
+    /// Of `contact`: the QP (direct solver).
+    pub qp: f64,
+    /// Of `contact` (DD): local factorisations and condensed contact operators; the auxiliary
+    /// problem (coarse operator and PCG1); the successive approximations (S0 coarse operator,
+    /// S_CON evaluations, PCG2 and Newton PCG); interior recovery.
+    pub dd_setup: f64,
+    pub dd_pcg1: f64,
+    pub dd_outer: f64,
+    pub dd_recovery: f64,
+    /// Contact results, stresses and criteria.
+    pub post: f64,
+    pub total: f64,
+}
+
+impl Timings {
+    /// Add `other` phase by phase.
+    pub fn add(&mut self, other: &Timings) {
+        self.heat += other.heat;
+        self.assembly += other.assembly;
+        self.factor += other.factor;
+        self.numeric += other.numeric;
+        self.hessian += other.hessian;
+        self.contact += other.contact;
+        self.qp += other.qp;
+        self.dd_setup += other.dd_setup;
+        self.dd_pcg1 += other.dd_pcg1;
+        self.dd_outer += other.dd_outer;
+        self.dd_recovery += other.dd_recovery;
+        self.post += other.post;
+        self.total += other.total;
+    }
+}
+
+/// The solver report of one solve.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct SolveReport {
+    pub solver: String,
+    pub nodes: usize,
+    pub triangles: usize,
+    pub unknowns: usize,
+    pub contact_pairs: usize,
+    /// Rigid motions of floating bodies fixed by contact (semi-coercive case).
+    pub floating_modes: usize,
+    /// Rigid motions that contact does not determine (reported with no displacement component
+    /// along the motions no contact row sees).
+    pub undetermined_modes: usize,
+    pub qp_iterations: usize,
+    pub qp_fallback_iterations: usize,
+    pub active_set_changes: usize,
+    pub kkt: ContactKkt,
+    /// The stiffness factorisation was reused from an earlier solve with the same λ, μ.
+    pub reused_factorisation: bool,
+    /// Parts of the computation skipped because nothing needed them.
+    pub skipped: Vec<String>,
+    /// Messages for the user (e.g. undetermined rigid motions, near-incompressibility).
+    pub warnings: Vec<String>,
+    /// Solver-specific details (DD iteration counts etc.).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dd: Option<Box<crate::dd::DdReport>>,
+    pub timings: Timings,
+}
+
+/// One state solution.
+#[derive(Debug, Clone, Default)]
+pub struct Solution {
+    /// Nodal displacement (empty when the elastic problem was not needed).
+    pub displacement: Vec<[f64; 2]>,
+    /// Nodal temperature (when solved).
+    pub temperature: Option<Vec<f64>>,
+    /// Element strains and stresses (empty when not needed).
+    pub stresses: Vec<ElementStress>,
+    pub contact: Vec<ContactNode>,
+    /// Contact multipliers and rigid amplitudes, to warm-start a nearby solve.
+    pub warm_start: Option<WarmStart>,
+    /// Φ1..Φ6 (None when not requested or not defined for the scene).
+    pub criteria: [Option<f64>; 6],
+    pub report: SolveReport,
+}
+
+/// Per-pair results and the KKT residuals of a contact solution.
+pub fn contact_results(
+    geometry: &ContactGeometry,
+    sol: &ContactSolution,
+    data: &Data,
+    positions: &[[f64; 2]],
+    displacement_scale: f64,
+) -> (Vec<ContactNode>, ContactKkt) {
+    let lam = &sol.multipliers;
+    let force_scale = lam
+        .iter()
+        .fold(0.0_f64, |m, x| m.max(x.abs()))
+        .max(f64::MIN_POSITIVE);
+    let u_scale = displacement_scale.max(f64::MIN_POSITIVE);
+    let mut kkt = ContactKkt {
+        equilibrium: sol.equilibrium_residual,
+        ..ContactKkt::default()
+    };
+    let mut nodes = Vec::with_capacity(geometry.pairs.len());
+    for (m, p) in geometry.pairs.iter().enumerate() {
+        let (ln, lt) = (lam[2 * m], lam[2 * m + 1]);
+        let (wn, wt) = (sol.gaps[2 * m], sol.gaps[2 * m + 1]);
+        let slip_data = &data.slip[p.zone];
+        let bound = if p.bilateral {
+            0.0
+        } else {
+            piecewise_linear(&slip_data.knots, &slip_data.values, p.fraction).max(0.0) * p.weight
+        };
+        let sticking = lt.abs() < bound * (1.0 - 1e-9);
+        if !p.bilateral {
+            kkt.penetration = kkt.penetration.max(wn.max(0.0) / u_scale);
+            kkt.negative_pressure = kkt.negative_pressure.max((-ln).max(0.0) / force_scale);
+            kkt.complementarity = kkt
+                .complementarity
+                .max((ln.abs() / force_scale) * (wn.abs() / u_scale));
+        } else {
+            kkt.penetration = kkt.penetration.max(wn.abs() / u_scale);
+        }
+        kkt.friction_excess = kkt
+            .friction_excess
+            .max((lt.abs() - bound).max(0.0) / force_scale);
+        // Tresca: a pair below its slip limit does not slip; at the limit it slips along its
+        // multiplier (open pairs included: g acts regardless of the normal force). g = 0 is free.
+        let stick_slip = if bound == 0.0 {
+            0.0
+        } else if sticking {
+            wt.abs() / u_scale
+        } else {
+            (-(lt.signum() * wt)).max(0.0) / u_scale
+        };
+        kkt.stick_slip = kkt.stick_slip.max(stick_slip);
+        let w = p.weight.max(f64::MIN_POSITIVE);
+        let open = ln.abs() <= 1e-12 * force_scale && !p.bilateral;
+        nodes.push(ContactNode {
+            zone: p.zone,
+            position: positions[p.nodes[0]],
+            pressure: ln / w,
+            shear: lt / w,
+            gap: (-wn).max(0.0),
+            slip: wt,
+            state: if open {
+                ContactState::Open
+            } else if sticking {
+                ContactState::Stick
+            } else {
+                ContactState::Slip
+            },
+        });
+    }
+    (nodes, kkt)
+}
+
+/// Resultants and statistics of one contact zone.
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct ZoneSummary {
+    pub name: String,
+    /// Σ normal force / Σ nodal length \[Pa\].
+    pub mean_pressure: f64,
+    pub max_pressure: f64,
+    /// Resultant normal and tangential forces [N/m].
+    pub normal_force: f64,
+    pub tangential_force: f64,
+    pub open: usize,
+    pub stick: usize,
+    pub slip: usize,
+}
+
+/// Per contact zone: mean and peak pressure, resultants and state counts.
+pub fn zone_summaries(
+    names: &[String],
+    geometry: &ContactGeometry,
+    nodes: &[ContactNode],
+) -> Vec<ZoneSummary> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(z, name)| {
+            let mut s = ZoneSummary {
+                name: name.clone(),
+                mean_pressure: 0.0,
+                max_pressure: 0.0,
+                normal_force: 0.0,
+                tangential_force: 0.0,
+                open: 0,
+                stick: 0,
+                slip: 0,
+            };
+            let mut length = 0.0;
+            for (c, p) in nodes
+                .iter()
+                .zip(&geometry.pairs)
+                .filter(|(c, _)| c.zone == z)
+            {
+                s.normal_force += c.pressure * p.weight;
+                s.tangential_force += c.shear * p.weight;
+                s.max_pressure = s.max_pressure.max(c.pressure);
+                length += p.weight;
+                match c.state {
+                    ContactState::Open => s.open += 1,
+                    ContactState::Stick => s.stick += 1,
+                    ContactState::Slip => s.slip += 1,
+                }
+            }
+            s.mean_pressure = if length > 0.0 {
+                s.normal_force / length
+            } else {
+                0.0
+            };
+            s
+        })
+        .collect()
+}
+
+/// Mean contact pressure over each boundary piece G'_r that lies on a contact segment (the P1
+/// trace of the nodal pressures; design §4.2, the contact-pressure form of Φ6). `None` for pieces
+/// off the contact zones.
+pub fn piece_pressures(
+    pieces: &[crate::regions::PieceRegion],
+    geometry: &ContactGeometry,
+    nodes: &[ContactNode],
+    n_nodes: usize,
+) -> Vec<(String, Option<f64>)> {
+    let mut pressure = vec![None; n_nodes];
+    for (c, p) in nodes.iter().zip(&geometry.pairs) {
+        for node in p.nodes {
+            pressure[node] = Some(c.pressure);
+        }
+    }
+    pieces
+        .iter()
+        .map(|piece| {
+            let mean = piece
+                .node_weights
+                .iter()
+                .map(|&(i, w)| pressure[i].map(|p| w * p))
+                .sum::<Option<f64>>();
+            (piece.name.clone(), mean)
+        })
+        .collect()
+}

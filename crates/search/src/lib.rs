@@ -1,0 +1,261 @@
+//! The outer maximiser of the worst-scenario method (design §4.3): a generic, deterministic,
+//! budgeted, cancellable and resumable search for the extrema of criteria Φ_i(θ) over a box of
+//! parameters θ, where every evaluation is an expensive black box.
+//!
+//! One search serves several objectives (max or min of one criterion each) with one shared pool
+//! of evaluations; every point any phase asks for goes through the [`EvalCache`], which can be
+//! pre-loaded from a previous (interrupted) run and persisted afterwards. Phases, one module each:
+//!
+//! 1. `screening` — all vertices of the box plus its centre when that is cheap, topped up with a
+//!    scrambled Latin hypercube (design §4.3 item 1);
+//! 2. `pso` — argmin's `ParticleSwarm`, seeded with the best points evaluated so far (item 2);
+//! 3. `polish` — a bounded compass search written as an argmin `Solver`, coarse from the basin
+//!    tops of the sample, then fine from the best of them and its ties (item 3);
+//! 4. `sensitivity` — normalised one-sided finite differences and active bounds at each
+//!    optimum; `optima` — basin tops, the vertex and several-maximiser reports (item 4).
+//!
+//! `driver` runs them and splits the budget; `session` is the single gate to the evaluator
+//! (budget, wall time, cancellation, progress, convergence history); `guard` applies those
+//! limits and stagnation to any argmin solver; `cost` is an objective as an argmin cost;
+//! `space` maps the unit box onto the physical one; `random` gives the seeded streams.
+//!
+//! All searching happens in the unit box [0, 1]^k of the k free parameters (those with lo < hi),
+//! so parameters of very different units are treated alike. Results are identical for a given
+//! seed whatever the thread count: the evaluator returns results in input order and nothing
+//! depends on completion order.
+
+mod cache;
+mod cost;
+mod driver;
+mod guard;
+mod optima;
+mod polish;
+mod pso;
+mod random;
+mod screening;
+mod sensitivity;
+mod session;
+mod space;
+
+pub use cache::{EvalCache, Outcome};
+pub use driver::search;
+
+use serde::{Deserialize, Serialize};
+
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+/// The expensive black box: the criteria vector (Φ1, …, Φ6 or any other) at given parameters.
+pub trait Evaluator: Sync {
+    /// Evaluate the criteria vector at each point (physical parameter values, inside the box).
+    /// Called with a whole generation at once; the implementation may run the batch in parallel
+    /// but must return the results in input order. An `Err` marks an infeasible point; a
+    /// non-finite criterion value is treated the same way.
+    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>>;
+
+    /// Points passed to [`Evaluator::evaluate`] at once, between two checks of cancellation and
+    /// the time limit (a few per thread; more when the batch is spread over other processes).
+    /// Chunking never changes results, only how soon a halt is seen.
+    fn chunk_size(&self) -> usize {
+        CHUNK_PER_THREAD * rayon::current_num_threads().max(1)
+    }
+}
+
+/// Points per thread evaluated between two checks of cancellation and the time limit.
+pub const CHUNK_PER_THREAD: usize = 2;
+
+/// Whether a criterion is to be maximised (the worst scenario) or minimised (the best one).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Sense {
+    Max,
+    Min,
+}
+
+/// One extremum to find: `sense` of the criterion at index `criterion` of the criteria vector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Objective {
+    pub criterion: usize,
+    pub sense: Sense,
+}
+
+/// The search: a box, the objectives, and the limits.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SearchProblem {
+    /// `[lo, hi]` per parameter, finite, `lo <= hi`; `lo == hi` fixes the parameter.
+    pub bounds: Vec<[f64; 2]>,
+    pub objectives: Vec<Objective>,
+    /// Total number of distinct points evaluated for everything (all phases, all objectives).
+    pub budget: usize,
+    /// Wall-time limit in seconds, checked between batches (`None` or ∞: no limit).
+    pub max_seconds: Option<f64>,
+    /// Seed of every random choice; the result is a function of the problem and the seed.
+    pub seed: u64,
+}
+
+/// The phase a progress report comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Phase {
+    Screening,
+    /// Particle swarm for objective `objective` (index into `SearchProblem::objectives`).
+    Global {
+        objective: usize,
+    },
+    /// Compass-search polish for objective `objective`.
+    Polish {
+        objective: usize,
+    },
+    Sensitivity,
+}
+
+/// Reported after every batch of evaluations.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    /// Distinct points evaluated by this run so far (including those restored from the cache).
+    pub evaluations: usize,
+    pub budget: usize,
+    pub phase: Phase,
+    /// Best criterion value so far per objective (`None` while nothing feasible was found).
+    pub best: Vec<Option<f64>>,
+}
+
+/// Cancellation flag and progress callback. Cancellation is honoured between batches.
+#[derive(Clone, Copy)]
+pub struct SearchControl<'a> {
+    pub cancel: &'a AtomicBool,
+    pub on_progress: &'a (dyn Fn(&Progress) + Sync),
+}
+
+static NEVER_CANCELLED: AtomicBool = AtomicBool::new(false);
+
+impl Default for SearchControl<'static> {
+    /// Never cancelled, no progress reports.
+    fn default() -> Self {
+        SearchControl {
+            cancel: &NEVER_CANCELLED,
+            on_progress: &|_| {},
+        }
+    }
+}
+
+/// Why a search (or one objective of it) ended. Ordered by precedence: the status of a whole
+/// search is the greatest of its objectives' statuses.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    Eq,
+    Hash,
+    PartialOrd,
+    Ord,
+    Serialize,
+    Deserialize,
+    utoipa::ToSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// The fine polish of the best point converged: its step fell below 1e-8 of the unit box,
+    /// or a poll around it was flat within 1e-9 relative.
+    Completed,
+    /// The polish made no relative improvement above 1e-9 for many iterations.
+    Stagnated,
+    /// The evaluation budget ran out before the polish converged (or no feasible point was
+    /// found to polish).
+    BudgetExhausted,
+    /// `max_seconds` elapsed.
+    TimeLimit,
+    /// The cancel flag was raised.
+    Cancelled,
+}
+
+/// Which bound a parameter sits on at an optimum.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ActiveBound {
+    /// Strictly inside its interval (farther than 1e-9 of the range from both ends).
+    #[serde(rename = "interior")]
+    None,
+    Lower,
+    Upper,
+    /// `lo == hi`.
+    Fixed,
+}
+
+/// The extremum found for one objective.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct ObjectiveResult {
+    /// Index of the criterion in the criteria vector.
+    pub criterion: usize,
+    pub sense: Sense,
+    /// Best criterion value (`None` if no feasible point was evaluated), in the criterion's
+    /// unit (K for Φ1–Φ2, m for Φ3–Φ4, Pa² for Φ5, Pa for Φ6).
+    pub best_value: Option<f64>,
+    /// Physical parameters of the best value (units of each parameter's field).
+    pub best_point: Option<Vec<f64>>,
+    pub status: Status,
+    /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
+    pub at_vertex: bool,
+    /// Some evaluated vertex (normally from the screening) reaches the best value within 1e-9
+    /// relative: the extremum is attained at a vertex, as for a monotone criterion.
+    pub vertex_optimal: bool,
+    /// Evaluated points farther apart than 0.1 (unit-box distance) reach the best value within
+    /// 1e-9 relative: the extremum is probably not unique.
+    pub several_optima: bool,
+    /// One representative point (physical) per distinct optimum, the best point first.
+    pub optima: Vec<Vec<f64>>,
+    /// Per parameter, at the best point.
+    pub active_bounds: Vec<ActiveBound>,
+    /// Per parameter: S_i = ∂Φ/∂θ_i · (hi − lo) / |Φ| by a one-sided difference pointing into the
+    /// box. `None` for fixed parameters, when Φ = 0, or when the step was not evaluated.
+    pub sensitivities: Vec<Option<f64>>,
+    /// (number of evaluations so far, best value so far) at every improvement.
+    #[schema(value_type = Vec<Vec<f64>>)]
+    pub history: Vec<(usize, f64)>,
+}
+
+impl ObjectiveResult {
+    /// Nothing found yet (a run stopped before its search), for `n` parameters.
+    pub fn empty(criterion: usize, sense: Sense, status: Status, n: usize) -> ObjectiveResult {
+        ObjectiveResult {
+            criterion,
+            sense,
+            best_value: None,
+            best_point: None,
+            status,
+            at_vertex: false,
+            vertex_optimal: false,
+            several_optima: false,
+            optima: Vec::new(),
+            active_bounds: Vec::new(),
+            sensitivities: vec![None; n],
+            history: Vec::new(),
+        }
+    }
+}
+
+/// The outcome of [`search`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct SearchResult {
+    pub status: Status,
+    pub objectives: Vec<ObjectiveResult>,
+    /// Distinct points used by this run, including those restored from the cache.
+    pub evaluations: usize,
+    /// Points actually passed to the evaluator by this run.
+    pub new_evaluations: usize,
+    pub elapsed: Duration,
+}
+
+/// Why a search could not start.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SearchError {
+    #[error("parameter {index}: invalid interval [{lo}, {hi}] (need finite lo <= hi)")]
+    InvalidBounds { index: usize, lo: f64, hi: f64 },
+    #[error("no objectives to search for")]
+    NoObjectives,
+    #[error("optimiser failure: {0}")]
+    Solver(String),
+}
+
+#[cfg(test)]
+mod tests;

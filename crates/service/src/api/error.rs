@@ -1,0 +1,121 @@
+//! API errors: every failure answers JSON `{error, detail, path?}` with the status that says
+//! what went wrong (400 malformed JSON, 401 missing token, 404 unknown id, 409 wrong state,
+//! 413 too large, 422 invalid scene or settings with the JSON path, 503 queue full with
+//! `Retry-After`, 500 store failure).
+
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::Serialize;
+use utoipa::ToSchema;
+
+use crate::jobs::StoreError;
+use wsm_core::error::{ErrorKind, WsmError};
+
+/// The body of every error response.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ErrorBody {
+    /// A stable code: `malformed_json`, `invalid_input`, `not_found`, `conflict`, `too_large`,
+    /// `queue_full`, `unauthorized`, `unsolvable`, `solver_failure`, `internal`.
+    pub error: String,
+    /// What is wrong, for a person.
+    pub detail: String,
+    /// The JSON path of the offending field, where there is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub path: Option<String>,
+}
+
+/// An error response.
+#[derive(Debug, Clone)]
+pub struct ApiError {
+    pub status: StatusCode,
+    pub body: ErrorBody,
+    pub retry_after: Option<u32>,
+}
+
+impl ApiError {
+    pub fn new(status: StatusCode, error: &str, detail: impl Into<String>) -> ApiError {
+        ApiError {
+            status,
+            body: ErrorBody {
+                error: error.into(),
+                detail: detail.into(),
+                path: None,
+            },
+            retry_after: None,
+        }
+    }
+
+    pub fn at(mut self, path: impl Into<String>) -> ApiError {
+        self.body.path = Some(path.into());
+        self
+    }
+
+    /// 422 for a field.
+    pub fn invalid(path: impl Into<String>, detail: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_input", detail).at(path)
+    }
+
+    pub fn not_found(what: &str, id: &str) -> ApiError {
+        ApiError::new(
+            StatusCode::NOT_FOUND,
+            "not_found",
+            format!("no {what} '{id}'"),
+        )
+    }
+
+    pub fn conflict(detail: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::CONFLICT, "conflict", detail)
+    }
+
+    /// An engine error; bad-input paths get `prefix` (the request field holding the scene).
+    pub fn engine(error: WsmError, prefix: &str) -> ApiError {
+        let detail = error.to_string();
+        match error.kind() {
+            ErrorKind::BadInput => {
+                let path = error
+                    .path()
+                    .map(|p| join_path(prefix, p))
+                    .unwrap_or_else(|| prefix.to_string());
+                ApiError::invalid(path, detail)
+            }
+            ErrorKind::NotFound => ApiError::new(StatusCode::NOT_FOUND, "not_found", detail),
+            ErrorKind::Unsolvable => {
+                ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "unsolvable", detail)
+            }
+            ErrorKind::Cancelled => ApiError::conflict(detail),
+            ErrorKind::Solver => {
+                ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "solver_failure", detail)
+            }
+            ErrorKind::Io => ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail),
+        }
+    }
+}
+
+/// `scene` + `materials.rock.E` → `scene.materials.rock.E`; `$` is the root.
+pub fn join_path(prefix: &str, path: &str) -> String {
+    match (prefix.is_empty(), path) {
+        (true, _) => path.to_string(),
+        (false, "$" | "") => prefix.to_string(),
+        (false, p) if p.starts_with('[') => format!("{prefix}{p}"),
+        (false, p) => format!("{prefix}.{p}"),
+    }
+}
+
+impl From<StoreError> for ApiError {
+    fn from(e: StoreError) -> ApiError {
+        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string())
+    }
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let mut response = (self.status, Json(self.body)).into_response();
+        if let Some(seconds) = self.retry_after {
+            response
+                .headers_mut()
+                .insert(header::RETRY_AFTER, HeaderValue::from(seconds));
+        }
+        response
+    }
+}

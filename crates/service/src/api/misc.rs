@@ -1,0 +1,74 @@
+//! Bundled example scenes and the health check.
+
+use axum::extract::{Path, State};
+use axum::Json;
+use serde::Serialize;
+use serde_json::Value;
+use utoipa::ToSchema;
+
+use super::error::{ApiError, ErrorBody};
+use super::AppState;
+
+/// A bundled example scene.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct ExampleInfo {
+    /// Use it as `{"example": name}` in a submission.
+    pub name: String,
+    /// The scene's own name.
+    pub title: String,
+    /// Its uncertain parameters (field paths).
+    pub uncertain: Vec<String>,
+}
+
+/// The bundled example scenes.
+#[utoipa::path(get, path = "/v1/examples", tag = "examples",
+    responses((status = 200, body = Vec<ExampleInfo>)))]
+pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
+    Json(
+        wsm_core::bundled::EXAMPLES
+            .iter()
+            .filter_map(|(name, text)| {
+                let scene = wsm_core::scene::parse(text).ok()?;
+                Some(ExampleInfo {
+                    name: name.to_string(),
+                    title: scene.name.clone(),
+                    uncertain: scene.uncertain.iter().map(|u| u.field.clone()).collect(),
+                })
+            })
+            .collect(),
+    )
+}
+
+/// One bundled example scene (a starting point for your own).
+#[utoipa::path(get, path = "/v1/examples/{name}", tag = "examples",
+    params(("name" = String, Path, description = "Example name")),
+    responses((status = 200, description = "The scene document", body = Object),
+        (status = 404, body = ErrorBody)))]
+pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiError> {
+    let text = wsm_core::bundled::find(&name).map_err(|_| ApiError::not_found("example", &name))?;
+    serde_json::from_str(text)
+        .map(Json)
+        .map_err(|e| ApiError::engine(wsm_core::error::WsmError::io("example", e), ""))
+}
+
+/// Service health.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Health {
+    /// `ok` when the store answers.
+    pub status: String,
+    pub version: String,
+    /// Queued and running jobs.
+    pub active_jobs: usize,
+}
+
+/// Health check: the store answers.
+#[utoipa::path(get, path = "/healthz", tag = "health",
+    responses((status = 200, body = Health), (status = 500, body = ErrorBody)))]
+pub async fn health(State(state): State<AppState>) -> Result<Json<Health>, ApiError> {
+    let active_jobs = state.store.active_count().await?;
+    Ok(Json(Health {
+        status: "ok".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        active_jobs,
+    }))
+}

@@ -1,0 +1,134 @@
+//! The HTTP API of `wsm serve` (design §5.3): axum routes over the job store and the front door,
+//! documented as OpenAPI 3.1 by utoipa (served at `/openapi.json`, checked in as
+//! `openapi/openapi.json`). Request bodies are parsed here so that every bad field answers 422
+//! with its JSON path; mutating endpoints require the bearer token when one is configured.
+
+mod error;
+mod jobs;
+mod misc;
+mod submit;
+
+pub use error::{ApiError, ErrorBody};
+
+use std::sync::Arc;
+
+use axum::extract::DefaultBodyLimit;
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::Router;
+use subtle::ConstantTimeEq;
+use utoipa::OpenApi;
+use utoipa_axum::router::OpenApiRouter;
+use utoipa_axum::routes;
+
+use crate::jobs::runner::Live;
+use crate::jobs::JobStore;
+
+/// Limits on what the service accepts.
+#[derive(Debug, Clone)]
+pub struct Limits {
+    /// Request bodies \[bytes\].
+    pub max_body_bytes: usize,
+    /// Estimated triangles of a job's mesh (area / (√3/4 · max_size²)).
+    pub max_triangles: usize,
+    /// Estimated triangles of a synchronous `POST /v1/solve`.
+    pub max_solve_triangles: usize,
+    pub max_parameters: usize,
+    pub max_budget: usize,
+    /// Queued and running jobs at once; beyond, 503 with `Retry-After`.
+    pub max_active_jobs: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Limits {
+        Limits {
+            max_body_bytes: 4 << 20,
+            max_triangles: 2_000_000,
+            max_solve_triangles: 200_000,
+            max_parameters: 64,
+            max_budget: 100_000,
+            max_active_jobs: 1000,
+        }
+    }
+}
+
+/// What every handler shares.
+#[derive(Clone)]
+pub struct AppState {
+    pub store: Arc<dyn JobStore>,
+    pub live: Arc<Live>,
+    pub limits: Arc<Limits>,
+    /// Bearer token required on mutating endpoints (`None`: open).
+    pub token: Option<Arc<String>>,
+}
+
+impl AppState {
+    /// Refuse a mutating request without the configured bearer token (constant-time compare).
+    pub fn authorize(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        let Some(token) = &self.token else {
+            return Ok(());
+        };
+        let given = headers
+            .get(header::AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "))
+            .unwrap_or("");
+        if bool::from(given.as_bytes().ct_eq(token.as_bytes())) {
+            Ok(())
+        } else {
+            Err(ApiError::new(
+                StatusCode::UNAUTHORIZED,
+                "unauthorized",
+                "this endpoint needs the header 'Authorization: Bearer <token>' with the server's token",
+            ))
+        }
+    }
+}
+
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "wsm",
+        description = "Worst-scenario analysis of multibody elastic contact with Tresca friction. Submit a scene with intervals for its uncertain data; a job finds the worst and best value of each criterion Φ1–Φ6 and the data that attain them. All quantities are SI: m, Pa, N/m³, K, W/(m K), W/m³, s."
+    ),
+    components(schemas(ErrorBody))
+)]
+struct ApiDoc;
+
+/// The routes, with their OpenAPI description.
+fn routes() -> OpenApiRouter<AppState> {
+    OpenApiRouter::with_openapi(ApiDoc::openapi())
+        .routes(routes!(submit::submit_job, jobs::list_jobs))
+        .routes(routes!(jobs::job_status))
+        .routes(routes!(jobs::job_events))
+        .routes(routes!(jobs::job_scene))
+        .routes(routes!(jobs::job_result))
+        .routes(routes!(jobs::job_history))
+        .routes(routes!(jobs::job_evaluations))
+        .routes(routes!(jobs::cancel_job))
+        .routes(routes!(jobs::job_fields))
+        .routes(routes!(submit::solve))
+        .routes(routes!(misc::list_examples))
+        .routes(routes!(misc::get_example))
+        .routes(routes!(misc::health))
+}
+
+/// The service's router: the API, `/openapi.json`, and the body-size limit.
+pub fn router(state: AppState) -> Router {
+    let body_limit = state.limits.max_body_bytes;
+    let (router, api) = routes().with_state(state).split_for_parts();
+    router
+        .route(
+            "/openapi.json",
+            axum::routing::get(move || {
+                let api = api.clone();
+                async move { axum::Json(api) }
+            }),
+        )
+        .layer(DefaultBodyLimit::max(body_limit))
+}
+
+/// The OpenAPI document as served and as checked in (`openapi/openapi.json`).
+pub fn openapi_json() -> Result<String, serde_json::Error> {
+    let (_, api) = routes().split_for_parts();
+    api.to_pretty_json().map(|text| text + "\n")
+}

@@ -1,0 +1,302 @@
+//! Requests that carry a scene: `POST /v1/jobs` (queue a worst-scenario search) and
+//! `POST /v1/solve` (one synchronous solve of a small scene). The body is parsed field by field
+//! so that a malformed document answers 400 and a bad field 422 with its JSON path; the scene is
+//! validated, the settings checked and the service's limits applied before anything is queued.
+
+use axum::body::Bytes;
+use axum::extract::rejection::BytesRejection;
+use axum::extract::State;
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use utoipa::ToSchema;
+
+use super::error::{join_path, ApiError, ErrorBody};
+use super::{AppState, Limits};
+use crate::jobs::{JobState, NewJob};
+use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
+use wsm_core::scene::Scene;
+
+/// A scene given inline or by the name of a bundled example.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JobSubmission {
+    /// The scene document (see the README's scene format; SI units throughout). Give this or
+    /// `example`.
+    #[schema(value_type = Object)]
+    #[serde(default)]
+    pub scene: Option<Value>,
+    /// The name of a bundled example scene (`GET /v1/examples`).
+    #[serde(default)]
+    pub example: Option<String>,
+    /// Search settings; each one left out takes the scene's `search` value.
+    #[serde(default)]
+    pub settings: WorstRequest,
+}
+
+/// A synchronous solve.
+#[derive(Debug, Clone, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SolveSubmission {
+    /// The scene document. Give this or `example`.
+    #[schema(value_type = Object)]
+    #[serde(default)]
+    pub scene: Option<Value>,
+    /// The name of a bundled example scene.
+    #[serde(default)]
+    pub example: Option<String>,
+    #[serde(default)]
+    pub settings: SolveRequest,
+}
+
+/// The answer to a submission.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Submitted {
+    pub id: String,
+    pub state: JobState,
+    /// Where the job's status is.
+    pub location: String,
+}
+
+/// Parse a JSON body: 413 when over the limit, 400 when not JSON, 422 naming a bad field.
+pub fn parse_body<T: DeserializeOwned>(body: Result<Bytes, BytesRejection>) -> Result<T, ApiError> {
+    let bytes = body.map_err(|rejection| {
+        if rejection.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            ApiError::new(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                "too_large",
+                "the request body is larger than the server's limit",
+            )
+        } else {
+            ApiError::new(
+                StatusCode::BAD_REQUEST,
+                "malformed_json",
+                rejection.body_text(),
+            )
+        }
+    })?;
+    let value: Value = serde_json::from_slice(&bytes).map_err(|e| {
+        ApiError::new(
+            StatusCode::BAD_REQUEST,
+            "malformed_json",
+            format!("the body is not valid JSON: {e}"),
+        )
+    })?;
+    if !value.is_object() {
+        return Err(ApiError::invalid("$", "the body must be a JSON object"));
+    }
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = e.path().to_string();
+        let path = if path == "." { "$".to_string() } else { path };
+        ApiError::invalid(path, e.into_inner().to_string())
+    })
+}
+
+/// The scene of a submission, validated; the service refuses server-side mesh files.
+fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, String), ApiError> {
+    let text = match (scene, example) {
+        (Some(v), None) => v.to_string(),
+        (None, Some(name)) => run_example(&name)?,
+        (Some(_), Some(_)) => {
+            return Err(ApiError::invalid(
+                "example",
+                "give `scene` or `example`, not both",
+            ))
+        }
+        (None, None) => return Err(ApiError::invalid("scene", "give `scene` or `example`")),
+    };
+    let scene = wsm_core::scene::parse(&text)
+        .map_err(|e| ApiError::invalid(join_path("scene", &e.path), e.to_string()))?;
+    if scene.mesh.gmsh_file.is_some() {
+        return Err(ApiError::invalid(
+            "scene.mesh.gmsh_file",
+            "the service does not read files on the server; mesh the polygons, or run `wsm worst` locally for Gmsh meshes",
+        ));
+    }
+    Ok((scene, text))
+}
+
+fn run_example(name: &str) -> Result<String, ApiError> {
+    wsm_core::bundled::find(name)
+        .map(str::to_string)
+        .map_err(|e| ApiError::invalid("example", e.to_string()))
+}
+
+/// Triangles a scene's mesh will have, roughly: area / (√3/4 · max_size²).
+fn estimated_triangles(scene: &Scene) -> f64 {
+    let area = |polygon: &[[f64; 2]]| {
+        let n = polygon.len();
+        (0..n)
+            .map(|i| {
+                let (a, b) = (polygon[i], polygon[(i + 1) % n]);
+                a[0] * b[1] - a[1] * b[0]
+            })
+            .sum::<f64>()
+            .abs()
+            / 2.0
+    };
+    let total: f64 = scene
+        .bodies
+        .iter()
+        .flat_map(|b| &b.zones)
+        .map(|z| area(&z.polygon) - z.holes.iter().map(|h| area(h)).sum::<f64>())
+        .sum();
+    let h = scene.mesh.max_size;
+    total / (0.433 * h * h)
+}
+
+fn check_size(scene: &Scene, limit: usize, what: &str) -> Result<(), ApiError> {
+    let estimate = estimated_triangles(scene);
+    if estimate > limit as f64 {
+        return Err(ApiError::invalid(
+            "scene.mesh.max_size",
+            format!(
+                "about {estimate:.0} triangles; this server accepts at most {limit} for {what} (raise max_size)"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Result<(), ApiError> {
+    check_size(scene, limits.max_triangles, "a job")?;
+    if scene.uncertain.len() > limits.max_parameters {
+        return Err(ApiError::invalid(
+            "scene.uncertain",
+            format!(
+                "{} uncertain parameters; this server accepts at most {}",
+                scene.uncertain.len(),
+                limits.max_parameters
+            ),
+        ));
+    }
+    let (budget, path) = match request.budget {
+        Some(b) => (b, "settings.budget"),
+        None => (scene.search.budget, "scene.search.budget"),
+    };
+    if budget > limits.max_budget {
+        return Err(ApiError::invalid(
+            path,
+            format!(
+                "{budget} solves; this server accepts at most {}",
+                limits.max_budget
+            ),
+        ));
+    }
+    if request.threads.is_some() {
+        return Err(ApiError::invalid(
+            "settings.threads",
+            "the server sets the threads of a job (wsm serve --threads-per-job)",
+        ));
+    }
+    Ok(())
+}
+
+/// Queue a worst-scenario search.
+#[utoipa::path(
+    post,
+    path = "/v1/jobs",
+    tag = "jobs",
+    request_body = JobSubmission,
+    responses(
+        (status = 202, description = "Queued", body = Submitted,
+            headers(("Location" = String, description = "The job's status URL"))),
+        (status = 400, description = "Not JSON", body = ErrorBody),
+        (status = 401, description = "Token required", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 422, description = "Invalid scene or settings (with the JSON path)", body = ErrorBody),
+        (status = 503, description = "Queue full (see Retry-After)", body = ErrorBody),
+    )
+)]
+pub async fn submit_job(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Response, ApiError> {
+    state.authorize(&headers)?;
+    let submission: JobSubmission = parse_body(body)?;
+    let (scene, text) = scene_of(submission.scene, submission.example)?;
+    let request = submission.settings;
+    check_limits(&scene, &request, &state.limits)?;
+    let settings = request
+        .settings(&scene)
+        .map_err(|e| ApiError::engine(e, "settings"))?;
+    wsm_core::run::parameter_info(&scene).map_err(|e| ApiError::engine(e, "scene"))?;
+    if state.store.active_count().await? >= state.limits.max_active_jobs {
+        let mut error = ApiError::new(
+            StatusCode::SERVICE_UNAVAILABLE,
+            "queue_full",
+            format!(
+                "{} jobs are queued or running; try again later",
+                state.limits.max_active_jobs
+            ),
+        );
+        error.retry_after = Some(10);
+        return Err(error);
+    }
+    let header = run::log_header(&scene, &settings).map_err(|e| ApiError::engine(e, "scene"))?;
+    let id = uuid::Uuid::new_v4().to_string();
+    state
+        .store
+        .insert(NewJob {
+            id: id.clone(),
+            scene: text,
+            settings: request,
+            scene_name: scene.name.clone(),
+            criteria: settings
+                .criteria
+                .iter()
+                .map(|c| c.name().to_string())
+                .collect(),
+            budget: settings.budget,
+            run_hash: header.run_hash,
+        })
+        .await?;
+    let location = format!("/v1/jobs/{id}");
+    Ok((
+        StatusCode::ACCEPTED,
+        [(header::LOCATION, location.clone())],
+        Json(Submitted {
+            id,
+            state: JobState::Queued,
+            location,
+        }),
+    )
+        .into_response())
+}
+
+/// Solve one small scene now (its nominal data) and return the summary (and fields on request).
+#[utoipa::path(
+    post,
+    path = "/v1/solve",
+    tag = "solve",
+    request_body = SolveSubmission,
+    responses(
+        (status = 200, description = "Solved", body = SolveOutput),
+        (status = 400, description = "Not JSON", body = ErrorBody),
+        (status = 422, description = "Invalid scene, too large, or unsolvable", body = ErrorBody),
+    )
+)]
+pub async fn solve(
+    State(state): State<AppState>,
+    headers: HeaderMap,
+    body: Result<Bytes, BytesRejection>,
+) -> Result<Json<SolveOutput>, ApiError> {
+    state.authorize(&headers)?;
+    let submission: SolveSubmission = parse_body(body)?;
+    let (scene, _) = scene_of(submission.scene, submission.example)?;
+    check_size(
+        &scene,
+        state.limits.max_solve_triangles,
+        "a synchronous solve (submit a job)",
+    )?;
+    let request = submission.settings;
+    let output = tokio::task::spawn_blocking(move || run::solve(scene, &request))
+        .await
+        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
+        .map_err(|e| ApiError::engine(e, "scene"))?;
+    Ok(Json(output))
+}

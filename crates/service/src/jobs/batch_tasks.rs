@@ -1,0 +1,271 @@
+//! A coordinator's evaluation batches as tasks in the job store (the second level of
+//! distribution, issue #14). When other worker processes share the store, each chunk of a batch
+//! is dealt round robin to the live evaluation threads: this process's share is computed at once
+//! in the job's own pool and stored by one append that runs while the search goes on (awaited
+//! before the next append and by `flush`), the others' shares are posted as tasks, one per
+//! remote thread. Once its share is done the coordinator takes over any task of
+//! the batch that nobody has started or whose worker died, then reads the evaluations back and
+//! returns them in input order. Alone (no other live worker), a batch is declined and evaluated
+//! in-process as usual.
+//!
+//! Chunks hold about `CHUNK_SECONDS` of solves per live thread, so the store's round trips stay
+//! a small share and a cancel is seen soon. Called from the search's blocking thread; talks to the
+//! store through the runtime's handle.
+
+use std::collections::HashSet;
+use std::future::Future;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::{Duration, Instant};
+
+use tokio::task::JoinHandle;
+
+use super::{wait, JobStore, StoreResult, TaskScope};
+use wsm_core::error::WsmError;
+use wsm_core::run::{BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate};
+use wsm_core::scene::Scene;
+
+/// Solve time of one chunk per live thread \[s\].
+const CHUNK_SECONDS: f64 = 0.5;
+/// Points per live thread in a chunk, before any solve time is known and at the least.
+const MIN_POINTS_PER_THREAD: usize = 2;
+/// Points per live thread in a chunk at the most.
+const MAX_POINTS_PER_THREAD: usize = 64;
+
+/// The batches of one job (one lease attempt) as tasks.
+pub struct StoreDispatch {
+    pub store: Arc<dyn JobStore>,
+    pub runtime: tokio::runtime::Handle,
+    pub job: String,
+    pub owner: String,
+    pub attempt: u32,
+    /// Evaluation threads of this process's job pool.
+    pub own_threads: usize,
+    /// Workers seen within this many seconds are live.
+    pub lease_seconds: f64,
+    /// Raised when the job's lease was lost: stop waiting.
+    pub lost: Arc<AtomicBool>,
+    next_batch: AtomicU64,
+    /// The live threads last counted, and when.
+    live: Mutex<Option<(Instant, usize)>>,
+    /// The append of this process's last share, still running.
+    pending: Mutex<Option<JoinHandle<StoreResult<usize>>>>,
+}
+
+impl StoreDispatch {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        store: Arc<dyn JobStore>,
+        runtime: tokio::runtime::Handle,
+        job: String,
+        owner: String,
+        attempt: u32,
+        own_threads: usize,
+        lease_seconds: f64,
+        lost: Arc<AtomicBool>,
+    ) -> StoreDispatch {
+        StoreDispatch {
+            store,
+            runtime,
+            job,
+            owner,
+            attempt,
+            own_threads,
+            lease_seconds,
+            lost,
+            next_batch: AtomicU64::new(0),
+            live: Mutex::new(None),
+            pending: Mutex::new(None),
+        }
+    }
+
+    /// Evaluation threads of the live workers, counted again at most once a second.
+    fn live_threads(&self) -> usize {
+        let mut live = self.live.lock().unwrap_or_else(PoisonError::into_inner);
+        match *live {
+            Some((at, n)) if at.elapsed() < Duration::from_secs(1) => n,
+            _ => {
+                let n = self
+                    .runtime
+                    .block_on(self.store.live_threads(self.lease_seconds))
+                    .unwrap_or(0);
+                *live = Some((Instant::now(), n));
+                n
+            }
+        }
+    }
+
+    /// Wait for the append of the last share; its error, if any.
+    fn settle(&self) -> Result<(), WsmError> {
+        let pending = self
+            .pending
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        match pending {
+            Some(append) => self.join(append).map(|_| ()),
+            None => Ok(()),
+        }
+    }
+
+    /// Store this process's share in the background (after the previous share).
+    fn store_share(&self, evaluations: Vec<Evaluation>) -> Result<(), WsmError> {
+        self.settle()?;
+        let (store, job, owner) = (self.store.clone(), self.job.clone(), self.owner.clone());
+        let append = self
+            .runtime
+            .spawn(async move { store.append_evaluations(&job, &owner, &evaluations).await });
+        *self.pending.lock().unwrap_or_else(PoisonError::into_inner) = Some(append);
+        Ok(())
+    }
+
+    fn io(&self, e: impl std::fmt::Display) -> WsmError {
+        WsmError::io(format!("job {}", self.job), e)
+    }
+
+    /// Wait for a store call; its error as this job's.
+    fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
+        self.runtime.block_on(call).map_err(|e| self.io(e))
+    }
+
+    /// Wait for a store call spawned on the runtime; its error (or the task's) as this job's.
+    fn join<T>(&self, task: JoinHandle<StoreResult<T>>) -> Result<T, WsmError> {
+        self.runtime
+            .block_on(task)
+            .map_err(|e| self.io(e))?
+            .map_err(|e| self.io(e))
+    }
+
+    /// Take over the batch's tasks nobody has started (or whose worker died), evaluate and
+    /// store them; the parts taken.
+    fn take_over(&self, batch: u64, local: &LocalEvaluate<'_>) -> Result<Vec<u32>, WsmError> {
+        let mut taken = Vec::new();
+        let scope = TaskScope::Batch {
+            job: &self.job,
+            attempt: self.attempt,
+            batch,
+        };
+        while let Some(task) = self.call(self.store.lease_task(
+            &self.owner,
+            self.lease_seconds,
+            scope,
+        ))? {
+            let evaluations = local(&task.points);
+            let stored = self.call(self.store.complete_task(
+                &task.key,
+                &self.owner,
+                &evaluations,
+            ))?;
+            if stored {
+                taken.push(task.key.part);
+            }
+        }
+        Ok(taken)
+    }
+}
+
+impl BatchDispatch for StoreDispatch {
+    fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize {
+        let per_thread = match seconds_per_point {
+            Some(s) if s > 0.0 => ((CHUNK_SECONDS / s).ceil() as usize)
+                .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD),
+            _ => MIN_POINTS_PER_THREAD,
+        };
+        per_thread * self.live_threads().max(self.own_threads)
+    }
+
+    fn evaluate(
+        &self,
+        points: &[Vec<f64>],
+        local: &LocalEvaluate<'_>,
+    ) -> Result<Option<DispatchedBatch>, WsmError> {
+        let live = self.live_threads();
+        if live <= self.own_threads || points.len() < 2 {
+            return Ok(None);
+        }
+        // Slots 0..own are this process's, the others one task each. Round robin puts
+        // neighbouring points of a polish step (one coordinate each, the expensive material
+        // ones together) on different threads, which balances the shares.
+        let n = points.len();
+        let slots = live.min(n);
+        let own = self.own_threads.min(slots - 1);
+        // The point indices of each slot: s, s + slots, …
+        let by_slot: Vec<Vec<usize>> = (0..slots)
+            .map(|s| (s..n).step_by(slots).collect())
+            .collect();
+        let gather = |indices: &[usize]| -> Vec<Vec<f64>> {
+            indices.iter().map(|&i| points[i].clone()).collect()
+        };
+        let parts: Vec<Vec<Vec<f64>>> = by_slot[own..].iter().map(|ix| gather(ix)).collect();
+        let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
+        let mut done = self.store.results_signal();
+        done.borrow_and_update();
+        // The tasks are posted while this process computes its share.
+        let post = {
+            let (store, job, owner, attempt) = (
+                self.store.clone(),
+                self.job.clone(),
+                self.owner.clone(),
+                self.attempt,
+            );
+            self.runtime
+                .spawn(async move { store.post_tasks(&job, &owner, attempt, batch, &parts).await })
+        };
+        let mine_indices: Vec<usize> = by_slot[..own].concat();
+        let mine = gather(&mine_indices);
+        let own_evaluations = local(&mine);
+        self.join(post)?;
+        self.store_share(own_evaluations.clone())?;
+        let mut taken: HashSet<u32> = HashSet::new();
+        let remote_evaluations = loop {
+            if self.lost.load(Ordering::SeqCst) {
+                return Err(self.io("the job's lease was taken over"));
+            }
+            if let Some(evaluations) =
+                self.call(self.store.batch_results(&self.job, self.attempt, batch))?
+            {
+                break evaluations;
+            }
+            let newly = self.take_over(batch, local)?;
+            if newly.is_empty() {
+                self.runtime
+                    .block_on(wait(&mut done, Duration::from_millis(200)));
+            }
+            taken.extend(newly);
+        };
+        // Back to input order, with who computed each.
+        let mut placed: Vec<Option<(Evaluation, bool)>> = (0..n).map(|_| None).collect();
+        for (&i, e) in mine_indices.iter().zip(own_evaluations) {
+            placed[i] = Some((e, false));
+        }
+        let mut remote_evaluations = remote_evaluations.into_iter();
+        for (part, indices) in by_slot[own..].iter().enumerate() {
+            let remote = !taken.contains(&(part as u32));
+            for (&i, e) in indices.iter().zip(remote_evaluations.by_ref()) {
+                placed[i] = Some((e, remote));
+            }
+        }
+        let (evaluations, remote) = placed.into_iter().flatten().unzip();
+        Ok(Some(DispatchedBatch {
+            evaluations,
+            remote,
+        }))
+    }
+
+    fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
+        let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
+        let held = self.call(
+            self.store
+                .record_chosen_scene(&self.job, &self.owner, &text),
+        )?;
+        if held {
+            Ok(())
+        } else {
+            Err(self.io("the job's lease was taken over"))
+        }
+    }
+
+    fn flush(&self) -> Result<(), WsmError> {
+        self.settle()
+    }
+}

@@ -1,0 +1,281 @@
+//! The job queue of the service (design §5.4): worst-scenario jobs stored durably with their
+//! lease, progress, every evaluation (stored chunk by chunk) and the outcome, behind the [`JobStore`]
+//! trait (`sql`: SQLite, the embedded default, or PostgreSQL for scale-out), and the processes
+//! that work on them (`runner`: job coordinators; `tasks`: evaluation of fanned-out batches;
+//! `dispatch`: a coordinator's batches as tasks).
+//!
+//! A job's life: `queued` → `running` (leased by a worker, lease renewed by heartbeat) →
+//! `succeeded` | `failed` | `cancelled`. A running job whose lease expired (its process died) is
+//! leased again and resumed from its stored evaluations: none lost, none recomputed.
+//!
+//! Two levels of distribution (issue #14): a whole job goes to any free worker process, which
+//! coordinates it (runs the search); when the store is shared by several processes, the
+//! coordinator posts each evaluation batch as tasks that every worker leases, so one large job
+//! uses all of them. Leases of jobs and tasks are renewed by heartbeat and expire by the database
+//! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
+
+pub mod batch_tasks;
+pub mod runner;
+pub mod sql;
+pub mod tasks;
+
+use serde::{Deserialize, Serialize};
+use utoipa::ToSchema;
+
+use wsm_core::run::{Evaluation, ProgressEvent, WorstOutcome, WorstRequest};
+
+/// The state of a job.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum JobState {
+    Queued,
+    Running,
+    Succeeded,
+    Failed,
+    Cancelled,
+}
+
+impl JobState {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Succeeded => "succeeded",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    pub fn parse(text: &str) -> Option<JobState> {
+        [
+            JobState::Queued,
+            JobState::Running,
+            JobState::Succeeded,
+            JobState::Failed,
+            JobState::Cancelled,
+        ]
+        .into_iter()
+        .find(|s| s.as_str() == text)
+    }
+
+    pub fn is_finished(self) -> bool {
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::Cancelled
+        )
+    }
+}
+
+/// A job to store: the validated scene and settings.
+#[derive(Debug, Clone)]
+pub struct NewJob {
+    pub id: String,
+    /// The scene document (JSON text).
+    pub scene: String,
+    pub settings: WorstRequest,
+    pub scene_name: String,
+    pub criteria: Vec<String>,
+    pub budget: usize,
+    pub run_hash: String,
+}
+
+/// A stored job.
+#[derive(Debug, Clone)]
+pub struct JobRecord {
+    pub id: String,
+    pub state: JobState,
+    pub scene: String,
+    pub settings: WorstRequest,
+    pub scene_name: String,
+    pub criteria: Vec<String>,
+    pub budget: usize,
+    pub run_hash: String,
+    pub created_at: f64,
+    pub started_at: Option<f64>,
+    pub finished_at: Option<f64>,
+    pub attempts: u32,
+    pub cancel_requested: bool,
+    pub progress: Option<ProgressEvent>,
+    pub evaluations: usize,
+    pub result: Option<WorstOutcome>,
+    pub error: Option<String>,
+    pub error_kind: Option<String>,
+}
+
+/// How a job ended.
+#[derive(Debug, Clone)]
+pub enum JobEnd {
+    /// The search ran (completed, out of budget or time: see the outcome's status).
+    Succeeded(WorstOutcome),
+    /// Cancelled: the partial outcome.
+    Cancelled(Option<WorstOutcome>),
+    Failed {
+        kind: String,
+        error: String,
+    },
+}
+
+/// What a heartbeat learns about its lease.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lease {
+    /// Still `owner`'s; whether a cancel was requested.
+    Held { cancel_requested: bool },
+    /// Taken over by another worker, or the job ended.
+    Lost,
+}
+
+/// A page of a listing.
+#[derive(Debug, Clone, Copy)]
+pub struct Page {
+    pub limit: usize,
+    pub offset: usize,
+}
+
+/// A task: some points of one evaluation batch of a job.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct TaskKey {
+    pub job_id: String,
+    /// The job's lease attempt whose coordinator posted it.
+    pub attempt: u32,
+    pub batch: u64,
+    pub part: u32,
+}
+
+/// Which tasks a lease may take.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TaskScope<'a> {
+    /// Tasks of jobs coordinated by someone else (a worker's task loop: a coordinator computes
+    /// its own share in its job's pool).
+    Others,
+    /// The tasks of one batch (its coordinator taking over a part nobody has started or whose
+    /// worker died).
+    Batch {
+        job: &'a str,
+        attempt: u32,
+        batch: u64,
+    },
+}
+
+/// A leased task.
+#[derive(Debug, Clone)]
+pub struct TaskRecord {
+    pub key: TaskKey,
+    /// Physical parameter points, in the order their evaluations must be returned.
+    pub points: Vec<Vec<f64>>,
+    pub run_hash: String,
+}
+
+/// What a worker needs to evaluate a job's points: the scene and the search settings.
+#[derive(Debug, Clone)]
+pub struct JobInput {
+    pub scene: String,
+    pub settings: WorstRequest,
+    pub run_hash: String,
+    /// The scene its coordinator chose for the target error, once it has (JSON).
+    pub chosen_scene: Option<String>,
+}
+
+/// Store errors (database failures); the message names the operation.
+#[derive(Debug, Clone, thiserror::Error)]
+#[error("job store: {0}")]
+pub struct StoreError(pub String);
+
+pub type StoreResult<T> = Result<T, StoreError>;
+
+/// Where jobs, their evaluations and results live.
+#[async_trait::async_trait]
+pub trait JobStore: Send + Sync + 'static {
+    async fn insert(&self, job: NewJob) -> StoreResult<()>;
+    async fn get(&self, id: &str) -> StoreResult<Option<JobRecord>>;
+    /// Jobs, newest first, optionally in one state.
+    async fn list(&self, state: Option<JobState>, page: Page) -> StoreResult<Vec<JobRecord>>;
+    /// Queued and running jobs.
+    async fn active_count(&self) -> StoreResult<usize>;
+    /// Lease the oldest queued job, or a running job whose lease expired, for `owner`.
+    async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>>;
+    /// Extend the lease and read the job's cancel flag.
+    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease>;
+    async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()>;
+    /// Store evaluations in order, in one transaction; the 1-based sequence number of the last.
+    async fn append_evaluations(
+        &self,
+        id: &str,
+        owner: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<usize>;
+    /// Evaluations of a job in order (`page` of them).
+    async fn evaluations(&self, id: &str, page: Option<Page>) -> StoreResult<Vec<Evaluation>>;
+    async fn finish(&self, id: &str, owner: &str, end: JobEnd) -> StoreResult<()>;
+    /// Ask a job to stop: a queued job is cancelled at once (true), a running one is flagged.
+    async fn request_cancel(&self, id: &str) -> StoreResult<bool>;
+
+    /// The scene and settings of a job (what a worker needs to evaluate its points).
+    async fn job_input(&self, id: &str) -> StoreResult<Option<JobInput>>;
+    /// Record the scene the coordinator chose for the job's target error (JSON), for the
+    /// workers; false when `owner` no longer holds the job's lease.
+    async fn record_chosen_scene(&self, id: &str, owner: &str, scene: &str) -> StoreResult<bool>;
+    /// Post one batch of job `id` (whose lease `owner` holds) as tasks, one per part; tasks of
+    /// the job's earlier attempts are dropped (their coordinator is gone).
+    async fn post_tasks(
+        &self,
+        id: &str,
+        owner: &str,
+        attempt: u32,
+        batch: u64,
+        parts: &[Vec<Vec<f64>>],
+    ) -> StoreResult<()>;
+    /// Lease the oldest queued task in `scope`, or a running one whose lease expired.
+    async fn lease_task(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        scope: TaskScope<'_>,
+    ) -> StoreResult<Option<TaskRecord>>;
+    /// Give a leased task back, queued for anyone (a worker whose model is not prepared yet);
+    /// false when it is no longer `owner`'s.
+    async fn release_task(&self, key: &TaskKey, owner: &str) -> StoreResult<bool>;
+    /// Extend a task's lease; false when it is no longer `owner`'s.
+    async fn renew_task(&self, key: &TaskKey, owner: &str, lease_seconds: f64)
+        -> StoreResult<bool>;
+    /// Store a task's evaluations (in the job's evaluations too) and mark it done, atomically;
+    /// false (and nothing stored) when the task is no longer `owner`'s.
+    async fn complete_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<bool>;
+    /// The evaluations of a batch in part order once every part is done (`None` before).
+    async fn batch_results(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<Evaluation>>>;
+    /// Announce a worker process with its evaluation threads (a heartbeat).
+    async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()>;
+    /// Evaluation threads of the workers seen within the last `seconds`.
+    async fn live_threads(&self, seconds: f64) -> StoreResult<usize>;
+    /// Changes whenever new work (a job or a task) may be there. Mark it seen before looking
+    /// for work, then [`wait`] on it: no announcement is missed in between.
+    fn work_signal(&self) -> Signal;
+    /// Changes whenever a task may have completed (used the same way).
+    fn results_signal(&self) -> Signal;
+}
+
+/// A counter raised by announcements (local writes, or notifications from other processes).
+pub type Signal = tokio::sync::watch::Receiver<u64>;
+
+/// Wait until `signal` changes after it was last seen, or `timeout` (waiters also poll, so a
+/// lost notification only delays them).
+pub async fn wait(signal: &mut Signal, timeout: std::time::Duration) {
+    let _ = tokio::time::timeout(timeout, signal.changed()).await;
+}
+
+/// Seconds since the Unix epoch.
+pub fn now() -> f64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs_f64())
+        .unwrap_or(0.0)
+}

@@ -1,0 +1,312 @@
+//! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job
+//! from the store and coordinates it — runs it through the front door (`run::worst`) on a
+//! blocking thread (never on the async runtime), with its batches fanned out as tasks when other
+//! workers share the store (`dispatch`), stores the evaluations it computes chunk by chunk,
+//! renews the lease by heartbeat, passes cancel requests on, publishes progress, and stores how
+//! the job ended. A panic inside a job fails that job with the reason; the worker goes on. Beside
+//! the job slots run the task loop (`tasks`) and the heartbeat that announces the process.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::time::Duration;
+
+use tokio::sync::mpsc;
+
+use super::batch_tasks::StoreDispatch;
+use super::tasks::{serve_tasks, TaskConfig};
+use super::{wait, JobEnd, JobRecord, JobStore, Lease};
+use wsm_core::error::{ErrorKind, WsmError};
+use wsm_core::run::{
+    self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status,
+};
+
+/// Settings of a worker process.
+#[derive(Debug, Clone)]
+pub struct RunnerConfig {
+    /// Jobs coordinated at once (0: none, only tasks of other coordinators).
+    pub workers: usize,
+    /// Threads of each job's pool and of the task loop (`None`: all cores).
+    pub threads_per_job: Option<usize>,
+    /// A lease not renewed for this long is taken over \[s\].
+    pub lease_seconds: f64,
+    /// This process's name in leases and evaluations.
+    pub owner: String,
+}
+
+/// Jobs running in this process: their cancel flags.
+#[derive(Default)]
+pub struct Live {
+    jobs: Mutex<HashMap<String, LiveJob>>,
+}
+
+struct LiveJob {
+    cancel: Arc<AtomicBool>,
+}
+
+impl Live {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, LiveJob>> {
+        self.jobs.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Raise the cancel flag of a job running here.
+    pub fn cancel(&self, id: &str) {
+        if let Some(job) = self.lock().get(id) {
+            job.cancel.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+impl RunnerConfig {
+    /// Evaluation threads of this process.
+    pub fn threads(&self) -> usize {
+        self.threads_per_job
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+            .max(1)
+    }
+}
+
+/// Start the job slots, the task loop and the heartbeat that announces this process.
+pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerConfig) {
+    for _ in 0..config.workers {
+        let (store, live, config) = (store.clone(), live.clone(), config.clone());
+        tokio::spawn(async move {
+            let mut work = store.work_signal();
+            loop {
+                work.borrow_and_update();
+                match store.lease(&config.owner, config.lease_seconds).await {
+                    Ok(Some(job)) => run_job(&store, &live, &config, job).await,
+                    Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
+                    Err(e) => {
+                        eprintln!("wsm: {e}");
+                        tokio::time::sleep(Duration::from_secs(1)).await;
+                    }
+                }
+            }
+        });
+    }
+    {
+        let (store, config) = (store.clone(), config.clone());
+        tokio::spawn(async move {
+            let period = Duration::from_secs_f64((config.lease_seconds / 3.0).max(0.05));
+            loop {
+                if let Err(e) = store.register_worker(&config.owner, config.threads()).await {
+                    eprintln!("wsm: {e}");
+                }
+                tokio::time::sleep(period).await;
+            }
+        });
+    }
+    let tasks = TaskConfig {
+        owner: config.owner.clone(),
+        threads: config.threads(),
+        lease_seconds: config.lease_seconds,
+    };
+    tokio::spawn(async move {
+        if let Err(e) = serve_tasks(store, tasks).await {
+            eprintln!("wsm: the task loop stopped: {e}");
+        }
+    });
+}
+
+/// The evaluation log of a job: its stored evaluations, appended to chunk by chunk.
+struct StoreLog {
+    store: Arc<dyn JobStore>,
+    runtime: tokio::runtime::Handle,
+    job: String,
+    owner: String,
+    run_hash: String,
+    replay: Vec<Evaluation>,
+}
+
+impl EvaluationLog for StoreLog {
+    fn open(&self, header: &LogHeader) -> Result<Vec<Evaluation>, WsmError> {
+        if header.run_hash != self.run_hash {
+            return Err(WsmError::LogMismatch {
+                path: format!("job {}", self.job),
+                expected: header.run_hash.clone(),
+                found: self.run_hash.clone(),
+            });
+        }
+        Ok(self.replay.clone())
+    }
+
+    fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError> {
+        self.runtime
+            .block_on(
+                self.store
+                    .append_evaluations(&self.job, &self.owner, evaluations),
+            )
+            .map(|_| ())
+            .map_err(|e| WsmError::io(format!("job {}", self.job), e))
+    }
+}
+
+/// The text of a panic payload.
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+fn kind_name(kind: ErrorKind) -> &'static str {
+    match kind {
+        ErrorKind::BadInput => "bad_input",
+        ErrorKind::Unsolvable => "unsolvable",
+        ErrorKind::Solver => "solver",
+        ErrorKind::Cancelled => "cancelled",
+        ErrorKind::NotFound => "not_found",
+        ErrorKind::Io => "io",
+    }
+}
+
+async fn run_job(
+    store: &Arc<dyn JobStore>,
+    live: &Arc<Live>,
+    config: &RunnerConfig,
+    job: JobRecord,
+) {
+    let id = job.id.clone();
+    let cancel = Arc::new(AtomicBool::new(job.cancel_requested));
+    live.lock().insert(
+        id.clone(),
+        LiveJob {
+            cancel: cancel.clone(),
+        },
+    );
+    let lost = Arc::new(AtomicBool::new(false));
+    let heartbeat = tokio::spawn(heartbeat(
+        store.clone(),
+        config.clone(),
+        id.clone(),
+        cancel.clone(),
+        lost.clone(),
+    ));
+    let (progress_tx, progress_rx) = mpsc::unbounded_channel::<ProgressEvent>();
+    let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx));
+    let end = match store.evaluations(&id, None).await {
+        Ok(replay) => {
+            let log = StoreLog {
+                store: store.clone(),
+                runtime: tokio::runtime::Handle::current(),
+                job: id.clone(),
+                owner: config.owner.clone(),
+                run_hash: job.run_hash.clone(),
+                replay,
+            };
+            let dispatch = StoreDispatch::new(
+                store.clone(),
+                tokio::runtime::Handle::current(),
+                id.clone(),
+                config.owner.clone(),
+                job.attempts,
+                config.threads(),
+                config.lease_seconds,
+                lost.clone(),
+            );
+            let control = RunControl::new()
+                .with_cancel(cancel.clone())
+                .with_log(Arc::new(log))
+                .with_dispatch(Arc::new(dispatch))
+                .with_progress(move |e| {
+                    let _ = progress_tx.send(e.clone());
+                });
+            let mut request = job.settings.clone();
+            if config.threads_per_job.is_some() {
+                request.threads = config.threads_per_job;
+            }
+            let scene_text = job.scene.clone();
+            let task = tokio::task::spawn_blocking(move || {
+                let scene = wsm_core::scene::parse(&scene_text)?;
+                run::worst(scene, &request, &control)
+            });
+            match task.await {
+                Ok(Ok(outcome)) if outcome.status == Status::Cancelled => {
+                    JobEnd::Cancelled(Some(outcome))
+                }
+                Ok(Ok(outcome)) => JobEnd::Succeeded(outcome),
+                Ok(Err(WsmError::Cancelled)) => JobEnd::Cancelled(None),
+                Ok(Err(e)) => JobEnd::Failed {
+                    kind: kind_name(e.kind()).into(),
+                    error: e.to_string(),
+                },
+                Err(join) if join.is_panic() => JobEnd::Failed {
+                    kind: "panic".into(),
+                    error: format!("the job panicked: {}", panic_message(join.into_panic())),
+                },
+                Err(join) => JobEnd::Failed {
+                    kind: "panic".into(),
+                    error: format!("the job was aborted: {join}"),
+                },
+            }
+        }
+        Err(e) => JobEnd::Failed {
+            kind: "io".into(),
+            error: e.to_string(),
+        },
+    };
+    heartbeat.abort();
+    let _ = publisher.await;
+    // A job whose lease was taken over belongs to its new owner now.
+    if !lost.load(Ordering::SeqCst) {
+        if let Err(e) = store.finish(&id, &config.owner, end).await {
+            eprintln!("wsm: job {id}: {e}");
+        }
+    }
+    live.lock().remove(&id);
+}
+
+/// Renew the lease every third of its length; the same statement reads the cancel flag (a
+/// cancel sent to another process reaches this one within a heartbeat).
+async fn heartbeat(
+    store: Arc<dyn JobStore>,
+    config: RunnerConfig,
+    id: String,
+    cancel: Arc<AtomicBool>,
+    lost: Arc<AtomicBool>,
+) {
+    let period = Duration::from_secs_f64((config.lease_seconds / 3.0).max(0.05));
+    loop {
+        tokio::time::sleep(period).await;
+        match store.renew(&id, &config.owner, config.lease_seconds).await {
+            Ok(Lease::Held { cancel_requested }) => {
+                if cancel_requested {
+                    cancel.store(true, Ordering::SeqCst);
+                }
+            }
+            Ok(Lease::Lost) => {
+                lost.store(true, Ordering::SeqCst);
+                cancel.store(true, Ordering::SeqCst);
+                return;
+            }
+            Err(e) => eprintln!("wsm: job {id}: {e}"),
+        }
+    }
+}
+
+/// Store the latest progress: at most every 200 ms, and always the last (readers, and the
+/// server-sent events, poll the store).
+async fn publish(
+    store: Arc<dyn JobStore>,
+    id: String,
+    mut events: mpsc::UnboundedReceiver<ProgressEvent>,
+) {
+    let mut last_write = std::time::Instant::now() - Duration::from_secs(1);
+    let mut pending: Option<ProgressEvent> = None;
+    while let Some(event) = events.recv().await {
+        if last_write.elapsed() >= Duration::from_millis(200) {
+            if let Err(e) = store.set_progress(&id, &event).await {
+                eprintln!("wsm: job {id}: {e}");
+            }
+            last_write = std::time::Instant::now();
+            pending = None;
+        } else {
+            pending = Some(event);
+        }
+    }
+    if let Some(event) = pending {
+        let _ = store.set_progress(&id, &event).await;
+    }
+}

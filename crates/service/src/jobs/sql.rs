@@ -1,0 +1,855 @@
+//! The job store on SQL, one implementation for both backends through sqlx's `Any` driver:
+//! SQLite (the embedded default: one database file, WAL journal, `synchronous=NORMAL`, foreign
+//! keys and a busy timeout on every pooled connection) and PostgreSQL (scale-out: many `wsm
+//! worker` processes on many machines). Each backend has its own migrations
+//! (`migrations/sqlite`, `migrations/postgres`), applied at start-up.
+//!
+//! The statements are shared (`$n` placeholders work on both); the backends differ only in
+//! their clock expression, in how a lease locks a row (SQLite: the whole write inside `BEGIN
+//! IMMEDIATE`, so two workers never take the same job; PostgreSQL: `FOR UPDATE SKIP LOCKED`, so
+//! workers lease different rows at once) and in how waiting processes are woken (PostgreSQL:
+//! `LISTEN/NOTIFY` across processes; SQLite: in-process notification plus polling). All lease
+//! times come from the database clock, never from a worker's.
+
+use std::str::FromStr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use sqlx::any::{AnyConnectOptions, AnyPoolOptions, AnyRow};
+use sqlx::{AnyPool, Executor, Row};
+use tokio::sync::watch;
+
+use super::{
+    JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, Signal, StoreError,
+    StoreResult, TaskKey, TaskRecord, TaskScope,
+};
+use wsm_core::run::{Evaluation, ProgressEvent};
+
+/// The database behind the store.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    Sqlite,
+    Postgres,
+}
+
+impl Backend {
+    /// The backend of a database argument: a `postgres://` (or `postgresql://`) URL, else a
+    /// SQLite file path (or `sqlite://` URL).
+    pub fn of(db: &str) -> Backend {
+        if db.starts_with("postgres://") || db.starts_with("postgresql://") {
+            Backend::Postgres
+        } else {
+            Backend::Sqlite
+        }
+    }
+
+    /// Now, in Unix seconds, by the database's clock.
+    fn now(self) -> &'static str {
+        match self {
+            Backend::Sqlite => "((julianday('now') - 2440587.5) * 86400.0)",
+            Backend::Postgres => "(extract(epoch from clock_timestamp())::double precision)",
+        }
+    }
+
+    /// The transaction of a lease: SQLite takes the write lock at once (a deferred
+    /// read-then-write transaction would fail with SQLITE_BUSY instead of waiting).
+    /// The statement that opens a write transaction. Task bookkeeping (`relaxed`) need not wait
+    /// for the disk on PostgreSQL: a server crash can only lose the last moments of task
+    /// traffic, and a lost completion is recomputed (its evaluations and the task's state are in
+    /// one transaction, so they are lost together or not at all). One round trip either way.
+    fn begin_write(self, relaxed: bool) -> &'static str {
+        match (self, relaxed) {
+            (Backend::Sqlite, _) => "BEGIN IMMEDIATE",
+            (Backend::Postgres, false) => "BEGIN",
+            (Backend::Postgres, true) => "BEGIN; SET LOCAL synchronous_commit TO OFF",
+        }
+    }
+
+    /// Appends to a job's evaluations lock its row (sequence numbers stay dense); SQLite's write
+    /// transaction already holds the whole database.
+    fn serialise_appends(self) -> &'static str {
+        match self {
+            Backend::Sqlite => "",
+            Backend::Postgres => " FOR UPDATE",
+        }
+    }
+
+    /// How the row a lease picks is locked against the other workers.
+    fn lock_row(self) -> &'static str {
+        match self {
+            Backend::Sqlite => "",
+            Backend::Postgres => " FOR UPDATE SKIP LOCKED",
+        }
+    }
+}
+
+/// The notification channels on PostgreSQL.
+const WORK_CHANNEL: &str = "wsm_work";
+const RESULTS_CHANNEL: &str = "wsm_results";
+
+/// The job store.
+#[derive(Clone)]
+pub struct SqlStore {
+    pool: AnyPool,
+    backend: Backend,
+    /// Raised when a job or task may be waiting (a local write, or a notification).
+    work: Arc<watch::Sender<u64>>,
+    /// Raised when a task may have completed.
+    results: Arc<watch::Sender<u64>>,
+}
+
+fn raise(signal: &watch::Sender<u64>) {
+    signal.send_modify(|n| *n = n.wrapping_add(1));
+}
+
+fn db(operation: &'static str) -> impl Fn(sqlx::Error) -> StoreError {
+    move |e| StoreError(format!("{operation}: {e}"))
+}
+
+/// A statement assembled from constant pieces (the backend's clock and locking clauses).
+fn sql(text: String) -> sqlx::AssertSqlSafe<String> {
+    sqlx::AssertSqlSafe(text)
+}
+
+fn json<T: serde::Serialize>(value: &T) -> StoreResult<String> {
+    serde_json::to_string(value).map_err(|e| StoreError(format!("encoding: {e}")))
+}
+
+fn parse<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> StoreResult<T> {
+    serde_json::from_str(text).map_err(|e| StoreError(format!("decoding {what}: {e}")))
+}
+
+impl SqlStore {
+    /// Open the database (a SQLite file, created if needed, or a PostgreSQL URL) and apply the
+    /// backend's migrations.
+    pub async fn open(db_arg: &str) -> StoreResult<SqlStore> {
+        sqlx::any::install_default_drivers();
+        let backend = Backend::of(db_arg);
+        let url = match backend {
+            Backend::Postgres => db_arg.to_string(),
+            Backend::Sqlite if db_arg.starts_with("sqlite:") => db_arg.to_string(),
+            Backend::Sqlite => format!("sqlite://{db_arg}?mode=rwc"),
+        };
+        let options = AnyConnectOptions::from_str(&url).map_err(db("database address"))?;
+        let pool = AnyPoolOptions::new()
+            .max_connections(8)
+            .after_connect(move |conn, _| {
+                Box::pin(async move {
+                    if backend == Backend::Sqlite {
+                        conn.execute(
+                            "PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;
+                             PRAGMA foreign_keys = ON; PRAGMA busy_timeout = 10000;",
+                        )
+                        .await?;
+                    }
+                    Ok(())
+                })
+            })
+            .connect_with(options)
+            .await
+            .map_err(db("opening the database"))?;
+        let migrations = match backend {
+            Backend::Sqlite => sqlx::migrate!("../../migrations/sqlite"),
+            Backend::Postgres => sqlx::migrate!("../../migrations/postgres"),
+        };
+        migrations
+            .run(&pool)
+            .await
+            .map_err(|e| StoreError(format!("migrations: {e}")))?;
+        let store = SqlStore {
+            pool,
+            backend,
+            work: Arc::new(watch::channel(0).0),
+            results: Arc::new(watch::channel(0).0),
+        };
+        if backend == Backend::Postgres {
+            store.listen(&url).await?;
+        }
+        Ok(store)
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// Turn PostgreSQL notifications into local wake-ups (reconnecting after a lost connection;
+    /// waiters also poll, so a missed notification only delays them).
+    async fn listen(&self, url: &str) -> StoreResult<()> {
+        let mut listener = sqlx::postgres::PgListener::connect(url)
+            .await
+            .map_err(db("listening for notifications"))?;
+        listener
+            .listen_all([WORK_CHANNEL, RESULTS_CHANNEL])
+            .await
+            .map_err(db("listening for notifications"))?;
+        let (work, results) = (self.work.clone(), self.results.clone());
+        tokio::spawn(async move {
+            loop {
+                match listener.recv().await {
+                    Ok(n) if n.channel() == RESULTS_CHANNEL => raise(&results),
+                    Ok(_) => raise(&work),
+                    Err(_) => tokio::time::sleep(Duration::from_millis(200)).await,
+                }
+            }
+        });
+        Ok(())
+    }
+
+    /// Tell waiting workers (here and, on PostgreSQL, in other processes) about new work.
+    async fn announce(&self, channel: &'static str) {
+        let local = if channel == RESULTS_CHANNEL {
+            &self.results
+        } else {
+            &self.work
+        };
+        raise(local);
+        if self.backend == Backend::Postgres {
+            let _ = sqlx::query("SELECT pg_notify($1, '')")
+                .bind(channel)
+                .execute(&self.pool)
+                .await;
+        }
+    }
+
+    /// A write transaction (`Backend::begin_write`); `relaxed` for task traffic
+    /// (`Backend::relaxed_commit`).
+    async fn begin_write(
+        &self,
+        relaxed: bool,
+        error: &impl Fn(sqlx::Error) -> StoreError,
+    ) -> StoreResult<sqlx::Transaction<'static, sqlx::Any>> {
+        self.pool
+            .begin_with(self.backend.begin_write(relaxed))
+            .await
+            .map_err(error)
+    }
+
+    fn record(row: &AnyRow) -> StoreResult<JobRecord> {
+        let read = db("reading a job");
+        let text = |name: &str| -> StoreResult<String> { row.try_get(name).map_err(&read) };
+        let opt_text =
+            |name: &str| -> StoreResult<Option<String>> { row.try_get(name).map_err(&read) };
+        let int = |name: &str| -> StoreResult<i64> { row.try_get(name).map_err(&read) };
+        let state = text("state")?;
+        Ok(JobRecord {
+            id: text("id")?,
+            state: JobState::parse(&state)
+                .ok_or_else(|| StoreError(format!("unknown job state '{state}'")))?,
+            scene: text("scene")?,
+            settings: parse(&text("settings")?, "settings")?,
+            scene_name: text("scene_name")?,
+            criteria: parse(&text("criteria")?, "criteria")?,
+            budget: int("budget")? as usize,
+            run_hash: text("run_hash")?,
+            created_at: row.try_get("created_at").map_err(&read)?,
+            started_at: row.try_get("started_at").map_err(&read)?,
+            finished_at: row.try_get("finished_at").map_err(&read)?,
+            attempts: int("attempts")? as u32,
+            cancel_requested: int("cancel_requested")? != 0,
+            progress: opt_text("progress")?
+                .map(|t| parse(&t, "progress"))
+                .transpose()?,
+            evaluations: int("evaluations")? as usize,
+            result: opt_text("result")?
+                .map(|t| parse(&t, "result"))
+                .transpose()?,
+            error: opt_text("error")?,
+            error_kind: opt_text("error_kind")?,
+        })
+    }
+
+    /// Append evaluations to a job's log inside `tx` (sequence numbers continue the job's).
+    async fn append_in(
+        tx: &mut sqlx::AnyConnection,
+        now: &str,
+        id: &str,
+        worker: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<()> {
+        let store = db("storing an evaluation");
+        let mut seq: i64 =
+            sqlx::query_scalar("SELECT COALESCE(MAX(seq), 0) FROM evaluations WHERE job_id = $1")
+                .bind(id)
+                .fetch_one(&mut *tx)
+                .await
+                .map_err(&store)?;
+        // One statement for the whole list: rows (job, seq, body) after the shared worker.
+        if !evaluations.is_empty() {
+            let rows: Vec<String> = (0..evaluations.len())
+                .map(|i| format!("($1, ${}, ${}, $2, {now})", 3 + 2 * i, 4 + 2 * i))
+                .collect();
+            let statement = format!(
+                "INSERT INTO evaluations (job_id, seq, body, worker, created_at) VALUES {}",
+                rows.join(", ")
+            );
+            let mut insert = sqlx::query(sql(statement)).bind(id).bind(worker);
+            for evaluation in evaluations {
+                seq += 1;
+                insert = insert.bind(seq).bind(json(evaluation)?);
+            }
+            insert.execute(&mut *tx).await.map_err(&store)?;
+        }
+        sqlx::query("UPDATE jobs SET evaluations = $1 WHERE id = $2")
+            .bind(seq)
+            .bind(id)
+            .execute(&mut *tx)
+            .await
+            .map_err(&store)?;
+        Ok(())
+    }
+}
+
+/// A task still leased by a given owner: its key as `$1`…`$4`, the owner as `$5` (bound by
+/// [`bind_task_key`]; further parameters start at `$6`).
+const HELD_TASK: &str = "job_id = $1 AND attempt = $2 AND batch = $3 AND part = $4
+    AND lease_owner = $5 AND state = 'running'";
+
+/// Bind a task's key and its lease owner as `$1`…`$5` (see [`HELD_TASK`]).
+fn bind_task_key<'q>(
+    query: sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments>,
+    key: &'q TaskKey,
+    owner: &'q str,
+) -> sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments> {
+    query
+        .bind(&key.job_id)
+        .bind(key.attempt as i64)
+        .bind(key.batch as i64)
+        .bind(key.part as i64)
+        .bind(owner)
+}
+
+#[async_trait::async_trait]
+impl JobStore for SqlStore {
+    async fn insert(&self, job: NewJob) -> StoreResult<()> {
+        sqlx::query(sql(format!(
+            "INSERT INTO jobs (id, state, scene, settings, scene_name, criteria, budget, run_hash, created_at)
+             VALUES ($1, 'queued', $2, $3, $4, $5, $6, $7, {})",
+            self.backend.now()
+        )))
+        .bind(&job.id)
+        .bind(&job.scene)
+        .bind(json(&job.settings)?)
+        .bind(&job.scene_name)
+        .bind(json(&job.criteria)?)
+        .bind(job.budget as i64)
+        .bind(&job.run_hash)
+        .execute(&self.pool)
+        .await
+        .map_err(db("inserting a job"))?;
+        self.announce(WORK_CHANNEL).await;
+        Ok(())
+    }
+
+    async fn get(&self, id: &str) -> StoreResult<Option<JobRecord>> {
+        let row = sqlx::query("SELECT * FROM jobs WHERE id = $1")
+            .bind(id)
+            .fetch_optional(&self.pool)
+            .await
+            .map_err(db("reading a job"))?;
+        row.as_ref().map(Self::record).transpose()
+    }
+
+    async fn list(&self, state: Option<JobState>, page: Page) -> StoreResult<Vec<JobRecord>> {
+        let rows = sqlx::query(
+            "SELECT * FROM jobs WHERE ($1 = '' OR state = $1)
+             ORDER BY created_at DESC, id LIMIT $2 OFFSET $3",
+        )
+        .bind(state.map(JobState::as_str).unwrap_or(""))
+        .bind(page.limit.min(i64::MAX as usize) as i64)
+        .bind(page.offset.min(i64::MAX as usize) as i64)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(db("listing jobs"))?;
+        rows.iter().map(Self::record).collect()
+    }
+
+    async fn active_count(&self) -> StoreResult<usize> {
+        let n: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state IN ('queued', 'running')")
+                .fetch_one(&self.pool)
+                .await
+                .map_err(db("counting jobs"))?;
+        Ok(n as usize)
+    }
+
+    async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>> {
+        let now = self.backend.now();
+        let lease = db("leasing a job");
+        let mut tx = self.begin_write(false, &lease).await?;
+        let id: Option<String> = sqlx::query_scalar(sql(format!(
+            "SELECT id FROM jobs
+             WHERE state = 'queued' OR (state = 'running' AND lease_expires_at < {now})
+             ORDER BY created_at, id LIMIT 1{}",
+            self.backend.lock_row()
+        )))
+        .fetch_optional(&mut *tx)
+        .await
+        .map_err(&lease)?;
+        let Some(id) = id else {
+            tx.commit().await.map_err(&lease)?;
+            return Ok(None);
+        };
+        let row = sqlx::query(sql(format!(
+            "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2,
+                 attempts = attempts + 1, started_at = COALESCE(started_at, {now})
+             WHERE id = $3 RETURNING *"
+        )))
+        .bind(owner)
+        .bind(lease_seconds)
+        .bind(&id)
+        .fetch_one(&mut *tx)
+        .await
+        .map_err(&lease)?;
+        // The tasks of an earlier attempt belong to a coordinator that is gone.
+        sqlx::query("DELETE FROM tasks WHERE job_id = $1")
+            .bind(&id)
+            .execute(&mut *tx)
+            .await
+            .map_err(&lease)?;
+        tx.commit().await.map_err(&lease)?;
+        Self::record(&row).map(Some)
+    }
+
+    async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease> {
+        let cancel: Option<i64> = sqlx::query_scalar(sql(format!(
+            "UPDATE jobs SET lease_expires_at = {} + $1
+             WHERE id = $2 AND lease_owner = $3 AND state = 'running'
+             RETURNING cancel_requested",
+            self.backend.now()
+        )))
+        .bind(lease_seconds)
+        .bind(id)
+        .bind(owner)
+        .fetch_optional(&self.pool)
+        .await
+        .map_err(db("renewing a lease"))?;
+        Ok(match cancel {
+            Some(flag) => Lease::Held {
+                cancel_requested: flag != 0,
+            },
+            None => Lease::Lost,
+        })
+    }
+
+    async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()> {
+        sqlx::query("UPDATE jobs SET progress = $1 WHERE id = $2 AND state = 'running'")
+            .bind(json(progress)?)
+            .bind(id)
+            .execute(&self.pool)
+            .await
+            .map_err(db("storing progress"))?;
+        Ok(())
+    }
+
+    async fn append_evaluations(
+        &self,
+        id: &str,
+        owner: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<usize> {
+        let store = db("storing an evaluation");
+        let mut tx = self.begin_write(false, &store).await?;
+        // Lock the job row: appends of one job are serialised (sequence numbers stay dense).
+        let held: Option<String> = sqlx::query_scalar(sql(format!(
+            "SELECT id FROM jobs WHERE id = $1 AND lease_owner = $2{}",
+            self.backend.serialise_appends()
+        )))
+        .bind(id)
+        .bind(owner)
+        .fetch_optional(&mut *tx)
+        .await
+        .map_err(&store)?;
+        if held.is_none() {
+            return Err(StoreError(format!(
+                "storing an evaluation: job {id} is no longer leased by this worker"
+            )));
+        }
+        Self::append_in(&mut tx, self.backend.now(), id, owner, evaluations).await?;
+        let seq: i64 = sqlx::query_scalar("SELECT evaluations FROM jobs WHERE id = $1")
+            .bind(id)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(&store)?;
+        tx.commit().await.map_err(&store)?;
+        Ok(seq as usize)
+    }
+
+    async fn evaluations(&self, id: &str, page: Option<Page>) -> StoreResult<Vec<Evaluation>> {
+        let page = page.unwrap_or(Page {
+            limit: i64::MAX as usize,
+            offset: 0,
+        });
+        let bodies: Vec<String> = sqlx::query_scalar(
+            "SELECT body FROM evaluations WHERE job_id = $1 ORDER BY seq LIMIT $2 OFFSET $3",
+        )
+        .bind(id)
+        .bind(page.limit.min(i64::MAX as usize) as i64)
+        .bind(page.offset.min(i64::MAX as usize) as i64)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(db("reading evaluations"))?;
+        bodies.iter().map(|b| parse(b, "an evaluation")).collect()
+    }
+
+    async fn finish(&self, id: &str, owner: &str, end: JobEnd) -> StoreResult<()> {
+        let (state, result, error, kind) = match end {
+            JobEnd::Succeeded(outcome) => (JobState::Succeeded, Some(json(&outcome)?), None, None),
+            JobEnd::Cancelled(outcome) => (
+                JobState::Cancelled,
+                outcome.as_ref().map(json).transpose()?,
+                None,
+                None,
+            ),
+            JobEnd::Failed { kind, error } => (JobState::Failed, None, Some(error), Some(kind)),
+        };
+        let finish = db("finishing a job");
+        let mut tx = self.pool.begin().await.map_err(&finish)?;
+        sqlx::query(sql(format!(
+            "UPDATE jobs SET state = $1, result = $2, error = $3, error_kind = $4,
+                 finished_at = {}, lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = $5 AND lease_owner = $6",
+            self.backend.now()
+        )))
+        .bind(state.as_str())
+        .bind(result)
+        .bind(error)
+        .bind(kind)
+        .bind(id)
+        .bind(owner)
+        .execute(&mut *tx)
+        .await
+        .map_err(&finish)?;
+        sqlx::query("DELETE FROM tasks WHERE job_id = $1")
+            .bind(id)
+            .execute(&mut *tx)
+            .await
+            .map_err(&finish)?;
+        tx.commit().await.map_err(&finish)?;
+        Ok(())
+    }
+
+    async fn request_cancel(&self, id: &str) -> StoreResult<bool> {
+        let cancel = db("cancelling a job");
+        let mut tx = self.begin_write(false, &cancel).await?;
+        let cancelled = sqlx::query(sql(format!(
+            "UPDATE jobs SET state = 'cancelled', cancel_requested = 1, finished_at = {}
+             WHERE id = $1 AND state = 'queued'",
+            self.backend.now()
+        )))
+        .bind(id)
+        .execute(&mut *tx)
+        .await
+        .map_err(&cancel)?
+        .rows_affected()
+            == 1;
+        if !cancelled {
+            sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = $1 AND state = 'running'")
+                .bind(id)
+                .execute(&mut *tx)
+                .await
+                .map_err(&cancel)?;
+        }
+        tx.commit().await.map_err(&cancel)?;
+        Ok(cancelled)
+    }
+
+    async fn job_input(&self, id: &str) -> StoreResult<Option<JobInput>> {
+        let row =
+            sqlx::query("SELECT scene, settings, run_hash, chosen_scene FROM jobs WHERE id = $1")
+                .bind(id)
+                .fetch_optional(&self.pool)
+                .await
+                .map_err(db("reading a job"))?;
+        let Some(row) = row else { return Ok(None) };
+        let read = db("reading a job");
+        Ok(Some(JobInput {
+            scene: row.try_get("scene").map_err(&read)?,
+            settings: parse(
+                &row.try_get::<String, _>("settings").map_err(&read)?,
+                "settings",
+            )?,
+            run_hash: row.try_get("run_hash").map_err(&read)?,
+            chosen_scene: row.try_get("chosen_scene").map_err(&read)?,
+        }))
+    }
+
+    async fn record_chosen_scene(&self, id: &str, owner: &str, scene: &str) -> StoreResult<bool> {
+        let done = sqlx::query(
+            "UPDATE jobs SET chosen_scene = $3
+             WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+        )
+        .bind(id)
+        .bind(owner)
+        .bind(scene)
+        .execute(&self.pool)
+        .await
+        .map_err(db("storing the chosen scene"))?;
+        Ok(done.rows_affected() == 1)
+    }
+
+    async fn post_tasks(
+        &self,
+        id: &str,
+        owner: &str,
+        attempt: u32,
+        batch: u64,
+        parts: &[Vec<Vec<f64>>],
+    ) -> StoreResult<()> {
+        let post = db("posting tasks");
+        let now = self.backend.now();
+        let mut tx = self.begin_write(true, &post).await?;
+        let held: Option<i64> = sqlx::query_scalar(
+            "SELECT attempts FROM jobs WHERE id = $1 AND lease_owner = $2 AND state = 'running'",
+        )
+        .bind(id)
+        .bind(owner)
+        .fetch_optional(&mut *tx)
+        .await
+        .map_err(&post)?;
+        if held != Some(attempt as i64) {
+            return Err(StoreError(format!(
+                "posting tasks: job {id} is no longer coordinated by this worker"
+            )));
+        }
+        // One statement for the whole batch: rows (part, points) after the shared key.
+        if !parts.is_empty() {
+            let rows: Vec<String> = (0..parts.len())
+                .map(|i| {
+                    format!(
+                        "($1, $2, $3, ${}, ${}, 'queued', {now})",
+                        4 + 2 * i,
+                        5 + 2 * i
+                    )
+                })
+                .collect();
+            let statement = format!(
+                "INSERT INTO tasks (job_id, attempt, batch, part, points, state, created_at) VALUES {}",
+                rows.join(", ")
+            );
+            let mut insert = sqlx::query(sql(statement))
+                .bind(id)
+                .bind(attempt as i64)
+                .bind(batch as i64);
+            for (part, points) in parts.iter().enumerate() {
+                insert = insert.bind(part as i64).bind(json(points)?);
+            }
+            insert.execute(&mut *tx).await.map_err(&post)?;
+        }
+        tx.commit().await.map_err(&post)?;
+        self.announce(WORK_CHANNEL).await;
+        Ok(())
+    }
+
+    async fn lease_task(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        scope: TaskScope<'_>,
+    ) -> StoreResult<Option<TaskRecord>> {
+        let now = self.backend.now();
+        let lease = db("leasing a task");
+        let mut tx = self.begin_write(true, &lease).await?;
+        let filter = match scope {
+            TaskScope::Others => "COALESCE(j.lease_owner, '') <> $1",
+            TaskScope::Batch { .. } => "t.job_id = $3 AND t.attempt = $4 AND t.batch = $5",
+        };
+        // Pick and lease in one statement.
+        let statement = sql(format!(
+            "UPDATE tasks SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2
+             WHERE (job_id, attempt, batch, part) = (
+                 SELECT t.job_id, t.attempt, t.batch, t.part
+                 FROM tasks t JOIN jobs j ON j.id = t.job_id
+                 WHERE (t.state = 'queued' OR (t.state = 'running' AND t.lease_expires_at < {now}))
+                   AND {filter}
+                 ORDER BY t.created_at, t.job_id, t.batch, t.part LIMIT 1{})
+             RETURNING job_id, attempt, batch, part, points,
+                 (SELECT run_hash FROM jobs WHERE jobs.id = tasks.job_id) AS run_hash",
+            match self.backend {
+                Backend::Sqlite => "",
+                Backend::Postgres => " FOR UPDATE OF t SKIP LOCKED",
+            }
+        ));
+        let query = sqlx::query(statement).bind(owner).bind(lease_seconds);
+        let query = match scope {
+            TaskScope::Others => query,
+            TaskScope::Batch {
+                job,
+                attempt,
+                batch,
+            } => query.bind(job).bind(attempt as i64).bind(batch as i64),
+        };
+        let row = query.fetch_optional(&mut *tx).await.map_err(&lease)?;
+        tx.commit().await.map_err(&lease)?;
+        let Some(row) = row else {
+            return Ok(None);
+        };
+        let key = TaskKey {
+            job_id: row.try_get("job_id").map_err(&lease)?,
+            attempt: row.try_get::<i64, _>("attempt").map_err(&lease)? as u32,
+            batch: row.try_get::<i64, _>("batch").map_err(&lease)? as u64,
+            part: row.try_get::<i64, _>("part").map_err(&lease)? as u32,
+        };
+        let points = parse(
+            &row.try_get::<String, _>("points").map_err(&lease)?,
+            "points",
+        )?;
+        Ok(Some(TaskRecord {
+            key,
+            points,
+            run_hash: row.try_get("run_hash").map_err(&lease)?,
+        }))
+    }
+
+    async fn release_task(&self, key: &TaskKey, owner: &str) -> StoreResult<bool> {
+        let n = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
+                 WHERE {HELD_TASK}"
+            ))),
+            key,
+            owner,
+        )
+        .execute(&self.pool)
+        .await
+        .map_err(db("releasing a task"))?
+        .rows_affected();
+        // Its coordinator waits on results and takes over what is queued; workers on work.
+        self.announce(RESULTS_CHANNEL).await;
+        self.announce(WORK_CHANNEL).await;
+        Ok(n == 1)
+    }
+
+    async fn renew_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        lease_seconds: f64,
+    ) -> StoreResult<bool> {
+        let n = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET lease_expires_at = {} + $6 WHERE {HELD_TASK}",
+                self.backend.now()
+            ))),
+            key,
+            owner,
+        )
+        .bind(lease_seconds)
+        .execute(&self.pool)
+        .await
+        .map_err(db("renewing a task"))?
+        .rows_affected();
+        Ok(n == 1)
+    }
+
+    async fn complete_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        evaluations: &[Evaluation],
+    ) -> StoreResult<bool> {
+        let complete = db("completing a task");
+        let now = self.backend.now();
+        let mut tx = self.begin_write(true, &complete).await?;
+        // Lock the job row first (appends of one job are serialised), then claim the task.
+        sqlx::query(sql(format!(
+            "SELECT id FROM jobs WHERE id = $1{}",
+            self.backend.serialise_appends()
+        )))
+        .bind(&key.job_id)
+        .fetch_optional(&mut *tx)
+        .await
+        .map_err(&complete)?;
+        let claimed = bind_task_key(
+            sqlx::query(sql(format!(
+                "UPDATE tasks SET state = 'done', results = $6, finished_at = {now},
+                     lease_expires_at = NULL
+                 WHERE {HELD_TASK}"
+            ))),
+            key,
+            owner,
+        )
+        .bind(json(&evaluations)?)
+        .execute(&mut *tx)
+        .await
+        .map_err(&complete)?
+        .rows_affected()
+            == 1;
+        if !claimed {
+            tx.rollback().await.map_err(&complete)?;
+            return Ok(false);
+        }
+        Self::append_in(&mut tx, now, &key.job_id, owner, evaluations).await?;
+        tx.commit().await.map_err(&complete)?;
+        self.announce(RESULTS_CHANNEL).await;
+        Ok(true)
+    }
+
+    async fn batch_results(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<Evaluation>>> {
+        let rows = sqlx::query(
+            "SELECT state, results FROM tasks
+             WHERE job_id = $1 AND attempt = $2 AND batch = $3 ORDER BY part",
+        )
+        .bind(id)
+        .bind(attempt as i64)
+        .bind(batch as i64)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(db("reading a batch"))?;
+        if rows.is_empty() {
+            return Err(StoreError(format!(
+                "reading a batch: the tasks of job {id} batch {batch} are gone"
+            )));
+        }
+        let read = db("reading a batch");
+        let mut evaluations = Vec::new();
+        for row in &rows {
+            let results: Option<String> = row.try_get("results").map_err(&read)?;
+            match results {
+                Some(text) if row.try_get::<String, _>("state").map_err(&read)? == "done" => {
+                    evaluations.extend(parse::<Vec<Evaluation>>(&text, "task results")?)
+                }
+                _ => return Ok(None),
+            }
+        }
+        Ok(Some(evaluations))
+    }
+
+    async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()> {
+        let now = self.backend.now();
+        sqlx::query(sql(format!(
+            "INSERT INTO workers (owner, threads, started_at, last_seen) VALUES ($1, $2, {now}, {now})
+             ON CONFLICT (owner) DO UPDATE SET threads = $2, last_seen = {now}"
+        )))
+        .bind(owner)
+        .bind(threads as i64)
+        .execute(&self.pool)
+        .await
+        .map_err(db("registering a worker"))?;
+        Ok(())
+    }
+
+    async fn live_threads(&self, seconds: f64) -> StoreResult<usize> {
+        let n: i64 = sqlx::query_scalar(sql(format!(
+            "SELECT CAST(COALESCE(SUM(threads), 0) AS BIGINT) FROM workers WHERE last_seen >= {} - $1",
+            self.backend.now()
+        )))
+        .bind(seconds)
+        .fetch_one(&self.pool)
+        .await
+        .map_err(db("counting workers"))?;
+        Ok(n.max(0) as usize)
+    }
+
+    fn work_signal(&self) -> Signal {
+        self.work.subscribe()
+    }
+
+    fn results_signal(&self) -> Signal {
+        self.results.subscribe()
+    }
+}

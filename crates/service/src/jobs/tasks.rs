@@ -1,0 +1,226 @@
+//! The evaluation side of a worker process: lease a task (some points of one batch of a job that
+//! another process coordinates — a coordinator computes its own share in the job's pool),
+//! evaluate its points with the job's prepared model, and store the evaluations with the task's
+//! completion in one transaction. The lease is renewed by heartbeat while the points are solved;
+//! a task whose worker died is leased again by another once its lease expires, so a killed worker
+//! loses at most the task it held.
+//!
+//! A prepared model (mesh, per-zone operators, symbolic factorisations, the nominal solve that
+//! warm-starts every contact solve) is kept per run hash, so a task costs only its solves. Each
+//! model lives on a thread of its own that owns the state problem and its evaluator; tasks reach
+//! it through a channel and are solved in the worker's thread pool.
+
+use std::collections::VecDeque;
+use std::sync::{mpsc, Arc};
+use std::time::Duration;
+
+use super::{wait, JobInput, JobStore, TaskRecord, TaskScope};
+use wsm_core::error::WsmError;
+use wsm_core::run::{evaluate_points, Evaluation, PreparedModel, WorstRequest};
+
+/// Prepared models kept per worker process.
+const MODELS_KEPT: usize = 2;
+
+/// Settings of a worker's evaluation side.
+#[derive(Debug, Clone)]
+pub struct TaskConfig {
+    /// This process's name in leases and evaluations.
+    pub owner: String,
+    /// Threads solving the points of a task.
+    pub threads: usize,
+    /// A task lease not renewed for this long is taken over \[s\].
+    pub lease_seconds: f64,
+}
+
+type Reply = mpsc::Sender<Result<Vec<Evaluation>, WsmError>>;
+
+/// A job's prepared model on its own thread.
+struct Model {
+    run_hash: String,
+    requests: mpsc::Sender<(Vec<Vec<f64>>, Reply)>,
+}
+
+impl Model {
+    /// Mesh the scene, build the operators and solve the nominal state on a new thread that
+    /// then serves evaluation requests until the model is dropped.
+    fn prepare(input: &JobInput, pool: Arc<rayon::ThreadPool>) -> Result<Model, WsmError> {
+        let (requests, inbox) = mpsc::channel::<(Vec<Vec<f64>>, Reply)>();
+        let (ready_tx, ready_rx) = mpsc::channel::<Result<(), WsmError>>();
+        let scene_text = input.scene.clone();
+        let chosen_scene = input.chosen_scene.clone();
+        let settings: WorstRequest = input.settings.clone();
+        std::thread::Builder::new()
+            .name("wsm-model".into())
+            .spawn(move || {
+                let model = match pool.install(|| {
+                    PreparedModel::for_job(&scene_text, &settings, chosen_scene.as_deref())
+                }) {
+                    Ok(model) => model,
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e));
+                        return;
+                    }
+                };
+                let evaluator = match pool.install(|| model.evaluator()) {
+                    Ok(e) => e,
+                    Err(e) => {
+                        let _ = ready_tx.send(Err(e));
+                        return;
+                    }
+                };
+                let _ = ready_tx.send(Ok(()));
+                for (points, reply) in inbox {
+                    let evaluations = pool.install(|| evaluate_points(&evaluator, &points));
+                    let _ = reply.send(Ok(evaluations));
+                }
+            })
+            .map_err(|e| WsmError::io("model thread", e))?;
+        ready_rx
+            .recv()
+            .map_err(|_| WsmError::io("model thread", "the model thread ended"))??;
+        Ok(Model {
+            run_hash: input.run_hash.clone(),
+            requests,
+        })
+    }
+
+    fn evaluate(&self, points: Vec<Vec<f64>>) -> Result<Vec<Evaluation>, WsmError> {
+        let (reply, answer) = mpsc::channel();
+        self.requests
+            .send((points, reply))
+            .map_err(|_| WsmError::io("model thread", "the model thread ended"))?;
+        answer
+            .recv()
+            .map_err(|_| WsmError::io("model thread", "the model thread ended"))?
+    }
+}
+
+/// The models of the most recent jobs, newest first.
+struct Models {
+    kept: VecDeque<Arc<Model>>,
+    pool: Arc<rayon::ThreadPool>,
+}
+
+impl Models {
+    fn get(&mut self, run_hash: &str) -> Option<Arc<Model>> {
+        let i = self.kept.iter().position(|m| m.run_hash == run_hash)?;
+        let model = self.kept.remove(i)?;
+        self.kept.push_front(model.clone());
+        Some(model)
+    }
+
+    fn insert(&mut self, model: Model) -> Arc<Model> {
+        let model = Arc::new(model);
+        self.kept.push_front(model.clone());
+        self.kept.truncate(MODELS_KEPT);
+        model
+    }
+}
+
+/// Lease and evaluate tasks until the process ends.
+pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result<(), WsmError> {
+    let pool = Arc::new(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(config.threads.max(1))
+            .thread_name(|i| format!("wsm-eval-{i}"))
+            .build()
+            .map_err(|e| WsmError::io("thread pool", e))?,
+    );
+    let mut models = Models {
+        kept: VecDeque::new(),
+        pool,
+    };
+    let mut work = store.work_signal();
+    loop {
+        work.borrow_and_update();
+        match store
+            .lease_task(&config.owner, config.lease_seconds, TaskScope::Others)
+            .await
+        {
+            Ok(Some(task)) => match models.get(&task.run_hash) {
+                Some(model) => run_task(&store, &config, model, task).await,
+                // Not prepared yet: give the task back at once (its coordinator or a prepared
+                // worker takes it rather than wait for this one), then prepare the model.
+                None => {
+                    if let Err(e) = store.release_task(&task.key, &config.owner).await {
+                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                    }
+                    if let Err(e) = prepare(&store, &mut models, &task).await {
+                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                        tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
+                    }
+                }
+            },
+            Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
+            Err(e) => {
+                eprintln!("wsm: {e}");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+            }
+        }
+    }
+}
+
+/// Evaluate one task and store its evaluations (unless its lease was lost meanwhile).
+async fn run_task(
+    store: &Arc<dyn JobStore>,
+    config: &TaskConfig,
+    model: Arc<Model>,
+    task: TaskRecord,
+) {
+    let heartbeat = {
+        let (store, key, owner) = (store.clone(), task.key.clone(), config.owner.clone());
+        let lease = config.lease_seconds;
+        tokio::spawn(async move {
+            loop {
+                tokio::time::sleep(Duration::from_secs_f64((lease / 3.0).max(0.05))).await;
+                match store.renew_task(&key, &owner, lease).await {
+                    Ok(true) => {}
+                    Ok(false) => return,
+                    Err(e) => eprintln!("wsm: {e}"),
+                }
+            }
+        })
+    };
+    let points = task.points.clone();
+    let evaluations = tokio::task::spawn_blocking(move || model.evaluate(points))
+        .await
+        .map_err(|e| WsmError::io("model thread", e))
+        .and_then(|r| r);
+    heartbeat.abort();
+    match evaluations {
+        Ok(evaluations) => {
+            if let Err(e) = store
+                .complete_task(&task.key, &config.owner, &evaluations)
+                .await
+            {
+                eprintln!("wsm: job {}: {e}", task.key.job_id);
+            }
+        }
+        // The coordinator built the same model, so this is this process's trouble (memory, a
+        // thread that died): leave the task to expire and be leased by another worker.
+        Err(e) => {
+            eprintln!("wsm: job {}: {e}", task.key.job_id);
+            tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
+        }
+    }
+}
+
+/// Prepare and keep the model of `task`'s job.
+async fn prepare(
+    store: &Arc<dyn JobStore>,
+    models: &mut Models,
+    task: &TaskRecord,
+) -> Result<(), WsmError> {
+    let job = &task.key.job_id;
+    let input = store
+        .job_input(job)
+        .await
+        .map_err(|e| WsmError::io(format!("job {job}"), e))?
+        .ok_or_else(|| WsmError::io(format!("job {job}"), "the job is gone"))?;
+    let pool = models.pool.clone();
+    let model = tokio::task::spawn_blocking(move || Model::prepare(&input, pool))
+        .await
+        .map_err(|e| WsmError::io("model thread", e))??;
+    models.insert(model);
+    Ok(())
+}

@@ -1,0 +1,156 @@
+//! `wsm serve` and `wsm worker`: open the job store (a SQLite file or a PostgreSQL URL), start
+//! the worker side (job slots, task loop, heartbeat) and — for `serve` — the API and the
+//! dashboard, until Ctrl-C or SIGTERM. Jobs left running by a stopped process are resumed by
+//! another once their lease expires.
+
+use std::sync::Arc;
+
+use crate::api::{AppState, Limits};
+use crate::jobs::runner::{spawn_workers, Live, RunnerConfig};
+use crate::jobs::sql::SqlStore;
+use crate::jobs::JobStore;
+use wsm_core::error::WsmError;
+
+/// Settings of `wsm serve`.
+#[derive(Debug, Clone)]
+pub struct ServeConfig {
+    pub addr: String,
+    /// SQLite database file (created and migrated on start) or PostgreSQL URL.
+    pub db: String,
+    pub workers: usize,
+    pub threads_per_job: Option<usize>,
+    pub lease_seconds: f64,
+    pub limits: Limits,
+    /// Bearer token for mutating endpoints (from the environment; never logged).
+    pub token: Option<String>,
+}
+
+/// Settings of `wsm worker`.
+#[derive(Debug, Clone)]
+pub struct WorkerConfig {
+    /// PostgreSQL URL (or a SQLite file shared by processes on one machine).
+    pub db: String,
+    /// Evaluation threads (default: all cores).
+    pub threads: Option<usize>,
+    /// Jobs coordinated at once.
+    pub jobs: usize,
+    pub lease_seconds: f64,
+}
+
+/// A process's name in leases and evaluations: its role, host, process id and a random part.
+fn owner_name(role: &str) -> String {
+    let host = std::env::var("HOSTNAME")
+        .ok()
+        .filter(|h| !h.is_empty())
+        .unwrap_or_else(|| "localhost".into());
+    let id = uuid::Uuid::new_v4().simple().to_string();
+    format!("{role}-{host}-{}-{}", std::process::id(), &id[..8])
+}
+
+async fn open_store(db: &str) -> Result<Arc<dyn JobStore>, WsmError> {
+    let store = SqlStore::open(db)
+        .await
+        .map_err(|e| WsmError::io(redact(db), e))?;
+    Ok(Arc::new(store))
+}
+
+/// A database argument fit for messages: a URL's password is left out.
+fn redact(db: &str) -> String {
+    match (db.find("://"), db.rfind('@')) {
+        (Some(scheme), Some(at)) if at > scheme => {
+            let credentials = &db[scheme + 3..at];
+            match credentials.find(':') {
+                Some(colon) => format!(
+                    "{}{}:***{}",
+                    &db[..scheme + 3],
+                    &credentials[..colon],
+                    &db[at..]
+                ),
+                None => db.to_string(),
+            }
+        }
+        _ => db.to_string(),
+    }
+}
+
+/// Run a worker process (no HTTP) until a shutdown signal.
+pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
+    let store = open_store(&config.db).await?;
+    let owner = owner_name("worker");
+    println!(
+        "wsm: worker {owner} on {} ({} threads)",
+        redact(&config.db),
+        config.threads.map_or("all".into(), |n| n.to_string())
+    );
+    spawn_workers(
+        store,
+        Arc::new(Live::default()),
+        RunnerConfig {
+            workers: config.jobs,
+            threads_per_job: config.threads,
+            lease_seconds: config.lease_seconds,
+            owner,
+        },
+    );
+    shutdown().await;
+    Ok(())
+}
+
+/// Run the service until a shutdown signal.
+pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
+    let store = open_store(&config.db).await?;
+    let live = Arc::new(Live::default());
+    // With no job slots the server only serves: `wsm worker` processes do all the work.
+    if config.workers > 0 {
+        spawn_workers(
+            store.clone(),
+            live.clone(),
+            RunnerConfig {
+                workers: config.workers,
+                threads_per_job: config.threads_per_job,
+                lease_seconds: config.lease_seconds,
+                owner: owner_name("serve"),
+            },
+        );
+    }
+    let state = AppState {
+        store,
+        live,
+        limits: Arc::new(config.limits.clone()),
+        token: config.token.clone().map(Arc::new),
+    };
+    let app = crate::api::router(state).merge(crate::web::router());
+    let listener = tokio::net::TcpListener::bind(&config.addr)
+        .await
+        .map_err(|e| WsmError::io(&config.addr, e))?;
+    let local = listener
+        .local_addr()
+        .map_err(|e| WsmError::io(&config.addr, e))?;
+    println!(
+        "wsm: serving http://{local}/ (dashboard), API at http://{local}/v1, database {}",
+        redact(&config.db)
+    );
+    axum::serve(listener, app)
+        .with_graceful_shutdown(shutdown())
+        .await
+        .map_err(|e| WsmError::io(local, e))
+}
+
+async fn shutdown() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let term = async {
+        if let Ok(mut s) = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        {
+            s.recv().await;
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+}

@@ -1,0 +1,347 @@
+//! Benchmarks behind `wsm bench` (not part of the test suite): timings of the FEM pipeline and
+//! of the direct contact solver on the tunnel example at chosen sizes. Medians of a few runs.
+
+use std::time::Instant;
+
+use wsm_core::error::WsmError;
+use wsm_core::fem::Par;
+use wsm_core::scene::{parse, BoundaryValue, Scene};
+use wsm_core::state::{Needs, SolveOptions, StateProblem};
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
+    let t = Instant::now();
+    let out = f();
+    (out, t.elapsed().as_secs_f64())
+}
+
+/// An example with all mesh sizes scaled by `factor`.
+pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
+    wsm_core::estimate::ladder::scaled(&parse(wsm_core::bundled::find(example)?)?, factor)
+}
+
+/// A state problem of the example with about `unknowns` free DOFs (one correction step).
+pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let n0 = probe.elastic.dofs().n_free() as f64;
+    let factor = (n0 / unknowns as f64).sqrt();
+    StateProblem::new(scaled_scene(example, factor)?)
+}
+
+/// One row of the contact benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ContactRow {
+    pub unknowns: usize,
+    pub contact_pairs: usize,
+    pub setup: f64,
+    pub linear_factor_and_solve: f64,
+    pub contact_first_solve: f64,
+    pub contact_warm_resolve: f64,
+    pub qp_iterations_first: usize,
+    pub qp_iterations_warm: usize,
+}
+
+/// Time a linear solve (factor + solve, contact ignored), a first contact solve (factor, C,
+/// QP, recovery) and a warm re-solve after a 1% change of pressures and slip limits.
+pub fn contact_benchmark(
+    example: &str,
+    unknowns: usize,
+    runs: usize,
+) -> Result<ContactRow, WsmError> {
+    let (problem, setup) = time(|| problem_of_size(example, unknowns));
+    let problem = problem?;
+    let elastic = &problem.elastic;
+    let data = &problem.nominal;
+    let options = |warm| SolveOptions {
+        needs: Needs::all(&problem.scene),
+        par: Par::rayon(0),
+        warm,
+    };
+    let (mut linear, mut first, mut warm) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut it_first, mut it_warm) = (0, 0);
+    for run in 0..runs.max(1) {
+        // Perturb λ, μ slightly per run so every first solve really factorises.
+        let mut d = data.clone();
+        for m in &mut d.materials {
+            if let wsm_core::scene::Elastic::Lame { lambda, .. } = &mut m.elastic {
+                *lambda *= 1.0 + 1e-6 * run as f64;
+            }
+            if let wsm_core::scene::Elastic::Young { e, .. } = &mut m.elastic {
+                *e *= 1.0 + 1e-6 * run as f64;
+            }
+        }
+        let ((), t_lin) = time(|| {
+            if let Ok(f) = elastic
+                .operator()
+                .factor(&elastic.coefficients(&d).unwrap_or_default(), Par::rayon(0))
+            {
+                let rhs = elastic.rhs(&d, None).unwrap_or_default();
+                let _ = f.factor.solve(&rhs);
+            }
+        });
+        linear.push(t_lin);
+        let (sol, t_first) = time(|| problem.solve(&d, &options(None)));
+        let sol = sol?;
+        first.push(t_first);
+        it_first = sol.report.qp_iterations;
+        let mut changed = d.clone();
+        for b in &mut changed.boundary {
+            if let BoundaryValue::Pressure(p) = &mut b.value {
+                *p *= 1.01;
+            }
+        }
+        for s in &mut changed.slip {
+            for v in &mut s.values {
+                *v *= 1.01;
+            }
+        }
+        let start = sol.warm_start.clone();
+        let (sol2, t_warm) = time(|| problem.solve(&changed, &options(start)));
+        it_warm = sol2?.report.qp_iterations;
+        warm.push(t_warm);
+    }
+    Ok(ContactRow {
+        unknowns: elastic.dofs().n_free(),
+        contact_pairs: problem.contact.geometry.pairs.len(),
+        setup,
+        linear_factor_and_solve: median(linear),
+        contact_first_solve: median(first),
+        contact_warm_resolve: median(warm),
+        qp_iterations_first: it_first,
+        qp_iterations_warm: it_warm,
+    })
+}
+
+/// One row of the FEM pipeline benchmark (no contact: the linear elastic solve).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct FemRow {
+    pub unknowns: usize,
+    pub mesh: f64,
+    /// Per-zone matrices on the shared pattern, unit loads, DOF map (symbolic excluded).
+    pub assembly: f64,
+    pub symbolic: f64,
+    pub numeric: f64,
+    pub solve: f64,
+}
+
+/// Time meshing, assembly, symbolic and numeric factorisation and the solve of the linear
+/// elastic tunnel problem; the numeric refactorisation + solve is what a new (λ, μ) costs.
+pub fn fem_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<FemRow, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
+    let scene = scaled_scene(example, factor)?;
+    let data = wsm_core::scene::Data::from_scene(&scene);
+    let mut samples = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
+    let mut n = 0;
+    for _ in 0..runs.max(1) {
+        let (mesh, t_mesh) = time(|| wsm_core::mesh::generate(&scene));
+        let mesh = mesh?;
+        let (elastic, t_build) = time(|| wsm_core::fem::ElasticProblem::new(&mesh, &data));
+        let elastic = elastic?;
+        let (symbolic, t_symbolic) =
+            time(|| wsm_core::fem::Symbolic::analyse(elastic.operator().pattern()));
+        symbolic?;
+        let coefficients = elastic.coefficients(&data)?;
+        let (f, t_numeric) = time(|| elastic.operator().factor(&coefficients, Par::rayon(0)));
+        let f = f?;
+        let rhs = elastic.rhs(&data, None)?;
+        let (_, t_solve) = time(|| f.factor.solve(&rhs));
+        n = elastic.dofs().n_free();
+        for (v, t) in
+            samples
+                .iter_mut()
+                .zip([t_mesh, t_build - t_symbolic, t_symbolic, t_numeric, t_solve])
+        {
+            v.push(t);
+        }
+    }
+    let [mesh, assembly, symbolic, numeric, solve] = samples.map(median);
+    Ok(FemRow {
+        unknowns: n,
+        mesh,
+        assembly,
+        symbolic,
+        numeric,
+        solve,
+    })
+}
+
+/// `wsm bench`: the tables as Markdown.
+pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
+    let mut out = String::from(
+        "Linear elastic tunnel (FEM pipeline):\n\n| unknowns | mesh [s] | assembly [s] | symbolic [s] | numeric [s] | solve [s] | (numeric+solve)/first |\n|---|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let r = fem_benchmark("tunnel-fault", n, runs)?;
+        let first = r.assembly + r.symbolic + r.numeric + r.solve;
+        out.push_str(&format!(
+            "| {} | {:.3} | {:.3} | {:.3} | {:.4} | {:.4} | {:.2} |\n",
+            r.unknowns,
+            r.mesh,
+            r.assembly,
+            r.symbolic,
+            r.numeric,
+            r.solve,
+            (r.numeric + r.solve) / first
+        ));
+    }
+    out.push_str("\nContact (direct solver) on the tunnel:\n\n");
+    out.push_str(
+        "| unknowns | pairs | setup [s] | linear factor+solve [s] | contact first solve [s] | ratio | warm re-solve [s] | warm/first | QP it. first / warm |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let r = contact_benchmark("tunnel-fault", n, runs)?;
+        out.push_str(&format!(
+            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} | {} / {} |\n",
+            r.unknowns,
+            r.contact_pairs,
+            r.setup,
+            r.linear_factor_and_solve,
+            r.contact_first_solve,
+            r.contact_first_solve / r.linear_factor_and_solve,
+            r.contact_warm_resolve,
+            r.contact_warm_resolve / r.contact_first_solve,
+            r.qp_iterations_first,
+            r.qp_iterations_warm
+        ));
+    }
+    if dd {
+        let mut buffer = Vec::new();
+        wsm_core::dd::bench::scalability(&mut buffer)
+            .map_err(|e| WsmError::io("DD scalability benchmark", e))?;
+        out.push_str("\nDomain decomposition:\n\n");
+        out.push_str(&String::from_utf8_lossy(&buffer));
+    }
+    Ok(out)
+}
+
+/// One row of the worst-scenario loop benchmark.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct WorstRow {
+    pub solver: &'static str,
+    pub unknowns: usize,
+    pub evaluations: usize,
+    pub wall: f64,
+    pub evaluations_per_second: f64,
+    /// Summed over threads \[s\]: the inner solves and their phases.
+    pub solver_seconds: f64,
+    pub phases: wsm_core::state::Timings,
+    /// Local operators built: numeric factorisations of body blocks of K (direct solver and DD
+    /// fallback) plus DD subdomain operators (factor, S, Neumann map).
+    pub local_factorisations: usize,
+    /// DD subdomain operators taken from the cache.
+    pub reused_subdomains: usize,
+    /// The worst (max) value of each criterion.
+    pub worst: Vec<f64>,
+}
+
+/// `wsm worst` on the tunnel at about `unknowns` unknowns with the scene's criteria and
+/// parameters and `budget` inner solves, with the direct solver or DD: evaluations/s and the
+/// phase times of the inner solves.
+pub fn worst_benchmark(
+    example: &str,
+    unknowns: usize,
+    budget: usize,
+    solver: wsm_core::scene::SolverKind,
+) -> Result<WorstRow, WsmError> {
+    let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
+    let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
+    let mut scene = scaled_scene(example, factor)?;
+    scene.solver.kind = solver;
+    let problem = StateProblem::new(scene)?;
+    let params = wsm_core::scene::params::parameters(&problem.scene)?;
+    let mut settings = wsm_core::scenario::worst::WorstSettings::from_scene(&problem.scene);
+    settings.budget = budget;
+    let evaluator = wsm_core::scenario::evaluator::ScenarioEvaluator::new(
+        &problem,
+        &params,
+        &settings.criteria,
+    )?;
+    let mut cache = wsm_search::EvalCache::new();
+    let (outcome, wall) = time(|| {
+        wsm_core::scenario::worst::run(
+            &problem,
+            &params,
+            &settings,
+            &evaluator,
+            &|| evaluator.summary(),
+            &mut cache,
+            Default::default(),
+        )
+    });
+    let outcome = outcome?;
+    Ok(WorstRow {
+        solver: match solver {
+            wsm_core::scene::SolverKind::Dd => "dd",
+            _ => "direct",
+        },
+        unknowns: problem.elastic.dofs().n_free(),
+        evaluations: outcome.new_evaluations,
+        wall,
+        evaluations_per_second: outcome.new_evaluations as f64 / wall,
+        solver_seconds: outcome.inner.solver_seconds,
+        phases: evaluator.phase_seconds(),
+        local_factorisations: problem
+            .counters
+            .body_factorisations
+            .load(std::sync::atomic::Ordering::Relaxed)
+            + problem.dd_operators.counts().0,
+        reused_subdomains: problem.dd_operators.counts().1,
+        worst: outcome
+            .criteria
+            .iter()
+            .map(|c| c.worst.best_value.unwrap_or(f64::NAN))
+            .collect(),
+    })
+}
+
+/// `wsm bench --worst`: the worst-scenario loop on the tunnel, both solvers, as Markdown.
+pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, WsmError> {
+    let mut out = format!(
+        "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | local factorisations (body blocks; DD subdomains, reused) | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        rayon::current_num_threads()
+    );
+    let mut kinds = vec![wsm_core::scene::SolverKind::Direct];
+    if dd {
+        kinds.push(wsm_core::scene::SolverKind::Dd);
+    }
+    for &n in sizes {
+        for &kind in &kinds {
+            let r = worst_benchmark("tunnel-fault", n, budget, kind)?;
+            let p = &r.phases;
+            let share = |x: f64| x / r.solver_seconds.max(1e-12);
+            out.push_str(&format!(
+                "| {} | {} | {} | {} ({}) | {:.2} | {:.1} | {:.2} | {:.2} | {:.2} ({:.2} / {:.2}) | {:.2} ({:.2}; {:.2} / {:.2} / {:.2} / {:.2}) | {:.2} | {} |\n",
+                r.solver,
+                r.unknowns,
+                r.evaluations,
+                r.local_factorisations,
+                r.reused_subdomains,
+                r.wall,
+                r.evaluations_per_second,
+                1e3 * r.solver_seconds / r.evaluations.max(1) as f64,
+                share(p.assembly),
+                share(p.factor),
+                share(p.numeric),
+                share(p.hessian),
+                share(p.contact),
+                share(p.qp),
+                share(p.dd_setup),
+                share(p.dd_pcg1),
+                share(p.dd_outer),
+                share(p.dd_recovery),
+                share(p.post),
+                r.worst
+                    .iter()
+                    .map(|v| format!("{v:.10e}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,80 @@
+//! The total potential energy of a discrete solution (design §2.2):
+//! J(u) = ½ a(u, u) − S(u, T) + j(u), with a(u, u) = Σ_e ∫ (λ (tr e)² + 2μ e:e),
+//! S the work of body forces, tractions and the thermal load, and j_h(u) = Σ_m g w_m |slip_m|
+//! the lumped Tresca term.
+//!
+//! The exact solution u minimises J over K, and for every v ∈ K
+//! J(v) − J(u) ≥ ½ ‖v − u‖²_a (from the variational inequality), with equality for a linear
+//! problem (Galerkin orthogonality). So a sequence J(u_h) extrapolated to J* gives the energy
+//! error estimate ‖u − u_h‖_a ≈ (2 (J(u_h) − J*))^½, exact without contact and an upper-bound
+//! estimate with it.
+
+use wsm_core::error::WsmError;
+use wsm_core::scene::Data;
+use wsm_core::state::{Solution, StateProblem};
+
+/// The parts of J(u_h).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Energy {
+    /// a(u, u) (twice the strain energy) [J/m].
+    pub strain: f64,
+    /// S(u, T) [J/m].
+    pub work: f64,
+    /// j_h(u) [J/m].
+    pub friction: f64,
+}
+
+impl Energy {
+    /// J(u) = ½ a(u, u) − S(u) + j(u).
+    pub fn potential(&self) -> f64 {
+        0.5 * self.strain - self.work + self.friction
+    }
+}
+
+/// J(u_h) of an elastic solution of `problem` for `data`.
+pub fn energy(
+    problem: &StateProblem,
+    data: &Data,
+    solution: &Solution,
+) -> Result<Energy, WsmError> {
+    let elastic = &problem.elastic;
+    let mesh = problem.mesh();
+    let u = &solution.displacement;
+    if u.len() != mesh.nodes.len() || solution.stresses.len() != mesh.triangles.len() {
+        return Err(WsmError::io(
+            "energy",
+            "the solution has no displacement field",
+        ));
+    }
+    let materials = elastic.zone_materials(data)?;
+    let strain = solution
+        .stresses
+        .iter()
+        .enumerate()
+        .map(|(t, s)| {
+            let m = &materials[mesh.triangle_zone[t]];
+            let [e11, e22, e12] = s.strain;
+            let tr = e11 + e22;
+            mesh.triangle_area(t)
+                * (m.lambda * tr * tr + 2.0 * m.mu * (e11 * e11 + e22 * e22 + 2.0 * e12 * e12))
+        })
+        .sum();
+    let loads = elastic.loads(data, solution.temperature.as_deref())?;
+    let work = loads
+        .iter()
+        .zip(u)
+        .map(|(f, v)| f[0] * v[0] + f[1] * v[1])
+        .sum();
+    let (_, upper) = problem.contact.geometry.bounds(data);
+    let friction = solution
+        .contact
+        .iter()
+        .enumerate()
+        .map(|(m, c)| upper[2 * m + 1] * c.slip.abs())
+        .sum();
+    Ok(Energy {
+        strain,
+        work,
+        friction,
+    })
+}
