@@ -27,8 +27,13 @@ pub fn exit_code(error: &WsmError) -> ExitCode {
     })
 }
 
+/// Read and validate the scene a command names (a file or a bundled example).
+pub fn load_scene(input: &crate::args::SceneArgs) -> Result<Scene, WsmError> {
+    read_scene(input.scene.as_deref(), input.example.as_deref())
+}
+
 /// Read and validate a scene from a file or a bundled example.
-pub fn load_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
+fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {
         (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
         (None, Some(name)) => wsm_core::bundled::find(name)?.to_string(),
@@ -182,6 +187,22 @@ pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     }
 }
 
+/// `wsm openapi`: the OpenAPI document of the HTTP API.
+pub fn openapi() -> Result<String, WsmError> {
+    wsm_service::api::openapi_json()
+        .map(|t| t.trim_end().to_string())
+        .map_err(|e| WsmError::io("OpenAPI document", e))
+}
+
+/// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop.
+pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
+    if args.worst {
+        wsm_study::bench::run_worst(&args.sizes, args.budget, args.dd)
+    } else {
+        wsm_study::bench::run(&args.sizes, args.runs, args.dd)
+    }
+}
+
 /// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
 pub fn serve(config: wsm_service::server::ServeConfig) -> Result<String, WsmError> {
     runtime()?.block_on(wsm_service::server::serve(config))?;
@@ -220,7 +241,7 @@ pub fn study_case(
             "is for scene files; examples bring their own",
         )
         .into()),
-        _ => Case::scene(load_scene(path, example)?, analytic),
+        _ => Case::scene(read_scene(path, example)?, analytic),
     }
 }
 

@@ -1,0 +1,314 @@
+//! The command line's arguments, one clap `Args` struct per command, and their conversions into
+//! the requests and configurations of the crates' front doors (`wsm_core::run`,
+//! `wsm_service::server`, `wsm_study`).
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+
+use wsm_core::error::WsmError;
+use wsm_core::run::{SolveRequest, WorstRequest};
+use wsm_core::scene::SolverKind;
+use wsm_service::api::Limits;
+use wsm_service::server::{ServeConfig, WorkerConfig};
+use wsm_study::accuracy::AccuracyOptions;
+
+/// The inner solver named on the command line.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum SolverArg {
+    Direct,
+    Dd,
+}
+
+impl From<SolverArg> for SolverKind {
+    fn from(solver: SolverArg) -> SolverKind {
+        match solver {
+            SolverArg::Direct => SolverKind::Direct,
+            SolverArg::Dd => SolverKind::Dd,
+        }
+    }
+}
+
+/// Where the scene comes from: a file, or a bundled example.
+#[derive(Args)]
+pub struct SceneArgs {
+    /// Scene file (JSON).
+    pub scene: Option<PathBuf>,
+    /// Use a bundled example scene instead of a file.
+    #[arg(long)]
+    pub example: Option<String>,
+}
+
+/// `wsm solve`.
+#[derive(Args)]
+pub struct SolveArgs {
+    #[command(flatten)]
+    pub input: SceneArgs,
+    /// Inner solver (default: the scene's choice).
+    #[arg(long, value_enum)]
+    pub solver: Option<SolverArg>,
+    /// Write the full result (fields, contact results) as JSON.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write a ParaView VTU file.
+    #[arg(long)]
+    pub vtu: Option<PathBuf>,
+}
+
+impl From<&SolveArgs> for SolveRequest {
+    fn from(args: &SolveArgs) -> SolveRequest {
+        SolveRequest {
+            solver: args.solver.map(SolverKind::from),
+            fields: false,
+        }
+    }
+}
+
+/// `wsm worst`.
+#[derive(Args)]
+pub struct WorstArgs {
+    #[command(flatten)]
+    pub input: SceneArgs,
+    /// Criteria, e.g. phi3,phi5 (default: the scene's `search.criteria`).
+    #[arg(long, value_delimiter = ',')]
+    pub criteria: Vec<String>,
+    /// Inner-solve budget (default: the scene's).
+    #[arg(long)]
+    pub budget: Option<usize>,
+    /// Random seed (default: the scene's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Wall-time limit of the run [s]; the partial result is returned with status time_limit.
+    #[arg(long)]
+    pub max_seconds: Option<f64>,
+    /// Threads of the run's own pool (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Refined meshes of the accuracy statement: 0, 1 or 2 (default: 2 for small meshes,
+    /// else 1).
+    #[arg(long)]
+    pub accuracy_refinements: Option<usize>,
+    /// Relative error (e.g. 0.01) the mesh must meet: the run takes the coarsest of the
+    /// scene's mesh sizes × 4, 2, 1, 1/2, … whose estimated error at the nominal data is
+    /// within it, and reports the choice in `mesh_choice`.
+    #[arg(long)]
+    pub target_error: Option<f64>,
+    /// Write the full result as JSON.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write every evaluation, as it completes, to a new JSON-lines log.
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Replay a log written by --log (recomputing nothing stored), then continue it.
+    #[arg(long)]
+    pub resume: Option<PathBuf>,
+    /// Write one CSV row per evaluation (parameters, criteria, KKT residual, time).
+    #[arg(long)]
+    pub table: Option<PathBuf>,
+}
+
+impl TryFrom<&WorstArgs> for WorstRequest {
+    type Error = WsmError;
+
+    fn try_from(args: &WorstArgs) -> Result<WorstRequest, WsmError> {
+        Ok(WorstRequest {
+            criteria: crate::cli::parse_criteria(&args.criteria)?,
+            budget: args.budget,
+            seed: args.seed,
+            max_seconds: args.max_seconds,
+            threads: args.threads,
+            accuracy_refinements: args.accuracy_refinements,
+            target_error: args.target_error,
+        })
+    }
+}
+
+impl From<&WorstArgs> for crate::cli::WorstFiles {
+    fn from(args: &WorstArgs) -> crate::cli::WorstFiles {
+        crate::cli::WorstFiles {
+            out: args.out.clone(),
+            log: args.log.clone(),
+            resume: args.resume.clone(),
+            table: args.table.clone(),
+        }
+    }
+}
+
+/// `wsm serve`.
+#[derive(Args)]
+pub struct ServeArgs {
+    /// Address to listen on (port 0: any free port, printed on start).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    pub addr: String,
+    /// SQLite database file (created and migrated on start) or postgres:// URL.
+    #[arg(long, default_value = "wsm.db")]
+    pub db: String,
+    /// Jobs run at once by this process (0: only serve; `wsm worker` processes run them).
+    #[arg(long, default_value_t = 1)]
+    pub workers: usize,
+    /// Threads of each job (default: all cores).
+    #[arg(long)]
+    pub threads_per_job: Option<usize>,
+    /// A running job whose lease is not renewed for this long is resumed by another worker [s].
+    #[arg(long, default_value_t = 30.0)]
+    pub lease_seconds: f64,
+    /// Largest inner-solve budget a job may ask for.
+    #[arg(long, default_value_t = 100_000)]
+    pub max_budget: usize,
+    /// Queued and running jobs at once (beyond: 503 with Retry-After).
+    #[arg(long, default_value_t = 1000)]
+    pub max_active_jobs: usize,
+    /// Largest estimated mesh of a job [triangles].
+    #[arg(long, default_value_t = 2_000_000)]
+    pub max_triangles: usize,
+    /// Largest request body [bytes].
+    #[arg(long, default_value_t = 4 << 20)]
+    pub max_body_bytes: usize,
+}
+
+impl From<ServeArgs> for ServeConfig {
+    /// The bearer token comes from the environment (`WSM_API_TOKEN`), never from the arguments.
+    fn from(args: ServeArgs) -> ServeConfig {
+        ServeConfig {
+            addr: args.addr,
+            db: args.db,
+            workers: args.workers,
+            threads_per_job: args.threads_per_job,
+            lease_seconds: args.lease_seconds,
+            limits: Limits {
+                max_budget: args.max_budget,
+                max_active_jobs: args.max_active_jobs,
+                max_triangles: args.max_triangles,
+                max_body_bytes: args.max_body_bytes,
+                ..Limits::default()
+            },
+            token: std::env::var("WSM_API_TOKEN")
+                .ok()
+                .filter(|t| !t.is_empty()),
+        }
+    }
+}
+
+/// `wsm worker`.
+#[derive(Args)]
+pub struct WorkerArgs {
+    /// postgres:// URL (or a SQLite file shared by processes on one machine).
+    #[arg(long)]
+    pub db: String,
+    /// Evaluation threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Jobs coordinated at once by this process.
+    #[arg(long, default_value_t = 1)]
+    pub jobs: usize,
+    /// A job or task whose lease is not renewed for this long is taken over [s].
+    #[arg(long, default_value_t = 30.0)]
+    pub lease_seconds: f64,
+}
+
+impl From<WorkerArgs> for WorkerConfig {
+    fn from(args: WorkerArgs) -> WorkerConfig {
+        WorkerConfig {
+            db: args.db,
+            threads: args.threads,
+            jobs: args.jobs,
+            lease_seconds: args.lease_seconds,
+        }
+    }
+}
+
+/// `wsm bench`.
+#[derive(Args)]
+pub struct BenchArgs {
+    /// Target numbers of unknowns.
+    #[arg(long, value_delimiter = ',', default_value = "10000,100000")]
+    pub sizes: Vec<usize>,
+    /// Runs per measurement (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    pub runs: usize,
+    /// Also print the domain-decomposition scalability tables (slow); with --worst: also
+    /// run the loop with the DD solver.
+    #[arg(long)]
+    pub dd: bool,
+    /// Instead: evaluations/s of the worst-scenario loop on the tunnel, with phase shares.
+    #[arg(long)]
+    pub worst: bool,
+    /// Inner-solve budget of each --worst run.
+    #[arg(long, default_value_t = 400)]
+    pub budget: usize,
+}
+
+/// `wsm example`.
+#[derive(Args)]
+pub struct ExampleArgs {
+    pub name: Option<String>,
+    #[arg(long)]
+    pub list: bool,
+}
+
+/// `wsm study accuracy`.
+#[derive(Args)]
+pub struct AccuracyArgs {
+    /// Scene file (JSON).
+    pub scene: Option<PathBuf>,
+    /// A bundled example instead of a file (also `manufactured`: the built-in manufactured
+    /// solution on the unit square).
+    #[arg(long)]
+    pub example: Option<String>,
+    /// Compare a scene file with an analytic solution: `hertz` or `lame`.
+    #[arg(long)]
+    pub analytic: Option<String>,
+    /// Mesh levels.
+    #[arg(long, default_value_t = 5)]
+    pub levels: usize,
+    /// Mesh size factor of the coarsest level (relative to the scene's sizes).
+    #[arg(long, default_value_t = 2.0)]
+    pub coarsest: f64,
+    /// Refinement in h from one level to the next.
+    #[arg(long, default_value_t = std::f64::consts::SQRT_2)]
+    pub ratio: f64,
+    /// DD tolerances (a DD row per tolerance and level).
+    #[arg(long, value_delimiter = ',', default_value = "1e-4,1e-6,1e-8")]
+    pub tolerances: Vec<f64>,
+    /// Only the direct solver.
+    #[arg(long)]
+    pub direct_only: bool,
+    /// Cold solves per row (the median time is reported).
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Threads (default 1: the cost per core, as in a worst-scenario run).
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Directory for NAME-accuracy.md, .csv and .svg.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+impl TryFrom<&AccuracyArgs> for AccuracyOptions {
+    type Error = WsmError;
+
+    fn try_from(args: &AccuracyArgs) -> Result<AccuracyOptions, WsmError> {
+        Ok(AccuracyOptions {
+            ladder: wsm_core::estimate::ladder::Ladder::new(
+                args.coarsest,
+                args.ratio,
+                args.levels,
+            )?,
+            dd_tolerances: if args.direct_only {
+                Vec::new()
+            } else {
+                args.tolerances.clone()
+            },
+            repeats: args.repeats,
+            threads: args.threads,
+        })
+    }
+}
+
+/// `wsm study stability`.
+#[derive(Args)]
+pub struct StabilityArgs {
+    /// Directory for stability.md and stability.json.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
