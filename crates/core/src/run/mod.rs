@@ -31,6 +31,7 @@ pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
 pub use wsm_search::{ActiveBound, ObjectiveResult, Sense, Status};
 
+use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
@@ -39,6 +40,7 @@ use crate::error::WsmError;
 use crate::estimate::mesh_choice::choose_mesh;
 use crate::estimate::statement::{default_refinements, statement, AccuracyStatement};
 use crate::fem::Par;
+use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::check_balance_on_vertices;
 use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{apply, parameters, Parameter};
@@ -233,63 +235,93 @@ impl Run<'_> {
         self.stop_status()
     }
 
+    /// A run stopped before its search started, with `status`.
+    fn unstarted(&self, scene: &Scene, status: Status) -> WorstOutcome {
+        WorstOutcome::unstarted(scene, self.params, self.settings, status)
+    }
+
+    /// The run's phases: mesh choice, meshing, the checks on the box, the nominal solve, the
+    /// search, then the warnings and the accuracy statement.
     fn execute(&self, scene: Scene, replay: Vec<Evaluation>) -> Result<WorstOutcome, WsmError> {
-        let unstarted = |scene: &Scene, status| {
-            Ok(WorstOutcome::unstarted(
-                scene,
-                self.params,
-                self.settings,
-                status,
-            ))
-        };
-        let mut mesh_choice = None;
-        let scene = if self.settings.target_error.is_some() {
-            if let Some(status) = self.enter(RunPhase::MeshChoice) {
-                return unstarted(&scene, status);
-            }
-            match run_scene(scene.clone(), self.settings, &|| {
-                self.stop_status().is_some()
-            }) {
-                Ok((chosen, choice)) => {
-                    if let Some(dispatch) = &self.control.dispatch {
-                        dispatch.share_scene(&chosen)?;
-                    }
-                    mesh_choice = choice;
-                    chosen
-                }
-                Err(WsmError::Cancelled) => {
-                    let status = self.stop_status().unwrap_or(Status::Cancelled);
-                    return unstarted(&scene, status);
-                }
-                Err(e) => return Err(e),
-            }
-        } else {
-            scene
+        let (scene, mesh_choice) = match self.choose_scene(scene)? {
+            ControlFlow::Continue(chosen) => chosen,
+            ControlFlow::Break(stopped) => return Ok(stopped),
         };
         if let Some(status) = self.enter(RunPhase::Meshing) {
-            return unstarted(&scene, status);
+            return Ok(self.unstarted(&scene, status));
         }
         let model =
             PreparedModel::new(scene, self.params.to_vec(), self.settings.criteria.clone())?;
         let problem = model.problem();
-        if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
-            return unstarted(&problem.scene, status);
-        }
-        match check_balance_on_vertices(problem, self.params, &|| self.stop_status().is_some()) {
-            Err(WsmError::Cancelled) => {
-                let status = self.stop_status().unwrap_or(Status::Cancelled);
-                return unstarted(&problem.scene, status);
-            }
-            other => other?,
-        }
-        if let Some(status) = self.enter(RunPhase::NominalSolve) {
-            return unstarted(&problem.scene, status);
+        if let ControlFlow::Break(stopped) = self.check_box(problem)? {
+            return Ok(stopped);
         }
         let observer = |evaluations: &[Evaluation]| self.record(evaluations);
         let evaluator = model.evaluator()?.observed_by(&observer);
         if let Some(status) = self.stop_status() {
-            return unstarted(&problem.scene, status);
+            return Ok(self.unstarted(&problem.scene, status));
         }
+        let mut outcome = self.search(problem, &evaluator, replay)?;
+        self.finish(problem, &mut outcome, mesh_choice)?;
+        Ok(outcome)
+    }
+
+    /// With a target error: the coarsest mesh meeting it (shared with the dispatch's workers);
+    /// else the scene as it is.
+    fn choose_scene(
+        &self,
+        scene: Scene,
+    ) -> Result<ControlFlow<WorstOutcome, (Scene, Option<MeshChoice>)>, WsmError> {
+        if self.settings.target_error.is_none() {
+            return Ok(ControlFlow::Continue((scene, None)));
+        }
+        if let Some(status) = self.enter(RunPhase::MeshChoice) {
+            return Ok(ControlFlow::Break(self.unstarted(&scene, status)));
+        }
+        match run_scene(scene.clone(), self.settings, &|| {
+            self.stop_status().is_some()
+        }) {
+            Ok((chosen, choice)) => {
+                if let Some(dispatch) = &self.control.dispatch {
+                    dispatch.share_scene(&chosen)?;
+                }
+                Ok(ControlFlow::Continue((chosen, choice)))
+            }
+            Err(WsmError::Cancelled) => {
+                let status = self.stop_status().unwrap_or(Status::Cancelled);
+                Ok(ControlFlow::Break(self.unstarted(&scene, status)))
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The admissible-set checks on the box (solvability at the vertices), then the entry into
+    /// the nominal solve.
+    fn check_box(&self, problem: &StateProblem) -> Result<ControlFlow<WorstOutcome>, WsmError> {
+        if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
+            return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));
+        }
+        match check_balance_on_vertices(problem, self.params, &|| self.stop_status().is_some()) {
+            Err(WsmError::Cancelled) => {
+                let status = self.stop_status().unwrap_or(Status::Cancelled);
+                return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));
+            }
+            other => other?,
+        }
+        if let Some(status) = self.enter(RunPhase::NominalSolve) {
+            return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));
+        }
+        Ok(ControlFlow::Continue(()))
+    }
+
+    /// The search itself, from the replayed evaluations on, through the dispatch when there is
+    /// one; a failed log write or dispatch ends it with that error.
+    fn search(
+        &self,
+        problem: &StateProblem,
+        evaluator: &ScenarioEvaluator<'_>,
+        replay: Vec<Evaluation>,
+    ) -> Result<WorstOutcome, WsmError> {
         let mut cache = EvalCache::new();
         for evaluation in replay {
             cache.insert(evaluation.point.clone(), evaluation.outcome());
@@ -304,10 +336,10 @@ impl Run<'_> {
             cancel: &self.halt,
             on_progress: &on_progress,
         };
-        let mut outcome = match &self.control.dispatch {
+        let outcome = match &self.control.dispatch {
             Some(dispatch) => {
                 let dispatched =
-                    Dispatched::new(&evaluator, dispatch.as_ref(), &self.log_error, &self.halt);
+                    Dispatched::new(evaluator, dispatch.as_ref(), &self.log_error, &self.halt);
                 engine::run(
                     problem,
                     self.params,
@@ -322,7 +354,7 @@ impl Run<'_> {
                 problem,
                 self.params,
                 &settings,
-                &evaluator,
+                evaluator,
                 &|| evaluator.summary(),
                 &mut cache,
                 control,
@@ -339,18 +371,28 @@ impl Run<'_> {
         {
             return Err(error);
         }
+        Ok(outcome)
+    }
+
+    /// Warnings and, for a search that ran to its end, the accuracy statement.
+    fn finish(
+        &self,
+        problem: &StateProblem,
+        outcome: &mut WorstOutcome,
+        mesh_choice: Option<MeshChoice>,
+    ) -> Result<(), WsmError> {
         outcome.setup_seconds = problem.setup_seconds;
-        outcome.warnings = self.warnings(problem, &outcome)?;
+        outcome.warnings = self.warnings(problem, outcome)?;
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
-            outcome.accuracy = self.accuracy(problem, &outcome)?;
+            outcome.accuracy = self.accuracy(problem, outcome)?;
         }
         if let Some(choice) = &mesh_choice {
-            outcome.warnings.extend(target_warnings(choice, &outcome));
+            outcome.warnings.extend(target_warnings(choice, outcome));
         }
         outcome.mesh_choice = mesh_choice;
         self.control
             .report(&self.event(RunPhase::Finished, outcome.evaluations));
-        Ok(outcome)
+        Ok(())
     }
 
     /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`).
