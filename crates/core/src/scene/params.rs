@@ -90,6 +90,9 @@ enum Token<'a> {
     Index(usize),
 }
 
+/// The error of an unknown or unsuitable field path, with the reason.
+type Unknown<'a> = &'a dyn Fn(&str) -> SceneError;
+
 /// Resolve `uncertain[i]` against the scene and check its interval.
 pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter, SceneError> {
     let field_path = format!("uncertain[{i}].field");
@@ -97,72 +100,10 @@ pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Param
     let toks = tokens(&u.field).ok_or_else(|| unknown("not a valid field path"))?;
     use Token::{Index as I, Name as N};
     let target = match toks.as_slice() {
-        [N("materials"), N(m), rest @ ..] => {
-            let idx = scene
-                .materials
-                .keys()
-                .position(|k| k == m)
-                .ok_or_else(|| unknown("unknown material"))?;
-            let mat = &scene.materials[*m];
-            match rest {
-                [N("E")] if mat.young.is_some() => ParamTarget::Young(idx),
-                [N("nu")] if mat.nu.is_some() => ParamTarget::Poisson(idx),
-                [N("lambda")] if mat.lambda.is_some() => ParamTarget::Lambda(idx),
-                [N("mu")] if mat.mu.is_some() => ParamTarget::Mu(idx),
-                [N("E" | "nu" | "lambda" | "mu")] => {
-                    return Err(unknown(
-                        "the material is given by the other pair of elastic constants",
-                    ))
-                }
-                [N("specific_weight")] => ParamTarget::SpecificWeight(idx),
-                [N("body_force"), I(c)] if *c < 2 => ParamTarget::BodyForce(idx, *c),
-                [N("conductivity")] => ParamTarget::Conductivity(idx),
-                [N("heat_source")] => ParamTarget::HeatSource(idx),
-                [N("expansion")] if mat.beta.is_none() => ParamTarget::Expansion(idx),
-                [N("beta")] if mat.expansion.is_none() => ParamTarget::Beta(idx),
-                _ => return Err(unknown("not an uncertain-capable material field")),
-            }
-        }
-        [N("boundary"), I(b), rest @ ..] => {
-            let bc = scene
-                .boundary
-                .get(*b)
-                .ok_or_else(|| unknown("no such boundary condition"))?;
-            match rest {
-                [N("displacement"), I(c)]
-                    if bc
-                        .displacement
-                        .is_some_and(|d| d.get(*c).is_some_and(Option::is_some)) =>
-                {
-                    ParamTarget::Displacement(*b, *c)
-                }
-                [N("traction"), I(c)] if bc.traction.is_some() && *c < 2 => {
-                    ParamTarget::Traction(*b, *c)
-                }
-                [N("pressure")] if bc.pressure.is_some() => ParamTarget::Pressure(*b),
-                [N("temperature")] if bc.temperature.is_some() => ParamTarget::Temperature(*b),
-                [N("heat_flux")] if bc.heat_flux.is_some() => ParamTarget::HeatFlux(*b),
-                _ => return Err(unknown("the boundary condition has no such number")),
-            }
-        }
+        [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
+        [N("boundary"), I(b), rest @ ..] => boundary_target(scene, *b, rest, &unknown)?,
         [N("contacts"), I(c), N("slip_limit"), rest @ ..] => {
-            let contact = scene
-                .contacts
-                .get(*c)
-                .ok_or_else(|| unknown("no such contact zone"))?;
-            match (rest, &contact.slip_limit) {
-                ([], SlipLimit::Constant(_)) => ParamTarget::SlipConstant(*c),
-                ([N("values"), I(k)], SlipLimit::PiecewiseLinear { values, .. })
-                    if *k < values.len() =>
-                {
-                    ParamTarget::SlipKnot(*c, *k)
-                }
-                _ => {
-                    return Err(unknown(
-                        "use slip_limit for a constant g, slip_limit.values[k] for knots",
-                    ))
-                }
-            }
+            slip_limit_target(scene, *c, rest, &unknown)?
         }
         [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
             ParamTarget::ReferenceTemperature
@@ -170,7 +111,102 @@ pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Param
         _ => return Err(unknown("unknown field")),
     };
     let [lo, hi] = u.interval;
-    let ipath = format!("uncertain[{i}].interval");
+    check_interval(&target, lo, hi, &format!("uncertain[{i}].interval"))?;
+    Ok(Parameter {
+        name: u.name.clone().unwrap_or_else(|| u.field.clone()),
+        target,
+        lo,
+        hi,
+    })
+}
+
+/// `materials.NAME.…`: an elastic constant, a load density or a thermal constant of a zone.
+fn material_target(
+    scene: &Scene,
+    m: &str,
+    rest: &[Token<'_>],
+    unknown: Unknown<'_>,
+) -> Result<ParamTarget, SceneError> {
+    use Token::{Index as I, Name as N};
+    let idx = scene
+        .materials
+        .keys()
+        .position(|k| k == m)
+        .ok_or_else(|| unknown("unknown material"))?;
+    let mat = &scene.materials[m];
+    match rest {
+        [N("E")] if mat.young.is_some() => Ok(ParamTarget::Young(idx)),
+        [N("nu")] if mat.nu.is_some() => Ok(ParamTarget::Poisson(idx)),
+        [N("lambda")] if mat.lambda.is_some() => Ok(ParamTarget::Lambda(idx)),
+        [N("mu")] if mat.mu.is_some() => Ok(ParamTarget::Mu(idx)),
+        [N("E" | "nu" | "lambda" | "mu")] => Err(unknown(
+            "the material is given by the other pair of elastic constants",
+        )),
+        [N("specific_weight")] => Ok(ParamTarget::SpecificWeight(idx)),
+        [N("body_force"), I(c)] if *c < 2 => Ok(ParamTarget::BodyForce(idx, *c)),
+        [N("conductivity")] => Ok(ParamTarget::Conductivity(idx)),
+        [N("heat_source")] => Ok(ParamTarget::HeatSource(idx)),
+        [N("expansion")] if mat.beta.is_none() => Ok(ParamTarget::Expansion(idx)),
+        [N("beta")] if mat.expansion.is_none() => Ok(ParamTarget::Beta(idx)),
+        _ => Err(unknown("not an uncertain-capable material field")),
+    }
+}
+
+/// `boundary[b].…`: a number of a boundary condition that the condition gives.
+fn boundary_target(
+    scene: &Scene,
+    b: usize,
+    rest: &[Token<'_>],
+    unknown: Unknown<'_>,
+) -> Result<ParamTarget, SceneError> {
+    use Token::{Index as I, Name as N};
+    let bc = scene
+        .boundary
+        .get(b)
+        .ok_or_else(|| unknown("no such boundary condition"))?;
+    match rest {
+        [N("displacement"), I(c)]
+            if bc
+                .displacement
+                .is_some_and(|d| d.get(*c).is_some_and(Option::is_some)) =>
+        {
+            Ok(ParamTarget::Displacement(b, *c))
+        }
+        [N("traction"), I(c)] if bc.traction.is_some() && *c < 2 => {
+            Ok(ParamTarget::Traction(b, *c))
+        }
+        [N("pressure")] if bc.pressure.is_some() => Ok(ParamTarget::Pressure(b)),
+        [N("temperature")] if bc.temperature.is_some() => Ok(ParamTarget::Temperature(b)),
+        [N("heat_flux")] if bc.heat_flux.is_some() => Ok(ParamTarget::HeatFlux(b)),
+        _ => Err(unknown("the boundary condition has no such number")),
+    }
+}
+
+/// `contacts[c].slip_limit` (a constant g) or `contacts[c].slip_limit.values[k]` (a knot).
+fn slip_limit_target(
+    scene: &Scene,
+    c: usize,
+    rest: &[Token<'_>],
+    unknown: Unknown<'_>,
+) -> Result<ParamTarget, SceneError> {
+    use Token::{Index as I, Name as N};
+    let contact = scene
+        .contacts
+        .get(c)
+        .ok_or_else(|| unknown("no such contact zone"))?;
+    match (rest, &contact.slip_limit) {
+        ([], SlipLimit::Constant(_)) => Ok(ParamTarget::SlipConstant(c)),
+        ([N("values"), I(k)], SlipLimit::PiecewiseLinear { values, .. }) if *k < values.len() => {
+            Ok(ParamTarget::SlipKnot(c, *k))
+        }
+        _ => Err(unknown(
+            "use slip_limit for a constant g, slip_limit.values[k] for knots",
+        )),
+    }
+}
+
+/// The interval of a parameter: finite, not inverted, and within the rule of its constant.
+fn check_interval(target: &ParamTarget, lo: f64, hi: f64, ipath: &str) -> Result<(), SceneError> {
     if !lo.is_finite() || !hi.is_finite() {
         return Err(SceneError::new(ipath, "bounds must be finite"));
     }
@@ -185,12 +221,7 @@ pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Param
             .check_interval(lo, hi)
             .map_err(|reason| SceneError::new(ipath, reason))?;
     }
-    Ok(Parameter {
-        name: u.name.clone().unwrap_or_else(|| u.field.clone()),
-        target,
-        lo,
-        hi,
-    })
+    Ok(())
 }
 
 /// Resolve all uncertain parameters of a scene.
