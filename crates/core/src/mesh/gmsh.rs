@@ -18,7 +18,8 @@ use std::collections::{BTreeMap, HashMap};
 use super::assemble::{finish, mesh_zones, RawMesh};
 use super::check::{self, Defect};
 use super::geom::{orient, P};
-use super::Mesh;
+use super::rows::Rows;
+use super::{Mesh, MeshZone};
 use crate::scene::{Scene, SceneError};
 
 const PATH: &str = "mesh.gmsh_file";
@@ -97,6 +98,17 @@ struct Element<const N: usize> {
 pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
     let msh = parse(text)?;
     let zones = mesh_zones(scene)?;
+    let raw = msh.zoned_triangles(&zone_numbers(scene)?)?;
+    check_zones_present(scene, &raw)?;
+    let edges = check::connectivity(&raw.nodes, &raw.triangles).map_err(|d| defect(&msh, d))?;
+    check_hanging_nodes(&msh, scene, &zones, &raw)?;
+    let curves = msh.curves(scene, &edges)?;
+    finish(scene, raw, zones, &curves)
+}
+
+/// The mesh zone number of every zone name (zones numbered body by body); the names must be
+/// unique, since the file's physical names refer to them.
+fn zone_numbers(scene: &Scene) -> Result<HashMap<&str, usize>, SceneError> {
     let mut zone_of_name: HashMap<&str, usize> = HashMap::new();
     let mut z = 0;
     for (b, body) in scene.bodies.iter().enumerate() {
@@ -110,55 +122,16 @@ pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
             z += 1;
         }
     }
-    let names_of = |dim: i32, entity: i32| -> Vec<&str> {
-        msh.physical
-            .get(&(dim, entity))
-            .into_iter()
-            .flatten()
-            .filter_map(|t| msh.names.get(&(dim, *t)).map(String::as_str))
-            .collect()
-    };
-    let node = |tag: usize, line: usize| {
-        msh.node_index
-            .get(&tag)
-            .copied()
-            .ok_or_else(|| err(line, format!("unknown node {tag}")))
-    };
-    let mut raw = RawMesh {
-        nodes: msh.nodes.clone(),
-        ..RawMesh::default()
-    };
-    for &Element {
-        entity,
-        nodes: tags,
-        line,
-        ..
-    } in &msh.triangles
-    {
-        let names = names_of(2, entity);
-        let zone = names
-            .iter()
-            .find_map(|n| zone_of_name.get(n).copied())
-            .ok_or_else(|| {
-                err(
-                    line,
-                    format!(
-                        "surface {entity} (physical names {names:?}) matches no zone of the scene"
-                    ),
-                )
-            })?;
-        let [a, b, c] = [
-            node(tags[0], line)?,
-            node(tags[1], line)?,
-            node(tags[2], line)?,
-        ];
-        // Either orientation is accepted; the mesh is kept counter-clockwise.
-        let ccw = orient(raw.nodes[a], raw.nodes[b], raw.nodes[c]) >= 0.0;
-        raw.triangles.push(if ccw { [a, b, c] } else { [a, c, b] });
-        raw.zone.push(zone);
-    }
-    check_zones_present(scene, &raw)?;
-    let edges = check::connectivity(&raw.nodes, &raw.triangles).map_err(|d| defect(&msh, d))?;
+    Ok(zone_of_name)
+}
+
+/// No hanging node inside any one body (bodies in contact may have non-matching meshes).
+fn check_hanging_nodes(
+    msh: &Msh,
+    scene: &Scene,
+    zones: &[MeshZone],
+    raw: &RawMesh,
+) -> Result<(), SceneError> {
     for b in 0..scene.bodies.len() {
         let tris: Vec<[usize; 3]> = (0..raw.triangles.len())
             .filter(|&t| zones[raw.zone[t]].body == b)
@@ -170,29 +143,100 @@ pub fn import_gmsh(text: &str, scene: &Scene) -> Result<Mesh, SceneError> {
                 .iter()
                 .position(|x| *x == tris[t])
                 .unwrap_or(0);
-            return Err(defect(&msh, Defect::Hanging(n, t, e)));
+            return Err(defect(msh, Defect::Hanging(n, t, e)));
         }
     }
-    let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
-    for el in &msh.lines {
-        let [a, b] = [node(el.nodes[0], el.line)?, node(el.nodes[1], el.line)?];
-        for name in names_of(1, el.entity) {
-            let is_edge = edges.row(a).contains(&b) || edges.row(b).contains(&a);
-            if !is_edge && scene.segments.contains_key(name) {
-                return Err(err(
-                    el.line,
-                    format!(
-                        "line element {} of the physical curve '{name}' joins nodes {} and {}, \
-                         which are not two corners of one triangle: the curve does not conform \
-                         to the surface mesh",
-                        el.tag, el.nodes[0], el.nodes[1]
-                    ),
-                ));
+    Ok(())
+}
+
+impl Msh {
+    /// The physical names of an entity of dimension `dim`.
+    fn names_of(&self, dim: i32, entity: i32) -> Vec<&str> {
+        self.physical
+            .get(&(dim, entity))
+            .into_iter()
+            .flatten()
+            .filter_map(|t| self.names.get(&(dim, *t)).map(String::as_str))
+            .collect()
+    }
+
+    /// The index of the node with the file's tag `tag` (referred to on `line`).
+    fn node(&self, tag: usize, line: usize) -> Result<usize, SceneError> {
+        self.node_index
+            .get(&tag)
+            .copied()
+            .ok_or_else(|| err(line, format!("unknown node {tag}")))
+    }
+
+    /// The triangles, counter-clockwise, each in the zone its surface's physical name names.
+    fn zoned_triangles(&self, zone_of_name: &HashMap<&str, usize>) -> Result<RawMesh, SceneError> {
+        let mut raw = RawMesh {
+            nodes: self.nodes.clone(),
+            ..RawMesh::default()
+        };
+        for &Element {
+            entity,
+            nodes: tags,
+            line,
+            ..
+        } in &self.triangles
+        {
+            let names = self.names_of(2, entity);
+            let zone = names
+                .iter()
+                .find_map(|n| zone_of_name.get(n).copied())
+                .ok_or_else(|| {
+                    err(
+                        line,
+                        format!(
+                            "surface {entity} (physical names {names:?}) matches no zone of the scene"
+                        ),
+                    )
+                })?;
+            let [a, b, c] = [
+                self.node(tags[0], line)?,
+                self.node(tags[1], line)?,
+                self.node(tags[2], line)?,
+            ];
+            // Either orientation is accepted; the mesh is kept counter-clockwise.
+            let ccw = orient(raw.nodes[a], raw.nodes[b], raw.nodes[c]) >= 0.0;
+            raw.triangles.push(if ccw { [a, b, c] } else { [a, c, b] });
+            raw.zone.push(zone);
+        }
+        Ok(raw)
+    }
+
+    /// The line elements of every physical curve; those of the scene's segments must be
+    /// triangle edges (`edges`: the mesh's node adjacency).
+    fn curves(
+        &self,
+        scene: &Scene,
+        edges: &Rows,
+    ) -> Result<BTreeMap<String, Vec<[usize; 2]>>, SceneError> {
+        let mut curves: BTreeMap<String, Vec<[usize; 2]>> = BTreeMap::new();
+        for el in &self.lines {
+            let [a, b] = [
+                self.node(el.nodes[0], el.line)?,
+                self.node(el.nodes[1], el.line)?,
+            ];
+            for name in self.names_of(1, el.entity) {
+                let is_edge = edges.row(a).contains(&b) || edges.row(b).contains(&a);
+                if !is_edge && scene.segments.contains_key(name) {
+                    return Err(err(
+                        el.line,
+                        format!(
+                            "line element {} of the physical curve '{name}' joins nodes {} and {}, \
+                             which are not two corners of one triangle: the curve does not conform \
+                             to the surface mesh",
+                            el.tag, el.nodes[0], el.nodes[1]
+                        ),
+                    ));
+                }
+                curves.entry(name.to_string()).or_default().push([a, b]);
             }
-            curves.entry(name.to_string()).or_default().push([a, b]);
         }
+        Ok(curves)
     }
-    finish(scene, raw, zones, &curves)
 }
 
 /// The error for a connectivity defect, naming the file's element and node tags.
