@@ -19,7 +19,7 @@ mod table;
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
-pub use model::{evaluate_points, parameter_info, PreparedModel};
+pub use model::{parameter_info, PreparedModel};
 pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use request::{SolveRequest, WorstRequest};
 pub use table::{columns as table_columns, write_csv};

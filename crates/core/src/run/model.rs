@@ -4,12 +4,10 @@
 //! [`super::worst`] prepares one per run; the service's workers prepare one per job they help
 //! with, from the scene the job's coordinator chose, so every process solves the same model.
 
-use rayon::prelude::*;
-
 use super::request::WorstRequest;
 use super::run_scene;
 use crate::error::WsmError;
-use crate::scenario::evaluator::{Evaluation, ScenarioEvaluator};
+use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::worst::ParameterInfo;
 use crate::scene::params::{parameters, Parameter};
 use crate::scene::{Criterion, Scene};
@@ -66,24 +64,11 @@ impl PreparedModel {
         &self.problem
     }
 
-    /// The uncertain parameters, in the order of the scene's `uncertain` list.
-    pub fn params(&self) -> &[Parameter] {
-        &self.params
-    }
-
     /// The evaluator of this model: solves the nominal state once (its contact state
     /// warm-starts every later solve).
     pub fn evaluator(&self) -> Result<ScenarioEvaluator<'_>, WsmError> {
         ScenarioEvaluator::new(&self.problem, &self.params, &self.criteria)
     }
-}
-
-/// Evaluate `points` with `evaluator` in the current thread pool, in input order.
-pub fn evaluate_points(evaluator: &ScenarioEvaluator<'_>, points: &[Vec<f64>]) -> Vec<Evaluation> {
-    points
-        .par_iter()
-        .map(|p| evaluator.evaluate_one(p))
-        .collect()
 }
 
 #[cfg(test)]

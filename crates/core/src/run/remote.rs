@@ -11,8 +11,6 @@
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
-use rayon::prelude::*;
-
 use crate::error::WsmError;
 use crate::scenario::evaluator::{Evaluation, InnerSummary, ScenarioEvaluator};
 use crate::scene::Scene;
@@ -115,12 +113,7 @@ impl<'a> Dispatched<'a> {
 
 impl Evaluator for Dispatched<'_> {
     fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
-        let local = |points: &[Vec<f64>]| -> Vec<Evaluation> {
-            points
-                .par_iter()
-                .map(|p| self.local.evaluate_one(p))
-                .collect()
-        };
+        let local = |points: &[Vec<f64>]| self.local.evaluate_batch(points);
         match self.dispatch.evaluate(points, &local) {
             Ok(Some(DispatchedBatch {
                 evaluations,

@@ -132,6 +132,12 @@ impl<'a> ScenarioEvaluator<'a> {
         }
     }
 
+    /// [`Self::evaluate_one`] at every point, in parallel in the current pool, in input order
+    /// (not reported to the observer).
+    pub fn evaluate_batch(&self, points: &[Vec<f64>]) -> Vec<Evaluation> {
+        points.par_iter().map(|p| self.evaluate_one(p)).collect()
+    }
+
     /// The requested criteria at θ, with the solve's residual and time.
     pub fn evaluate_one(&self, theta: &[f64]) -> Evaluation {
         let start = Instant::now();
@@ -223,8 +229,7 @@ impl<'a> ScenarioEvaluator<'a> {
 
 impl Evaluator for ScenarioEvaluator<'_> {
     fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
-        let evaluations: Vec<Evaluation> =
-            points.par_iter().map(|p| self.evaluate_one(p)).collect();
+        let evaluations = self.evaluate_batch(points);
         if let Some(observe) = self.observer {
             observe(&evaluations);
         }

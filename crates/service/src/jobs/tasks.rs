@@ -16,7 +16,7 @@ use std::time::Duration;
 
 use super::{wait, JobInput, JobStore, TaskRecord, TaskScope};
 use wsm_core::error::WsmError;
-use wsm_core::run::{evaluate_points, Evaluation, PreparedModel, WorstRequest};
+use wsm_core::run::{Evaluation, PreparedModel, WorstRequest};
 
 /// Prepared models kept per worker process.
 const MODELS_KEPT: usize = 2;
@@ -70,7 +70,7 @@ impl Model {
                 };
                 let _ = ready_tx.send(Ok(()));
                 for (points, reply) in inbox {
-                    let evaluations = pool.install(|| evaluate_points(&evaluator, &points));
+                    let evaluations = pool.install(|| evaluator.evaluate_batch(&points));
                     let _ = reply.send(Ok(evaluations));
                 }
             })
