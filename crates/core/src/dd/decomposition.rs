@@ -71,136 +71,21 @@ impl Decomposition {
     ) -> Result<Decomposition, DdError> {
         let n = problem.n_dofs();
         let ns = partition.n_subdomains;
-        let mut elements = vec![Vec::new(); ns];
-        for (e, &s) in partition.element_subdomain.iter().enumerate() {
-            elements[s].push(e);
-        }
-        let mut dof_subs: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for (s, list) in elements.iter().enumerate() {
-            for &e in list {
-                for d in problem.elements[e].dofs.into_iter().flatten() {
-                    if dof_subs[d].last() != Some(&s) {
-                        dof_subs[d].push(s);
-                    }
-                }
-            }
-        }
-        for v in &mut dof_subs {
-            v.sort_unstable();
-            v.dedup();
-        }
-        let interface: Vec<usize> = (0..n).filter(|&d| dof_subs[d].len() > 1).collect();
-        let mut gamma_of = vec![NONE; n];
-        for (i, &d) in interface.iter().enumerate() {
-            gamma_of[d] = i;
-        }
-        let mut sub_dofs = vec![LocalDofs::default(); ns];
-        for (d, subs) in dof_subs.iter().enumerate() {
-            for &s in subs {
-                if gamma_of[d] == NONE {
-                    sub_dofs[s].interior.push(d);
-                } else {
-                    sub_dofs[s].interface.push(d);
-                    sub_dofs[s].gamma.push(gamma_of[d]);
-                }
-            }
-        }
-        // ρ_s: mean diagonal of the local stiffness (a stiffness measure, D05 5.5).
-        let rho: Vec<f64> = elements
-            .iter()
-            .map(|list| {
-                let (mut sum, mut count) = (0.0, 0usize);
-                for &e in list {
-                    let el = &problem.elements[e];
-                    for i in 0..6 {
-                        if el.dofs[i].is_some() {
-                            sum += el.matrix[i][i];
-                            count += 1;
-                        }
-                    }
-                }
-                sum / count.max(1) as f64
-            })
-            .collect();
-        let non_contact: Vec<usize> = (0..ns).filter(|&s| !partition.contact[s]).collect();
-        let blocks: Vec<LinearBlock> = non_contact
-            .par_iter()
-            .map(|&s| {
-                let dofs = &sub_dofs[s];
-                let local = dofs.local_map(n);
-                let all = dofs.all();
-                let k = Csr::from_triplets(all.len(), assemble(problem, &elements[s], &local));
-                let cand = rigid_candidates(problem, &all, &vec![0; all.len()]);
-                let ni = dofs.interior.len();
-                let ops = match operators {
-                    Some(cache) => cache.get((s, ns), k, ni, cand.as_ref()),
-                    None => BlockOperators::new(k, ni, cand.as_ref()).map(Arc::new),
-                };
-                ops.and_then(|ops| {
-                    LinearBlock::with_operators(
-                        ops,
-                        ni,
-                        dofs.gamma.clone(),
-                        vec![rho[s]; dofs.gamma.len()],
-                        dofs.interior.iter().map(|&d| problem.rhs[d]).collect(),
-                        vec![0.0; dofs.gamma.len()],
-                    )
-                })
-                .map_err(|reason| DdError::Subdomain {
-                    subdomain: s,
-                    reason,
-                })
-            })
-            .collect::<Result<_, _>>()?;
-        let block_dofs = non_contact.iter().map(|&s| sub_dofs[s].clone()).collect();
-
-        // Clusters: union–find over the contact pairs.
-        let node_sub = {
-            let mut m = vec![NONE; problem.nodes.len()];
-            for (e, el) in problem.elements.iter().enumerate() {
-                for &v in &el.nodes {
-                    m[v] = partition.element_subdomain[e];
-                }
-            }
-            m
-        };
-        let mut parent: Vec<usize> = (0..ns).collect();
-        fn find(p: &mut [usize], mut i: usize) -> usize {
-            while p[i] != i {
-                p[i] = p[p[i]];
-                i = p[i];
-            }
-            i
-        }
-        for pair in &problem.pairs {
-            let (a, b) = (node_sub[pair.nodes[0]], node_sub[pair.nodes[1]]);
-            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-            parent[ra.max(rb)] = ra.min(rb);
-        }
-        let mut cluster_of = vec![NONE; ns];
-        let mut members: Vec<Vec<usize>> = Vec::new();
-        for s in (0..ns).filter(|&s| partition.contact[s]) {
-            let r = find(&mut parent, s);
-            if cluster_of[r] == NONE {
-                cluster_of[r] = members.len();
-                members.push(Vec::new());
-            }
-            members[cluster_of[r]].push(s);
-        }
-        let mut cluster_pairs = vec![Vec::new(); members.len()];
-        for (i, pair) in problem.pairs.iter().enumerate() {
-            let r = find(&mut parent, node_sub[pair.nodes[0]]);
-            cluster_pairs[cluster_of[r]].push(i);
-        }
-        let built: Vec<BuiltCluster> = members
-            .par_iter()
-            .zip(&cluster_pairs)
-            .enumerate()
-            .map(|(c, (mem, pairs))| {
-                build_cluster(problem, &elements, &sub_dofs, &rho, mem, pairs)
-                    .map_err(|reason| DdError::Cluster { cluster: c, reason })
-            })
-            .collect::<Result<_, _>>()?;
+        let elements = subdomain_elements(&partition);
+        let dof_subs = dof_subdomains(problem, &elements, n);
+        let (interface, sub_dofs) = interface_and_local_dofs(&dof_subs, n, ns);
+        let rho = stiffness_weights(problem, &elements);
+        let (blocks, block_dofs) =
+            linear_blocks(problem, &partition, &elements, &sub_dofs, &rho, operators)?;
+        let (members, cluster_pairs) = cluster_members(problem, &partition);
+        let built = build_clusters(
+            problem,
+            &elements,
+            &sub_dofs,
+            &rho,
+            &members,
+            &cluster_pairs,
+        )?;
         let mut clusters = Vec::new();
         let mut tied = Vec::new();
         let mut full_stick = Vec::new();
@@ -227,6 +112,195 @@ impl Decomposition {
     pub fn n_interface(&self) -> usize {
         self.interface.len()
     }
+}
+
+/// The elements of each subdomain, in element order.
+fn subdomain_elements(partition: &Partition) -> Vec<Vec<usize>> {
+    let mut elements = vec![Vec::new(); partition.n_subdomains];
+    for (e, &s) in partition.element_subdomain.iter().enumerate() {
+        elements[s].push(e);
+    }
+    elements
+}
+
+/// The subdomains of each of the `n` reduced DOFs, sorted and without repetitions.
+fn dof_subdomains(problem: &DdProblem, elements: &[Vec<usize>], n: usize) -> Vec<Vec<usize>> {
+    let mut dof_subs: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (s, list) in elements.iter().enumerate() {
+        for &e in list {
+            for d in problem.elements[e].dofs.into_iter().flatten() {
+                if dof_subs[d].last() != Some(&s) {
+                    dof_subs[d].push(s);
+                }
+            }
+        }
+    }
+    for v in &mut dof_subs {
+        v.sort_unstable();
+        v.dedup();
+    }
+    dof_subs
+}
+
+/// The interface (DOFs in two or more subdomains, in DOF order) and the interior and interface
+/// DOFs of each of the `ns` subdomains.
+fn interface_and_local_dofs(
+    dof_subs: &[Vec<usize>],
+    n: usize,
+    ns: usize,
+) -> (Vec<usize>, Vec<LocalDofs>) {
+    let interface: Vec<usize> = (0..n).filter(|&d| dof_subs[d].len() > 1).collect();
+    let mut gamma_of = vec![NONE; n];
+    for (i, &d) in interface.iter().enumerate() {
+        gamma_of[d] = i;
+    }
+    let mut sub_dofs = vec![LocalDofs::default(); ns];
+    for (d, subs) in dof_subs.iter().enumerate() {
+        for &s in subs {
+            if gamma_of[d] == NONE {
+                sub_dofs[s].interior.push(d);
+            } else {
+                sub_dofs[s].interface.push(d);
+                sub_dofs[s].gamma.push(gamma_of[d]);
+            }
+        }
+    }
+    (interface, sub_dofs)
+}
+
+/// ρ_s: mean diagonal of the local stiffness (a stiffness measure, D05 5.5).
+fn stiffness_weights(problem: &DdProblem, elements: &[Vec<usize>]) -> Vec<f64> {
+    elements
+        .iter()
+        .map(|list| {
+            let (mut sum, mut count) = (0.0, 0usize);
+            for &e in list {
+                let el = &problem.elements[e];
+                for i in 0..6 {
+                    if el.dofs[i].is_some() {
+                        sum += el.matrix[i][i];
+                        count += 1;
+                    }
+                }
+            }
+            sum / count.max(1) as f64
+        })
+        .collect()
+}
+
+/// The non-contact subdomains as linear blocks (factorised in parallel, or taken from
+/// `operators`), with their local DOFs.
+fn linear_blocks(
+    problem: &DdProblem,
+    partition: &Partition,
+    elements: &[Vec<usize>],
+    sub_dofs: &[LocalDofs],
+    rho: &[f64],
+    operators: Option<&OperatorCache>,
+) -> Result<(Vec<LinearBlock>, Vec<LocalDofs>), DdError> {
+    let n = problem.n_dofs();
+    let ns = partition.n_subdomains;
+    let non_contact: Vec<usize> = (0..ns).filter(|&s| !partition.contact[s]).collect();
+    let blocks: Vec<LinearBlock> = non_contact
+        .par_iter()
+        .map(|&s| {
+            let dofs = &sub_dofs[s];
+            let local = dofs.local_map(n);
+            let all = dofs.all();
+            let k = Csr::from_triplets(all.len(), assemble(problem, &elements[s], &local));
+            let cand = rigid_candidates(problem, &all, &vec![0; all.len()]);
+            let ni = dofs.interior.len();
+            let ops = match operators {
+                Some(cache) => cache.get((s, ns), k, ni, cand.as_ref()),
+                None => BlockOperators::new(k, ni, cand.as_ref()).map(Arc::new),
+            };
+            ops.and_then(|ops| {
+                LinearBlock::with_operators(
+                    ops,
+                    ni,
+                    dofs.gamma.clone(),
+                    vec![rho[s]; dofs.gamma.len()],
+                    dofs.interior.iter().map(|&d| problem.rhs[d]).collect(),
+                    vec![0.0; dofs.gamma.len()],
+                )
+            })
+            .map_err(|reason| DdError::Subdomain {
+                subdomain: s,
+                reason,
+            })
+        })
+        .collect::<Result<_, _>>()?;
+    let block_dofs = non_contact.iter().map(|&s| sub_dofs[s].clone()).collect();
+    Ok((blocks, block_dofs))
+}
+
+/// Root of `i` in the union–find forest `p`, halving the path on the way.
+fn find(p: &mut [usize], mut i: usize) -> usize {
+    while p[i] != i {
+        p[i] = p[p[i]];
+        i = p[i];
+    }
+    i
+}
+
+/// Clusters: union–find over the contact pairs. The member subdomains of each cluster and the
+/// indices of its pairs, clusters numbered by their first contact subdomain.
+fn cluster_members(
+    problem: &DdProblem,
+    partition: &Partition,
+) -> (Vec<Vec<usize>>, Vec<Vec<usize>>) {
+    let ns = partition.n_subdomains;
+    let node_sub = {
+        let mut m = vec![NONE; problem.nodes.len()];
+        for (e, el) in problem.elements.iter().enumerate() {
+            for &v in &el.nodes {
+                m[v] = partition.element_subdomain[e];
+            }
+        }
+        m
+    };
+    let mut parent: Vec<usize> = (0..ns).collect();
+    for pair in &problem.pairs {
+        let (a, b) = (node_sub[pair.nodes[0]], node_sub[pair.nodes[1]]);
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        parent[ra.max(rb)] = ra.min(rb);
+    }
+    let mut cluster_of = vec![NONE; ns];
+    let mut members: Vec<Vec<usize>> = Vec::new();
+    for s in (0..ns).filter(|&s| partition.contact[s]) {
+        let r = find(&mut parent, s);
+        if cluster_of[r] == NONE {
+            cluster_of[r] = members.len();
+            members.push(Vec::new());
+        }
+        members[cluster_of[r]].push(s);
+    }
+    let mut cluster_pairs = vec![Vec::new(); members.len()];
+    for (i, pair) in problem.pairs.iter().enumerate() {
+        let r = find(&mut parent, node_sub[pair.nodes[0]]);
+        cluster_pairs[cluster_of[r]].push(i);
+    }
+    (members, cluster_pairs)
+}
+
+/// Every cluster's local contact problem and tied block, built in parallel.
+fn build_clusters(
+    problem: &DdProblem,
+    elements: &[Vec<usize>],
+    sub_dofs: &[LocalDofs],
+    rho: &[f64],
+    members: &[Vec<usize>],
+    cluster_pairs: &[Vec<usize>],
+) -> Result<Vec<BuiltCluster>, DdError> {
+    members
+        .par_iter()
+        .zip(cluster_pairs)
+        .enumerate()
+        .map(|(c, (mem, pairs))| {
+            build_cluster(problem, elements, sub_dofs, rho, mem, pairs)
+                .map_err(|reason| DdError::Cluster { cluster: c, reason })
+        })
+        .collect::<Result<_, _>>()
 }
 
 fn local_row(row: &ContactRow, local: &[usize], n_interior: usize) -> Result<LocalRow, String> {

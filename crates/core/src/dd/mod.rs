@@ -64,8 +64,13 @@ pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DdElement {
+    /// Mesh nodes of the triangle (indices into [`DdProblem::nodes`]).
     pub nodes: [usize; 3],
+    /// Reduced DOF of each of the six local DOFs, node-major in the nodes' rotated bases; `None`
+    /// for a prescribed DOF.
     pub dofs: [Option<usize>; 6],
+    /// The 6×6 element stiffness in the same local order, prescribed DOFs included [Pa, i.e. N/m of
+    /// force per m of displacement per unit thickness].
     pub matrix: [[f64; 6]; 6],
 }
 
@@ -77,30 +82,44 @@ pub struct DdElement {
 pub struct ContactRow {
     /// (reduced DOF, coefficient).
     pub entries: Vec<(usize, f64)>,
+    /// Right-hand side of the row \[m\]: the initial gap g0 (0 for a tangential row) minus the
+    /// row's product with the prescribed displacements.
     pub value: f64,
+    /// Lower bound of the multiplier [N/m]: 0 for a unilateral normal, −g w for a Tresca
+    /// tangential, −∞ for a bilateral normal.
     pub lower: f64,
+    /// Upper bound of the multiplier [N/m]: +∞ for a normal row, g w for a tangential one (0 when
+    /// frictionless).
     pub upper: f64,
 }
 
 /// A contact node pair (node of body k, node of body l) with its normal and tangential rows.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DdContactPair {
+    /// The paired mesh nodes: `[node of body k, node of body l]`.
     pub nodes: [usize; 2],
+    /// Normal row n·(u^k − u^l) with the non-penetration (or bilateral tie) bounds.
     pub normal: ContactRow,
+    /// Tangential row t·(u^k − u^l) with the Tresca bounds ±g w.
     pub tangent: ContactRow,
 }
 
 /// The discrete contact problem min ½uᵀKu − fᵀu + Σ_rows σ(B_r u − e_r), K = Σ_e K_e.
 #[derive(Debug, Clone)]
 pub struct DdProblem {
+    /// Node coordinates `[x, y]` \[m\] of the mesh.
     pub nodes: Vec<[f64; 2]>,
+    /// Body index of each node.
     pub node_body: Vec<usize>,
+    /// Every triangle of the mesh with its reduced DOFs and element stiffness.
     pub elements: Vec<DdElement>,
     /// Node and global direction (unit vector) of each reduced DOF.
     pub dof_node: Vec<usize>,
+    /// Global unit direction of each reduced DOF (an axis of its node's rotated basis).
     pub dof_direction: Vec<[f64; 2]>,
     /// Reduced right-hand side (loads minus the lifting of prescribed values).
     pub rhs: Vec<f64>,
+    /// Contact node pairs with their normal and tangential rows, in the direct solver's pair order.
     pub pairs: Vec<DdContactPair>,
     /// Bodies whose supports leave rigid motions free (held only by contact).
     pub floating_bodies: Vec<usize>,
@@ -185,28 +204,58 @@ impl DdProblem {
 /// Errors of the DD solver; each says which part failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum DdError {
+    /// Inconsistent input (vector sizes, contact rows with a DOF out of range or empty bounds), or
+    /// an I/O error of the bench tables.
     #[error("invalid DD input: {0}")]
     Input(String),
+    /// The partition breaks a rule: wrong length, an empty subdomain or one spanning two bodies, or
+    /// an interface that cuts a contact zone.
     #[error("partition: {0}")]
     Partition(String),
+    /// A local factorisation (Dirichlet or Neumann) of one subdomain failed.
     #[error("subdomain {subdomain}: {reason}")]
-    Subdomain { subdomain: usize, reason: String },
+    Subdomain {
+        /// Index of the subdomain in the partition.
+        subdomain: usize,
+        /// What the local factorisation reported.
+        reason: String,
+    },
+    /// The local problem of one contact cluster could not be assembled or solved.
     #[error("contact cluster {cluster}: {reason}")]
-    Cluster { cluster: usize, reason: String },
+    Cluster {
+        /// Index of the contact cluster in the decomposition.
+        cluster: usize,
+        /// What the cluster's assembly or QP solve reported.
+        reason: String,
+    },
+    /// The coarse space is degenerate: an interface DOF in no block, or WᵀSW singular.
     #[error("coarse problem: {0}")]
     Coarse(String),
+    /// A PCG or the successive approximations stopped short of the tolerance (iteration limit or
+    /// a PCG breakdown).
     #[error(
         "{solver} did not converge: relative residual {residual:.3e} after {iterations} iterations"
     )]
     NotConverged {
+        /// The iteration that stopped: `PCG1`, `PCG2` or `successive approximations`.
         solver: &'static str,
+        /// Iterations done when it stopped.
         iterations: usize,
+        /// Relative residual reached: ‖r‖/‖b‖ for a PCG, ‖T(U) − U‖/‖U‖ for the successive
+        /// approximations.
         residual: f64,
     },
+    /// The successive approximations failed (no convergence or a cluster failure) and no direct
+    /// fallback was given.
     #[error("successive approximations failed ({reason}) and no direct fallback was given")]
-    Diverged { reason: String },
+    Diverged {
+        /// The error of the failed iteration.
+        reason: String,
+    },
+    /// The direct fallback was tried after a DD failure and failed as well.
     #[error("direct fallback failed: {0}")]
     Fallback(String),
+    /// An error of the FEM layer (element matrices, zone coefficients, assembly).
     #[error(transparent)]
     Fem(#[from] FemError),
 }

@@ -58,17 +58,25 @@ pub enum CoarseKind {
 /// Solver options.
 #[derive(Debug, Clone)]
 pub struct DdOptions {
+    /// How the bodies are cut into subdomains (automatic by count or size, explicit, or reused).
     pub partition: PartitionRequest,
+    /// The balancing preconditioner of PCG1 (default: the reduced one of D05 §6).
     pub pcg1_preconditioner: Pcg1Preconditioner,
+    /// The coarse space of the balancing preconditioners (default: rigid-motion enrichment).
     pub coarse: CoarseKind,
-    /// Relative residual of PCG1 (auxiliary) and PCG2 (per outer step; the tightest one, see
-    /// `successive::FORCING`). U⁰ only starts the outer iteration, so PCG1 need not be tight
-    /// (`PCG1_TOL`).
+    /// Relative residual of PCG1 (auxiliary problem). U⁰ only starts the outer iteration, so
+    /// PCG1 need not be tight (`PCG1_TOL`).
     pub pcg1_tol: f64,
+    /// Relative residual of PCG2 at full accuracy, the tightest of the inexact per-step
+    /// tolerances (see `successive::FORCING`); convergence is accepted only after a step solved
+    /// to it.
     pub pcg2_tol: f64,
+    /// Iteration limit of every PCG run (PCG1, PCG2 and the Newton steps' PCG).
     pub max_pcg: usize,
     /// Stop when ‖U^k − U^{k−1}‖ ≤ outer_tol ‖U^k‖.
     pub outer_tol: f64,
+    /// Limit on the outer steps of the successive approximations (including accelerated and Newton
+    /// steps).
     pub max_outer: usize,
     /// Switch to Anderson acceleration when q ≥ 1, or when q > `stagnation` twice in a row.
     pub stagnation: f64,
@@ -76,6 +84,7 @@ pub struct DdOptions {
     pub anderson_depth: usize,
     /// Always accelerate from the first step (for tests and comparisons).
     pub force_acceleration: bool,
+    /// Options of the QP solver of the clusters' local contact problems.
     pub qp: QpOptions,
     /// Subdomain operators kept across solves of one scene (none: built every solve).
     pub operators: Option<Arc<OperatorCache>>,

@@ -26,12 +26,16 @@ pub enum PartitionRequest {
     /// About `subdomains` subdomains in total (at least one per body part), contact bands of
     /// `contact_layers` element layers.
     Automatic {
+        /// Requested total number of subdomains (approximate, at least one per body part).
         subdomains: usize,
+        /// Width of the contact bands in element layers around the contact nodes.
         contact_layers: usize,
     },
     /// About `elements` elements per non-contact subdomain.
     BySize {
+        /// Target number of elements per non-contact subdomain.
         elements: usize,
+        /// Width of the contact bands in element layers around the contact nodes.
         contact_layers: usize,
     },
     /// Subdomain of every element (edge-disconnected pieces become subdomains of their own).
@@ -44,7 +48,9 @@ pub enum PartitionRequest {
 /// A validated partition.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Partition {
+    /// Subdomain index of every element, numbered 0..`n_subdomains`.
     pub element_subdomain: Vec<usize>,
+    /// Number of subdomains.
     pub n_subdomains: usize,
     /// Whether each subdomain touches a contact zone.
     pub contact: Vec<bool>,

@@ -34,22 +34,37 @@ pub struct Times {
 /// Report of one DD solve.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct DdReport {
+    /// Reduced DOFs of the whole problem.
     pub n_dofs: usize,
+    /// Interface DOFs: the unknowns U of the interface problem.
     pub n_interface: usize,
+    /// Subdomains of the partition.
     pub n_subdomains: usize,
+    /// Contact subdomains: the thin bands around the contact zones and the floating bodies in
+    /// contact.
     pub n_contact_subdomains: usize,
+    /// Contact clusters: groups of contact subdomains linked by contact pairs, each one nonlinear
+    /// local problem (D05 §4.1).
     pub n_clusters: usize,
+    /// Contact node pairs.
     pub n_pairs: usize,
     /// Clusters whose auxiliary tie needed the tangential rows too (a sliding mode was left).
     pub auxiliary_full_stick: usize,
-    /// The preconditioner PCG1 used and the coarse space of all balancing preconditioners.
+    /// The preconditioner PCG1 used.
     pub pcg1_preconditioner: Pcg1Preconditioner,
+    /// The coarse space of all balancing preconditioners.
     pub coarse: CoarseKind,
+    /// Dimension of the coarse space V_H of PCG1 after dropping dependent columns.
     pub coarse_dim_pcg1: usize,
+    /// Dimension of the coarse space V_0H of PCG2 (S0) after dropping dependent columns.
     pub coarse_dim_pcg2: usize,
+    /// PCG1 iterations of the auxiliary problem S U⁰ = F.
     pub pcg1_iterations: usize,
+    /// Outer steps of the successive approximations (accelerated or Newton steps included).
     pub outer_iterations: usize,
+    /// PCG2 iterations summed over all outer steps.
     pub pcg2_iterations: usize,
+    /// PCG2 iterations of each outer step, in step order.
     pub pcg2_per_outer: Vec<usize>,
     /// ‖T(U^k) − U^k‖ per outer step (Euclidean norm of the interface trace).
     pub outer_residuals: Vec<f64>,
@@ -65,14 +80,21 @@ pub struct DdReport {
     pub coarse_residual: [f64; 2],
     /// Rigid modes of floating bodies handled inside the clusters.
     pub floating_modes: usize,
+    /// QP iterations of the clusters' local contact problems (S_CON evaluations), summed over all
+    /// outer steps.
     pub qp_iterations: usize,
-    /// Safeguarded semismooth Newton steps taken after Anderson stagnated, and their PCG
-    /// iterations in total.
+    /// Safeguarded semismooth Newton steps taken after Anderson stagnated.
     pub newton_steps: usize,
+    /// PCG iterations of the Newton steps in total.
     pub newton_pcg_iterations: usize,
+    /// How the outer iteration was accelerated (Anderson mixing, then Newton steps) and from which
+    /// step; `None` for the plain successive approximations.
     pub acceleration: Option<String>,
+    /// Why the direct solver answered instead of DD; `None` when DD converged.
     pub fallback: Option<String>,
+    /// Rayon threads available to the solve (the result does not depend on them).
     pub threads: usize,
+    /// Wall-clock seconds per phase.
     pub times: Times,
 }
 

@@ -44,7 +44,9 @@ use crate::contact::qp::WarmStart;
 /// multipliers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DirectAnswer {
+    /// Reduced displacement \[m\]: every free DOF in its node's rotated basis.
     pub u: Vec<f64>,
+    /// Per contact pair: (normal, tangential) multiplier [N/m], in the pair order of the problem.
     pub multipliers: Vec<[f64; 2]>,
 }
 
@@ -58,6 +60,7 @@ pub struct DdSolution {
     pub u: Vec<f64>,
     /// Per contact pair: (normal, tangential) multiplier.
     pub multipliers: Vec<[f64; 2]>,
+    /// What the solve did: sizes, iteration counts, contraction, switches and times.
     pub report: DdReport,
 }
 

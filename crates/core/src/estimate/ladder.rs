@@ -38,6 +38,7 @@ pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
 /// (results independent of the thread count): what the accuracy statement and the mesh choice
 /// re-solve.
 pub struct DirectLevel {
+    /// The scene on this level's mesh, set up for direct solves.
     pub problem: StateProblem,
     options: SolveOptions,
     criteria: Vec<Criterion>,
@@ -78,10 +79,12 @@ impl DirectLevel {
             .map_err(|e| e.to_string())
     }
 
+    /// Unknowns (free displacement DOFs) on this level's mesh.
     pub fn unknowns(&self) -> usize {
         self.problem.elastic.dofs().n_free()
     }
 
+    /// Triangles of this level's mesh.
     pub fn triangles(&self) -> usize {
         self.problem.mesh().triangles.len()
     }
@@ -94,6 +97,7 @@ pub struct Ladder {
     pub coarsest: f64,
     /// Refinement in h from one level to the next (> 1).
     pub ratio: f64,
+    /// Number of levels (≥ 3, enough for a Richardson extrapolation).
     pub levels: usize,
 }
 

@@ -31,7 +31,9 @@ pub const MAX_CHOICE_UNKNOWNS: usize = 400_000;
 pub struct CandidateMesh {
     /// Mesh sizes relative to the scene's (4, 2, 1, 1/2, …).
     pub size_factor: f64,
+    /// Unknowns (free displacement DOFs) on this level's mesh.
     pub unknowns: usize,
+    /// Triangles of this level's mesh.
     pub triangles: usize,
     /// The requested criteria at the nominal data on this mesh (`None`: not defined or the solve
     /// failed).
@@ -62,6 +64,7 @@ pub struct MeshChoice {
     pub candidates: Vec<CandidateMesh>,
     /// Wall time of the choice \[s\].
     pub seconds: f64,
+    /// How the level was chosen, in words (ladder factors, error estimate, choice rule).
     pub method: String,
 }
 

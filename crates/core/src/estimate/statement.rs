@@ -33,7 +33,9 @@ pub const MAX_REFINED_UNKNOWNS: usize = 2_000_000;
 pub struct StatementMesh {
     /// Mesh sizes relative to the run's mesh (1, 1/2, 1/4).
     pub size_factor: f64,
+    /// Unknowns (free displacement DOFs) on this mesh.
     pub unknowns: usize,
+    /// Triangles of this mesh.
     pub triangles: usize,
     /// Meshing, set-up and the solves on this mesh \[s\].
     pub seconds: f64,
@@ -64,8 +66,11 @@ pub struct ExtremumAccuracy {
 /// The statement for one criterion.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CriterionAccuracy {
+    /// The criterion Φ1–Φ6 this entry is about.
     pub criterion: Criterion,
+    /// Accuracy of the worst (largest) value; `None` when the run found no worst value.
     pub worst: Option<ExtremumAccuracy>,
+    /// Accuracy of the best (smallest) value; `None` when the run found no best value.
     pub best: Option<ExtremumAccuracy>,
 }
 
@@ -74,6 +79,7 @@ pub struct CriterionAccuracy {
 pub struct AccuracyStatement {
     /// The run's mesh first, then the refined ones.
     pub meshes: Vec<StatementMesh>,
+    /// One entry per requested criterion, in the run's criterion order.
     pub criteria: Vec<CriterionAccuracy>,
     /// Distinct worst/best data re-solved.
     pub points: usize,
@@ -81,6 +87,7 @@ pub struct AccuracyStatement {
     pub seconds: f64,
     /// False when a cancel or the time limit cut it short (or the mesh is too large to refine).
     pub complete: bool,
+    /// How the estimates were made, in words (which data, which meshes, which estimate).
     pub method: String,
 }
 

@@ -15,10 +15,13 @@ use super::{ElasticProblem, FemError};
 /// Median timings in seconds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ElasticTimings {
+    /// Free DOFs of the benchmark problem (the order of K_ff).
     pub free_dofs: usize,
+    /// Nonzeros of the Cholesky factor L.
     pub factor_nnz: usize,
     /// Problem build without the symbolic analysis.
     pub assembly: f64,
+    /// Symbolic analysis: fill-reducing ordering and the factor pattern.
     pub symbolic: f64,
     /// Re-assembly of K for new (λ, μ) plus numeric Cholesky.
     pub numeric: f64,

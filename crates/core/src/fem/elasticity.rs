@@ -57,10 +57,12 @@ impl ElasticProblem {
         ElasticProblem::new(mesh, &Data::from_scene(scene))
     }
 
+    /// The mesh the problem was built on.
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
     }
 
+    /// The DOF map: rotated nodal bases, free and prescribed DOFs.
     pub fn dofs(&self) -> &DofMap {
         &self.dofs
     }

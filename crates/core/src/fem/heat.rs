@@ -87,6 +87,7 @@ impl HeatProblem {
         HeatProblem::new(mesh, &Data::from_scene(scene))
     }
 
+    /// The mesh the problem was built on.
     pub fn mesh(&self) -> &Mesh {
         &self.mesh
     }

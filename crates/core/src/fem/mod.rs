@@ -38,25 +38,67 @@ pub use faer::Par;
 /// Errors of the FEM layer; each names what is wrong in the user's data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum FemError {
+    /// A body's displacement and roller conditions leave rigid motions free, so K_ff cannot be
+    /// factorised without contact (design §2.3).
     #[error("body '{name}' (index {body}) is floating: its displacement and roller conditions do not remove all rigid motions")]
-    FloatingBody { body: usize, name: String },
+    FloatingBody {
+        /// Index of the body in the mesh.
+        body: usize,
+        /// The body's name in the scene.
+        name: String,
+    },
+    /// The conditions meeting at one node disagree: two different prescribed temperatures, or
+    /// a displacement along a direction that the other conditions already fix to another value.
     #[error("conflicting conditions at node {node} ({x}, {y}): {reason}")]
     ConflictingConstraints {
+        /// Index of the node in the mesh.
         node: usize,
+        /// x coordinate of the node \[m\].
         x: f64,
+        /// y coordinate of the node \[m\].
         y: f64,
+        /// Which conditions conflict.
         reason: String,
     },
+    /// A zone's material constants are unusable (μ ≤ 0 or λ + μ ≤ 0 in plane strain, κ ≤ 0) or
+    /// the material is missing.
     #[error("material {material}: {reason}")]
-    InvalidMaterial { material: usize, reason: String },
+    InvalidMaterial {
+        /// Index of the material (scene materials in name order).
+        material: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A boundary condition does not fit the mesh (unknown segment, a roller direction of zero
+    /// length, nodes without a boundary normal) or no longer has the kind the problem was built
+    /// with.
     #[error("boundary condition {index}: {reason}")]
-    InvalidBoundary { index: usize, reason: String },
+    InvalidBoundary {
+        /// Index of the condition in the scene's `boundary` list.
+        index: usize,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A connected thermal component has no prescribed temperature: the heat problem is
+    /// singular there.
     #[error("no prescribed temperature on the thermal component of node {node} (body '{body}'): the heat problem is singular")]
-    NoTemperature { node: usize, body: String },
+    NoTemperature {
+        /// A node of the component.
+        node: usize,
+        /// Name of the body that node belongs to.
+        body: String,
+    },
+    /// The numeric Cholesky factorisation met a non-positive pivot.
     #[error("the matrix is not positive definite (pivot {pivot} of the reordered system)")]
-    NotPositiveDefinite { pivot: usize },
+    NotPositiveDefinite {
+        /// Index of the failing pivot in the fill-reducing order.
+        pivot: usize,
+    },
+    /// Inconsistent arguments: arrays of the wrong length, an invalid mesh, or a factor built
+    /// for other data.
     #[error("{0}")]
     Input(String),
+    /// The sparse solver failed (ordering, symbolic analysis, memory).
     #[error("sparse solver: {0}")]
     Solver(String),
 }

@@ -285,7 +285,10 @@ impl<const NC: usize> ZonedOperator<NC> {
 /// prescribed values must use the same coefficients).
 #[derive(Debug, Clone)]
 pub struct OperatorFactor<const NC: usize> {
+    /// Zone coefficients the factor was built from (one `[f64; NC]` per zone: [λ_z, μ_z] for
+    /// elasticity, \[κ_z\] for heat).
     pub coefficients: Vec<[f64; NC]>,
+    /// The numeric Cholesky factor of K_ff(c).
     pub factor: Factor,
 }
 

@@ -18,6 +18,7 @@ const KERNEL_TOL: f64 = 1e-10;
 /// The rigid motions of a body that its supports leave free.
 #[derive(Debug, Clone)]
 pub struct RigidModes {
+    /// Index of the body in the mesh.
     pub body: usize,
     /// Rotation centre (area centroid of the body).
     pub centroid: [f64; 2],

@@ -12,7 +12,9 @@ use super::geometry::TriangleGradients;
 /// Material constants of a zone.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ZoneMaterial {
+    /// Lamé's first parameter λ \[Pa\].
     pub lambda: f64,
+    /// Shear modulus μ \[Pa\].
     pub mu: f64,
     /// Thermal stress coefficient β.
     pub beta: f64,
@@ -52,13 +54,14 @@ pub fn plane_strain_stress(m: &ZoneMaterial, strain: [f64; 3], delta_t: f64) -> 
     ]
 }
 
-/// Element strains and stresses; `thermal` is the nodal temperature and T0.
 /// The six nodal displacement components of a triangle, node-major (u₁ₓ, u₁ᵧ, u₂ₓ, …).
 pub fn element_displacements(u: &[[f64; 2]], tri: [usize; 3]) -> [f64; 6] {
     let [a, b, c] = tri;
     [u[a][0], u[a][1], u[b][0], u[b][1], u[c][0], u[c][1]]
 }
 
+/// Element strains (e11, e22, e12) and stresses (τ11, τ22, τ12, τ33) of every triangle for the
+/// nodal displacement `u`; `thermal` is the nodal temperature and T0 (ΔT is the element mean).
 pub fn element_stresses(
     mesh: &Mesh,
     gradients: &[TriangleGradients],

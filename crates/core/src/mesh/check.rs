@@ -139,8 +139,24 @@ pub(crate) fn raw_mesh(
     size: &SizeField,
     min_angle: f64,
 ) -> Result<(), SceneError> {
+    let edges = checked_connectivity(raw)?;
+    check_nodes_used(raw)?;
+    check_zone_areas(raw, geo)?;
+    let on_input = covered_input_edges(raw, pslg, geo.tol, &edges)?;
+    // Sizes and angles.
+    let h: Vec<f64> = raw.nodes.iter().map(|&p| size.at(p)).collect();
+    for t in 0..raw.triangles.len() {
+        check_edge_sizes(raw, t, &h)?;
+        check_min_angle(raw, t, pslg, &on_input, min_angle)?;
+    }
+    Ok(())
+}
+
+/// The directed edges of the raw mesh's triangles ([`connectivity`]), a defect reported as a
+/// mesher bug.
+fn checked_connectivity(raw: &RawMesh) -> Result<Rows, SceneError> {
     let nodes = &raw.nodes;
-    let edges = connectivity(nodes, &raw.triangles).map_err(|d| match d {
+    connectivity(nodes, &raw.triangles).map_err(|d| match d {
         Defect::Degenerate(t) => bug(format!(
             "triangle {t} at {:?} is flat or inverted",
             nodes[raw.triangles[t][0]]
@@ -150,7 +166,12 @@ pub(crate) fn raw_mesh(
             nodes[a], nodes[b]
         )),
         Defect::Hanging(..) => bug("a hanging node".into()),
-    })?;
+    })
+}
+
+/// Every node is a corner of some triangle.
+fn check_nodes_used(raw: &RawMesh) -> Result<(), SceneError> {
+    let nodes = &raw.nodes;
     let mut used = vec![false; nodes.len()];
     for &i in raw.triangles.iter().flatten() {
         used[i] = true;
@@ -158,10 +179,12 @@ pub(crate) fn raw_mesh(
     if let Some(n) = used.iter().position(|u| !u) {
         return Err(bug(format!("node {n} at {:?} is unused", nodes[n])));
     }
-    let is_edge = |a: usize, b: usize| {
-        edges.row(a).binary_search(&b).is_ok() || edges.row(b).binary_search(&a).is_ok()
-    };
-    // Zone areas.
+    Ok(())
+}
+
+/// The triangles of every zone cover exactly the zone polygon's area.
+fn check_zone_areas(raw: &RawMesh, geo: &Geometry) -> Result<(), SceneError> {
+    let nodes = &raw.nodes;
     let mut area = vec![0.0; geo.zones.len()];
     for (t, tri) in raw.triangles.iter().enumerate() {
         let p = tri.map(|i| nodes[i]);
@@ -176,8 +199,21 @@ pub(crate) fn raw_mesh(
             )));
         }
     }
-    // Input edges covered by mesh edges; the input edges each node lies on.
-    let tol = geo.tol;
+    Ok(())
+}
+
+/// Input edges covered by mesh edges: the nodes within `tol` of each input edge must run from
+/// its one end to the other along mesh `edges`. Returns the input edges each node lies on.
+fn covered_input_edges(
+    raw: &RawMesh,
+    pslg: &Pslg,
+    tol: f64,
+    edges: &Rows,
+) -> Result<Vec<Vec<usize>>, SceneError> {
+    let nodes = &raw.nodes;
+    let is_edge = |a: usize, b: usize| {
+        edges.row(a).binary_search(&b).is_ok() || edges.row(b).binary_search(&a).is_ok()
+    };
     let mut by_x: Vec<(f64, usize)> = nodes.iter().enumerate().map(|(i, p)| (p[0], i)).collect();
     by_x.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
     let mut on_input: Vec<Vec<usize>> = vec![Vec::new(); nodes.len()];
@@ -206,48 +242,64 @@ pub(crate) fn raw_mesh(
             on_input[i].push(k);
         }
     }
-    // Sizes and angles.
-    let h: Vec<f64> = nodes.iter().map(|&p| size.at(p)).collect();
-    for (t, tri) in raw.triangles.iter().enumerate() {
-        let p = tri.map(|i| nodes[i]);
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            let (q, r) = (p[k], p[(k + 1) % 3]);
-            let limit = h[a].min(h[b]) * SIZE_FACTOR;
-            if (q[0] - r[0]).powi(2) + (q[1] - r[1]).powi(2) > limit * limit {
-                return Err(bug(format!(
-                    "triangle {t} at {:?} is larger than mesh.max_size or the refinement asks",
-                    p[0]
-                )));
-            }
-        }
-        // Cheap test first: every corner's cosine at most cos(min_angle).
-        let cos_limit = (min_angle - 1e-6).to_radians().cos();
-        let fine = (0..3).all(|k| {
-            let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-            let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
-            let dot = u[0] * v[0] + u[1] * v[1];
-            let norms = (u[0] * u[0] + u[1] * u[1]) * (v[0] * v[0] + v[1] * v[1]);
-            dot <= 0.0 || dot * dot <= cos_limit * cos_limit * norms
-        });
-        if fine {
-            continue;
-        }
-        let angles = [0, 1, 2].map(|k| angle_at(p[k], p[(k + 1) % 3], p[(k + 2) % 3]));
-        let k = (0..3)
-            .min_by(|&i, &j| angles[i].total_cmp(&angles[j]))
-            .unwrap_or(0);
-        if angles[k] >= min_angle - 1e-6 {
-            continue;
-        }
-        let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
-        if !small_input_angle(u, w, nodes, pslg, &on_input) {
+    Ok(on_input)
+}
+
+/// No edge of triangle `t` is longer than the size field `h` allows at its end points.
+fn check_edge_sizes(raw: &RawMesh, t: usize, h: &[f64]) -> Result<(), SceneError> {
+    let tri = &raw.triangles[t];
+    let p = tri.map(|i| raw.nodes[i]);
+    for k in 0..3 {
+        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+        let (q, r) = (p[k], p[(k + 1) % 3]);
+        let limit = h[a].min(h[b]) * SIZE_FACTOR;
+        if (q[0] - r[0]).powi(2) + (q[1] - r[1]).powi(2) > limit * limit {
             return Err(bug(format!(
-                "triangle {t} at {:?} has an angle of {:.3}° (mesh.min_angle {min_angle}°) \
-                 away from any small input angle",
-                p[0], angles[k]
+                "triangle {t} at {:?} is larger than mesh.max_size or the refinement asks",
+                p[0]
             )));
         }
+    }
+    Ok(())
+}
+
+/// Every angle of triangle `t` is at least `min_angle`, unless it is caused by a small input
+/// angle ([`small_input_angle`]).
+fn check_min_angle(
+    raw: &RawMesh,
+    t: usize,
+    pslg: &Pslg,
+    on_input: &[Vec<usize>],
+    min_angle: f64,
+) -> Result<(), SceneError> {
+    let (nodes, tri) = (&raw.nodes, &raw.triangles[t]);
+    let p = tri.map(|i| nodes[i]);
+    // Cheap test first: every corner's cosine at most cos(min_angle).
+    let cos_limit = (min_angle - 1e-6).to_radians().cos();
+    let fine = (0..3).all(|k| {
+        let (a, b, c) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+        let (u, v) = ([b[0] - a[0], b[1] - a[1]], [c[0] - a[0], c[1] - a[1]]);
+        let dot = u[0] * v[0] + u[1] * v[1];
+        let norms = (u[0] * u[0] + u[1] * u[1]) * (v[0] * v[0] + v[1] * v[1]);
+        dot <= 0.0 || dot * dot <= cos_limit * cos_limit * norms
+    });
+    if fine {
+        return Ok(());
+    }
+    let angles = [0, 1, 2].map(|k| angle_at(p[k], p[(k + 1) % 3], p[(k + 2) % 3]));
+    let k = (0..3)
+        .min_by(|&i, &j| angles[i].total_cmp(&angles[j]))
+        .unwrap_or(0);
+    if angles[k] >= min_angle - 1e-6 {
+        return Ok(());
+    }
+    let (u, w) = (tri[(k + 1) % 3], tri[(k + 2) % 3]);
+    if !small_input_angle(u, w, nodes, pslg, on_input) {
+        return Err(bug(format!(
+            "triangle {t} at {:?} has an angle of {:.3}° (mesh.min_angle {min_angle}°) \
+             away from any small input angle",
+            p[0], angles[k]
+        )));
     }
     Ok(())
 }

@@ -220,13 +220,17 @@ fn locate(p: P, geo: &Geometry, scene: &Scene) -> Result<Option<usize>, SceneErr
 /// Size and quality figures of a mesh.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshStats {
+    /// Number of nodes (contact nodes counted once per body).
     pub nodes: usize,
+    /// Number of triangles.
     pub triangles: usize,
     /// Smallest interior angle \[deg\].
     pub min_angle_deg: f64,
     /// Largest circumradius / (2 × inradius) (1 for an equilateral triangle).
     pub max_aspect_ratio: f64,
+    /// Shortest edge length \[m\].
     pub min_edge: f64,
+    /// Longest edge length \[m\].
     pub max_edge: f64,
 }
 

@@ -25,6 +25,7 @@ pub use gmsh::import_gmsh;
 /// A material zone of the mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshZone {
+    /// Zone name from the scene (`bodies[].zones[].name`).
     pub name: String,
     /// Index of the body in `Mesh::bodies`.
     pub body: usize,
@@ -35,7 +36,9 @@ pub struct MeshZone {
 /// A named boundary segment resolved on the mesh.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshSegment {
+    /// Segment name from the scene (the key of `segments`).
     pub name: String,
+    /// Index of the segment's body in `Mesh::bodies`.
     pub body: usize,
     /// Nodes on the segment, ordered along its polyline.
     pub nodes: Vec<usize>,
@@ -47,6 +50,7 @@ pub struct MeshSegment {
 /// A contact zone Γ^kl: matching node pairs between body k and body l.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshContact {
+    /// Name of the contact zone from the scene.
     pub name: String,
     /// Index of body k's segment in `Mesh::segments` (the normal is outward of body k).
     pub segment_k: usize,
@@ -61,11 +65,13 @@ pub struct MeshContact {
 /// The mesh of a scene.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
+    /// Node coordinates `[x, y]` \[m\]; a node shared by two bodies appears once per body.
     pub nodes: Vec<[f64; 2]>,
     /// Triangles, counter-clockwise.
     pub triangles: Vec<[usize; 3]>,
     /// Zone of each triangle (index into `zones`).
     pub triangle_zone: Vec<usize>,
+    /// Material zones in scene order (bodies in list order, their zones in list order).
     pub zones: Vec<MeshZone>,
     /// Body names.
     pub bodies: Vec<String>,

@@ -90,6 +90,7 @@ pub fn quarter_annulus(r_in: f64, r_out: f64, nr: usize, ntheta: usize) -> Mesh 
 pub struct Lcg(u64);
 
 impl Lcg {
+    /// A generator whose stream is fixed by `seed` (XOR-ed with a constant to form the state).
     pub fn new(seed: u64) -> Lcg {
         Lcg(seed ^ 0x9E37_79B9_7F4A_7C15)
     }

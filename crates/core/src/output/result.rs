@@ -16,21 +16,22 @@ use crate::state::{
 /// Φ1–Φ6 of one solve (`None`: not requested, or the scene has no region for it).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize, utoipa::ToSchema)]
 pub struct CriteriaValues {
-    /// Mean temperature over G1 \[K\].
+    /// Φ1: largest mean temperature over the areas G_r \[K\].
     pub phi1: Option<f64>,
-    /// Max over regions of the mean temperature \[K\].
+    /// Φ2: largest mean temperature over the boundary pieces G'_r \[K\].
     pub phi2: Option<f64>,
-    /// Mean displacement along the region normal \[m\].
+    /// Φ3: largest mean displacement along n(X_r) over the areas G_r that have a normal \[m\].
     pub phi3: Option<f64>,
-    /// Max over regions of the mean normal displacement \[m\].
+    /// Φ4: largest mean displacement along n(X_r) over the boundary pieces G'_r \[m\].
     pub phi4: Option<f64>,
-    /// Mean shear-stress intensity I2² over the region \[Pa²\].
+    /// Φ5: largest mean shear-stress intensity I2² over the areas G_r \[Pa²\].
     pub phi5: Option<f64>,
-    /// Mean contact pressure over a boundary piece \[Pa\].
+    /// Φ6: largest mean normal compression −n·τ·n over the areas G_r that have a normal \[Pa\].
     pub phi6: Option<f64>,
 }
 
 impl CriteriaValues {
+    /// The values from an array in the order Φ1..Φ6 (`Criterion as usize`).
     pub fn new(values: &[Option<f64>; 6]) -> CriteriaValues {
         CriteriaValues {
             phi1: values[0],
@@ -42,6 +43,7 @@ impl CriteriaValues {
         }
     }
 
+    /// The value of one criterion.
     pub fn get(&self, criterion: Criterion) -> Option<f64> {
         [
             self.phi1, self.phi2, self.phi3, self.phi4, self.phi5, self.phi6,
@@ -52,20 +54,28 @@ impl CriteriaValues {
 /// Sizes of the mesh and the algebraic problem.
 #[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct MeshSummary {
+    /// Mesh nodes (contact nodes counted once per body).
     pub nodes: usize,
+    /// Mesh triangles.
     pub triangles: usize,
     /// Smallest interior angle \[deg\].
     pub min_angle_deg: f64,
+    /// Unknowns of the elastic problem (free displacement DOFs).
     pub unknowns: usize,
+    /// Contact node pairs over all contact zones.
     pub contact_pairs: usize,
 }
 
 /// The summary of one solve (what `wsm solve` prints).
 #[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct SolveSummary {
+    /// The scene's `name`.
     pub scene: String,
+    /// Mesh and problem sizes.
     pub mesh: MeshSummary,
+    /// The criteria Φ1–Φ6 of the solve.
     pub criteria: CriteriaValues,
+    /// Resultants and open / stick / slip counts per contact zone, in scene order.
     pub contact_zones: Vec<ZoneSummary>,
     /// Mean contact pressure over each criteria boundary piece on a contact zone \[Pa\].
     pub piece_contact_pressure: BTreeMap<String, f64>,

@@ -6,8 +6,11 @@ use std::fmt::Write;
 
 /// A named field: one value per point (or cell) with `components` numbers each.
 pub struct Field<'a> {
+    /// The `Name` of the VTK data array.
     pub name: &'a str,
+    /// Numbers per point or cell (1 for a scalar, 3 for a vector).
     pub components: usize,
+    /// The values, point- or cell-major: `components` numbers per entry.
     pub values: Vec<f64>,
 }
 

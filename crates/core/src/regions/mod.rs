@@ -24,6 +24,7 @@ const NORMAL_REACH: f64 = 3.0;
 /// An area G_r with its mean weights.
 #[derive(Debug, Clone, PartialEq)]
 pub struct AreaRegion {
+    /// Name of the region from the scene (`criteria.regions[].name`).
     pub name: String,
     /// Body holding (most of) the region; only its triangles contribute.
     pub body: usize,
@@ -45,9 +46,11 @@ pub struct AreaRegion {
 /// A boundary piece G'_r with its mean weights.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PieceRegion {
+    /// Name of the piece from the scene (`criteria.boundary_pieces[].name`).
     pub name: String,
     /// Index into `Mesh::segments`.
     pub segment: usize,
+    /// Index of the segment's body in `Mesh::bodies`.
     pub body: usize,
     /// Length of the piece \[m\].
     pub length: f64,
@@ -60,7 +63,9 @@ pub struct PieceRegion {
 /// The weights of all criteria regions of a scene.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CriteriaGeometry {
+    /// The areas G_r in scene order (`criteria.regions`).
     pub regions: Vec<AreaRegion>,
+    /// The boundary pieces G'_r in scene order (`criteria.boundary_pieces`).
     pub pieces: Vec<PieceRegion>,
 }
 

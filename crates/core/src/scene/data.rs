@@ -11,9 +11,19 @@ use super::model::{BoundaryCondition, Material, Scene, SlipLimit};
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Elastic {
     /// Young's modulus E \[Pa\] and Poisson's ratio ν.
-    Young { e: f64, nu: f64 },
+    Young {
+        /// Young's modulus E \[Pa\].
+        e: f64,
+        /// Poisson's ratio ν [-].
+        nu: f64,
+    },
     /// Lamé constants λ, μ \[Pa\].
-    Lame { lambda: f64, mu: f64 },
+    Lame {
+        /// Lamé's first parameter λ \[Pa\].
+        lambda: f64,
+        /// Shear modulus μ \[Pa\].
+        mu: f64,
+    },
 }
 
 impl Elastic {
@@ -32,13 +42,16 @@ impl Elastic {
 /// Thermal expansion as given: α (β = (3λ + 2μ)α) or β directly.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Expansion {
+    /// Linear thermal expansion α [1/K]; β = (3λ + 2μ)α.
     Alpha(f64),
+    /// Thermal stress coefficient β [Pa/K].
     Beta(f64),
 }
 
 /// Numeric data of one material.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MaterialData {
+    /// Elastic constants, (E, ν) or (λ, μ) as given.
     pub elastic: Elastic,
     /// Specific weight ρg [N/m³] (acts in −y).
     pub specific_weight: f64,
@@ -48,6 +61,7 @@ pub struct MaterialData {
     pub conductivity: f64,
     /// Heat source W [W/m³].
     pub heat_source: f64,
+    /// Thermal expansion, α or β as given (β = 0 when neither is).
     pub expansion: Expansion,
 }
 
@@ -75,12 +89,17 @@ impl MaterialData {
 /// The numbers of one boundary condition.
 #[derive(Debug, Clone, PartialEq)]
 pub enum BoundaryValue {
+    /// Prescribed displacement \[m\] per global component; `None` leaves the component free.
     Displacement([Option<f64>; 2]),
+    /// Surface traction P \[Pa\] in global x/y components.
     Traction([f64; 2]),
+    /// Normal pressure p \[Pa\]: traction −p n with n the outward normal.
     Pressure(f64),
     /// Roller with a given direction, or the segment normal when `None`.
     Roller(Option<[f64; 2]>),
+    /// Prescribed temperature T1 \[K\].
     Temperature(f64),
+    /// Prescribed inward heat flux q [W/m²].
     HeatFlux(f64),
 }
 
@@ -97,14 +116,18 @@ impl BoundaryValue {
 /// A boundary condition resolved to its segment index.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoundaryData {
+    /// Index of the segment (scene segments in name order).
     pub segment: usize,
+    /// The kind of condition and its numbers.
     pub value: BoundaryValue,
 }
 
 /// Slip limit g of a contact zone: piecewise linear in the fraction s ∈ [0, 1] of the zone.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlipData {
+    /// Knot positions, fractions 0..1 of the zone's arc length, increasing; `[0]` for a constant g.
     pub knots: Vec<f64>,
+    /// g at the knots \[Pa\].
     pub values: Vec<f64>,
 }
 
@@ -129,9 +152,13 @@ pub fn piecewise_linear(knots: &[f64], values: &[f64], s: f64) -> f64 {
 /// All numbers a solve depends on.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Data {
+    /// Numbers of each material, in name order.
     pub materials: Vec<MaterialData>,
+    /// Each boundary condition with its segment index, in list order.
     pub boundary: Vec<BoundaryData>,
+    /// Slip limit per contact zone, in list order.
     pub slip: Vec<SlipData>,
+    /// Reference temperature T0 \[K\] of the stress-free state (0 without a thermal part).
     pub reference_temperature: f64,
 }
 

@@ -20,11 +20,15 @@ use std::fmt;
 /// A scene error: the JSON path of the offending field and the reason.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneError {
+    /// JSON path of the offending field, e.g. `bodies[0].zones[1].material` (`$` for the whole
+    /// document); for run settings the request field or command-line option.
     pub path: String,
+    /// Why the field was refused.
     pub reason: String,
 }
 
 impl SceneError {
+    /// An error at `path` with `reason`.
     pub fn new(path: impl Into<String>, reason: impl Into<String>) -> SceneError {
         SceneError {
             path: path.into(),

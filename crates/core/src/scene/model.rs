@@ -60,6 +60,7 @@ pub struct Scene {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Body {
+    /// Body name, unique in the scene; segments refer to the body by it.
     pub name: String,
     /// Material zones Ω^ι_j; they must not overlap and together form the body.
     pub zones: Vec<Zone>,
@@ -69,10 +70,14 @@ pub struct Body {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Zone {
+    /// Zone name, unique in the scene (with `gmsh_file`: the physical name of the 2D entities).
     pub name: String,
     /// Name of an entry of `materials`.
     pub material: String,
+    /// Outer boundary: at least three vertices `[x, y]` \[m\], not self-intersecting; the first
+    /// point need not be repeated at the end.
     pub polygon: Vec<Point>,
+    /// Holes cut out of the zone, each a polygon like `polygon`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub holes: Vec<Vec<Point>>,
 }
@@ -84,13 +89,18 @@ pub struct Zone {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Segment {
+    /// Name of the body on whose boundary the segment lies.
     pub body: String,
+    /// Start point \[m\] of a straight segment (with `to`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from: Option<Point>,
+    /// End point \[m\] of a straight segment (with `from`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub to: Option<Point>,
+    /// Vertices \[m\] of a polyline segment, instead of `from`/`to`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<Vec<Point>>,
+    /// Whether `path` is a closed loop (its last point joins the first); default false.
     #[serde(default)]
     pub closed: bool,
 }
@@ -150,6 +160,7 @@ pub struct Material {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryCondition {
+    /// Name of the segment the condition acts on (a key of `segments`).
     pub segment: String,
     /// Prescribed displacement \[m\] per component; `null` leaves the component free.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -175,6 +186,8 @@ pub struct BoundaryCondition {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Roller {
+    /// Constrained direction d of u·d = 0 (any nonzero length); absent: the segment's averaged
+    /// outward normal.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub direction: Option<[f64; 2]>,
 }
@@ -194,9 +207,11 @@ pub enum ContactKind {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Contact {
+    /// Name of the contact zone, used in results and reports.
     pub name: String,
     /// `[segment of body k, segment of body l]`; the normal is the outward normal of body k.
     pub between: [String; 2],
+    /// `unilateral` (default) or `bilateral`.
     #[serde(default)]
     pub kind: ContactKind,
     /// Tresca slip limit g \[Pa\]; 0 means frictionless.
@@ -214,16 +229,29 @@ pub struct Contact {
 pub enum InitialGap {
     /// g0 = d²/(2R), d the distance from the touching point (a cylinder of radius R on a flat,
     /// or two cylinders with 1/R = 1/R1 + 1/R2).
-    Parabola { radius: f64, touch_at: Point },
+    Parabola {
+        /// Radius R \[m\] (> 0).
+        radius: f64,
+        /// The touching point `[x, y]` \[m\] on the contact line, where g0 = 0.
+        touch_at: Point,
+    },
     /// Piecewise linear in the arc-length fraction s ∈ [0, 1] along body k's segment.
-    PiecewiseLinear { knots: Vec<f64>, values: Vec<f64> },
+    PiecewiseLinear {
+        /// Knot positions, fractions 0..1 of the arc length along body k's segment, strictly
+        /// increasing.
+        knots: Vec<f64>,
+        /// g0 at the knots \[m\].
+        values: Vec<f64>,
+    },
 }
 
 /// Slip limit: a constant, or piecewise linear on knots given as fractions of the zone length.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum SlipLimit {
+    /// One slip limit g \[Pa\] along the whole zone (≥ 0).
     Constant(f64),
+    /// g piecewise linear in the arc-length fraction along the zone, optionally with a slope bound.
     PiecewiseLinear {
         /// Knot positions, fractions 0..1 of the arc length along body k's segment, increasing.
         knots: Vec<f64>,
@@ -276,10 +304,14 @@ fn default_min_angle() -> f64 {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Refinement {
+    /// Names of segments along which the size is lowered.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub segments: Vec<String>,
+    /// A polygon of vertices `[x, y]` \[m\] inside which the size is lowered.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub polygon: Option<Vec<Point>>,
+    /// Local maximal element edge length \[m\] (> 0); away from the refined places the size grows
+    /// linearly back to `mesh.max_size`.
     pub max_size: f64,
 }
 
@@ -299,7 +331,9 @@ pub struct CriteriaRegions {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CriterionRegion {
+    /// Region name, unique among the regions and boundary pieces.
     pub name: String,
+    /// The area G_r: a simple polygon of vertices `[x, y]` \[m\].
     pub polygon: Vec<Point>,
     /// X_r: a boundary point; the outward normal of the region's body there is n(X_r).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -313,10 +347,14 @@ pub struct CriterionRegion {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryPiece {
+    /// Piece name, unique among the regions and boundary pieces.
     pub name: String,
+    /// Name of the segment the piece lies on.
     pub segment: String,
+    /// Start point \[m\], projected onto the segment; default the segment's start.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub from: Option<Point>,
+    /// End point \[m\], projected onto the segment; default the segment's end.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub to: Option<Point>,
     /// X_r; defaults to the piece's midpoint.
@@ -331,6 +369,8 @@ pub struct Uncertain {
     /// Path of a scene number, e.g. `materials.rock.E`, `boundary[2].traction[0]`,
     /// `contacts[0].slip_limit`, `contacts[0].slip_limit.values[1]`.
     pub field: String,
+    /// `[lo, hi]` in the field's unit: finite, lo ≤ hi and within the field's sign and range rules;
+    /// lo = hi keeps the number fixed.
     pub interval: [f64; 2],
     /// Display name; defaults to `field`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -353,15 +393,22 @@ pub struct Uncertain {
 )]
 #[serde(rename_all = "lowercase")]
 pub enum Criterion {
+    /// Φ1: the largest mean temperature over the areas G_r \[K\] (needs `thermal`).
     Phi1,
+    /// Φ2: the largest mean temperature over the boundary pieces G'_r \[K\] (needs `thermal`).
     Phi2,
+    /// Φ3: the largest mean displacement along n(X_r) over the areas G_r that have a normal \[m\].
     Phi3,
+    /// Φ4: the largest mean displacement along n(X_r) over the boundary pieces G'_r \[m\].
     Phi4,
+    /// Φ5: the largest mean shear-stress intensity I2² over the areas G_r \[Pa²\].
     Phi5,
+    /// Φ6: the largest mean normal compression −n·τ·n over the areas G_r that have a normal \[Pa\].
     Phi6,
 }
 
 impl Criterion {
+    /// The six criteria in FGCS order (`criterion as usize` is the index).
     pub const ALL: [Criterion; 6] = [
         Criterion::Phi1,
         Criterion::Phi2,
@@ -371,6 +418,7 @@ impl Criterion {
         Criterion::Phi6,
     ];
 
+    /// The JSON name: `phi1` … `phi6`.
     pub fn name(self) -> &'static str {
         match self {
             Criterion::Phi1 => "phi1",
@@ -387,6 +435,7 @@ impl Criterion {
         matches!(self, Criterion::Phi1 | Criterion::Phi2)
     }
 
+    /// The criterion named `s` (`phi1` … `phi6`, case and surrounding blanks ignored), or `None`.
     pub fn parse(s: &str) -> Option<Criterion> {
         Criterion::ALL
             .into_iter()
@@ -398,11 +447,15 @@ impl Criterion {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SearchSettings {
+    /// The criteria to search, e.g. `["phi3", "phi5"]`; each gets a maximum and a minimum. A run
+    /// needs at least one, here or in its request.
     #[serde(default)]
     pub criteria: Vec<Criterion>,
     /// Maximal number of inner solves (shared by all criteria).
     #[serde(default = "default_budget")]
     pub budget: usize,
+    /// Seed of the search's random streams (default 1): the same seed gives the same result on any
+    /// thread count.
     #[serde(default = "default_seed")]
     pub seed: u64,
     /// Wall-time limit \[s\].
@@ -432,8 +485,11 @@ impl Default for SearchSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, utoipa::ToSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum SolverKind {
+    /// The direct reference solver: a Cholesky factor per body and the condensed contact QP (design
+    /// §3.1).
     #[default]
     Direct,
+    /// The domain-decomposition solver of the papers (design §3.2).
     Dd,
 }
 
@@ -441,6 +497,7 @@ pub enum SolverKind {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSettings {
+    /// Which inner solver runs the state problem (default `direct`).
     #[serde(default)]
     pub kind: SolverKind,
     /// Requested total number of subdomains for the DD solver (0 = automatic, about 800

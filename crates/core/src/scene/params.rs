@@ -20,23 +20,41 @@ use super::SceneError;
 /// The scene number an uncertain parameter varies.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParamTarget {
+    /// `materials.M.E` of material index M (name order).
     Young(usize),
+    /// `materials.M.nu`.
     Poisson(usize),
+    /// `materials.M.lambda`.
     Lambda(usize),
+    /// `materials.M.mu`.
     Mu(usize),
+    /// `materials.M.specific_weight`.
     SpecificWeight(usize),
+    /// `materials.M.body_force[c]`: (material, component).
     BodyForce(usize, usize),
+    /// `materials.M.conductivity`.
     Conductivity(usize),
+    /// `materials.M.heat_source`.
     HeatSource(usize),
+    /// `materials.M.expansion` (α).
     Expansion(usize),
+    /// `materials.M.beta`.
     Beta(usize),
+    /// `boundary[b].displacement[c]`: (condition, component).
     Displacement(usize, usize),
+    /// `boundary[b].traction[c]`: (condition, component).
     Traction(usize, usize),
+    /// `boundary[b].pressure`.
     Pressure(usize),
+    /// `boundary[b].temperature`.
     Temperature(usize),
+    /// `boundary[b].heat_flux`.
     HeatFlux(usize),
+    /// `contacts[c].slip_limit`, a constant g.
     SlipConstant(usize),
+    /// `contacts[c].slip_limit.values[k]`: (contact, knot).
     SlipKnot(usize, usize),
+    /// `thermal.reference_temperature`.
     ReferenceTemperature,
 }
 
@@ -58,9 +76,13 @@ impl ParamTarget {
 /// One resolved uncertain parameter.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
+    /// Display name: the entry's `name`, or its `field` path.
     pub name: String,
+    /// The scene number the parameter varies.
     pub target: ParamTarget,
+    /// Lower end of the interval, in the number's unit.
     pub lo: f64,
+    /// Upper end of the interval (≥ `lo`; equal when the number is fixed).
     pub hi: f64,
 }
 
