@@ -495,7 +495,7 @@ fn unbounded_objective_is_reported() {
         vec![inf, 1.0],
     );
     let r = solve_box_qp(&p, None, &QpOptions::default());
-    assert!(matches!(r, Err(QpError::Unbounded)), "{r:?}");
+    assert!(matches!(r, Err(QpError::Unbounded { .. })), "{r:?}");
 }
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -538,4 +538,54 @@ fn timings() {
             );
         }
     }
+}
+
+#[test]
+fn a_ray_through_coupled_variables_is_reported_unbounded_in_bounded_time() {
+    let inf = f64::INFINITY;
+    // C = v vᵀ + e₂ e₂ᵀ with v = (1, 1, 0): along the kernel direction p = (1, −1, 0) the
+    // objective falls by dᵀp = 1 per unit and the bounds x₀ ≥ 0, x₁ ≤ 0 never stop it (the
+    // dual of contact constraints that cannot all be met).
+    let c = Mat::from_fn(3, 3, |i, j| match (i, j) {
+        (0 | 1, 0 | 1) | (2, 2) => 1.0,
+        _ => 0.0,
+    });
+    let p = BoxQp::new(
+        c,
+        vec![1.0, 0.0, 1.0],
+        vec![0.0, -inf, 0.0],
+        vec![inf, 0.0, inf],
+    );
+    let t = Instant::now();
+    let r = solve_box_qp(&p, None, &QpOptions::default());
+    let elapsed = t.elapsed();
+    match &r {
+        Err(QpError::Unbounded { variables }) => {
+            assert!(variables.contains(&0) && variables.contains(&1), "{r:?}");
+            assert!(!variables.contains(&2), "{r:?}");
+        }
+        other => panic!("expected Unbounded, got {other:?}"),
+    }
+    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+}
+
+#[test]
+fn a_decoupled_variable_pushed_to_an_infinite_bound_is_unbounded_before_any_iteration() {
+    let inf = f64::INFINITY;
+    // Variable 1 has a zero row and column (a contact pair whose DOFs are all prescribed, with
+    // the prescribed displacements making the bodies overlap): −d₁ x₁ alone, x₁ ≥ 0.
+    let c = Mat::from_fn(2, 2, |i, j| if i == 0 && j == 0 { 2.0 } else { 0.0 });
+    let p = BoxQp::new(c, vec![1.0, 1e-3], vec![0.0, 0.0], vec![inf, inf]);
+    let r = solve_box_qp(&p, None, &QpOptions::default());
+    assert_eq!(r.unwrap_err(), QpError::Unbounded { variables: vec![1] });
+    // Opening instead of overlapping (d₁ < 0): bounded, x₁ = 0.
+    let p = BoxQp::new(
+        p.c.clone(),
+        vec![1.0, -1e-3],
+        p.lower.clone(),
+        p.upper.clone(),
+    );
+    let s = solve(&p);
+    assert_eq!(s.x[1], 0.0);
+    assert!((s.x[0] - 0.5).abs() < 1e-12, "{:?}", s.x);
 }

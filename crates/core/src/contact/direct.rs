@@ -31,6 +31,7 @@ use faer::{Mat, Par};
 use rayon::prelude::*;
 
 use super::bodies::{body_blocks, BodyBlock, BodyFactor};
+use super::feasibility::Feasibility;
 use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use crate::error::WsmError;
@@ -143,6 +144,8 @@ impl Kernel {
 #[derive(Debug, Clone)]
 pub struct DirectContact {
     pub geometry: ContactGeometry,
+    /// The pairs whose normal rows the prescribed displacements alone decide.
+    pub feasibility: Feasibility,
     kernel: Kernel,
     g: Mat<f64>,
     bodies: Vec<BodyBlock>,
@@ -248,6 +251,7 @@ impl DirectContact {
         };
         let bodies = body_blocks(elastic, &geometry, &pinned)?;
         Ok(DirectContact {
+            feasibility: Feasibility::new(&geometry, elastic.dofs()),
             geometry,
             kernel: Kernel {
                 modes: all,

@@ -4,11 +4,14 @@
 //! - `pairs`: discrete contact geometry — normals, tangents, nodal contact lengths, initial
 //!   gaps, the contact operator B on the reduced DOFs, and the multiplier bounds.
 //! - `qp`: the dense box- and equality-constrained QP in the contact multipliers.
+//! - `feasibility`: whether the prescribed displacements let the bodies meet the contact
+//!   constraints at all (pairs whose DOFs are all prescribed), on one data set and on a box.
 //! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
 
 pub(crate) mod bodies;
 pub(crate) mod direct;
+pub(crate) mod feasibility;
 pub(crate) mod pairs;
 pub mod qp;

@@ -138,6 +138,10 @@ pub struct QpOptions {
     pub sym_tol: f64,
     /// Use rayon inside the dense factorisations (leave off when solving many QPs in parallel).
     pub parallel: bool,
+    /// MPRGP iterations within which the projected gradient must halve; `None` chooses
+    /// `max(2000, 20 m)` for `m` variables. A run without such progress ends with
+    /// [`QpError::Stagnated`] (or [`QpError::Unbounded`] when the iterates follow a ray).
+    pub stagnation_window: Option<usize>,
 }
 
 impl Default for QpOptions {
@@ -148,6 +152,7 @@ impl Default for QpOptions {
             max_fallback: 200_000,
             sym_tol: 1e-10,
             parallel: false,
+            stagnation_window: None,
         }
     }
 }
@@ -238,10 +243,26 @@ pub enum QpError {
         /// `G_r x − e_r` at the point of the box closest to feasibility, for those rows.
         residuals: Vec<f64>,
     },
-    /// The objective is unbounded below on the feasible set (a kernel direction of `C` along
-    /// which `d` pushes and no bound stops).
-    #[error("QP objective is unbounded below")]
-    Unbounded,
+    /// The objective is unbounded below on the feasible set: a direction `p` with `C p = 0`,
+    /// `G p = 0`, `dᵀp > 0` that no bound stops. For the contact dual this is a Farkas
+    /// certificate that the primal constraints cannot be met (the bodies must overlap).
+    #[error("QP objective is unbounded below along variables {variables:?} (for the contact dual: the non-penetration constraints cannot all be met)")]
+    Unbounded {
+        /// The variables the ray moves, largest component first (at most 8).
+        variables: Vec<usize>,
+    },
+    /// MPRGP made no progress: its projected gradient did not halve in a window of
+    /// [`QpOptions::stagnation_window`] iterations, and the iterates do not follow a ray of
+    /// unboundedness (so the cause is conditioning, not the data).
+    #[error("QP solver stagnated: no progress in {window} MPRGP iterations (after {iterations}; projected gradient {residual:e} relative)")]
+    Stagnated {
+        /// MPRGP iterations of the run that stagnated.
+        iterations: usize,
+        /// The window without progress.
+        window: usize,
+        /// Relative projected gradient `‖g^P‖∞ / ‖d‖∞` (scaled variables) when it stopped.
+        residual: f64,
+    },
     /// Iteration caps reached (or precision stalled) before `tol`.
     #[error("QP solver did not converge after {iterations} Newton and {fallback_iterations} MPRGP iterations (KKT residual {})", residuals.max())]
     NotConverged {
@@ -264,6 +285,7 @@ pub fn solve_box_qp(
     if let Some(w) = warm {
         validate_warm(problem, w)?;
     }
+    decoupled_rays(problem)?;
     let scaled = Scaled::new(problem);
     let mut stats = pdas::Stats::default();
     if problem.n_equalities() > 0 {
@@ -271,6 +293,35 @@ pub fn solve_box_qp(
     }
     let (y0, a0) = scaled.start(warm);
     pdas::solve(problem, &scaled, y0, a0, opts, stats)
+}
+
+/// Push `|d_i|` (relative to `‖d‖∞`) of a decoupled variable still read as rounding.
+const DECOUPLED_TOL: f64 = 1e-11;
+
+/// The exact test for the rays that data make: a variable whose column of `C` and `G` is zero
+/// (a contact pair whose DOFs are all prescribed) has the objective `−d_i x_i` alone, unbounded
+/// when `d_i` pushes it towards an infinite bound. Other rays are caught by MPRGP's progress check.
+fn decoupled_rays(problem: &BoxQp) -> Result<(), QpError> {
+    let decoupled = |i: usize| {
+        problem.c.col(i).iter().all(|&v| v == 0.0) && problem.g.col(i).iter().all(|&v| v == 0.0)
+    };
+    // A push below rounding of the other entries is harmless: the KKT test accepts x_i at its
+    // start there (and the contact layer's exact check has decided such pairs already).
+    let threshold = DECOUPLED_TOL * inf_norm(&problem.d);
+    let mut rays: Vec<usize> = (0..problem.dim())
+        .filter(|&i| {
+            let d = problem.d[i];
+            ((d > threshold && problem.upper[i] == f64::INFINITY)
+                || (d < -threshold && problem.lower[i] == f64::NEG_INFINITY))
+                && decoupled(i)
+        })
+        .collect();
+    if rays.is_empty() {
+        return Ok(());
+    }
+    rays.sort_by(|&a, &b| problem.d[b].abs().total_cmp(&problem.d[a].abs()));
+    rays.truncate(8);
+    Err(QpError::Unbounded { variables: rays })
 }
 
 /// KKT residuals of `(x, alpha)` for `problem` (see [`KktResiduals`]). `alpha` may be empty when

@@ -197,6 +197,36 @@ impl DofMap {
         }
     }
 
+    /// How the prescribed displacement of `node` (global components) depends on the values of
+    /// the displacement components that constrain it: `((bc, comp), ∂u/∂value)` per source, with
+    /// `bc` the boundary condition and `comp` the component (the same 2×2 solve as
+    /// [`DofMap::fixed_values`]). Empty for an unconstrained node; rollers add nothing (their
+    /// value is 0).
+    pub fn prescribed_sources(&self, node: usize) -> Vec<((usize, usize), [f64; 2])> {
+        let Some(c) = self.constrained.iter().find(|c| c.node == node) else {
+            return Vec::new();
+        };
+        let derivatives: Vec<[f64; 2]> = match c.basis.as_slice() {
+            [a] => vec![a.dir],
+            [a, b] => {
+                let det = cross(a.dir, b.dir);
+                vec![
+                    [b.dir[1] / det, -b.dir[0] / det],
+                    [-a.dir[1] / det, a.dir[0] / det],
+                ]
+            }
+            _ => Vec::new(),
+        };
+        c.basis
+            .iter()
+            .zip(derivatives)
+            .filter_map(|(k, du)| match k.source {
+                Source::Component { bc, comp } => Some(((bc, comp), du)),
+                Source::Zero => None,
+            })
+            .collect()
+    }
+
     /// Constraint directions at `node` (global components), for rigid-motion checks.
     pub fn constraint_directions(&self, node: usize) -> Vec<[f64; 2]> {
         let [e0, e1] = self.basis[node];

@@ -19,7 +19,7 @@ mod table;
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
-pub use model::{parameter_info, PreparedModel};
+pub use model::{check_admissible_set, parameter_info, PreparedModel};
 pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use request::{SolveRequest, WorstRequest};
 pub use table::{columns as table_columns, write_csv};
@@ -41,7 +41,7 @@ use crate::estimate::mesh_choice::choose_mesh;
 use crate::estimate::statement::{default_refinements, statement, AccuracyStatement};
 use crate::fem::Par;
 use crate::scenario::evaluator::ScenarioEvaluator;
-use crate::scenario::solvability::check_balance_on_vertices;
+use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
 use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{apply, parameters, Parameter};
 use crate::scene::Scene;
@@ -295,12 +295,13 @@ impl Run<'_> {
         }
     }
 
-    /// The admissible-set checks on the box (solvability at the vertices), then the entry into
-    /// the nominal solve.
+    /// The admissible-set checks on the box (contact feasibility, solvability at the vertices),
+    /// then the entry into the nominal solve.
     fn check_box(&self, problem: &StateProblem) -> Result<ControlFlow<WorstOutcome>, WsmError> {
         if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
             return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));
         }
+        check_feasibility_on_box(problem, self.params)?;
         match check_balance_on_vertices(problem, self.params, &|| self.stop_status().is_some()) {
             Err(WsmError::Cancelled) => {
                 let status = self.stop_status().unwrap_or(Status::Cancelled);

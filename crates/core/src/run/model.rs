@@ -8,6 +8,7 @@ use super::request::WorstRequest;
 use super::run_scene;
 use crate::error::WsmError;
 use crate::scenario::evaluator::ScenarioEvaluator;
+use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
 use crate::scenario::worst::ParameterInfo;
 use crate::scene::params::{parameters, Parameter};
 use crate::scene::{Criterion, Scene};
@@ -18,6 +19,17 @@ use crate::state::StateProblem;
 pub fn parameter_info(scene: &Scene) -> Result<Vec<ParameterInfo>, WsmError> {
     let params = parameters(scene)?;
     Ok(ParameterInfo::list(scene, &params))
+}
+
+/// The admissible-set checks a search makes before any evaluation, on the scene's own mesh:
+/// every `uncertain` entry, the contact feasibility of the prescribed displacements on the whole
+/// box, and the balance of floating bodies at the vertices. The service runs them on submission,
+/// so that a job that cannot start is refused with the field instead of failing later.
+pub fn check_admissible_set(scene: &Scene) -> Result<(), WsmError> {
+    let params = parameters(scene)?;
+    let problem = StateProblem::new(scene.clone())?;
+    check_feasibility_on_box(&problem, &params)?;
+    check_balance_on_vertices(&problem, &params, &|| false)
 }
 
 /// A scene meshed and assembled for evaluations of the given criteria at points of its box.

@@ -1,5 +1,7 @@
-//! Admissible-set checks before any solve (design §4.1): the semi-coercive solvability condition
-//! (CZ Thm 1.2, D05 Thm 2.1) at the vertices of the box.
+//! Admissible-set checks before any solve (design §4.1): the primal feasibility of the contact
+//! constraints with the prescribed displacements on the whole box (in closed form, see
+//! [`crate::contact::feasibility`]), and the semi-coercive solvability condition (CZ Thm 1.2,
+//! D05 Thm 2.1) at the vertices of the box.
 //!
 //! For a floating body the condition is the existence of contact forces λ within their bounds
 //! (normal ≥ 0, |tangential| ≤ g w) with G λ = e, G = RᵀBᵀ, e = Rᵀ f: the loads must be balanced
@@ -11,6 +13,7 @@
 
 use faer::Mat;
 
+use crate::contact::feasibility::UncertainDisplacement;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
 use crate::scene::params::{apply, ParamTarget, Parameter};
@@ -30,6 +33,37 @@ fn affects_balance(target: ParamTarget) -> bool {
             | ParamTarget::SlipConstant(_)
             | ParamTarget::SlipKnot(..)
     )
+}
+
+/// Refuse the admissible set if at some vertex of the uncertain displacements the prescribed
+/// displacements alone make two bodies overlap (no admissible displacement exists there).
+pub fn check_feasibility_on_box(
+    problem: &StateProblem,
+    params: &[Parameter],
+) -> Result<(), WsmError> {
+    let uncertain: Vec<UncertainDisplacement<'_>> = params
+        .iter()
+        .enumerate()
+        .filter_map(|(index, p)| match p.target {
+            ParamTarget::Displacement(bc, comp) => Some(UncertainDisplacement {
+                index,
+                name: &p.name,
+                source: (bc, comp),
+                lo: p.lo,
+                hi: p.hi,
+            }),
+            _ => None,
+        })
+        .collect();
+    let contact = &problem.contact;
+    contact.feasibility.check_box(
+        &problem.scene,
+        problem.mesh(),
+        &contact.geometry,
+        &problem.nominal,
+        &uncertain,
+    )?;
+    Ok(())
 }
 
 /// Refuse the admissible set if some vertex leaves a floating body unbalanced. `stop` is asked

@@ -229,6 +229,9 @@ impl StateProblem {
     ) -> Result<(), WsmError> {
         let elastic = &self.elastic;
         let t0 = Instant::now();
+        self.contact
+            .feasibility
+            .check(&self.scene, self.mesh(), &self.contact.geometry, data)?;
         let coefficients = elastic.coefficients(data)?;
         report
             .warnings

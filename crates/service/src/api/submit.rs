@@ -225,6 +225,11 @@ pub async fn submit_job(
         .settings(&scene)
         .map_err(|e| ApiError::engine(e, "settings"))?;
     wsm_core::run::parameter_info(&scene).map_err(|e| ApiError::engine(e, "scene"))?;
+    let checked = scene.clone();
+    tokio::task::spawn_blocking(move || run::check_admissible_set(&checked))
+        .await
+        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
+        .map_err(|e| ApiError::engine(e, "scene"))?;
     if state.store.active_count().await? >= state.limits.max_active_jobs {
         let mut error = ApiError::new(
             StatusCode::SERVICE_UNAVAILABLE,

@@ -147,14 +147,93 @@ struct Vectors {
     ap: Vec<f64>,
 }
 
-/// Runs MPRGP from `x` until `stop(x, ‖g^P‖∞)` or `max_it` Hessian multiplications.
+/// The progress check of one MPRGP run: the projected gradient must halve within `window`
+/// iterations; `start` is the iterate when it last did (the base of the ray test).
+struct Progress {
+    window: usize,
+    since: usize,
+    reference: f64,
+    start: Vec<f64>,
+}
+
+impl Progress {
+    fn new(window: usize, x: &[f64]) -> Self {
+        Self {
+            window,
+            since: 0,
+            reference: f64::INFINITY,
+            start: x.to_vec(),
+        }
+    }
+
+    /// Records the projected gradient `gp` at iteration `its`; false when the window passed
+    /// without halving it.
+    fn advance(&mut self, its: usize, gp: f64, x: &[f64]) -> bool {
+        if gp <= 0.5 * self.reference {
+            self.reference = gp;
+            self.since = its;
+            self.start.copy_from_slice(x);
+            return true;
+        }
+        its - self.since < self.window
+    }
+}
+
+/// The MPRGP window of [`QpOptions::stagnation_window`] for `m` variables.
+fn stagnation_window(opts: &QpOptions, m: usize) -> usize {
+    opts.stagnation_window.unwrap_or((20 * m).max(2000))
+}
+
+/// Relative size of `A Δ` (to `‖A‖ ‖Δ‖∞`) below which a stalled run's drift Δ is a ray.
+const RAY_TOL: f64 = 1e-6;
+
+/// Why a run without progress stopped: [`QpError::Unbounded`] when the drift `Δ = x − start`
+/// since the last progress is a ray (`A Δ ≈ 0`, `bᵀΔ > 0`, no finite bound in its way), else
+/// [`QpError::Stagnated`].
+fn stalled(
+    op: &mut Operator<'_>,
+    b: &[f64],
+    bx: &Box<'_>,
+    x: &[f64],
+    progress: &Progress,
+    its: usize,
+    gp: f64,
+) -> QpError {
+    let delta: Vec<f64> = x.iter().zip(&progress.start).map(|(a, s)| a - s).collect();
+    let size = inf_norm(&delta);
+    let mut ad = vec![0.0; x.len()];
+    op.apply(&delta, &mut ad);
+    let norm = STEP / bx.abar;
+    let unstopped = (0..x.len()).all(|i| {
+        let moving = delta[i].abs() > 1e-8 * size;
+        !moving
+            || (delta[i] > 0.0 && bx.hi[i] == f64::INFINITY)
+            || (delta[i] < 0.0 && bx.lo[i] == f64::NEG_INFINITY)
+    });
+    if size > 0.0 && unstopped && inf_norm(&ad) <= RAY_TOL * norm * size && dot(b, &delta) > 0.0 {
+        let mut variables: Vec<usize> = (0..x.len())
+            .filter(|&i| delta[i].abs() > 1e-8 * size)
+            .collect();
+        variables.sort_by(|&i, &j| delta[j].abs().total_cmp(&delta[i].abs()));
+        variables.truncate(8);
+        return QpError::Unbounded { variables };
+    }
+    QpError::Stagnated {
+        iterations: its,
+        window: progress.window,
+        residual: gp / inf_norm(b).max(f64::MIN_POSITIVE),
+    }
+}
+
+/// Runs MPRGP from `x` until `stop(x, ‖g^P‖∞)` or `max_it` Hessian multiplications, ending
+/// with an error when the projected gradient does not halve within `window` iterations.
 /// Returns the iteration count and whether `stop` fired.
 fn mprgp(
     op: &mut Operator<'_>,
     b: &[f64],
     bx: &Box<'_>,
     x: &mut [f64],
-    max_it: usize,
+    (max_it, window): (usize, usize),
     stop: &mut dyn FnMut(&[f64], f64) -> bool,
 ) -> Result<(usize, bool), QpError> {
     let m = x.len();
@@ -168,6 +247,7 @@ fn mprgp(
     };
     exact_gradient(op, b, x, &mut v.g);
     bx.free_grad(x, &v.g, &mut v.p);
+    let mut progress = Progress::new(window, x);
     let mut its = 0;
     loop {
         bx.free_grad(x, &v.g, &mut v.phi);
@@ -178,6 +258,9 @@ fn mprgp(
         }
         if its >= max_it {
             return Ok((its, false));
+        }
+        if !progress.advance(its, gp, x) {
+            return Err(stalled(op, b, bx, x, &progress, its, gp));
         }
         its += 1;
         if dot(&v.beta, &v.beta) <= GAMMA * GAMMA * bx.reduced_dot(x, &v.phi) {
@@ -229,7 +312,7 @@ fn conjugate_or_expand(
         return Ok(());
     }
     if af == f64::INFINITY {
-        return Err(QpError::Unbounded);
+        return Err(unbounded_along(&v.p));
     }
     axpy(-af, &v.p, x);
     axpy(-af, &v.ap, &mut v.g);
@@ -239,6 +322,14 @@ fn conjugate_or_expand(
     exact_gradient(op, b, x, &mut v.g);
     bx.free_grad(x, &v.g, &mut v.p);
     Ok(())
+}
+
+/// [`QpError::Unbounded`] for an exact ray `−p` (zero curvature, no bound in the way).
+fn unbounded_along(p: &[f64]) -> QpError {
+    let mut variables: Vec<usize> = (0..p.len()).filter(|&i| p[i] != 0.0).collect();
+    variables.sort_by(|&i, &j| p[j].abs().total_cmp(&p[i].abs()));
+    variables.truncate(8);
+    QpError::Unbounded { variables }
 }
 
 /// Proportioning step along the chopped gradient (releases variables from their bounds).
@@ -251,7 +342,7 @@ fn proportion(
     let (acg, _) = cg_step(op, &v.beta, &mut v.ap, &v.g);
     let step = acg.min(bx.max_step(x, &v.beta));
     if step == f64::INFINITY {
-        return Err(QpError::Unbounded);
+        return Err(unbounded_along(&v.beta));
     }
     axpy(-step, &v.beta, x);
     axpy(-step, &v.ap, &mut v.g);
@@ -284,7 +375,8 @@ pub(super) fn phase_one(p: &Scaled, opts: &QpOptions) -> Result<usize, QpError> 
         feasible = res <= FEAS_TOL * scale;
         feasible || gp <= 1e-10 * res
     };
-    let (its, stopped) = mprgp(&mut op, &b, &bx, &mut y, opts.max_fallback, &mut stop)?;
+    let limits = (opts.max_fallback, stagnation_window(opts, m));
+    let (its, stopped) = mprgp(&mut op, &b, &bx, &mut y, limits, &mut stop)?;
     if !stopped || feasible {
         return Ok(its);
     }
@@ -357,7 +449,8 @@ pub(super) fn smalbe(
             floor
         };
         let mut stop = |_: &[f64], gp: f64| gp <= inner_tol;
-        let (n, _) = mprgp(&mut op, &b, &bx, y, opts.max_fallback - its, &mut stop)?;
+        let limits = (opts.max_fallback - its, stagnation_window(opts, m));
+        let (n, _) = mprgp(&mut op, &b, &bx, y, limits, &mut stop)?;
         its += n;
         equality_residual(p, y, &mut r);
         axpy(op.rho, &r, &mut mu);
@@ -400,5 +493,78 @@ fn scaled_gradient_scale(p: &Scaled, y: &[f64], alpha: &[f64]) -> f64 {
         s
     } else {
         1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use faer::Mat;
+
+    use super::*;
+
+    /// A Hilbert matrix (condition number ~1e16 at m = 12) with an interior solution.
+    fn hilbert(m: usize, bound: f64) -> BoxQp {
+        let c = Mat::from_fn(m, m, |i, j| 1.0 / ((i + j + 1) as f64));
+        let x: Vec<f64> = (0..m)
+            .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let mut d = vec![0.0; m];
+        symv(c.as_ref(), &x, &mut d);
+        BoxQp::new(c, d, vec![-bound; m], vec![bound; m])
+    }
+
+    #[test]
+    fn smalbe_without_progress_stops_after_one_window_with_stagnated() {
+        let problem = hilbert(12, 10.0);
+        let p = Scaled::new(&problem);
+        let (mut y, mut alpha) = p.start(None);
+        let opts = QpOptions {
+            stagnation_window: Some(10),
+            ..QpOptions::default()
+        };
+        match smalbe(&problem, &p, &mut y, &mut alpha, 1e-12, &opts) {
+            Err(QpError::Stagnated {
+                iterations, window, ..
+            }) => {
+                assert_eq!(window, 10);
+                assert!(iterations < 200, "{iterations}");
+            }
+            other => panic!("expected Stagnated, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn mprgp_following_a_ray_reports_unbounded_with_the_ray_variables() {
+        // C = e₀e₀ᵀ + v vᵀ with v = (0, 1, 1): the kernel is spanned by (0, 1, −1), d pushes
+        // along it and the bounds x₁ ≥ 0, x₂ ≤ 0 let it run. From a start off the kernel the run
+        // must end Unbounded (by the infinite-step test or by the progress window), not grind.
+        let inf = f64::INFINITY;
+        let c = Mat::from_fn(3, 3, |i, j| {
+            let vv = if i > 0 && j > 0 { 1.0 } else { 0.0 };
+            vv + if i == 0 && j == 0 { 1.0 } else { 0.0 }
+        });
+        let problem = BoxQp::new(
+            c,
+            vec![1.0, 1.0, -1.0],
+            vec![-1.0, 0.0, -inf],
+            vec![1.0, inf, 0.0],
+        );
+        let p = Scaled::new(&problem);
+        let mut y = vec![0.3, 0.2, -0.1];
+        let mut alpha = Vec::new();
+        let opts = QpOptions {
+            stagnation_window: Some(50),
+            max_fallback: 100_000,
+            ..QpOptions::default()
+        };
+        match smalbe(&problem, &p, &mut y, &mut alpha, 1e-12, &opts) {
+            Err(QpError::Unbounded { variables }) => {
+                assert!(
+                    variables.contains(&1) && variables.contains(&2),
+                    "{variables:?}"
+                );
+            }
+            other => panic!("expected Unbounded, got {other:?}"),
+        }
     }
 }
