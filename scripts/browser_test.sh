@@ -41,11 +41,12 @@ fi
 
 WORK=$(mktemp -d -t wsm-browser-XXXXXX)
 SERVER_PID=
+FAULT_PID=
 cleanup() {
-    if [[ -n $SERVER_PID ]]; then
-        kill "$SERVER_PID" 2>/dev/null || true
-        wait "$SERVER_PID" 2>/dev/null || true
-    fi
+    for pid in $SERVER_PID $FAULT_PID; do
+        kill "$pid" 2>/dev/null || true
+        wait "$pid" 2>/dev/null || true
+    done
     rm -rf "$WORK"
 }
 trap cleanup EXIT
@@ -75,8 +76,21 @@ if [[ -z $URL ]]; then
 fi
 echo "browser_test: wsm serve at $URL (pid $SERVER_PID)"
 
+# A second server whose evaluations fail above a traction (the failure-reporting test).
+env -u WSM_API_TOKEN "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/faults.db" --workers 1 \
+    --threads-per-job 1 --inject-failures 'boundary[2].traction[0]=350000' \
+    >"$WORK/faults.out" 2>"$ARTIFACTS/faults-server.log" &
+FAULT_PID=$!
+FAULT_URL=
+for _ in $(seq 1 100); do
+    FAULT_URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/faults.out" | head -n 1)
+    [[ -n $FAULT_URL ]] && break
+    sleep 0.1
+done
+echo "browser_test: failure-injecting wsm serve at ${FAULT_URL:-?} (pid $FAULT_PID)"
+
 set +e
-WSM_URL=$URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
+WSM_URL=$URL WSM_FAULT_URL=$FAULT_URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
     tests/browser/test_dashboard.py 2>&1 | tee "$ARTIFACTS/pytest.log"
 STATUS=${PIPESTATUS[0]}
 set -e

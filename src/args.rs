@@ -10,6 +10,7 @@ use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
 use wsm_core::scene::SolverKind;
 use wsm_service::api::Limits;
+use wsm_service::jobs::runner::FaultRule;
 use wsm_service::server::{ServeConfig, WorkerConfig};
 use wsm_study::accuracy::AccuracyOptions;
 
@@ -164,6 +165,22 @@ pub struct ServeArgs {
     /// Largest request body [bytes].
     #[arg(long, default_value_t = 4 << 20)]
     pub max_body_bytes: usize,
+    /// For the end-to-end tests of failure reporting only: `FIELD=VALUE` makes every
+    /// evaluation whose uncertain FIELD exceeds VALUE fail. Hidden from the help.
+    #[arg(long, hide = true, value_parser = parse_fault_rule)]
+    pub inject_failures: Option<FaultRule>,
+}
+
+/// `FIELD=VALUE` of `--inject-failures`.
+fn parse_fault_rule(text: &str) -> Result<FaultRule, String> {
+    let (field, value) = text
+        .rsplit_once('=')
+        .ok_or_else(|| "expected FIELD=VALUE".to_string())?;
+    let above = value.parse::<f64>().map_err(|e| format!("VALUE: {e}"))?;
+    Ok(FaultRule {
+        field: field.to_string(),
+        above,
+    })
 }
 
 impl From<ServeArgs> for ServeConfig {
@@ -182,6 +199,7 @@ impl From<ServeArgs> for ServeConfig {
                 max_body_bytes: args.max_body_bytes,
                 ..Limits::default()
             },
+            inject_failures: args.inject_failures,
             token: std::env::var("WSM_API_TOKEN")
                 .ok()
                 .filter(|t| !t.is_empty()),

@@ -296,5 +296,40 @@ def test_narrow_screen(page):
     page.set_viewport_size({"width": 1280, "height": 800})
 
 
+def test_failed_evaluations_are_shown(page):
+    """A job on the failure-injecting server: the count in the progress line, the table of
+    failed points with their errors, the count in the statistics, the warning, unsettled status."""
+    fault = os.environ.get("WSM_FAULT_URL", "").rstrip("/")
+    assert fault, "scripts/browser_test.sh starts the failure-injecting server"
+    body = {"example": "block-on-base",
+            "settings": {"criteria": ["phi3", "phi6"], "budget": 60, "seed": 5,
+                         "accuracy_refinements": 0}}
+    response = page.request.post(fault + "/v1/jobs", data=json.dumps(body),
+                                 headers={"content-type": "application/json"})
+    assert response.status == 202, response.text()
+    job_id = response.json()["id"]
+    deadline = time.time() + 120
+    while True:
+        status = page.request.get(f"{fault}/v1/jobs/{job_id}").json()
+        if status["state"] in ("succeeded", "failed", "cancelled"):
+            break
+        assert time.time() < deadline, status
+        time.sleep(0.3)
+    assert status["state"] == "succeeded", status
+    result = page.request.get(f"{fault}/v1/jobs/{job_id}/result").json()
+    failures = result["failures"]
+    assert failures["count"] > 0 and status["failures"] == failures["count"], (status, failures)
+    assert result["warnings"][0].startswith(f"{failures['count']} of {result['evaluations']} evaluations failed")
+    page.goto(f"{fault}/#/jobs/{job_id}")
+    expect(page.locator("#failures-section")).to_be_visible()
+    expect(page.locator("#failures-table tbody tr")).to_have_count(len(failures["listed"]))
+    expect(page.locator("#failures-table tbody tr").first).to_contain_text("injected failure")
+    expect(page.locator("#stat-failures")).to_have_attribute("data-value", str(failures["count"]))
+    expect(page.locator("#job-progress-text")).to_contain_text(f"{failures['count']} failed")
+    expect(page.locator("#failures-summary")).to_contain_text("unsettled")
+    shot(page, "11-failed-evaluations")
+    page.goto(BASE + "/#/")
+
+
 def test_no_console_errors(page):
     assert STATE["errors"] == [], "\n".join(STATE["errors"])

@@ -47,6 +47,17 @@ pub enum WsmError {
     /// The outer search could not run.
     #[error("search: {0}")]
     Search(#[from] SearchError),
+    /// More than half of a run's evaluations have no state solution: the result would say
+    /// nothing reliable, so the run ends with this error (every evaluation stays in the log).
+    #[error("{failed} of {evaluations} evaluations failed, so the search cannot answer; first error: {first}")]
+    EvaluationsFailed {
+        /// Failed evaluations.
+        failed: usize,
+        /// All evaluations of the run.
+        evaluations: usize,
+        /// The first failure's error.
+        first: String,
+    },
     /// The work was cancelled before it had anything to report.
     #[error("cancelled")]
     Cancelled,
@@ -89,7 +100,9 @@ impl WsmError {
                 FemError::NotPositiveDefinite { .. } | FemError::Solver(_) => ErrorKind::Solver,
                 _ => ErrorKind::BadInput,
             },
-            WsmError::Unbalanced { .. } | WsmError::UnbalancedMode { .. } => ErrorKind::Unsolvable,
+            WsmError::Unbalanced { .. }
+            | WsmError::UnbalancedMode { .. }
+            | WsmError::EvaluationsFailed { .. } => ErrorKind::Unsolvable,
             WsmError::Solver { .. } | WsmError::Search(_) => ErrorKind::Solver,
             WsmError::Cancelled => ErrorKind::Cancelled,
             WsmError::NotFound { .. } => ErrorKind::NotFound,

@@ -117,6 +117,8 @@ pub struct Progress {
     pub phase: Phase,
     /// Best criterion value so far per objective (`None` while nothing feasible was found).
     pub best: Vec<Option<f64>>,
+    /// Of `evaluations`, how many failed (no criteria vector).
+    pub failures: usize,
 }
 
 /// Cancellation flag and progress callback. Cancellation is honoured between batches.
@@ -165,6 +167,10 @@ pub enum Status {
     BudgetExhausted,
     /// `max_seconds` elapsed.
     TimeLimit,
+    /// Failed evaluations lie closer to the best point than the search resolves (set by the
+    /// caller that knows the failures): the extremum may be among them, so the value is not
+    /// settled.
+    Unsettled,
     /// The cancel flag was raised.
     Cancelled,
 }

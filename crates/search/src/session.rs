@@ -44,6 +44,8 @@ struct Ledger<'a> {
     /// Physical-point bits → index into `trace`.
     seen: HashMap<Vec<u64>, usize>,
     trace: Vec<Visit>,
+    /// Visits without a criteria vector.
+    failed: usize,
     fresh: usize,
     phase: Phase,
     /// Per objective: trace index of the best point.
@@ -97,6 +99,7 @@ impl<'a> Session<'a> {
                 cache,
                 seen: HashMap::new(),
                 trace: Vec::new(),
+                failed: 0,
                 fresh: 0,
                 phase: Phase::Screening,
                 best: vec![None; objectives.len()],
@@ -228,6 +231,7 @@ impl<'a> Session<'a> {
             best: (0..self.objectives.len())
                 .map(|k| self.best_in(ledger, k).map(|(_, v)| v))
                 .collect(),
+            failures: ledger.failed,
         }
     }
 
@@ -275,6 +279,7 @@ impl<'a> Session<'a> {
                 ledger.history[k].push((index + 1, value));
             }
         }
+        ledger.failed += usize::from(criteria.is_none());
         ledger.trace.push(Visit { unit, criteria });
     }
 

@@ -6,7 +6,7 @@
 use std::sync::Arc;
 
 use crate::api::{AppState, Limits};
-use crate::jobs::runner::{spawn_workers, Live, RunnerConfig};
+use crate::jobs::runner::{spawn_workers, FaultRule, Live, RunnerConfig};
 use crate::jobs::sql::SqlStore;
 use crate::jobs::JobStore;
 use wsm_core::error::WsmError;
@@ -23,6 +23,8 @@ pub struct ServeConfig {
     pub limits: Limits,
     /// Bearer token for mutating endpoints (from the environment; never logged).
     pub token: Option<String>,
+    /// Fail evaluations on purpose (tests of failure handling only).
+    pub inject_failures: Option<FaultRule>,
 }
 
 /// Settings of `wsm worker`.
@@ -90,6 +92,7 @@ pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
             threads_per_job: config.threads,
             lease_seconds: config.lease_seconds,
             owner,
+            inject_failures: None,
         },
     );
     shutdown().await;
@@ -110,6 +113,7 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
                 threads_per_job: config.threads_per_job,
                 lease_seconds: config.lease_seconds,
                 owner: owner_name("serve"),
+                inject_failures: config.inject_failures.clone(),
             },
         );
     }

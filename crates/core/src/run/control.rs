@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::log::EvaluationLog;
 use super::remote::BatchDispatch;
+use crate::scenario::evaluator::EvaluationFault;
 use crate::scene::Criterion;
 use wsm_search::{Phase, Progress, Sense};
 
@@ -49,6 +50,9 @@ pub struct ProgressEvent {
     pub objective: Option<BestSoFar>,
     /// Distinct points evaluated so far (including replayed ones).
     pub evaluations: usize,
+    /// Of `evaluations`, how many failed (the inner solver's error is in the log).
+    #[serde(default)]
+    pub failures: usize,
     pub budget: usize,
     pub best: Vec<BestSoFar>,
     /// Since the run started \[s\].
@@ -68,6 +72,8 @@ pub struct RunControl {
     pub log: Option<Arc<dyn EvaluationLog>>,
     /// Where evaluation batches are computed when not here (other worker processes).
     pub dispatch: Option<Arc<dyn BatchDispatch>>,
+    /// For tests of failure handling: evaluations made here fail where it answers.
+    pub fault: Option<Arc<EvaluationFault>>,
 }
 
 impl RunControl {
@@ -90,6 +96,12 @@ impl RunControl {
 
     pub fn with_dispatch(mut self, dispatch: Arc<dyn BatchDispatch>) -> Self {
         self.dispatch = Some(dispatch);
+        self
+    }
+
+    /// Fail the evaluations at the points where `fault` answers (tests of failure handling).
+    pub fn with_fault(mut self, fault: Arc<EvaluationFault>) -> Self {
+        self.fault = Some(fault);
         self
     }
 

@@ -223,6 +223,7 @@ impl Run<'_> {
             phase,
             objective: None,
             evaluations,
+            failures: 0,
             budget: self.settings.budget,
             best: Vec::new(),
             elapsed_seconds: self.start.elapsed().as_secs_f64(),
@@ -257,7 +258,10 @@ impl Run<'_> {
             return Ok(stopped);
         }
         let observer = |evaluations: &[Evaluation]| self.record(evaluations);
-        let evaluator = model.evaluator()?.observed_by(&observer);
+        let evaluator = model
+            .evaluator()?
+            .observed_by(&observer)
+            .with_fault(self.control.fault.as_deref());
         if let Some(status) = self.stop_status() {
             return Ok(self.unstarted(&problem.scene, status));
         }
@@ -383,7 +387,12 @@ impl Run<'_> {
         mesh_choice: Option<MeshChoice>,
     ) -> Result<(), WsmError> {
         outcome.setup_seconds = problem.setup_seconds;
+        outcome.failures.check_majority(outcome.evaluations)?;
         outcome.warnings = self.warnings(problem, outcome)?;
+        let names: Vec<String> = outcome.parameters.iter().map(|p| p.name.clone()).collect();
+        if let Some(warning) = outcome.failures.warning(outcome.evaluations, &names) {
+            outcome.warnings.insert(0, warning);
+        }
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
             outcome.accuracy = self.accuracy(problem, outcome)?;
         }
@@ -391,8 +400,9 @@ impl Run<'_> {
             outcome.warnings.extend(target_warnings(choice, outcome));
         }
         outcome.mesh_choice = mesh_choice;
-        self.control
-            .report(&self.event(RunPhase::Finished, outcome.evaluations));
+        let mut finished = self.event(RunPhase::Finished, outcome.evaluations);
+        finished.failures = outcome.failures.count;
+        self.control.report(&finished);
         Ok(())
     }
 
@@ -473,6 +483,7 @@ impl Run<'_> {
             phase: RunPhase::of(progress.phase),
             objective,
             evaluations: progress.evaluations,
+            failures: progress.failures,
             budget: progress.budget,
             best,
             elapsed_seconds: self.start.elapsed().as_secs_f64(),

@@ -83,6 +83,10 @@ pub struct InnerSummary {
 /// Sees the evaluations of every batch (the evaluation log of a run).
 pub type Observer<'a> = dyn Fn(&[Evaluation]) + Sync + 'a;
 
+/// A fault injector, for tests of how runs handle failures: at a point where it answers
+/// `Some(reason)` the evaluation fails with that reason instead of solving.
+pub type EvaluationFault = dyn Fn(&[f64]) -> Option<String> + Send + Sync;
+
 /// The criteria of a scene as a black box for the search.
 pub struct ScenarioEvaluator<'a> {
     problem: &'a StateProblem,
@@ -92,6 +96,7 @@ pub struct ScenarioEvaluator<'a> {
     warm: Option<WarmStart>,
     stats: InnerStats,
     observer: Option<&'a Observer<'a>>,
+    fault: Option<&'a EvaluationFault>,
 }
 
 impl<'a> ScenarioEvaluator<'a> {
@@ -110,6 +115,7 @@ impl<'a> ScenarioEvaluator<'a> {
             warm: None,
             stats: InnerStats::default(),
             observer: None,
+            fault: None,
         };
         if needs.elastic && problem.contact.geometry.dim() > 0 {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
@@ -121,6 +127,12 @@ impl<'a> ScenarioEvaluator<'a> {
     /// Call `observer` with the evaluations of every batch, in input order, once it is done.
     pub fn observed_by(mut self, observer: &'a Observer<'a>) -> Self {
         self.observer = Some(observer);
+        self
+    }
+
+    /// Fail the evaluations where `fault` answers (see [`EvaluationFault`]).
+    pub fn with_fault(mut self, fault: Option<&'a EvaluationFault>) -> Self {
+        self.fault = fault;
         self
     }
 
@@ -147,7 +159,10 @@ impl<'a> ScenarioEvaluator<'a> {
             self.params,
             theta,
         );
-        let result = self.problem.solve(&data, &self.options(Par::Seq));
+        let result = match self.fault.and_then(|fault| fault(theta)) {
+            Some(reason) => Err(WsmError::contact(reason)),
+            None => self.problem.solve(&data, &self.options(Par::Seq)),
+        };
         let seconds = start.elapsed().as_secs_f64();
         self.stats
             .nanos

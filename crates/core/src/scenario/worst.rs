@@ -3,7 +3,7 @@
 //! with the physics evaluator of `evaluator`, and assembles the outcome: worst and best value and
 //! data per criterion, sensitivities, history, and the inner-solver statistics.
 //!
-//! The phases before the search (meshing, the admissible-set check of `admissible`, the nominal
+//! The phases before the search (meshing, the admissible-set checks of `solvability`, the nominal
 //! solve) are run by the caller (`crate::run`), which reports them as progress.
 
 use std::time::Instant;
@@ -11,6 +11,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::evaluator::InnerSummary;
+use super::failures::FailureSummary;
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::MeshChoice;
 use crate::estimate::statement::{AccuracyStatement, Extrema};
@@ -122,7 +123,12 @@ pub struct WorstOutcome {
     /// How the mesh was chosen for the request's `target_error` (absent without one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mesh_choice: Option<MeshChoice>,
-    /// Warnings about the results, e.g. P1 locking at worst or best data with ν ≥ 0.49.
+    /// The evaluations without a state solution: count, the part of the box they cover, the
+    /// first of them with their errors.
+    #[serde(default)]
+    pub failures: FailureSummary,
+    /// Warnings about the results: failed evaluations, P1 locking at worst or best data with
+    /// ν ≥ 0.49, a target error not met.
     #[serde(default)]
     pub warnings: Vec<String>,
 }
@@ -172,6 +178,7 @@ impl WorstOutcome {
             },
             accuracy: None,
             mesh_choice: None,
+            failures: FailureSummary::default(),
             warnings: Vec::new(),
         }
     }
@@ -211,7 +218,7 @@ pub fn run(
     };
     let result = search(&search_problem, evaluator, cache, control)?;
     let mut objectives = result.objectives.into_iter();
-    let criteria = settings
+    let mut criteria: Vec<CriterionOutcome> = settings
         .criteria
         .iter()
         .filter_map(|&criterion| {
@@ -222,6 +229,8 @@ pub fn run(
             })
         })
         .collect();
+    let failures = FailureSummary::from_cache(cache);
+    failures.unsettle(&mut criteria, &search_problem.bounds, settings.budget);
     let wall = start.elapsed().as_secs_f64();
     let inner = inner();
     Ok(WorstOutcome {
@@ -241,6 +250,7 @@ pub fn run(
         inner,
         accuracy: None,
         mesh_choice: None,
+        failures,
         warnings: Vec::new(),
     })
 }

@@ -34,6 +34,8 @@ pub struct JobStatus {
     pub criteria: Vec<String>,
     /// Distinct points evaluated so far (stored evaluations while running).
     pub evaluations: usize,
+    /// Of `evaluations`, how many failed (listed in the result's `failures`).
+    pub failures: usize,
     pub budget: usize,
     /// Best value so far per objective (max and min of each criterion).
     pub best: Vec<BestSoFar>,
@@ -69,6 +71,11 @@ impl JobStatus {
             .result
             .as_ref()
             .map_or(job.evaluations, |o| o.evaluations);
+        let failures = match (&job.result, &job.progress) {
+            (Some(outcome), _) => outcome.failures.count,
+            (None, Some(p)) => p.failures,
+            (None, None) => 0,
+        };
         let eta = (job.state == JobState::Running && evaluations > 0)
             .then(|| elapsed * job.budget.saturating_sub(evaluations) as f64 / evaluations as f64);
         JobStatus {
@@ -78,6 +85,7 @@ impl JobStatus {
             scene: job.scene_name.clone(),
             criteria: job.criteria.clone(),
             evaluations,
+            failures,
             budget: job.budget,
             best,
             created_at: job.created_at,

@@ -32,6 +32,37 @@ pub struct RunnerConfig {
     pub lease_seconds: f64,
     /// This process's name in leases and evaluations.
     pub owner: String,
+    /// Fail evaluations on purpose (tests of failure handling; `wsm serve --inject-failures`).
+    pub inject_failures: Option<FaultRule>,
+}
+
+/// The evaluations of every job whose uncertain `field` exceeds `above` fail (an injected fault,
+/// for the end-to-end tests of how failures are reported).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultRule {
+    /// The `uncertain` entry's field path.
+    pub field: String,
+    /// Values above this fail.
+    pub above: f64,
+}
+
+impl FaultRule {
+    /// The fault of a job's run, when its scene has the field among its uncertain data.
+    fn fault_for(
+        &self,
+        scene: &wsm_core::scene::Scene,
+    ) -> Option<Arc<wsm_core::scenario::evaluator::EvaluationFault>> {
+        let k = scene.uncertain.iter().position(|u| u.field == self.field)?;
+        let rule = self.clone();
+        Some(Arc::new(move |theta: &[f64]| {
+            (theta[k] > rule.above).then(|| {
+                format!(
+                    "injected failure: {} = {} > {}",
+                    rule.field, theta[k], rule.above
+                )
+            })
+        }))
+    }
 }
 
 /// Jobs running in this process: their cancel flags.
@@ -218,8 +249,14 @@ async fn run_job(
                 request.threads = config.threads_per_job;
             }
             let scene_text = job.scene.clone();
+            let rule = config.inject_failures.clone();
             let task = tokio::task::spawn_blocking(move || {
                 let scene = wsm_core::scene::parse(&scene_text)?;
+                let fault = rule.as_ref().and_then(|r| r.fault_for(&scene));
+                let control = match fault {
+                    Some(fault) => control.with_fault(fault),
+                    None => control,
+                };
                 run::worst(scene, &request, &control)
             });
             match task.await {

@@ -146,8 +146,10 @@ function onStatus(s) {
   const progress = $("job-progress");
   progress.max = s.budget;
   progress.value = Math.min(s.evaluations, s.budget);
-  $("job-progress-text").textContent = `${s.evaluations} / ${s.budget} evaluations · ${PHASES[s.phase] || s.phase}`;
+  const failed = s.failures ? ` · ${s.failures} failed` : "";
+  $("job-progress-text").textContent = `${s.evaluations} / ${s.budget} evaluations${failed} · ${PHASES[s.phase] || s.phase}`;
   $("job-progress-text").dataset.evaluations = s.evaluations;
+  $("job-progress-text").dataset.failures = s.failures || 0;
   facts($("job-facts"), [
     ["Phase", PHASES[s.phase] || s.phase],
     ["Criteria", s.criteria.map((c) => CRITERIA[c] || c).join(", ")],
@@ -224,6 +226,7 @@ async function loadFinished(id, gen) {
     if (!here()) return;
   }
   dataTables(result);
+  failureTable(result);
   statistics(result);
   const names = result.criteria.map((c) => c.criterion);
   for (const sel of [$("mesh-criterion"), $("sens-criterion")]) {
@@ -292,6 +295,24 @@ function dataTables(result) {
   $("data-tables").replaceChildren(...blocks);
 }
 
+/** The failed evaluations of a result: where in the box the solver gave no answer, and why. */
+function failureTable(result) {
+  const f = result.failures || { count: 0, listed: [] };
+  const section = $("failures-section");
+  section.hidden = f.count === 0;
+  if (f.count === 0) return;
+  const shown = f.listed.length < f.count ? ` (the first ${f.listed.length} listed)` : "";
+  $("failures-summary").textContent = `${f.count} of ${result.evaluations} evaluations failed${shown}. ` +
+    "The worst or best may lie where the solver gave no answer; objectives with a failure next to their best point have the status “unsettled”.";
+  $("failures-table").replaceChildren(
+    el("thead", {}, el("tr", {}, el("th", { scope: "col" }, "#"),
+      ...result.parameters.map((p) => el("th", { scope: "col", class: "num" }, p.name)),
+      el("th", { scope: "col" }, "Error"))),
+    el("tbody", {}, ...f.listed.map((e, i) => el("tr", {}, el("td", { class: "num" }, String(i + 1)),
+      ...e.point.map((x) => el("td", { class: "num" }, num(x, 6))),
+      el("td", { class: "error-text" }, e.error)))));
+}
+
 const INNER_LABELS = {
   solves: "State solves", failures: "Failed solves", factorisations: "Factorisations",
   reused_factorisations: "Reused factorisations", elastic_solves: "Elastic solves", heat_solves: "Heat solves",
@@ -303,6 +324,7 @@ function statistics(r) {
   const pairs = [
     ["Status", r.status],
     ["Evaluations (new)", `${r.evaluations} (${r.new_evaluations})`, { id: "stat-evaluations", "data-value": String(r.evaluations) }],
+    ["Failed evaluations", String((r.failures || {}).count || 0), { id: "stat-failures", "data-value": String((r.failures || {}).count || 0) }],
     ["Budget", String(r.budget)],
     ["Wall time", duration(r.wall_seconds)],
     ["Setup time", duration(r.setup_seconds)],
