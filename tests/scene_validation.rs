@@ -261,3 +261,22 @@ fn dd_partition_polygon_must_be_finite() {
         "solver.partition[1]",
     );
 }
+
+#[test]
+fn phi4_piece_on_the_dirichlet_boundary() {
+    // FGCS 4.32: Φ4 averages u·n over pieces off Γu; 'bottom' has a prescribed displacement.
+    refused(
+        |s| {
+            s["criteria"]["boundary_pieces"][0]["segment"] = json!("bottom");
+            s["criteria"]["boundary_pieces"][0]["from"] = json!([0.5, 0.0]);
+            s["criteria"]["boundary_pieces"][0]["to"] = json!([1.5, 0.0]);
+            s["search"]["criteria"] = json!(["phi4"]);
+        },
+        "criteria.boundary_pieces[0].segment",
+    );
+    // The same piece is fine when Φ4 is not requested.
+    let mut scene = base();
+    scene["criteria"]["boundary_pieces"][0]["segment"] = json!("bottom");
+    scene["search"]["criteria"] = json!(["phi3"]);
+    parse(&scene.to_string()).unwrap();
+}

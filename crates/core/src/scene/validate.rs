@@ -531,6 +531,26 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// Φ4 is the mean normal displacement over boundary pieces off Γu (FGCS 4.32): on a segment with
+/// a prescribed displacement or a roller it would only echo the data.
+fn pieces_off_dirichlet(scene: &Scene) -> Result<(), SceneError> {
+    for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
+        let prescribing = scene.boundary.iter().position(|b| {
+            b.segment == piece.segment && (b.displacement.is_some() || b.roller.is_some())
+        });
+        if let Some(i) = prescribing {
+            return Err(SceneError::new(
+                format!("criteria.boundary_pieces[{r}].segment"),
+                format!(
+                    "phi4 needs boundary pieces off the Dirichlet boundary Γu (FGCS 4.32), but segment '{}' carries boundary[{i}], which prescribes its displacement",
+                    piece.segment
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn check_search(scene: &Scene) -> Result<(), SceneError> {
     for (k, c) in scene.search.criteria.iter().enumerate() {
         let path = format!("search.criteria[{k}]");
@@ -568,6 +588,9 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
         }
         if *c == Criterion::Phi6 && scene.contacts.is_empty() {
             return Err(SceneError::new(path, "phi6 needs a contact zone"));
+        }
+        if *c == Criterion::Phi4 {
+            pieces_off_dirichlet(scene)?;
         }
     }
     if scene.search.budget == 0 {
