@@ -37,13 +37,28 @@ pub enum WsmError {
     Fem(#[from] FemError),
     /// A body has no support at all.
     #[error("body '{body}' cannot be balanced: {reason}")]
-    Unbalanced { body: String, reason: String },
+    Unbalanced {
+        /// The body's name in the scene.
+        body: String,
+        /// Why it is unsupported (e.g. no displacement or roller condition and no contact zone).
+        reason: String,
+    },
     /// The semi-coercive solvability condition fails (CZ Thm 1.2, D05 Thm 2.1).
     #[error("body '{body}' cannot be balanced by contact and friction: the loads drive a rigid {motion} that the contact zones cannot hold")]
-    UnbalancedMode { body: String, motion: String },
+    UnbalancedMode {
+        /// The floating body's name in the scene.
+        body: String,
+        /// The rigid motion (translation and/or rotation) the loads drive, in words.
+        motion: String,
+    },
     /// An inner solver failed on admissible data.
     #[error("{stage}: {reason}")]
-    Solver { stage: SolverStage, reason: String },
+    Solver {
+        /// The inner solver that failed.
+        stage: SolverStage,
+        /// The solver's account of the failure (e.g. the KKT residuals that missed the tolerance).
+        reason: String,
+    },
     /// The outer search could not run.
     #[error("search: {0}")]
     Search(#[from] SearchError),
@@ -63,17 +78,30 @@ pub enum WsmError {
     Cancelled,
     /// A named thing (a bundled example, a job) does not exist.
     #[error("no {what} '{name}'")]
-    NotFound { what: &'static str, name: String },
+    NotFound {
+        /// The kind of thing looked up, e.g. `"bundled example"`.
+        what: &'static str,
+        /// The name that was not found.
+        name: String,
+    },
     /// An evaluation log belongs to another scene or other settings.
     #[error("the log {path} belongs to another run: its hash is {found}, this run's is {expected} (scene or criteria differ)")]
     LogMismatch {
+        /// The log's file path (`job <id>` for a service job's stored evaluations).
         path: String,
+        /// This run's hash (64 hex digits, `run::run_hash`).
         expected: String,
+        /// The hash recorded in the log.
         found: String,
     },
     /// Reading or writing a file (or another store), or encoding a result.
     #[error("{path}: {reason}")]
-    Io { path: String, reason: String },
+    Io {
+        /// The file path or store that failed.
+        path: String,
+        /// The underlying error's message.
+        reason: String,
+    },
 }
 
 /// The class of an error, for status codes and exit codes.
@@ -85,13 +113,16 @@ pub enum ErrorKind {
     Unsolvable,
     /// A solver or the search failed on valid input (a defect or a numerical breakdown).
     Solver,
+    /// The work was cancelled before it had a result: HTTP 409, exit code 6.
     Cancelled,
+    /// A named example or job does not exist: HTTP 404, exit code 2.
     NotFound,
     /// Files, stores, logs of other runs.
     Io,
 }
 
 impl WsmError {
+    /// The error's class, from which callers derive the HTTP status and the exit code.
     pub fn kind(&self) -> ErrorKind {
         match self {
             WsmError::Scene(_) => ErrorKind::BadInput,

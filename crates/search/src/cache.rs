@@ -19,6 +19,7 @@ fn key(point: &[f64]) -> Vec<u64> {
 }
 
 impl EvalCache {
+    /// An empty cache.
     pub fn new() -> Self {
         Self::default()
     }
@@ -45,10 +46,12 @@ impl EvalCache {
         self.entries.iter().map(|(p, o)| (p.as_slice(), o))
     }
 
+    /// The number of distinct points stored.
     pub fn len(&self) -> usize {
         self.entries.len()
     }
 
+    /// Whether no point is stored.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }

@@ -24,6 +24,8 @@
 //! seed whatever the thread count: the evaluator returns results in input order and nothing
 //! depends on completion order.
 
+#![warn(missing_docs)]
+
 mod cache;
 mod cost;
 mod driver;
@@ -68,14 +70,18 @@ pub const CHUNK_PER_THREAD: usize = 2;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Sense {
+    /// Find the largest value (JSON `"max"`).
     Max,
+    /// Find the smallest value (JSON `"min"`).
     Min,
 }
 
 /// One extremum to find: `sense` of the criterion at index `criterion` of the criteria vector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Objective {
+    /// Index into the criteria vector that [`Evaluator::evaluate`] returns.
     pub criterion: usize,
+    /// Whether that criterion is maximised or minimised.
     pub sense: Sense,
 }
 
@@ -84,6 +90,7 @@ pub struct Objective {
 pub struct SearchProblem {
     /// `[lo, hi]` per parameter, finite, `lo <= hi`; `lo == hi` fixes the parameter.
     pub bounds: Vec<[f64; 2]>,
+    /// The extrema to find, all served by one shared pool of evaluations; at least one.
     pub objectives: Vec<Objective>,
     /// Total number of distinct points evaluated for everything (all phases, all objectives).
     pub budget: usize,
@@ -96,15 +103,20 @@ pub struct SearchProblem {
 /// The phase a progress report comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Phase {
+    /// The screening shared by all objectives: box vertices and centre when cheap, then a Latin
+    /// hypercube.
     Screening,
     /// Particle swarm for objective `objective` (index into `SearchProblem::objectives`).
     Global {
+        /// Index into `SearchProblem::objectives`.
         objective: usize,
     },
     /// Compass-search polish for objective `objective`.
     Polish {
+        /// Index into `SearchProblem::objectives`.
         objective: usize,
     },
+    /// The finite-difference steps for the sensitivities at every optimum.
     Sensitivity,
 }
 
@@ -113,7 +125,9 @@ pub enum Phase {
 pub struct Progress {
     /// Distinct points evaluated by this run so far (including those restored from the cache).
     pub evaluations: usize,
+    /// The run's total evaluation budget (`SearchProblem::budget`).
     pub budget: usize,
+    /// The phase that evaluated the batch.
     pub phase: Phase,
     /// Best criterion value so far per objective (`None` while nothing feasible was found).
     pub best: Vec<Option<f64>>,
@@ -124,7 +138,9 @@ pub struct Progress {
 /// Cancellation flag and progress callback. Cancellation is honoured between batches.
 #[derive(Clone, Copy)]
 pub struct SearchControl<'a> {
+    /// Raised by the caller to stop the search before its next batch (status `Cancelled`).
     pub cancel: &'a AtomicBool,
+    /// Called with a [`Progress`] report after every batch of evaluations.
     pub on_progress: &'a (dyn Fn(&Progress) + Sync),
 }
 
@@ -182,7 +198,9 @@ pub enum ActiveBound {
     /// Strictly inside its interval (farther than 1e-9 of the range from both ends).
     #[serde(rename = "interior")]
     None,
+    /// At its lower end `lo` (within 1e-9 of the range).
     Lower,
+    /// At its upper end `hi` (within 1e-9 of the range).
     Upper,
     /// `lo == hi`.
     Fixed,
@@ -193,12 +211,14 @@ pub enum ActiveBound {
 pub struct ObjectiveResult {
     /// Index of the criterion in the criteria vector.
     pub criterion: usize,
+    /// Whether the criterion was maximised (worst scenario) or minimised (best one).
     pub sense: Sense,
     /// Best criterion value (`None` if no feasible point was evaluated), in the criterion's
     /// unit (K for Φ1–Φ2, m for Φ3–Φ4, Pa² for Φ5, Pa for Φ6).
     pub best_value: Option<f64>,
     /// Physical parameters of the best value (units of each parameter's field).
     pub best_point: Option<Vec<f64>>,
+    /// Why the search for this objective ended.
     pub status: Status,
     /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
     pub at_vertex: bool,
@@ -243,22 +263,36 @@ impl ObjectiveResult {
 /// The outcome of [`search`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct SearchResult {
+    /// The greatest of the objectives' statuses (and of a halt by time limit or cancellation).
     pub status: Status,
+    /// One result per objective, in the order of `SearchProblem::objectives`.
     pub objectives: Vec<ObjectiveResult>,
     /// Distinct points used by this run, including those restored from the cache.
     pub evaluations: usize,
     /// Points actually passed to the evaluator by this run.
     pub new_evaluations: usize,
+    /// Wall time of the search.
     pub elapsed: Duration,
 }
 
 /// Why a search could not start.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum SearchError {
+    /// A parameter's interval is not finite or has `lo > hi`.
     #[error("parameter {index}: invalid interval [{lo}, {hi}] (need finite lo <= hi)")]
-    InvalidBounds { index: usize, lo: f64, hi: f64 },
+    InvalidBounds {
+        /// Index of the parameter in `SearchProblem::bounds`.
+        index: usize,
+        /// The interval's lower end.
+        lo: f64,
+        /// The interval's upper end.
+        hi: f64,
+    },
+    /// `SearchProblem::objectives` is empty.
     #[error("no objectives to search for")]
     NoObjectives,
+    /// An argmin solver failed for a reason other than the search's own stop conditions; the
+    /// text is argmin's error.
     #[error("optimiser failure: {0}")]
     Solver(String),
 }

@@ -16,27 +16,37 @@ use wsm_search::{Phase, Progress, Sense};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum RunPhase {
+    /// A service job waiting for a worker.
     Queued,
     /// The mesh ladder of a run with a target error (`crate::estimate::mesh_choice`).
     MeshChoice,
+    /// Meshing the scene and building the state problem.
     Meshing,
     /// The solvability condition at the vertices of the admissible box (design §4.1).
     AdmissibleCheck,
     /// The solve at the nominal data (the warm start of every evaluation).
     NominalSolve,
+    /// The screening shared by all objectives: vertices and centre of the box when cheap, then
+    /// a Latin hypercube (design §4.3 item 1).
     Screening,
+    /// The particle swarm of one objective (design §4.3 item 2).
     Swarm,
+    /// The compass-search polish of one objective (design §4.3 item 3).
     Polish,
+    /// The finite-difference sensitivities at every optimum (design §4.3 item 4).
     Sensitivities,
     /// The accuracy statement: worst and best data re-solved on refined meshes.
     Accuracy,
+    /// The run has ended (the outcome's status says how).
     Finished,
 }
 
 /// The best value so far of one objective (max or min of one criterion).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct BestSoFar {
+    /// The criterion Φ1–Φ6.
     pub criterion: Criterion,
+    /// `max` (the worst scenario) or `min` (the best one).
     pub sense: Sense,
     /// `None` while no feasible point was evaluated (units of the criterion).
     pub value: Option<f64>,
@@ -45,6 +55,7 @@ pub struct BestSoFar {
 /// A progress report: sent at every phase change and after every evaluation batch.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct ProgressEvent {
+    /// The phase the run is in.
     pub phase: RunPhase,
     /// The criterion the swarm or polish works on (`None` in shared phases).
     pub objective: Option<BestSoFar>,
@@ -53,7 +64,10 @@ pub struct ProgressEvent {
     /// Of `evaluations`, how many failed (the inner solver's error is in the log).
     #[serde(default)]
     pub failures: usize,
+    /// The run's total evaluation budget (distinct points, all phases and objectives).
     pub budget: usize,
+    /// Best value so far per objective: max, then min, of each criterion in request order
+    /// (empty before the search).
     pub best: Vec<BestSoFar>,
     /// Since the run started \[s\].
     pub elapsed_seconds: f64,
@@ -66,7 +80,9 @@ pub type ProgressFn = dyn Fn(&ProgressEvent) + Send + Sync;
 /// evaluation batch in the search), progress reports and an evaluation log.
 #[derive(Clone, Default)]
 pub struct RunControl {
+    /// Raise to cancel: the run stops with status `cancelled` and its partial outcome.
     pub cancel: Arc<AtomicBool>,
+    /// Called with every [`ProgressEvent`].
     pub progress: Option<Arc<ProgressFn>>,
     /// Where every evaluation goes once its chunk is done, and where a resumed run replays from.
     pub log: Option<Arc<dyn EvaluationLog>>,
@@ -77,10 +93,12 @@ pub struct RunControl {
 }
 
 impl RunControl {
+    /// No cancellation, progress reports, log, dispatch or faults.
     pub fn new() -> RunControl {
         RunControl::default()
     }
 
+    /// Report progress to `progress`.
     pub fn with_progress(
         mut self,
         progress: impl Fn(&ProgressEvent) + Send + Sync + 'static,
@@ -89,11 +107,13 @@ impl RunControl {
         self
     }
 
+    /// Store (and replay) the evaluations in `log`.
     pub fn with_log(mut self, log: Arc<dyn EvaluationLog>) -> Self {
         self.log = Some(log);
         self
     }
 
+    /// Evaluate batches through `dispatch` (other worker processes).
     pub fn with_dispatch(mut self, dispatch: Arc<dyn BatchDispatch>) -> Self {
         self.dispatch = Some(dispatch);
         self
@@ -105,11 +125,13 @@ impl RunControl {
         self
     }
 
+    /// Use `cancel` as the cancel flag (shared with the caller).
     pub fn with_cancel(mut self, cancel: Arc<AtomicBool>) -> Self {
         self.cancel = cancel;
         self
     }
 
+    /// Whether the cancel flag is raised.
     pub fn is_cancelled(&self) -> bool {
         self.cancel.load(Ordering::SeqCst)
     }

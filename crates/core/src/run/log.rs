@@ -24,18 +24,23 @@ use crate::scene::Criterion;
 pub struct LogHeader {
     /// Always `wsm-evaluations`.
     pub format: String,
+    /// Version of the log format, currently 1.
     pub version: u32,
     /// Hash of the scene and the criteria (`run::hash::run_hash`).
     pub run_hash: String,
+    /// The scene's `name`, for people reading the log (the hash decides whether it matches).
     pub scene: String,
+    /// The requested criteria, in the order of each evaluation's criteria values.
     pub criteria: Vec<Criterion>,
     /// The field path of every parameter, in the order of each evaluation's `point`.
     pub parameters: Vec<String>,
 }
 
 impl LogHeader {
+    /// The value of [`LogHeader::format`].
     pub const FORMAT: &'static str = "wsm-evaluations";
 
+    /// The header of a version-1 log for the run with hash `run_hash`.
     pub fn new(
         run_hash: String,
         scene: String,
@@ -71,6 +76,7 @@ pub struct MemoryLog {
 }
 
 impl MemoryLog {
+    /// An empty log.
     pub fn new() -> MemoryLog {
         MemoryLog::default()
     }
@@ -122,6 +128,8 @@ struct FileState {
 }
 
 impl JsonLinesLog {
+    /// The log at `path`; the file is opened (and, for [`LogMode::Resume`], replayed) by
+    /// [`EvaluationLog::open`].
     pub fn new(path: impl Into<PathBuf>, mode: LogMode) -> JsonLinesLog {
         JsonLinesLog {
             path: path.into(),

@@ -53,6 +53,7 @@ use wsm_search::{EvalCache, Progress, SearchControl};
 /// The result of [`solve`].
 #[derive(Debug, Clone, serde::Serialize, utoipa::ToSchema)]
 pub struct SolveOutput {
+    /// The solve's summary: criteria, mesh, contact and solver report (what `wsm solve` prints).
     pub summary: SolveSummary,
     /// The fields, when requested.
     #[serde(skip_serializing_if = "Option::is_none")]

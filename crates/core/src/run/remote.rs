@@ -21,7 +21,10 @@ pub type LocalEvaluate<'a> = dyn Fn(&[Vec<f64>]) -> Vec<Evaluation> + Sync + 'a;
 
 /// A dispatched batch: its evaluations in input order, and which came from other processes.
 pub struct DispatchedBatch {
+    /// One evaluation per point of the batch, in input order.
     pub evaluations: Vec<Evaluation>,
+    /// Per point: `true` when another process computed it (its statistics are counted as
+    /// remote), `false` when this process's share computed it with `local`.
     pub remote: Vec<bool>,
 }
 

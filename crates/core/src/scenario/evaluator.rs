@@ -65,18 +65,27 @@ struct InnerStats {
 /// Inner-solver statistics of a run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct InnerSummary {
+    /// State solves of evaluations (failed ones included; the nominal solve not).
     pub solves: usize,
+    /// Of `solves`, how many ended with an error instead of criteria values.
     pub failures: usize,
+    /// Solves that reused a whole stiffness factorisation (same λ, μ as an earlier solve).
     pub reused_factorisations: usize,
+    /// Semismooth Newton steps of the contact QP per solve, on average over this process's
+    /// solves.
     pub mean_qp_iterations: f64,
     /// Summed over threads \[s\].
     pub solver_seconds: f64,
+    /// Largest relative KKT residual of any contact solution (0 without contact).
     pub max_kkt_residual: f64,
     /// Heat solves, stiffness factorisations and elastic solves of the run, the nominal solve
     /// included (only what the criteria need is computed; factorisations are reused while λ, μ
     /// do not change).
     pub heat_solves: usize,
+    /// Stiffness factors built (at least one body block factorised numerically), the nominal
+    /// solve included.
     pub factorisations: usize,
+    /// Elastic contact solves, the nominal solve included.
     pub elastic_solves: usize,
 }
 

@@ -1,6 +1,6 @@
 //! Admissible-set checks before any solve (design §4.1): the primal feasibility of the contact
 //! constraints with the prescribed displacements on the whole box (in closed form, see
-//! [`crate::contact::feasibility`]), and the semi-coercive solvability condition (CZ Thm 1.2,
+//! `crate::contact::feasibility`), and the semi-coercive solvability condition (CZ Thm 1.2,
 //! D05 Thm 2.1) at the vertices of the box.
 //!
 //! For a floating body the condition is the existence of contact forces λ within their bounds

@@ -26,9 +26,13 @@ use wsm_search::{
 /// Settings of one worst-scenario run (defaults from the scene's `search`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct WorstSettings {
+    /// The criteria whose max and min are searched, in request order.
     pub criteria: Vec<Criterion>,
+    /// Total number of distinct points evaluated (state solves), all phases and objectives.
     pub budget: usize,
+    /// Seed of every random choice of the search.
     pub seed: u64,
+    /// Wall-time limit of the search \[s\] (`None`: no limit).
     pub max_seconds: Option<f64>,
     /// Refined meshes of the accuracy statement (`None`: by the mesh size, see
     /// [`crate::estimate::statement::default_refinements`]).
@@ -39,6 +43,7 @@ pub struct WorstSettings {
 }
 
 impl WorstSettings {
+    /// The scene's `search` settings, with the scene's mesh and the default accuracy statement.
     pub fn from_scene(scene: &Scene) -> WorstSettings {
         WorstSettings {
             criteria: scene.search.criteria.clone(),
@@ -63,8 +68,11 @@ impl WorstSettings {
 /// Worst (max) and best (min) of one criterion.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CriterionOutcome {
+    /// The criterion Φ1–Φ6.
     pub criterion: Criterion,
+    /// The maximum: the worst scenario A0_i = argmax Φ_i over U_ad (FGCS 4.35–4.36).
     pub worst: ObjectiveResult,
+    /// The minimum over U_ad: the best scenario.
     pub best: ObjectiveResult,
 }
 
@@ -80,6 +88,7 @@ pub struct ParameterInfo {
 }
 
 impl ParameterInfo {
+    /// One entry per uncertain parameter, in the order of the scene's `uncertain` list.
     pub fn list(scene: &Scene, params: &[Parameter]) -> Vec<ParameterInfo> {
         params
             .iter()
@@ -96,13 +105,18 @@ impl ParameterInfo {
 /// The outcome of a worst-scenario run (complete or partial: see `status`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct WorstOutcome {
+    /// The scene's `name`.
     pub scene: String,
     /// Stable hash of everything that determines an evaluation's value (scene and criteria).
     pub run_hash: String,
+    /// How the search ended: the greatest of its objectives' statuses, or `cancelled` /
+    /// `time_limit` for a run stopped early.
     pub status: Status,
+    /// The uncertain parameters, in the order of every point's coordinates.
     pub parameters: Vec<ParameterInfo>,
     /// Per criterion; the `best_point` of each extremum is aligned with `parameters`.
     pub criteria: Vec<CriterionOutcome>,
+    /// The run's evaluation budget (distinct points).
     pub budget: usize,
     /// Distinct points used, including those replayed from a log.
     pub evaluations: usize,
@@ -112,9 +126,11 @@ pub struct WorstOutcome {
     pub wall_seconds: f64,
     /// Meshing and operator set-up \[s\].
     pub setup_seconds: f64,
+    /// Points solved by this run per second of search wall time \[1/s\].
     pub evaluations_per_second: f64,
     /// Share of the wall time spent in inner solves (summed over threads / wall / threads).
     pub inner_time_share: f64,
+    /// Inner-solver statistics over the run's evaluations.
     pub inner: InnerSummary,
     /// The discretisation-error estimate of every worst and best value (absent for a run cut
     /// short by a cancel or its time limit, or with `accuracy_refinements: 0`).

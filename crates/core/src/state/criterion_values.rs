@@ -11,8 +11,11 @@ use crate::regions::CriteriaGeometry;
 
 /// The fields a criterion evaluation can use.
 pub struct Fields<'a> {
+    /// Nodal temperature \[K\], for Φ1 and Φ2 (`None`: not solved).
     pub temperature: Option<&'a [f64]>,
+    /// Nodal displacement (x, y) \[m\], for Φ3 and Φ4 (`None`: not solved).
     pub displacement: Option<&'a [[f64; 2]]>,
+    /// Element stresses, for Φ5 and Φ6 (`None`: not solved).
     pub stresses: Option<&'a [ElementStress]>,
 }
 

@@ -34,7 +34,10 @@ use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind
 /// What a solve must compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Needs {
+    /// Solve the heat problem (the scene has a thermal part and a criterion or the thermal load
+    /// of the elastic solve needs T).
     pub heat: bool,
+    /// Solve the elastic contact problem (some criterion other than Φ1/Φ2 is requested).
     pub elastic: bool,
 }
 
@@ -59,6 +62,7 @@ impl Needs {
 /// Options of one solve.
 #[derive(Debug, Clone)]
 pub struct SolveOptions {
+    /// Which parts of the state problem to compute.
     pub needs: Needs,
     /// Parallelism inside factorisations (`Par::Seq` when many solves run in parallel).
     pub par: Par,
@@ -69,11 +73,14 @@ pub struct SolveOptions {
 /// How often the expensive parts ran (for reports and for tests of "compute only what is needed").
 #[derive(Debug, Default)]
 pub struct Counters {
+    /// Heat problems factorised and solved (a temperature field reused from the memo is not
+    /// counted).
     pub heat_solves: AtomicUsize,
     /// Stiffness factors built (at least one body block factorised numerically).
     pub factorisations: AtomicUsize,
     /// Body blocks factorised numerically.
     pub body_factorisations: AtomicUsize,
+    /// Elastic contact solves (direct or DD), with or without a reused factor.
     pub elastic_solves: AtomicUsize,
 }
 
@@ -90,11 +97,17 @@ impl Counters {
 
 /// Everything built once per scene.
 pub struct StateProblem {
+    /// The validated scene the problem was built from.
     pub scene: Scene,
+    /// The data as the scene gives them (the nominal point of the uncertain parameters).
     pub nominal: Data,
+    /// The exact weights of the criteria's areas and boundary pieces on the mesh.
     pub criteria: CriteriaGeometry,
+    /// The elasticity problem on the mesh: DOF map, per-zone operators, unit loads.
     pub elastic: ElasticProblem,
+    /// The heat problem, when the scene has a thermal part.
     pub heat: Option<HeatProblem>,
+    /// The contact problem: node pairs, B rows, floating-body kernel and the body blocks of K.
     pub contact: DirectContact,
     factors: Memo<Arc<StiffnessFactor>>,
     /// Per body block of K: its factors keyed by the coefficients of its zones.
@@ -105,6 +118,7 @@ pub struct StateProblem {
     dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
     /// The DD subdomain operators of the stiffnesses seen last.
     pub dd_operators: Arc<crate::dd::subdomain::OperatorCache>,
+    /// How often the heat solve, the factorisation and the elastic solve ran.
     pub counters: Counters,
     /// Time to build the problem \[s\].
     pub setup_seconds: f64,
@@ -153,6 +167,7 @@ impl StateProblem {
         })
     }
 
+    /// The mesh the problem is built on (contact nodes split per body).
     pub fn mesh(&self) -> &Mesh {
         self.elastic.mesh()
     }

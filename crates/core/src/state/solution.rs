@@ -13,15 +13,22 @@ use crate::scene::{piecewise_linear, Data};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, utoipa::ToSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactState {
+    /// No normal force: the pair is separated or just touching (JSON `"open"`).
     Open,
+    /// In contact with |tangential force| below the slip bound g w: no relative slip
+    /// (JSON `"stick"`).
     Stick,
+    /// In contact at the slip limit, or without friction (g = 0, and every bilateral pair): the
+    /// pair may slip (JSON `"slip"`).
     Slip,
 }
 
 /// Results at one contact node pair.
 #[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct ContactNode {
+    /// Index of the contact zone in the scene's `contacts` list.
     pub zone: usize,
+    /// Undeformed position of the pair's nodes (x, y) \[m\].
     pub position: [f64; 2],
     /// Normal contact pressure \[Pa\] (≥ 0 in unilateral contact).
     pub pressure: f64,
@@ -31,6 +38,7 @@ pub struct ContactNode {
     pub gap: f64,
     /// Relative tangential displacement t·(u^k − u^l) \[m\].
     pub slip: f64,
+    /// Open, stick or slip, by the multipliers and the slip limit.
     pub state: ContactState,
 }
 
@@ -38,10 +46,17 @@ pub struct ContactNode {
 /// displacements to the largest nodal displacement).
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct ContactKkt {
+    /// Largest penetration (B u)_n − g0 > 0 of a unilateral pair, or |(B u)_n − g0| of a
+    /// bilateral one.
     pub penetration: f64,
+    /// Largest negative normal force of a unilateral pair.
     pub negative_pressure: f64,
+    /// Largest excess of |λ_t| over the slip bound g w.
     pub friction_excess: f64,
+    /// Largest product |λ_n| · |(B u)_n − g0| of a unilateral pair (Signorini complementarity).
     pub complementarity: f64,
+    /// Tresca consistency: the largest slip of a sticking pair, or slip along its tangential
+    /// force of a pair at the limit.
     pub stick_slip: f64,
     /// ‖K u − f + Bᵀλ‖ / ‖f‖.
     pub equilibrium: f64,
@@ -66,6 +81,7 @@ impl ContactKkt {
 /// Timings \[s\] of the phases of a solve.
 #[derive(Debug, Clone, Copy, Default, Serialize)]
 pub struct Timings {
+    /// The temperature field: the heat solve, or its reuse from the memo.
     pub heat: f64,
     /// Loads, prescribed values and the right-hand side.
     pub assembly: f64,
@@ -79,15 +95,18 @@ pub struct Timings {
     pub contact: f64,
     /// Of `contact`: the QP (direct solver).
     pub qp: f64,
-    /// Of `contact` (DD): local factorisations and condensed contact operators; the auxiliary
-    /// problem (coarse operator and PCG1); the successive approximations (S0 coarse operator,
-    /// S_CON evaluations, PCG2 and Newton PCG); interior recovery.
+    /// Of `contact` (DD): local factorisations and condensed contact operators.
     pub dd_setup: f64,
+    /// Of `contact` (DD): the auxiliary problem (coarse operator and PCG1).
     pub dd_pcg1: f64,
+    /// Of `contact` (DD): the successive approximations (S0 coarse operator, S_CON
+    /// evaluations, PCG2 and Newton PCG).
     pub dd_outer: f64,
+    /// Of `contact` (DD): recovery of the subdomain interiors.
     pub dd_recovery: f64,
     /// Contact results, stresses and criteria.
     pub post: f64,
+    /// The whole solve, heat to criteria.
     pub total: f64,
 }
 
@@ -113,19 +132,28 @@ impl Timings {
 /// The solver report of one solve.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SolveReport {
+    /// The solver that answered: `direct`, `dd`, or `direct (DD unavailable)` when DD failed.
     pub solver: String,
+    /// Mesh nodes (a contact node counted once per body).
     pub nodes: usize,
+    /// Mesh triangles.
     pub triangles: usize,
+    /// Unknowns of the elastic problem (free displacement DOFs).
     pub unknowns: usize,
+    /// Contact node pairs over all contact zones.
     pub contact_pairs: usize,
     /// Rigid motions of floating bodies fixed by contact (semi-coercive case).
     pub floating_modes: usize,
     /// Rigid motions that contact does not determine (reported with no displacement component
     /// along the motions no contact row sees).
     pub undetermined_modes: usize,
+    /// Semismooth Newton steps of the contact QP (direct solver).
     pub qp_iterations: usize,
+    /// MPRGP iterations of the contact QP in phase 1 and in the fallback (direct solver).
     pub qp_fallback_iterations: usize,
+    /// Variables that changed active-set status over the Newton steps (direct solver).
     pub active_set_changes: usize,
+    /// KKT residuals of the contact solution (all zero without contact).
     pub kkt: ContactKkt,
     /// The stiffness factorisation was reused from an earlier solve with the same λ, μ.
     pub reused_factorisation: bool,
@@ -136,6 +164,7 @@ pub struct SolveReport {
     /// Solver-specific details (DD iteration counts etc.).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dd: Option<Box<crate::dd::DdReport>>,
+    /// Wall time of each phase of the solve \[s\].
     pub timings: Timings,
 }
 
@@ -148,11 +177,13 @@ pub struct Solution {
     pub temperature: Option<Vec<f64>>,
     /// Element strains and stresses (empty when not needed).
     pub stresses: Vec<ElementStress>,
+    /// Results per contact node pair, in the order of the contact geometry's pairs.
     pub contact: Vec<ContactNode>,
     /// Contact multipliers and rigid amplitudes, to warm-start a nearby solve.
     pub warm_start: Option<WarmStart>,
     /// Φ1..Φ6 (None when not requested or not defined for the scene).
     pub criteria: [Option<f64>; 6],
+    /// Sizes, iterations, residuals, warnings and timings of the solve.
     pub report: SolveReport,
 }
 
@@ -231,15 +262,21 @@ pub fn contact_results(
 /// Resultants and statistics of one contact zone.
 #[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
 pub struct ZoneSummary {
+    /// The contact zone's name.
     pub name: String,
     /// Σ normal force / Σ nodal length \[Pa\].
     pub mean_pressure: f64,
+    /// Largest nodal contact pressure of the zone \[Pa\].
     pub max_pressure: f64,
-    /// Resultant normal and tangential forces [N/m].
+    /// Resultant normal force, Σ pressure × nodal length \[N/m\].
     pub normal_force: f64,
+    /// Resultant tangential force, Σ shear × nodal length \[N/m\].
     pub tangential_force: f64,
+    /// Node pairs of the zone that are open.
     pub open: usize,
+    /// Node pairs of the zone that stick.
     pub stick: usize,
+    /// Node pairs of the zone that slip.
     pub slip: usize,
 }
 
