@@ -280,3 +280,17 @@ fn phi4_piece_on_the_dirichlet_boundary() {
     scene["search"]["criteria"] = json!(["phi3"]);
     parse(&scene.to_string()).unwrap();
 }
+
+#[test]
+fn phi6_without_a_region_next_to_a_contact_zone() {
+    // FGCS 4.34: Φ6 averages −τ_n over areas adjacent to Γc; move G1 off the contact line.
+    refused(
+        |s| {
+            s["criteria"]["regions"][0]["polygon"] =
+                json!([[0.9, 0.7], [1.1, 0.7], [1.1, 0.8], [0.9, 0.8]]);
+            s["criteria"]["regions"][0]["normal_at"] = json!([1.0, 1.0]);
+            s["search"]["criteria"] = json!(["phi6"]);
+        },
+        "search.criteria[0]",
+    );
+}

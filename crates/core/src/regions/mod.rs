@@ -41,6 +41,8 @@ pub struct AreaRegion {
     pub contact: Option<usize>,
     /// Distance from the region to that contact zone \[m\] (infinite when there is none).
     pub contact_distance: f64,
+    /// The region touches that contact zone (G_r adjacent to Γc, FGCS 4.34): Φ6 uses it.
+    pub adjacent_to_contact: bool,
 }
 
 /// A boundary piece G'_r with its mean weights.
@@ -186,6 +188,7 @@ fn area_region(
         normal,
         contact,
         contact_distance,
+        adjacent_to_contact: contact_distance <= crate::scene::touching_tolerance(&region.polygon),
     })
 }
 

@@ -13,6 +13,7 @@ mod validate;
 
 pub use data::*;
 pub use model::*;
+pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};
 
 use std::fmt;

@@ -531,6 +531,87 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// Φ6 is the mean normal stress over the areas adjacent to Γc (FGCS 4.34): at least one region
+/// with a normal must touch a contact zone's segment (within [`touching_tolerance`]); the
+/// criterion ranges over those.
+fn a_region_touches_a_contact(scene: &Scene, path: &str) -> Result<(), SceneError> {
+    let contact_lines: Vec<Vec<Point>> = scene
+        .contacts
+        .iter()
+        .flat_map(|c| c.between.iter())
+        .filter_map(|name| scene.segments.get(name))
+        .map(|s| s.polyline())
+        .collect();
+    let touches = |polygon: &[Point]| {
+        let n = polygon.len();
+        contact_lines.iter().any(|line| {
+            line.windows(2).any(|e| {
+                (0..n).any(|i| {
+                    segment_distance(e[0], e[1], polygon[i], polygon[(i + 1) % n])
+                        <= touching_tolerance(polygon)
+                })
+            })
+        })
+    };
+    let candidates: Vec<&str> = scene
+        .criteria
+        .regions
+        .iter()
+        .filter(|g| g.normal.is_some() || g.normal_at.is_some())
+        .map(|g| g.name.as_str())
+        .collect();
+    if scene
+        .criteria
+        .regions
+        .iter()
+        .any(|g| (g.normal.is_some() || g.normal_at.is_some()) && touches(&g.polygon))
+    {
+        return Ok(());
+    }
+    Err(SceneError::new(
+        path,
+        format!(
+            "phi6 is the mean normal stress over regions adjacent to a contact zone (FGCS 4.34), but no region with a normal touches one (regions with a normal: {})",
+            candidates.join(", ")
+        ),
+    ))
+}
+
+/// The distance below which a region touches a line: 1e-6 of the polygon's diameter (rounding
+/// of coordinates given in decimal, far below any mesh size).
+pub(crate) fn touching_tolerance(polygon: &[Point]) -> f64 {
+    let diameter = polygon
+        .iter()
+        .flat_map(|p| {
+            polygon
+                .iter()
+                .map(move |q| (p[0] - q[0]).hypot(p[1] - q[1]))
+        })
+        .fold(0.0, f64::max);
+    1e-6 * diameter
+}
+
+/// Distance between the closed segments [a, b] and [c, d].
+fn segment_distance(a: Point, b: Point, c: Point, d: Point) -> f64 {
+    if segments_intersect(a, b, c, d) {
+        return 0.0;
+    }
+    let to_segment = |p: Point, q: Point, r: Point| {
+        let (dx, dy) = (r[0] - q[0], r[1] - q[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 {
+            (((p[0] - q[0]) * dx + (p[1] - q[1]) * dy) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (p[0] - q[0] - t * dx).hypot(p[1] - q[1] - t * dy)
+    };
+    to_segment(a, c, d)
+        .min(to_segment(b, c, d))
+        .min(to_segment(c, a, b))
+        .min(to_segment(d, a, b))
+}
+
 /// Φ4 is the mean normal displacement over boundary pieces off Γu (FGCS 4.32): on a segment with
 /// a prescribed displacement or a roller it would only echo the data.
 fn pieces_off_dirichlet(scene: &Scene) -> Result<(), SceneError> {
@@ -591,6 +672,9 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
         }
         if *c == Criterion::Phi4 {
             pieces_off_dirichlet(scene)?;
+        }
+        if *c == Criterion::Phi6 {
+            a_region_touches_a_contact(scene, &path)?;
         }
     }
     if scene.search.budget == 0 {

@@ -3,7 +3,8 @@
 //!
 //! Φ1 = max_r mean_{G_r} T,  Φ2 = max_r mean_{G'_r} T,  Φ3 = max_r mean_{G_r} u·n(X_r),
 //! Φ4 = max_r mean_{G'_r} u·n(X_r),  Φ5 = max_r mean_{G_r} I2²(τ),  Φ6 = max_r mean_{G_r} (−τ_n)
-//! with τ_n = n(X_r)·τ·n(X_r), over the regions that have a normal. The region weights are
+//! with τ_n = n(X_r)·τ·n(X_r); Φ3 over the regions that have a normal, Φ6 over those of them that
+//! touch a contact zone (G_r adjacent to Γc, FGCS 4.34). The region weights are
 //! normalised (they sum to one), so a mean is a weighted sum of nodal or element values.
 
 use crate::fem::ElementStress;
@@ -67,7 +68,7 @@ pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6
                 .map(|r| mean(&r.element_weights, |e| s[e].i2_squared())),
         );
         out[5] = max_of(geometry.regions.iter().filter_map(|r| {
-            r.normal.map(|n| {
+            r.normal.filter(|_| r.adjacent_to_contact).map(|n| {
                 mean(&r.element_weights, |e| {
                     let [s11, s22, s12, _] = s[e].stress;
                     -(n[0] * n[0] * s11 + 2.0 * n[0] * n[1] * s12 + n[1] * n[1] * s22)
