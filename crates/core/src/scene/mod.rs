@@ -11,8 +11,13 @@ pub mod params;
 mod rules;
 mod validate;
 
-pub use data::*;
-pub use model::*;
+pub(crate) use data::piecewise_linear;
+pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
+pub use model::{
+    Body, BoundaryCondition, BoundaryPiece, Contact, ContactKind, CriteriaRegions, Criterion,
+    CriterionRegion, InitialGap, Material, MeshControls, Point, Refinement, Roller, Scene,
+    SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings, Thermal, Uncertain, Zone,
+};
 pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};
 

@@ -14,7 +14,11 @@ mod criterion_values;
 mod solution;
 
 pub use criterion_values::{evaluate as evaluate_criteria, Fields};
-pub use solution::*;
+pub(crate) use solution::contact_results;
+pub use solution::{
+    piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
+    Timings, ZoneSummary,
+};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};

@@ -188,7 +188,7 @@ pub struct Solution {
 }
 
 /// Per-pair results and the KKT residuals of a contact solution.
-pub fn contact_results(
+pub(crate) fn contact_results(
     geometry: &ContactGeometry,
     sol: &ContactSolution,
     data: &Data,
