@@ -294,3 +294,32 @@ fn phi6_without_a_region_next_to_a_contact_zone() {
         "search.criteria[0]",
     );
 }
+
+#[test]
+fn too_many_vertices() {
+    // The block's top edge split into 20,000 vertices: beyond the scene's vertex limit.
+    refused(
+        |s| {
+            let mut polygon = vec![json!([0.5, 0.5]), json!([1.5, 0.5])];
+            let n = 20_000;
+            for k in 0..=n {
+                polygon.push(json!([1.5 - k as f64 / n as f64, 1.0]));
+            }
+            s["bodies"][1]["zones"][0]["polygon"] = json!(polygon);
+        },
+        "bodies[1].zones[0].polygon",
+    );
+}
+
+#[test]
+fn a_criterion_listed_twice() {
+    refused(
+        |s| s["search"]["criteria"] = json!(["phi3", "phi6", "phi3"]),
+        "search.criteria[2]",
+    );
+}
+
+#[test]
+fn a_scene_name_too_long_for_a_listing() {
+    refused(|s| s["name"] = json!("x".repeat(201)), "name");
+}

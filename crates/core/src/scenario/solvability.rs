@@ -98,6 +98,10 @@ pub fn check_balance_on_vertices(
             };
         }
         let data = apply(&problem.scene, &problem.nominal, params, &theta);
+        if n == 0 {
+            // No uncertain datum moves the balance: the nominal data decide, as in a solve.
+            return balance(problem, &data);
+        }
         if let Err(e) = balance(problem, &data) {
             let at: Vec<String> = relevant
                 .iter()
@@ -108,9 +112,6 @@ pub fn check_balance_on_vertices(
                 format!("at the vertex ({}): {e}", at.join(", ")),
             )
             .into());
-        }
-        if n == 0 {
-            break;
         }
     }
     Ok(())

@@ -68,6 +68,11 @@ impl ParamTarget {
             ParamTarget::Mu(_) => Some(Constant::Mu),
             ParamTarget::Conductivity(_) => Some(Constant::Conductivity),
             ParamTarget::SlipConstant(_) | ParamTarget::SlipKnot(..) => Some(Constant::SlipLimit),
+            ParamTarget::SpecificWeight(_)
+            | ParamTarget::BodyForce(..)
+            | ParamTarget::Traction(..)
+            | ParamTarget::Pressure(_) => Some(Constant::Load),
+            ParamTarget::Displacement(..) => Some(Constant::Displacement),
             _ => None,
         }
     }

@@ -4,6 +4,12 @@
 //! 4.15). Used by the validation of the nominal scene ([`super::validate`]) and by the
 //! uncertain intervals ([`super::params`]), with the same wording.
 //!
+//! The rules also bound the magnitudes to what double precision can solve (design §5.2): the
+//! stiffness, its Cholesky factor and the squared stresses of Φ5 must neither overflow nor sink
+//! into subnormal numbers. Moduli (E, λ, μ) lie in [1e-3, 1e15] Pa (λ may be 0), loads
+//! (pressure, traction, specific weight, body force) and slip limits in magnitude ≤ 1e15 (Pa or
+//! N/m³), prescribed displacements ≤ 1e3 m, conductivities in [1e-9, 1e9] W/(m·K).
+//!
 //! Depends on nothing else in the crate.
 
 /// A scene number with a rule.
@@ -15,27 +21,52 @@ pub(crate) enum Constant {
     Mu,
     Conductivity,
     SlipLimit,
+    /// A pressure, traction component, specific weight or body-force component.
+    Load,
+    /// A prescribed displacement component.
+    Displacement,
 }
+
+/// Largest modulus, load or slip limit \[Pa, N/m³\].
+const MAX_STRESS: f64 = 1e15;
+/// Smallest positive modulus \[Pa\].
+const MIN_MODULUS: f64 = 1e-3;
+/// Largest prescribed displacement \[m\].
+const MAX_DISPLACEMENT: f64 = 1e3;
 
 impl Constant {
     /// Whether `v` is admissible (false for NaN).
     pub(crate) fn admits(self, v: f64) -> bool {
         match self {
-            Constant::Young | Constant::Mu | Constant::Conductivity => v > 0.0,
-            Constant::Lambda | Constant::SlipLimit => v >= 0.0,
+            Constant::Young | Constant::Mu => (MIN_MODULUS..=MAX_STRESS).contains(&v),
+            Constant::Lambda => v == 0.0 || (MIN_MODULUS..=MAX_STRESS).contains(&v),
+            Constant::Conductivity => (1e-9..=1e9).contains(&v),
+            Constant::SlipLimit => (0.0..=MAX_STRESS).contains(&v),
             Constant::Poisson => v > -1.0 && v < 0.5,
+            Constant::Load => v.abs() <= MAX_STRESS,
+            Constant::Displacement => v.abs() <= MAX_DISPLACEMENT,
         }
     }
 
     /// The rule, as reported to the user.
     pub(crate) fn rule(self) -> &'static str {
         match self {
-            Constant::Young => "Young's modulus E must be > 0",
+            Constant::Young => {
+                "Young's modulus E must be > 0 and lie in [1e-3, 1e15] Pa (what double precision solves)"
+            }
             Constant::Poisson => "Poisson's ratio nu must lie in (-1, 0.5)",
-            Constant::Lambda => "Lamé's lambda must be >= 0",
-            Constant::Mu => "the shear modulus mu must be > 0",
-            Constant::Conductivity => "the conductivity must be > 0",
-            Constant::SlipLimit => "the slip limit must be >= 0",
+            Constant::Lambda => {
+                "Lamé's lambda must be >= 0 and be 0 or lie in [1e-3, 1e15] Pa (what double precision solves)"
+            }
+            Constant::Mu => {
+                "the shear modulus mu must be > 0 and lie in [1e-3, 1e15] Pa (what double precision solves)"
+            }
+            Constant::Conductivity => "the conductivity must be > 0 and lie in [1e-9, 1e9] W/(m K)",
+            Constant::SlipLimit => "the slip limit must be >= 0 and at most 1e15 Pa",
+            Constant::Load => {
+                "a load (pressure, traction, specific weight, body force) must be at most 1e15 in magnitude (Pa or N/m3)"
+            }
+            Constant::Displacement => "a prescribed displacement must be at most 1e3 m in magnitude",
         }
     }
 

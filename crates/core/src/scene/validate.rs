@@ -25,6 +25,13 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     if scene.version != 1 {
         return Err(SceneError::new("version", "only version 1 is supported"));
     }
+    if scene.name.chars().count() > MAX_NAME {
+        return Err(SceneError::new(
+            "name",
+            format!("at most {MAX_NAME} characters (it is shown in every job listing)"),
+        ));
+    }
+    check_vertex_count(scene)?;
     check_bodies(scene)?;
     check_materials(scene)?;
     check_segments(scene)?;
@@ -35,6 +42,50 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     check_search(scene)?;
     for (i, u) in scene.uncertain.iter().enumerate() {
         resolve_uncertain(scene, i, u)?;
+    }
+    Ok(())
+}
+
+/// Characters accepted in the scene's name.
+pub const MAX_NAME: usize = 200;
+
+/// Vertices accepted in all polygons, holes, paths and criteria regions of a scene together. The
+/// geometric checks (simple polygons, overlapping bodies) grow faster than linearly with the
+/// vertex count: this bound keeps the whole validation under about a second.
+pub const MAX_VERTICES: usize = 10_000;
+
+fn check_vertex_count(scene: &Scene) -> Result<(), SceneError> {
+    let mut lists: Vec<(String, usize)> = Vec::new();
+    for (b, body) in scene.bodies.iter().enumerate() {
+        for (z, zone) in body.zones.iter().enumerate() {
+            let path = format!("bodies[{b}].zones[{z}]");
+            lists.push((format!("{path}.polygon"), zone.polygon.len()));
+            for (h, hole) in zone.holes.iter().enumerate() {
+                lists.push((format!("{path}.holes[{h}]"), hole.len()));
+            }
+        }
+    }
+    for (name, segment) in &scene.segments {
+        let n = segment.path.as_ref().map_or(2, Vec::len);
+        lists.push((format!("segments.{name}.path"), n));
+    }
+    for (r, region) in scene.criteria.regions.iter().enumerate() {
+        lists.push((
+            format!("criteria.regions[{r}].polygon"),
+            region.polygon.len(),
+        ));
+    }
+    let mut total = 0;
+    for (path, n) in lists {
+        total += n;
+        if total > MAX_VERTICES {
+            return Err(SceneError::new(
+                path,
+                format!(
+                    "the scene's polygons, holes, paths and regions have more than {MAX_VERTICES} vertices together; a finer boundary belongs in a Gmsh mesh (mesh.gmsh_file, command line)"
+                ),
+            ));
+        }
     }
     Ok(())
 }
@@ -221,10 +272,12 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
             }
         }
         if let Some(w) = m.specific_weight {
-            finite(&format!("{path}.specific_weight"), w)?;
+            admissible(&format!("{path}.specific_weight"), w, Constant::Load)?;
         }
         if let Some(f) = m.body_force {
-            check_points(&format!("{path}.body_force"), &[f])?;
+            for (c, v) in f.iter().enumerate() {
+                admissible(&format!("{path}.body_force[{c}]"), *v, Constant::Load)?;
+            }
         }
         if m.expansion.is_some() && m.beta.is_some() {
             return Err(SceneError::new(
@@ -333,15 +386,21 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
             }
             for (c, v) in d.iter().enumerate() {
                 if let Some(v) = v {
-                    finite(&format!("{path}.displacement[{c}]"), *v)?;
+                    admissible(
+                        &format!("{path}.displacement[{c}]"),
+                        *v,
+                        Constant::Displacement,
+                    )?;
                 }
             }
         }
         if let Some(t) = bc.traction {
-            check_points(&format!("{path}.traction"), &[t])?;
+            for (c, v) in t.iter().enumerate() {
+                admissible(&format!("{path}.traction[{c}]"), *v, Constant::Load)?;
+            }
         }
         if let Some(p) = bc.pressure {
-            finite(&format!("{path}.pressure"), p)?;
+            admissible(&format!("{path}.pressure"), p, Constant::Load)?;
         }
         if let Some(Roller { direction: Some(d) }) = bc.roller {
             check_points(&format!("{path}.roller.direction"), &[d])?;
@@ -635,6 +694,12 @@ fn pieces_off_dirichlet(scene: &Scene) -> Result<(), SceneError> {
 fn check_search(scene: &Scene) -> Result<(), SceneError> {
     for (k, c) in scene.search.criteria.iter().enumerate() {
         let path = format!("search.criteria[{k}]");
+        if scene.search.criteria[..k].contains(c) {
+            return Err(SceneError::new(
+                path,
+                format!("{} is listed twice", c.name()),
+            ));
+        }
         if c.is_thermal() && scene.thermal.is_none() {
             return Err(SceneError::new(
                 path,

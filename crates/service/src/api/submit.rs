@@ -95,6 +95,17 @@ pub fn parse_body<T: DeserializeOwned>(body: Result<Bytes, BytesRejection>) -> R
     })
 }
 
+/// [`scene_of`] on a blocking thread: validation can take a while for large polygons (bounded by
+/// the scene's vertex limit), and the runtime's threads must keep answering other requests.
+async fn validated_scene(
+    scene: Option<Value>,
+    example: Option<String>,
+) -> Result<(Scene, String), ApiError> {
+    tokio::task::spawn_blocking(move || scene_of(scene, example))
+        .await
+        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
+}
+
 /// The scene of a submission, validated; the service refuses server-side mesh files.
 fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, String), ApiError> {
     let text = match (scene, example) {
@@ -218,7 +229,7 @@ pub async fn submit_job(
 ) -> Result<Response, ApiError> {
     state.authorize(&headers)?;
     let submission: JobSubmission = parse_body(body)?;
-    let (scene, text) = scene_of(submission.scene, submission.example)?;
+    let (scene, text) = validated_scene(submission.scene, submission.example).await?;
     let request = submission.settings;
     check_limits(&scene, &request, &state.limits)?;
     let settings = request
@@ -292,7 +303,7 @@ pub async fn solve(
 ) -> Result<Json<SolveOutput>, ApiError> {
     state.authorize(&headers)?;
     let submission: SolveSubmission = parse_body(body)?;
-    let (scene, _) = scene_of(submission.scene, submission.example)?;
+    let (scene, _) = validated_scene(submission.scene, submission.example).await?;
     check_size(
         &scene,
         state.limits.max_solve_triangles,
