@@ -473,6 +473,22 @@ fn the_bearer_token_guards_mutating_endpoints_when_set() {
         &[("Authorization", "Bearer s3cret-token")],
     );
     assert_eq!(yes.status, 202);
+    // The scheme is case-insensitive; the token is not.
+    for (header, status) in [
+        ("bearer s3cret-token", 202),
+        ("BEARER s3cret-token", 202),
+        ("Basic s3cret-token", 401),
+        ("bearer S3CRET-TOKEN", 401),
+    ] {
+        let reply = http(
+            &addr,
+            "POST",
+            "/v1/jobs",
+            Some(body.as_bytes()),
+            &[("Authorization", header)],
+        );
+        assert_eq!(reply.status, status, "{header}");
+    }
     assert_eq!(get(&addr, "/v1/jobs").status, 200, "reading needs no token");
 }
 
