@@ -104,7 +104,22 @@ mod tests {
         assert!(Constant::Mu.check(f64::NAN).is_err());
         assert_eq!(
             Constant::SlipLimit.check_interval(-1.0, 1.0).unwrap_err(),
-            "the slip limit must be >= 0 on the whole interval"
+            "the slip limit must be >= 0 and at most 1e15 Pa on the whole interval"
         );
+    }
+
+    #[test]
+    fn magnitudes_beyond_double_precision_are_refused() {
+        for v in [1e308, 1e-300, 1e16, 1e-4] {
+            assert!(Constant::Young.check(v).is_err(), "E = {v}");
+            assert!(Constant::Mu.check(v).is_err(), "mu = {v}");
+        }
+        assert!(Constant::Young.check(1e-3).is_ok() && Constant::Young.check(1e15).is_ok());
+        assert!(Constant::Lambda.check(0.0).is_ok() && Constant::Lambda.check(1e-300).is_err());
+        assert!(Constant::Load.check(-1e15).is_ok() && Constant::Load.check(1e200).is_err());
+        assert!(Constant::Displacement.check(0.025).is_ok());
+        assert!(Constant::Displacement.check(1e4).is_err());
+        assert!(Constant::Conductivity.check(1e10).is_err());
+        assert!(Constant::Young.check_interval(1e9, 1e16).is_err());
     }
 }
