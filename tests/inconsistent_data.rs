@@ -113,37 +113,31 @@ fn an_admissible_set_with_overlapping_vertices_is_refused_before_any_evaluation(
     wsm_core::run::check_admissible_set(&feasible).unwrap();
 }
 
+/// POST `body` to `endpoint`, expect 422, and return the error body.
+fn refused(addr: &str, endpoint: &str, body: &Value) -> Value {
+    let reply = post(addr, endpoint, body);
+    let text = String::from_utf8_lossy(&reply.body).into_owned();
+    assert_eq!(reply.status, 422, "{endpoint}: {text}");
+    reply.json()
+}
+
 #[test]
 fn the_service_refuses_the_overlap_with_422_and_the_path() {
     let db = temp_db("inconsistent.db");
     let server = Server::start(&db, &["--workers", "1"]);
     let addr = &server.addr;
-    let reply = post(addr, "/v1/solve", &json!({ "scene": pushed(0.035) }));
-    assert_eq!(
-        reply.status,
-        422,
-        "{:?}",
-        String::from_utf8_lossy(&reply.body)
-    );
-    let body = reply.json();
+    let body = refused(addr, "/v1/solve", &json!({ "scene": pushed(0.035) }));
     assert_eq!(body["path"], "scene.boundary[0].displacement[0]", "{body}");
     assert!(
         body["detail"].as_str().unwrap().contains("fault_low"),
         "{body}"
     );
 
-    let reply = post(
+    let body = refused(
         addr,
         "/v1/jobs",
         &json!({ "scene": with_interval(0.015, 0.035) }),
     );
-    assert_eq!(
-        reply.status,
-        422,
-        "{:?}",
-        String::from_utf8_lossy(&reply.body)
-    );
-    let body = reply.json();
     assert_eq!(body["path"], "scene.uncertain[8]", "{body}");
     assert!(
         body["detail"].as_str().unwrap().contains("[0.015, 0.025]"),

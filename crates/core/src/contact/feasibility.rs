@@ -41,6 +41,28 @@ struct PinnedPair {
     sources: Vec<(Source, f64)>,
 }
 
+impl PinnedPair {
+    /// `a_s = ∂r/∂v_s` of a displacement component (0 when it does not fix this pair).
+    fn slope(&self, source: Source) -> f64 {
+        self.sources
+            .iter()
+            .find(|(s, _)| *s == source)
+            .map_or(0.0, |&(_, a)| a)
+    }
+
+    /// The uncertain datum that moves `r` most over its interval, `|a_s| (hi − lo)`.
+    fn most_influential<'u, 'a>(
+        &self,
+        moved: &[&'u UncertainDisplacement<'a>],
+    ) -> Option<&'u UncertainDisplacement<'a>> {
+        let influence = |u: &UncertainDisplacement<'_>| self.slope(u.source).abs() * (u.hi - u.lo);
+        moved
+            .iter()
+            .copied()
+            .max_by(|a, b| influence(a).total_cmp(&influence(b)))
+    }
+}
+
 /// The pinned pairs of a scene (topology; the values are read from the data on each check).
 #[derive(Debug, Clone, Default)]
 pub struct Feasibility {
@@ -116,13 +138,7 @@ impl Feasibility {
         uncertain: &[UncertainDisplacement<'_>],
     ) -> Result<(), SceneError> {
         for (p, pinned) in self.pinned.iter().enumerate() {
-            let slope = |u: &UncertainDisplacement<'_>| {
-                pinned
-                    .sources
-                    .iter()
-                    .find(|(s, _)| *s == u.source)
-                    .map_or(0.0, |&(_, a)| a)
-            };
+            let slope = |u: &UncertainDisplacement<'_>| pinned.slope(u.source);
             // The vertex that maximises r (and, for a bilateral pair, the one that minimises it).
             let mut worst = nominal.clone();
             let mut best = nominal.clone();
@@ -145,20 +161,12 @@ impl Feasibility {
                     .map(|u| format!("{} = {}", u.name, value(vertex, u.source)))
                     .collect();
                 let cause = self.explain(scene, mesh, geometry, vertex, p, r);
-                let path = moved
-                    .iter()
-                    .max_by(|a, b| {
-                        (slope(a).abs() * (a.hi - a.lo))
-                            .total_cmp(&(slope(b).abs() * (b.hi - b.lo)))
-                    })
-                    .map_or(cause.path.clone(), |u| format!("uncertain[{}]", u.index));
-                let suggestion = if bilateral {
-                    String::new()
-                } else {
-                    moved
-                        .first()
-                        .and_then(|_| self.suggest(pinned, geometry, vertex, &moved))
-                        .unwrap_or_default()
+                let culprit = pinned.most_influential(&moved);
+                let path =
+                    culprit.map_or(cause.path.clone(), |u| format!("uncertain[{}]", u.index));
+                let suggestion = match culprit {
+                    Some(u) if !bilateral => self.suggest(pinned, geometry, vertex, u),
+                    _ => String::new(),
                 };
                 let vertex_text = if at.is_empty() {
                     String::new()
@@ -294,26 +302,16 @@ impl Feasibility {
         )
     }
 
-    /// The largest interval of the most influential uncertain datum that is feasible with the
-    /// others at the worst vertex.
+    /// The largest interval of the uncertain datum `u` that is feasible with the others at the
+    /// worst vertex.
     fn suggest(
         &self,
         pinned: &PinnedPair,
         geometry: &ContactGeometry,
         vertex: &Data,
-        moved: &[&UncertainDisplacement<'_>],
-    ) -> Option<String> {
-        let slope = |u: &UncertainDisplacement<'_>| {
-            pinned
-                .sources
-                .iter()
-                .find(|(s, _)| *s == u.source)
-                .map_or(0.0, |&(_, a)| a)
-        };
-        let u = moved.iter().max_by(|a, b| {
-            (slope(a).abs() * (a.hi - a.lo)).total_cmp(&(slope(b).abs() * (b.hi - b.lo)))
-        })?;
-        let a = slope(u);
+        u: &UncertainDisplacement<'_>,
+    ) -> String {
+        let a = pinned.slope(u.source);
         let r = self.residual(pinned, geometry, vertex);
         let limit = six_digits(value(vertex, u.source) - r / a);
         let (lo, hi) = if a > 0.0 {
@@ -321,7 +319,7 @@ impl Feasibility {
         } else {
             (limit.max(u.lo), u.hi)
         };
-        Some(if lo <= hi {
+        if lo <= hi {
             format!(
                 "; the largest feasible interval of {} with the other data at this vertex is [{lo}, {hi}]",
                 u.name
@@ -331,7 +329,7 @@ impl Feasibility {
                 "; no value of {} in its interval is feasible with the other data at this vertex",
                 u.name
             )
-        })
+        }
     }
 }
 
