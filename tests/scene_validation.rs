@@ -323,3 +323,28 @@ fn a_criterion_listed_twice() {
 fn a_scene_name_too_long_for_a_listing() {
     refused(|s| s["name"] = json!("x".repeat(201)), "name");
 }
+
+#[test]
+fn long_lists_strings_and_keys_are_refused_with_their_path() {
+    refused(
+        |s| s["materials"]["rock"]["comment"] = json!("x".repeat(1001)),
+        "materials.rock.comment",
+    );
+    refused(
+        |s| s["bodies"][0]["name"] = json!("b".repeat(5000)),
+        "bodies[0].name",
+    );
+    refused(
+        |s| s["uncertain"] = json!(vec![json!({"field": "materials.rock.E"}); 10_001]),
+        "uncertain",
+    );
+    refused(
+        |s| {
+            s["materials"]
+                .as_object_mut()
+                .unwrap()
+                .insert("m".repeat(2000), json!({}));
+        },
+        "materials",
+    );
+}

@@ -141,6 +141,15 @@ impl WsmError {
         }
     }
 
+    /// The body an unsolvable scene cannot balance, by its name in the scene.
+    pub fn unbalanced_body(&self) -> Option<&str> {
+        match self {
+            WsmError::Unbalanced { body, .. } | WsmError::UnbalancedMode { body, .. } => Some(body),
+            WsmError::Fem(FemError::FloatingBody { name, .. }) => Some(name),
+            _ => None,
+        }
+    }
+
     /// The JSON path of the offending field, where the error names one.
     pub fn path(&self) -> Option<&str> {
         match self {

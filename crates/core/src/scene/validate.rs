@@ -3,21 +3,88 @@
 //! matching contact nodes, overlapping zones) are done by the mesher with the same error type.
 
 use super::model::*;
-use super::params::resolve_uncertain;
+use super::params::{resolve_uncertain, ParamTarget, Parameter};
 use super::rules::Constant;
 use super::SceneError;
 use std::collections::BTreeSet;
 
 /// Parse a scene from JSON text; parse errors carry the JSON path.
 pub fn parse(text: &str) -> Result<Scene, SceneError> {
-    let de = &mut serde_json::Deserializer::from_str(text);
-    let scene: Scene = serde_path_to_error::deserialize(de).map_err(|e| {
+    let located = |e: serde_path_to_error::Error<serde_json::Error>| {
         let path = e.path().to_string();
         let path = if path == "." { String::from("$") } else { path };
         SceneError::new(path, e.into_inner().to_string())
-    })?;
+    };
+    let de = &mut serde_json::Deserializer::from_str(text);
+    let value: serde_json::Value = serde_path_to_error::deserialize(de).map_err(located)?;
+    check_sizes(&value, &mut String::new())?;
+    let scene: Scene = serde_path_to_error::deserialize(value).map_err(located)?;
     validate(&scene)?;
     Ok(scene)
+}
+
+/// Items accepted in any one list of a scene document (polygons are bounded together by
+/// [`MAX_VERTICES`] as well).
+pub const MAX_LIST: usize = MAX_VERTICES;
+
+/// Characters accepted in any string or key of a scene document: names are echoed in
+/// results, listings and messages.
+pub const MAX_TEXT: usize = 1000;
+
+/// Refuse any list longer than [`MAX_LIST`] and any string or key longer than [`MAX_TEXT`],
+/// naming the first (`path` is the JSON path so far, as serde_path_to_error writes it).
+fn check_sizes(value: &serde_json::Value, path: &mut String) -> Result<(), SceneError> {
+    let here = |path: &str| {
+        if path.is_empty() {
+            "$".to_string()
+        } else {
+            path.to_string()
+        }
+    };
+    match value {
+        serde_json::Value::Array(items) => {
+            if items.len() > MAX_LIST {
+                return Err(SceneError::new(
+                    here(path),
+                    format!("{} items; at most {MAX_LIST} are accepted", items.len()),
+                ));
+            }
+            for (i, item) in items.iter().enumerate() {
+                let len = path.len();
+                path.push_str(&format!("[{i}]"));
+                check_sizes(item, path)?;
+                path.truncate(len);
+            }
+        }
+        serde_json::Value::Object(members) => {
+            for (key, member) in members {
+                let len = path.len();
+                if !path.is_empty() {
+                    path.push('.');
+                }
+                if key.chars().count() > MAX_TEXT {
+                    return Err(SceneError::new(
+                        here(path).trim_end_matches('.').to_string(),
+                        format!(
+                            "a key of {} characters; at most {MAX_TEXT}",
+                            key.chars().count()
+                        ),
+                    ));
+                }
+                path.push_str(key);
+                check_sizes(member, path)?;
+                path.truncate(len);
+            }
+        }
+        serde_json::Value::String(text) if text.chars().count() > MAX_TEXT => {
+            return Err(SceneError::new(
+                here(path),
+                format!("{} characters; at most {MAX_TEXT}", text.chars().count()),
+            ));
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Check the meaning of a parsed scene.
@@ -40,10 +107,106 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     check_mesh(&scene.mesh, scene)?;
     check_criteria(scene)?;
     check_search(scene)?;
-    for (i, u) in scene.uncertain.iter().enumerate() {
-        resolve_uncertain(scene, i, u)?;
+    let parameters = scene
+        .uncertain
+        .iter()
+        .enumerate()
+        .map(|(i, u)| resolve_uncertain(scene, i, u))
+        .collect::<Result<Vec<_>, _>>()?;
+    check_stiffness_ratio(scene, &parameters)
+}
+
+/// The stiffest modulus (λ + 2μ) of a scene's materials divided by the softest (μ), over the
+/// whole box of uncertain data, may not exceed this. Beyond it the round-off of the stiff
+/// zones' entries swamps the soft zones' in one system (a 1e18 ratio in one body stops the
+/// Cholesky factorisation; 1e16 still solves): refused as bad input rather than failing the
+/// solver. It bounds soft inclusions and nearly incompressible materials (ν up to about
+/// 0.5 − 1e-12) alike.
+pub const MAX_STIFFNESS_RATIO: f64 = 1e12;
+
+/// The material moduli at the corners of their intervals, the stiffest and the softest against
+/// [`MAX_STIFFNESS_RATIO`].
+fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), SceneError> {
+    let used: BTreeSet<&str> = scene
+        .bodies
+        .iter()
+        .flat_map(|b| &b.zones)
+        .map(|z| z.material.as_str())
+        .collect();
+    // (material, constant varied when soft) at the stiffest and softest corner.
+    let mut stiffest: Option<(f64, &str)> = None;
+    let mut softest: Option<(f64, &str, &str)> = None;
+    for (index, (name, m)) in scene.materials.iter().enumerate() {
+        if !used.contains(name.as_str()) {
+            continue;
+        }
+        let range = |target: ParamTarget, nominal: f64| {
+            parameters
+                .iter()
+                .filter(|p| p.target == target)
+                .fold((nominal, nominal), |(lo, hi), p| {
+                    (lo.min(p.lo), hi.max(p.hi))
+                })
+        };
+        let (corners, soft_field) = match (m.young, m.nu, m.lambda, m.mu) {
+            (Some(e), Some(nu), _, _) => {
+                let (e, nu) = (
+                    range(ParamTarget::Young(index), e),
+                    range(ParamTarget::Poisson(index), nu),
+                );
+                let lame = |e: f64, nu: f64| {
+                    (
+                        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+                        e / (2.0 * (1.0 + nu)),
+                    )
+                };
+                let corners = [(e.0, nu.0), (e.0, nu.1), (e.1, nu.0), (e.1, nu.1)];
+                (corners.map(|(e, nu)| lame(e, nu)), "E")
+            }
+            (_, _, Some(l), Some(mu)) => {
+                let (l, mu) = (
+                    range(ParamTarget::Lambda(index), l),
+                    range(ParamTarget::Mu(index), mu),
+                );
+                ([(l.0, mu.0), (l.0, mu.1), (l.1, mu.0), (l.1, mu.1)], "mu")
+            }
+            _ => continue, // refused by check_materials
+        };
+        for (lambda, mu) in corners {
+            if stiffest.is_none_or(|(s, _)| lambda + 2.0 * mu > s) {
+                stiffest = Some((lambda + 2.0 * mu, name));
+            }
+            if softest.is_none_or(|(s, _, _)| mu < s) {
+                softest = Some((mu, name, soft_field));
+            }
+        }
     }
-    Ok(())
+    let (Some((stiff, stiff_name)), Some((soft, soft_name, soft_field))) = (stiffest, softest)
+    else {
+        return Ok(());
+    };
+    if stiff <= MAX_STIFFNESS_RATIO * soft {
+        return Ok(());
+    }
+    let (path, what) = if stiff_name == soft_name {
+        let field = if soft_field == "E" { "nu" } else { "lambda" };
+        (
+            format!("materials.{soft_name}.{field}"),
+            format!("material '{soft_name}' is nearly incompressible: its λ + 2μ reaches {stiff:.3e} Pa against μ = {soft:.3e} Pa"),
+        )
+    } else {
+        (
+            format!("materials.{soft_name}.{soft_field}"),
+            format!("material '{stiff_name}' (λ + 2μ up to {stiff:.3e} Pa) is too stiff next to '{soft_name}' (μ down to {soft:.3e} Pa)"),
+        )
+    };
+    Err(SceneError::new(
+        path,
+        format!(
+            "{what}, a ratio of {:.1e}; at most {MAX_STIFFNESS_RATIO:.0e} can be solved in double precision (over the whole box of uncertain data)",
+            stiff / soft
+        ),
+    ))
 }
 
 /// Characters accepted in the scene's name.
