@@ -52,18 +52,22 @@ async fn bench(db: &str, batches: usize) {
     for (workers, parts, points) in [(1, 1, 4), (2, 2, 4), (4, 4, 4), (8, 8, 4), (8, 8, 16)] {
         job_no += 1;
         let id = format!("bench{job_no}");
-        store
-            .insert(NewJob {
-                id: id.clone(),
-                scene: "{}".into(),
-                settings: WorstRequest::default(),
-                scene_name: "bench".into(),
-                criteria: vec!["phi3".into()],
-                budget: 1,
-                run_hash: format!("hash{job_no}"),
-            })
+        let inserted = store
+            .insert(
+                NewJob {
+                    id: id.clone(),
+                    scene: "{}".into(),
+                    settings: WorstRequest::default(),
+                    scene_name: "bench".into(),
+                    criteria: vec!["phi3".into()],
+                    budget: 1,
+                    run_hash: format!("hash{job_no}"),
+                },
+                usize::MAX,
+            )
             .await
             .unwrap();
+        assert!(inserted);
         let job = store.lease("coordinator", 60.0).await.unwrap().unwrap();
         let loops: Vec<_> = (0..workers)
             .map(|w| tokio::spawn(task_loop(store.clone(), format!("w{job_no}-{w}"))))

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
 use wsm_core::scene::SolverKind;
-use wsm_service::api::Limits;
+use wsm_service::api::{Access, Limits};
 use wsm_service::jobs::runner::FaultRule;
 use wsm_service::server::{ServeConfig, WorkerConfig};
 use wsm_study::accuracy::AccuracyOptions;
@@ -165,6 +165,10 @@ pub struct ServeArgs {
     /// Largest request body [bytes].
     #[arg(long, default_value_t = 4 << 20)]
     pub max_body_bytes: usize,
+    /// With WSM_API_TOKEN set, let anyone read jobs, scenes and results (by default reads need
+    /// the token, or the read-only token WSM_READ_TOKEN).
+    #[arg(long)]
+    pub open_reads: bool,
     /// For the end-to-end tests of failure reporting only: `FIELD=VALUE` makes every
     /// evaluation whose uncertain FIELD exceeds VALUE fail. Hidden from the help.
     #[arg(long, hide = true, value_parser = parse_fault_rule)]
@@ -183,8 +187,14 @@ fn parse_fault_rule(text: &str) -> Result<FaultRule, String> {
     })
 }
 
+/// A token from the environment (unset or empty: none).
+fn token_from_env(name: &str) -> Option<String> {
+    std::env::var(name).ok().filter(|t| !t.is_empty())
+}
+
 impl From<ServeArgs> for ServeConfig {
-    /// The bearer token comes from the environment (`WSM_API_TOKEN`), never from the arguments.
+    /// The bearer tokens come from the environment (`WSM_API_TOKEN`, `WSM_READ_TOKEN`), never
+    /// from the arguments.
     fn from(args: ServeArgs) -> ServeConfig {
         ServeConfig {
             addr: args.addr,
@@ -200,9 +210,11 @@ impl From<ServeArgs> for ServeConfig {
                 ..Limits::default()
             },
             inject_failures: args.inject_failures,
-            token: std::env::var("WSM_API_TOKEN")
-                .ok()
-                .filter(|t| !t.is_empty()),
+            access: Access {
+                token: token_from_env("WSM_API_TOKEN"),
+                read_token: token_from_env("WSM_READ_TOKEN"),
+                open_reads: args.open_reads,
+            },
         }
     }
 }

@@ -205,13 +205,22 @@ pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
 
 /// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
 pub fn serve(config: wsm_service::server::ServeConfig) -> Result<String, WsmError> {
-    runtime()?.block_on(wsm_service::server::serve(config))?;
-    Ok("wsm: stopped".into())
+    until_stopped(wsm_service::server::serve(config))
 }
 
 pub fn worker(config: wsm_service::server::WorkerConfig) -> Result<String, WsmError> {
-    runtime()?.block_on(wsm_service::server::worker(config))?;
-    Ok("wsm: stopped".into())
+    until_stopped(wsm_service::server::worker(config))
+}
+
+/// Run a server or worker to its end; its jobs, given back and told to stop, get a few seconds
+/// to leave their evaluation batch before the process exits.
+fn until_stopped(
+    service: impl std::future::Future<Output = Result<(), WsmError>>,
+) -> Result<String, WsmError> {
+    let runtime = runtime()?;
+    let result = runtime.block_on(service);
+    runtime.shutdown_timeout(std::time::Duration::from_secs(5));
+    result.map(|()| "wsm: stopped".into())
 }
 
 fn runtime() -> Result<tokio::runtime::Runtime, WsmError> {

@@ -164,3 +164,330 @@ fn numbers_beyond_double_precision_are_bad_input_not_server_errors() {
         }
     }
 }
+
+#[test]
+fn health_answers_within_100_ms_while_huge_scenes_are_validated() {
+    let db = temp_db("hostile-health.db");
+    let server = Server::start(&db, &["--workers", "1"]);
+    let addr = server.addr.clone();
+    let mut scene = block();
+    let mut polygon = vec![json!([0.5, 0.5]), json!([1.5, 0.5])];
+    let n = 100_000;
+    for k in 0..=n {
+        polygon.push(json!([1.5 - k as f64 / n as f64, 1.0]));
+    }
+    scene["bodies"][1]["zones"][0]["polygon"] = json!(polygon);
+    let body = serde_json::to_vec(&json!({ "scene": scene })).unwrap();
+    let senders: Vec<_> = (0..2)
+        .map(|i| {
+            let (addr, body) = (addr.clone(), body.clone());
+            std::thread::spawn(move || {
+                let endpoint = if i == 0 { "/v1/solve" } else { "/v1/jobs" };
+                common::http(&addr, "POST", endpoint, Some(&body), &[]).status
+            })
+        })
+        .collect();
+    let mut slowest = std::time::Duration::ZERO;
+    for _ in 0..20 {
+        let start = std::time::Instant::now();
+        assert_eq!(get(&addr, "/healthz").status, 200);
+        slowest = slowest.max(start.elapsed());
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    for s in senders {
+        assert_eq!(s.join().unwrap(), 422);
+    }
+    assert!(
+        slowest < std::time::Duration::from_millis(100),
+        "{slowest:?}"
+    );
+}
+
+#[test]
+fn bodies_must_be_declared_json_without_repeated_keys_and_settings_must_be_an_object() {
+    let db = temp_db("hostile-bodies.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let body = br#"{"example": "block-on-base"}"#;
+    // Without the Content-Type the test client adds to every body.
+    let raw = |content_type: Option<&str>| {
+        use std::io::{Read, Write};
+        let mut stream = std::net::TcpStream::connect(addr).unwrap();
+        let mut request = format!(
+            "POST /v1/jobs HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n",
+            body.len()
+        );
+        if let Some(t) = content_type {
+            request.push_str(&format!("Content-Type: {t}\r\n"));
+        }
+        request.push_str("\r\n");
+        stream.write_all(request.as_bytes()).unwrap();
+        stream.write_all(body).unwrap();
+        let mut reply = String::new();
+        stream.read_to_string(&mut reply).unwrap();
+        reply
+    };
+    for content_type in [
+        None,
+        Some("application/x-www-form-urlencoded"),
+        Some("text/plain"),
+    ] {
+        let reply = raw(content_type);
+        assert!(
+            reply.starts_with("HTTP/1.1 415"),
+            "{content_type:?}: {reply}"
+        );
+        assert!(reply.contains("Content-Type: application/json"), "{reply}");
+    }
+    assert!(raw(Some("application/json; charset=utf-8")).starts_with("HTTP/1.1 202"));
+
+    let cases: [(&[u8], &str); 4] = [
+        (
+            br#"{"example": "block-on-base", "settings": {"budget": 10, "budget": 1000000}}"#,
+            "settings.budget",
+        ),
+        (
+            br#"{"example": "block-on-base", "example": "knee"}"#,
+            "example",
+        ),
+        (
+            br#"{"example": "block-on-base", "settings": []}"#,
+            "settings",
+        ),
+        (br#"{"scene": [1, 2, 3]}"#, "scene"),
+    ];
+    for (body, path) in cases {
+        let reply = common::http(addr, "POST", "/v1/jobs", Some(body), &[]);
+        assert_eq!(reply.status, 422, "{}", text(&reply));
+        assert_eq!(reply.json()["path"], path, "{}", text(&reply));
+    }
+}
+
+#[test]
+fn the_active_job_limit_holds_when_clients_race() {
+    let db = temp_db("hostile-race.db");
+    // No job slots: nothing finishes while the clients race.
+    let server = Server::start(&db, &["--workers", "0", "--max-active-jobs", "5"]);
+    let addr = server.addr.clone();
+    let clients: Vec<_> = (0..2)
+        .map(|_| {
+            let addr = addr.clone();
+            std::thread::spawn(move || {
+                (0..15)
+                    .map(|_| {
+                        post(
+                            &addr,
+                            "/v1/jobs",
+                            &json!({"example": "block-on-base", "settings": {"budget": 10}}),
+                        )
+                        .status
+                    })
+                    .collect::<Vec<u16>>()
+            })
+        })
+        .collect();
+    let codes: Vec<u16> = clients
+        .into_iter()
+        .flat_map(|c| c.join().unwrap())
+        .collect();
+    assert_eq!(codes.iter().filter(|&&c| c == 202).count(), 5, "{codes:?}");
+    assert_eq!(codes.iter().filter(|&&c| c == 503).count(), 25, "{codes:?}");
+    assert_eq!(get(&addr, "/healthz").json()["active_jobs"], 5);
+}
+
+#[test]
+fn reads_need_a_token_when_the_server_has_one_unless_they_are_opened() {
+    let db = temp_db("hostile-reads.db");
+    let write = ("Authorization", "Bearer w-secret");
+    let read = ("Authorization", "bearer r-secret");
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"));
+    command.env("WSM_READ_TOKEN", "r-secret");
+    let server = common::Server::start_command(command, &db, &["--workers", "0"], Some("w-secret"));
+    let addr = &server.addr;
+    let body = serde_json::to_vec(&json!({"example": "block-on-base", "settings": {"budget": 10}}))
+        .unwrap();
+    let submitted = common::http(addr, "POST", "/v1/jobs", Some(&body), &[write]);
+    assert_eq!(submitted.status, 202);
+    let id = submitted.json()["id"].as_str().unwrap().to_string();
+    let reads = [
+        "/v1/jobs".to_string(),
+        format!("/v1/jobs/{id}"),
+        format!("/v1/jobs/{id}/scene"),
+        format!("/v1/jobs/{id}/evaluations"),
+        format!("/v1/jobs/{id}/events"),
+    ];
+    for path in &reads {
+        assert_eq!(get(addr, path).status, 401, "{path} without a token");
+        let wrong = common::http(addr, "GET", path, None, &[("Authorization", "Bearer nope")]);
+        assert_eq!(wrong.status, 401, "{path} with a wrong token");
+    }
+    for path in &reads[..4] {
+        assert_eq!(
+            common::http(addr, "GET", path, None, &[read]).status,
+            200,
+            "{path}"
+        );
+        assert_eq!(
+            common::http(addr, "GET", path, None, &[write]).status,
+            200,
+            "{path}"
+        );
+    }
+    let by_reader = common::http(addr, "POST", "/v1/jobs", Some(&body), &[read]);
+    assert_eq!(by_reader.status, 401, "the read token cannot submit");
+    let cancel = format!("/v1/jobs/{id}/cancel");
+    assert_eq!(
+        common::http(addr, "POST", &cancel, None, &[read]).status,
+        401
+    );
+    for open in ["/healthz", "/v1/examples", "/openapi.json", "/"] {
+        assert_eq!(get(addr, open).status, 200, "{open} stays open");
+    }
+    drop(server);
+
+    let opened =
+        Server::start_with_token(&db, &["--workers", "0", "--open-reads"], Some("w-secret")).0;
+    assert_eq!(get(&opened.addr, &format!("/v1/jobs/{id}")).status, 200);
+    let submit = common::http(&opened.addr, "POST", "/v1/jobs", Some(&body), &[]);
+    assert_eq!(submit.status, 401, "writes still need the token");
+}
+
+/// Run `wsm serve` on `db` and expect it to stop by itself within `seconds`; its stderr.
+fn refused_at_start(db: &str, seconds: u64) -> String {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .args(["serve", "--addr", "127.0.0.1:0", "--db", db])
+        .env_remove("WSM_API_TOKEN")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            assert!(!status.success(), "{db}: the server should refuse to start");
+            let mut stderr = String::new();
+            use std::io::Read;
+            child
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut stderr)
+                .unwrap();
+            return stderr;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(seconds) {
+            let _ = child.kill();
+            panic!("{db}: still running after {seconds} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
+#[test]
+fn a_database_that_is_not_sqlite_or_read_only_is_refused_at_start_with_the_reason() {
+    let notes = temp_db("notes.txt");
+    std::fs::write(&notes, "my notes, not a database\n".repeat(100)).unwrap();
+    let stderr = refused_at_start(&notes, 5);
+    assert!(stderr.contains("not a SQLite database"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&notes).unwrap(),
+        "my notes, not a database\n".repeat(100),
+        "the file is left as it was"
+    );
+
+    let db = temp_db("hostile-read-only.db");
+    drop(Server::start(&db, &["--workers", "0"]));
+    let stderr = refused_at_start(&format!("sqlite://{db}?mode=ro"), 5);
+    assert!(stderr.contains("does not take writes"), "{stderr}");
+}
+
+fn send_sigterm(server: &Server) {
+    let pid = server.child.id().to_string();
+    let status = std::process::Command::new("kill")
+        .args(["-TERM", &pid])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+#[test]
+fn a_stopped_server_gives_its_running_job_back_and_another_resumes_it() {
+    let db = temp_db("hostile-sigterm.db");
+    let mut first = Server::start(&db, &["--workers", "1"]);
+    let submitted = post(
+        &first.addr,
+        "/v1/jobs",
+        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": 3}}),
+    );
+    assert_eq!(submitted.status, 202, "{}", text(&submitted));
+    let id = submitted.json()["id"].as_str().unwrap().to_string();
+    let start = std::time::Instant::now();
+    loop {
+        let s = get(&first.addr, &format!("/v1/jobs/{id}")).json();
+        if s["state"] == "running" && s["evaluations"].as_u64().unwrap_or(0) > 0 {
+            break;
+        }
+        assert!(start.elapsed() < std::time::Duration::from_secs(60), "{s}");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    send_sigterm(&first);
+    let stopping = std::time::Instant::now();
+    let status = first.child.wait().unwrap();
+    assert!(
+        stopping.elapsed() < std::time::Duration::from_secs(8),
+        "{:?}",
+        stopping.elapsed()
+    );
+    assert!(status.success(), "{status:?}");
+
+    // A reader sees the job queued again at once (not `running` under a dead lease), waiting.
+    let reader = Server::start(&db, &["--workers", "0"]);
+    let waiting = get(&reader.addr, &format!("/v1/jobs/{id}")).json();
+    assert_eq!(waiting["state"], "queued", "{waiting}");
+    assert_eq!(waiting["phase"], "queued", "{waiting}");
+    drop(reader);
+
+    let second = Server::start(&db, &["--workers", "1"]);
+    let done = common::wait_finished(&second.addr, &id, std::time::Duration::from_secs(180));
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert_eq!(done["attempts"], 2, "{done}");
+}
+
+#[test]
+fn a_cancel_after_the_last_search_evaluation_still_ends_the_job_cancelled() {
+    let db = temp_db("hostile-late-cancel.db");
+    let server = Server::start(&db, &["--workers", "1"]);
+    let addr = &server.addr;
+    let submitted = post(
+        addr,
+        "/v1/jobs",
+        &json!({"example": "tunnel-fault", "settings": {"budget": 40, "criteria": ["phi3", "phi5", "phi4"], "seed": 1}}),
+    );
+    let id = submitted.json()["id"].as_str().unwrap().to_string();
+    let start = std::time::Instant::now();
+    let phase = loop {
+        let s = get(addr, &format!("/v1/jobs/{id}")).json();
+        let phase = s["phase"].as_str().unwrap_or("").to_string();
+        if phase == "sensitivities"
+            || phase == "accuracy"
+            || s["state"] != "running" && s["state"] != "queued"
+        {
+            break phase;
+        }
+        assert!(start.elapsed() < std::time::Duration::from_secs(120), "{s}");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    assert!(
+        phase == "sensitivities" || phase == "accuracy",
+        "the late phases were not seen: {phase}"
+    );
+    let reply = post(addr, &format!("/v1/jobs/{id}/cancel"), &json!({}));
+    assert_eq!(reply.status, 202, "{}", text(&reply));
+    let done = common::wait_finished(addr, &id, std::time::Duration::from_secs(60));
+    assert_eq!(
+        done["state"], "cancelled",
+        "the 202 promised a cancel: {done}"
+    );
+    let result = get(addr, &format!("/v1/jobs/{id}/result"));
+    assert_eq!(result.status, 200, "the outcome is kept");
+}

@@ -449,7 +449,7 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
 }
 
 #[test]
-fn the_bearer_token_guards_mutating_endpoints_when_set() {
+fn the_bearer_token_guards_job_endpoints_when_set() {
     let db = temp_db("token.db");
     let (server, line) = Server::start_with_token(&db, &[], Some("s3cret-token"));
     assert!(!line.contains("s3cret"), "the token is never printed");
@@ -489,7 +489,21 @@ fn the_bearer_token_guards_mutating_endpoints_when_set() {
         );
         assert_eq!(reply.status, status, "{header}");
     }
-    assert_eq!(get(&addr, "/v1/jobs").status, 200, "reading needs no token");
+    // Reads of job data need it too (tests/hostile_requests.rs covers the read token and
+    // --open-reads).
+    assert_eq!(
+        get(&addr, "/v1/jobs").status,
+        401,
+        "reading jobs needs the token"
+    );
+    let read = http(
+        &addr,
+        "GET",
+        "/v1/jobs",
+        None,
+        &[("Authorization", "Bearer s3cret-token")],
+    );
+    assert_eq!(read.status, 200);
 }
 
 #[test]

@@ -68,7 +68,7 @@ fn evaluation(x: f64) -> Evaluation {
 
 async fn jobs_round_trip_and_list_newest_first(store: Arc<dyn JobStore>) {
     for id in ["a", "b", "c"] {
-        store.insert(job(id)).await.unwrap();
+        assert!(store.insert(job(id), usize::MAX).await.unwrap());
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     let a = store.get("a").await.unwrap().unwrap();
@@ -99,7 +99,10 @@ conformance!(
 
 async fn concurrent_leases_take_each_job_once(store: Arc<dyn JobStore>) {
     for i in 0..12 {
-        store.insert(job(&format!("job{i:02}"))).await.unwrap();
+        assert!(store
+            .insert(job(&format!("job{i:02}")), usize::MAX)
+            .await
+            .unwrap());
     }
     let leasers: Vec<_> = (0..4)
         .map(|w| {
@@ -128,7 +131,7 @@ conformance!(
 );
 
 async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc<dyn JobStore>) {
-    store.insert(job("j")).await.unwrap();
+    assert!(store.insert(job("j"), usize::MAX).await.unwrap());
     let first = store.lease("w1", 0.3).await.unwrap().unwrap();
     assert_eq!(first.attempts, 1);
     assert!(store.lease("w2", 0.3).await.unwrap().is_none(), "held");
@@ -170,7 +173,7 @@ async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc
     assert_eq!(ended.state, JobState::Cancelled);
     assert!(ended.finished_at.unwrap() >= ended.created_at);
     // A queued job is cancelled at once.
-    store.insert(job("q")).await.unwrap();
+    assert!(store.insert(job("q"), usize::MAX).await.unwrap());
     assert!(store.request_cancel("q").await.unwrap());
     assert_eq!(
         store.get("q").await.unwrap().unwrap().state,
@@ -186,7 +189,7 @@ conformance!(
 async fn evaluations_are_stored_exactly_in_order_by_the_lease_holder_only(
     store: Arc<dyn JobStore>,
 ) {
-    store.insert(job("e")).await.unwrap();
+    assert!(store.insert(job("e"), usize::MAX).await.unwrap());
     store.lease("w1", 30.0).await.unwrap().unwrap();
     for i in 0..5 {
         let seq = store
@@ -227,7 +230,7 @@ conformance!(
 );
 
 async fn batch_tasks_are_leased_once_and_return_in_part_order(store: Arc<dyn JobStore>) {
-    store.insert(job("t")).await.unwrap();
+    assert!(store.insert(job("t"), usize::MAX).await.unwrap());
     let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
     let parts: Vec<Vec<Vec<f64>>> = (0..6)
         .map(|p| vec![vec![p as f64, 0.5], vec![p as f64, 0.25]])
@@ -303,7 +306,7 @@ conformance!(
 async fn a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_again(
     store: Arc<dyn JobStore>,
 ) {
-    store.insert(job("s")).await.unwrap();
+    assert!(store.insert(job("s"), usize::MAX).await.unwrap());
     let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
     let attempt = coordinator.attempts;
     let parts = [vec![vec![1.0]], vec![vec![2.0]]];
@@ -370,7 +373,7 @@ conformance!(
 async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dropped(
     store: Arc<dyn JobStore>,
 ) {
-    store.insert(job("d")).await.unwrap();
+    assert!(store.insert(job("d"), usize::MAX).await.unwrap());
     let first = store.lease("coord1", 0.3).await.unwrap().unwrap();
     store
         .post_tasks("d", "coord1", first.attempts, 0, &[vec![vec![1.0]]])
@@ -452,7 +455,7 @@ conformance!(
 async fn the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers(
     store: Arc<dyn JobStore>,
 ) {
-    store.insert(job("c")).await.unwrap();
+    assert!(store.insert(job("c"), usize::MAX).await.unwrap());
     let input = store.job_input("c").await.unwrap().unwrap();
     assert_eq!(input.chosen_scene, None, "nothing chosen before the run");
     assert!(
@@ -477,3 +480,174 @@ conformance!(
     the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers_on_every_backend,
     the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers
 );
+
+async fn the_active_job_limit_holds_under_concurrent_submissions(store: Arc<dyn JobStore>) {
+    let submitters: Vec<_> = (0..30)
+        .map(|i| {
+            let store = store.clone();
+            tokio::spawn(async move { store.insert(job(&format!("s{i:02}")), 5).await.unwrap() })
+        })
+        .collect();
+    let mut accepted = 0;
+    for s in submitters {
+        accepted += usize::from(s.await.unwrap());
+    }
+    assert_eq!(accepted, 5, "the limit is 5");
+    assert_eq!(store.active_count().await.unwrap(), 5);
+    assert!(!store.insert(job("late"), 5).await.unwrap());
+    let leased = store.lease("w", 30.0).await.unwrap().unwrap();
+    store
+        .finish(&leased.id, "w", JobEnd::Cancelled(None))
+        .await
+        .unwrap();
+    assert!(store.insert(job("late"), 5).await.unwrap(), "room again");
+}
+conformance!(
+    the_active_job_limit_holds_under_concurrent_submissions_on_every_backend,
+    the_active_job_limit_holds_under_concurrent_submissions
+);
+
+async fn a_stopping_process_gives_its_leases_back_and_listings_leave_scenes_out(
+    store: Arc<dyn JobStore>,
+) {
+    store.check_writable().await.unwrap();
+    assert!(store.insert(job("r"), usize::MAX).await.unwrap());
+    let listed = store
+        .list(
+            None,
+            Page {
+                limit: 10,
+                offset: 0,
+            },
+        )
+        .await
+        .unwrap();
+    assert_eq!(
+        listed[0].scene, "",
+        "a listing does not read scene documents"
+    );
+    assert_eq!(listed[0].scene_name, "scene");
+    store.lease("leaving", 600.0).await.unwrap().unwrap();
+    assert_eq!(store.release_all("someone else").await.unwrap(), 0);
+    assert!(
+        store.lease("other", 60.0).await.unwrap().is_none(),
+        "still leased"
+    );
+    assert_eq!(store.release_all("leaving").await.unwrap(), 1);
+    let queued = store.get("r").await.unwrap().unwrap();
+    assert_eq!(queued.state, JobState::Queued);
+    let again = store.lease("other", 60.0).await.unwrap().unwrap();
+    assert_eq!((again.id.as_str(), again.attempts), ("r", 2));
+    assert!(
+        store
+            .append_evaluations("r", "leaving", &[evaluation(1.0)])
+            .await
+            .is_err(),
+        "the old owner can no longer write"
+    );
+}
+conformance!(
+    a_stopping_process_gives_its_leases_back_and_listings_leave_scenes_out_on_every_backend,
+    a_stopping_process_gives_its_leases_back_and_listings_leave_scenes_out
+);
+
+/// One damaged row (a JSON column that no longer decodes, an unknown state) is listed with the
+/// reason and does not hide the others (SQLite: the rows are damaged behind the store's back).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_damaged_row_is_listed_with_the_reason_and_hides_nothing() {
+    let dir = std::env::temp_dir().join(format!("wsm-damaged-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("{}.db", uuid::Uuid::new_v4()));
+    let store = SqlStore::open(path.to_str().unwrap()).await.unwrap();
+    for id in ["ok1", "bad", "ok2"] {
+        assert!(store.insert(job(id), usize::MAX).await.unwrap());
+    }
+    let raw = sqlx::SqlitePool::connect(&format!("sqlite://{}", path.display()))
+        .await
+        .unwrap();
+    sqlx::query("UPDATE jobs SET settings = '{not json', progress = 'x' WHERE id = 'bad'")
+        .execute(&raw)
+        .await
+        .unwrap();
+    let listed = store
+        .list(
+            None,
+            Page {
+                limit: 10,
+                offset: 0,
+            },
+        )
+        .await
+        .unwrap();
+    assert_eq!(listed.len(), 3);
+    let bad = listed.iter().find(|j| j.id == "bad").unwrap();
+    let reason = bad.damaged.as_deref().unwrap();
+    assert!(
+        reason.contains("settings") && reason.contains("progress"),
+        "{reason}"
+    );
+    assert!(listed
+        .iter()
+        .filter(|j| j.id != "bad")
+        .all(|j| j.damaged.is_none()));
+    let got = store.get("bad").await.unwrap().unwrap();
+    assert!(got.damaged.is_some());
+}
+
+/// A file that is not SQLite, a damaged database and a read-only one are refused at start with
+/// a message that says which, at once.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn unusable_database_files_are_refused_at_start_with_the_reason() {
+    let dir = std::env::temp_dir().join(format!("wsm-unusable-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let start = std::time::Instant::now();
+
+    let text = dir.join("notes.txt");
+    std::fs::write(&text, "these are my notes, not a database\n".repeat(200)).unwrap();
+    let e = SqlStore::open(text.to_str().unwrap()).await.err().unwrap();
+    assert!(e.to_string().contains("not a SQLite database"), "{e}");
+
+    let good = dir.join(format!("{}.db", uuid::Uuid::new_v4()));
+    drop(SqlStore::open(good.to_str().unwrap()).await.unwrap());
+    let read_only = format!("sqlite://{}?mode=ro", good.display());
+    let e = SqlStore::open(&read_only).await.err().unwrap();
+    assert!(e.to_string().contains("does not take writes"), "{e}");
+
+    // Damage the pages after the header (the schema and the jobs table).
+    let damaged = dir.join(format!("{}.db", uuid::Uuid::new_v4()));
+    {
+        let store = SqlStore::open(damaged.to_str().unwrap()).await.unwrap();
+        for i in 0..50 {
+            assert!(store
+                .insert(job(&format!("j{i}")), usize::MAX)
+                .await
+                .unwrap());
+        }
+    }
+    let raw = sqlx::SqlitePool::connect(&format!("sqlite://{}", damaged.display()))
+        .await
+        .unwrap();
+    sqlx::query("PRAGMA wal_checkpoint(TRUNCATE)")
+        .execute(&raw)
+        .await
+        .unwrap();
+    raw.close().await;
+    let mut bytes = std::fs::read(&damaged).unwrap();
+    for b in bytes.iter_mut().skip(4096).take(8192) {
+        *b ^= 0x5a;
+    }
+    std::fs::write(&damaged, bytes).unwrap();
+    let e = SqlStore::open(damaged.to_str().unwrap())
+        .await
+        .err()
+        .unwrap();
+    assert!(
+        e.to_string().contains("damaged") || e.to_string().contains("malformed"),
+        "{e}"
+    );
+    assert!(
+        start.elapsed() < Duration::from_secs(10),
+        "{:?}",
+        start.elapsed()
+    );
+}

@@ -15,6 +15,8 @@ use serde_json::{json, Value};
 pub struct Server {
     pub child: Child,
     pub addr: String,
+    /// The first line the server printed (its address).
+    pub first_line: String,
 }
 
 impl Server {
@@ -26,7 +28,19 @@ impl Server {
 
     /// Start with `WSM_API_TOKEN` set (or unset); also the first line the server printed.
     pub fn start_with_token(db: &str, extra: &[&str], token: Option<&str>) -> (Server, String) {
-        let mut command = Command::new(env!("CARGO_BIN_EXE_wsm"));
+        let command = Command::new(env!("CARGO_BIN_EXE_wsm"));
+        let server = Server::start_command(command, db, extra, token);
+        let line = server.first_line.clone();
+        (server, line)
+    }
+
+    /// Start `command` (the `wsm` binary, with its own environment) as `start_with_token` does.
+    pub fn start_command(
+        mut command: Command,
+        db: &str,
+        extra: &[&str],
+        token: Option<&str>,
+    ) -> Server {
         match token {
             Some(t) => command.env("WSM_API_TOKEN", t),
             None => command.env_remove("WSM_API_TOKEN"),
@@ -49,7 +63,11 @@ impl Server {
             .and_then(|s| s.split('/').next())
             .unwrap_or_else(|| panic!("no address in {line:?}"))
             .to_string();
-        (Server { child, addr }, line)
+        Server {
+            child,
+            addr,
+            first_line: line,
+        }
     }
 
     pub fn kill(&mut self) {

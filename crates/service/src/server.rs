@@ -1,12 +1,14 @@
 //! `wsm serve` and `wsm worker`: open the job store (a SQLite file or a PostgreSQL URL), start
 //! the worker side (job slots, task loop, heartbeat) and — for `serve` — the API and the
-//! dashboard, until Ctrl-C or SIGTERM. Jobs left running by a stopped process are resumed by
+//! dashboard, until Ctrl-C or SIGTERM. On those signals the process gives its running jobs back
+//! to the queue (resumed at once by any worker); jobs of a process that died are resumed by
 //! another once their lease expires.
 
 use std::sync::Arc;
 
-use crate::api::{AppState, Limits};
-use crate::jobs::runner::{spawn_workers, FaultRule, Live, RunnerConfig};
+use crate::api::{Access, AppState, Limits};
+use crate::jobs::health::{spawn_monitor, StoreHealth};
+use crate::jobs::runner::{release_on_shutdown, spawn_workers, FaultRule, Live, RunnerConfig};
 use crate::jobs::sql::SqlStore;
 use crate::jobs::JobStore;
 use wsm_core::error::WsmError;
@@ -21,8 +23,8 @@ pub struct ServeConfig {
     pub threads_per_job: Option<usize>,
     pub lease_seconds: f64,
     pub limits: Limits,
-    /// Bearer token for mutating endpoints (from the environment; never logged).
-    pub token: Option<String>,
+    /// Who may do what (tokens from the environment; never logged).
+    pub access: Access,
     /// Fail evaluations on purpose (tests of failure handling only).
     pub inject_failures: Option<FaultRule>,
 }
@@ -79,30 +81,41 @@ fn redact(db: &str) -> String {
 pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
     let store = open_store(&config.db).await?;
     let owner = owner_name("worker");
+    let live = Arc::new(Live::default());
     println!(
         "wsm: worker {owner} on {} ({} threads)",
         redact(&config.db),
         config.threads.map_or("all".into(), |n| n.to_string())
     );
     spawn_workers(
-        store,
-        Arc::new(Live::default()),
+        store.clone(),
+        live.clone(),
         RunnerConfig {
             workers: config.jobs,
             threads_per_job: config.threads,
             lease_seconds: config.lease_seconds,
-            owner,
+            owner: owner.clone(),
             inject_failures: None,
         },
     );
     shutdown().await;
+    release_on_shutdown(&store, &live, &owner).await;
     Ok(())
 }
 
 /// Run the service until a shutdown signal.
 pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
+    if config.access.read_token.is_some() && config.access.token.is_none() {
+        return Err(WsmError::io(
+            "WSM_READ_TOKEN",
+            "a read token needs WSM_API_TOKEN too (without it every endpoint is open anyway)",
+        ));
+    }
     let store = open_store(&config.db).await?;
     let live = Arc::new(Live::default());
+    let owner = owner_name("serve");
+    let health = Arc::new(StoreHealth::default());
+    spawn_monitor(store.clone(), health.clone());
     // With no job slots the server only serves: `wsm worker` processes do all the work.
     if config.workers > 0 {
         spawn_workers(
@@ -112,16 +125,17 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
                 workers: config.workers,
                 threads_per_job: config.threads_per_job,
                 lease_seconds: config.lease_seconds,
-                owner: owner_name("serve"),
+                owner: owner.clone(),
                 inject_failures: config.inject_failures.clone(),
             },
         );
     }
     let state = AppState {
-        store,
-        live,
+        store: store.clone(),
+        live: live.clone(),
         limits: Arc::new(config.limits.clone()),
-        token: config.token.clone().map(Arc::new),
+        access: Arc::new(config.access.clone()),
+        health,
     };
     let app = crate::api::router(state).merge(crate::web::router());
     let listener = tokio::net::TcpListener::bind(&config.addr)
@@ -137,7 +151,9 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
     axum::serve(listener, app)
         .with_graceful_shutdown(shutdown())
         .await
-        .map_err(|e| WsmError::io(local, e))
+        .map_err(|e| WsmError::io(local, e))?;
+    release_on_shutdown(&store, &live, &owner).await;
+    Ok(())
 }
 
 async fn shutdown() {

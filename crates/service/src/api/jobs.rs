@@ -61,8 +61,13 @@ impl JobStatus {
     pub fn of(job: &JobRecord) -> JobStatus {
         let end = job.finished_at.unwrap_or_else(now);
         let elapsed = job.started_at.map_or(0.0, |s| (end - s).max(0.0));
+        // Queued again (given back at a shutdown), or running under a lease that expired (its
+        // worker died): waiting for a worker, whatever the last attempt's phase was.
+        let waiting = job.state == JobState::Queued
+            || (job.state == JobState::Running && job.lease_expires_at.is_some_and(|t| t < now()));
         let (phase, best) = match (&job.result, &job.progress) {
             (Some(outcome), _) => (RunPhase::Finished, outcome_best(outcome)),
+            (None, Some(p)) if waiting => (RunPhase::Queued, p.best.clone()),
             (None, Some(p)) if !job.state.is_finished() => (p.phase, p.best.clone()),
             (None, _) if job.state.is_finished() => (RunPhase::Finished, Vec::new()),
             (None, _) => (RunPhase::Queued, Vec::new()),
@@ -95,8 +100,13 @@ impl JobStatus {
             eta_seconds: eta,
             attempts: job.attempts,
             cancel_requested: job.cancel_requested,
-            error: job.error.clone(),
-            error_kind: job.error_kind.clone(),
+            error: job.error.clone().or_else(|| {
+                (job.damaged.as_ref()).map(|why| format!("the stored job is damaged: {why}"))
+            }),
+            error_kind: job
+                .error_kind
+                .clone()
+                .or_else(|| job.damaged.as_ref().map(|_| "damaged".to_string())),
             outcome_status: job.result.as_ref().map(|o| o.status),
         }
     }
@@ -127,11 +137,14 @@ async fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
 #[utoipa::path(get, path = "/v1/jobs/{id}/scene", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
     responses((status = 200, description = "The scene document", body = Object),
+        (status = 401, description = "Token required", body = ErrorBody),
         (status = 404, body = ErrorBody)))]
 pub async fn job_scene(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
+    state.access.authorize_read(&headers)?;
     let job = find(&state, &id).await?;
     serde_json::from_str(&job.scene)
         .map(Json)
@@ -171,11 +184,14 @@ fn query<T>(q: Result<Query<T>, axum::extract::rejection::QueryRejection>) -> Re
 
 /// Jobs, newest first.
 #[utoipa::path(get, path = "/v1/jobs", tag = "jobs", params(ListQuery),
-    responses((status = 200, body = Vec<JobStatus>), (status = 422, body = ErrorBody)))]
+    responses((status = 200, body = Vec<JobStatus>),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 422, body = ErrorBody)))]
 pub async fn list_jobs(
     State(state): State<AppState>,
+    headers: HeaderMap,
     q: Result<Query<ListQuery>, axum::extract::rejection::QueryRejection>,
 ) -> Result<Json<Vec<JobStatus>>, ApiError> {
+    state.access.authorize_read(&headers)?;
     let q = query(q)?;
     let jobs = state
         .store
@@ -187,11 +203,14 @@ pub async fn list_jobs(
 /// A job's state, phase, progress, best values so far and ETA.
 #[utoipa::path(get, path = "/v1/jobs/{id}", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
-    responses((status = 200, body = JobStatus), (status = 404, body = ErrorBody)))]
+    responses((status = 200, body = JobStatus),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody)))]
 pub async fn job_status(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<JobStatus>, ApiError> {
+    state.access.authorize_read(&headers)?;
     Ok(Json(JobStatus::of(&find(&state, &id).await?)))
 }
 
@@ -200,11 +219,14 @@ pub async fn job_status(
 #[utoipa::path(get, path = "/v1/jobs/{id}/events", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
     responses((status = 200, description = "text/event-stream of JobStatus", content_type = "text/event-stream"),
+        (status = 401, description = "Token required", body = ErrorBody),
         (status = 404, body = ErrorBody)))]
 pub async fn job_events(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, ApiError> {
+    state.access.authorize_read(&headers)?;
     let first = JobStatus::of(&find(&state, &id).await?);
     let stream = futures_util::stream::unfold(
         (state, id, Some(first), None::<JobStatus>),
@@ -255,12 +277,15 @@ async fn outcome(state: &AppState, id: &str) -> Result<(JobRecord, WorstOutcome)
 /// The outcome: worst and best value and data per criterion, sensitivities, statistics.
 #[utoipa::path(get, path = "/v1/jobs/{id}/result", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
-    responses((status = 200, body = WorstOutcome), (status = 404, body = ErrorBody),
+    responses((status = 200, body = WorstOutcome),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody),
         (status = 409, description = "Not finished, or failed", body = ErrorBody)))]
 pub async fn job_result(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<WorstOutcome>, ApiError> {
+    state.access.authorize_read(&headers)?;
     Ok(Json(outcome(&state, &id).await?.1))
 }
 
@@ -279,12 +304,15 @@ pub struct CriterionHistory {
 /// The convergence history of each criterion.
 #[utoipa::path(get, path = "/v1/jobs/{id}/history", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
-    responses((status = 200, body = Vec<CriterionHistory>), (status = 404, body = ErrorBody),
+    responses((status = 200, body = Vec<CriterionHistory>),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody),
         (status = 409, body = ErrorBody)))]
 pub async fn job_history(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Json<Vec<CriterionHistory>>, ApiError> {
+    state.access.authorize_read(&headers)?;
     let (_, outcome) = outcome(&state, &id).await?;
     Ok(Json(
         outcome
@@ -322,13 +350,16 @@ fn scene_and_parameters(job: &JobRecord) -> Result<(Scene, Vec<ParameterInfo>), 
 /// evaluation (id, parameters by field path, criteria, largest KKT residual, solve time).
 #[utoipa::path(get, path = "/v1/jobs/{id}/evaluations", tag = "jobs",
     params(("id" = String, Path, description = "Job id"), EvaluationsQuery),
-    responses((status = 200, body = Vec<run::Evaluation>), (status = 404, body = ErrorBody),
+    responses((status = 200, body = Vec<run::Evaluation>),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody),
         (status = 422, body = ErrorBody)))]
 pub async fn job_evaluations(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
     q: Result<Query<EvaluationsQuery>, axum::extract::rejection::QueryRejection>,
 ) -> Result<Response, ApiError> {
+    state.access.authorize_read(&headers)?;
     let q = query(q)?;
     let job = find(&state, &id).await?;
     let page = match (q.limit, q.offset) {
@@ -389,7 +420,7 @@ pub async fn cancel_job(
     headers: HeaderMap,
     Path(id): Path<String>,
 ) -> Result<Response, ApiError> {
-    state.authorize(&headers)?;
+    state.access.authorize_write(&headers)?;
     let job = find(&state, &id).await?;
     if job.state.is_finished() {
         return Err(ApiError::conflict(format!(
@@ -424,13 +455,16 @@ pub struct FieldsQuery {
 /// contact pressure \[Pa\] and slip \[m\]) of a job's worst or best scenario.
 #[utoipa::path(get, path = "/v1/jobs/{id}/fields", tag = "jobs",
     params(("id" = String, Path, description = "Job id"), FieldsQuery),
-    responses((status = 200, body = SolveOutput), (status = 404, body = ErrorBody),
+    responses((status = 200, body = SolveOutput),
+        (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody),
         (status = 409, body = ErrorBody), (status = 422, body = ErrorBody)))]
 pub async fn job_fields(
     State(state): State<AppState>,
+    headers: HeaderMap,
     Path(id): Path<String>,
     q: Result<Query<FieldsQuery>, axum::extract::rejection::QueryRejection>,
 ) -> Result<Response, ApiError> {
+    state.access.authorize_read(&headers)?;
     let q = query(q)?;
     let (job, outcome) = outcome(&state, &id).await?;
     let criterion = match &q.criterion {

@@ -1,6 +1,7 @@
 //! Bundled example scenes and the health check.
 
 use axum::extract::{Path, State};
+use axum::http::StatusCode;
 use axum::Json;
 use serde::Serialize;
 use serde_json::Value;
@@ -54,21 +55,35 @@ pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiErr
 /// Service health.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct Health {
-    /// `ok` when the store answers.
+    /// `ok` when the store answers and takes writes, else `degraded` (with status 503).
     pub status: String,
     pub version: String,
-    /// Queued and running jobs.
-    pub active_jobs: usize,
+    /// Queued and running jobs (`None` when the store does not answer).
+    pub active_jobs: Option<usize>,
+    /// `ok`, or why the store cannot be read or written.
+    pub store: String,
 }
 
-/// Health check: the store answers.
+/// Health check: the store answers reads, and the last background probe could write.
 #[utoipa::path(get, path = "/healthz", tag = "health",
-    responses((status = 200, body = Health), (status = 500, body = ErrorBody)))]
-pub async fn health(State(state): State<AppState>) -> Result<Json<Health>, ApiError> {
-    let active_jobs = state.store.active_count().await?;
-    Ok(Json(Health {
-        status: "ok".into(),
+    responses((status = 200, description = "Healthy", body = Health),
+        (status = 503, description = "The store cannot be read or written", body = Health)))]
+pub async fn health(State(state): State<AppState>) -> (StatusCode, Json<Health>) {
+    let active = state.store.active_count().await;
+    let problem = match (&active, state.health.write_failure()) {
+        (Err(e), _) => Some(e.to_string()),
+        (Ok(_), failure) => failure,
+    };
+    let code = if problem.is_some() {
+        StatusCode::SERVICE_UNAVAILABLE
+    } else {
+        StatusCode::OK
+    };
+    let health = Health {
+        status: if problem.is_some() { "degraded" } else { "ok" }.into(),
         version: env!("CARGO_PKG_VERSION").into(),
-        active_jobs,
-    }))
+        active_jobs: active.ok(),
+        store: problem.unwrap_or_else(|| "ok".into()),
+    };
+    (code, Json(health))
 }

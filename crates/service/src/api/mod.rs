@@ -1,8 +1,10 @@
 //! The HTTP API of `wsm serve` (design §5.3): axum routes over the job store and the front door,
 //! documented as OpenAPI 3.1 by utoipa (served at `/openapi.json`, checked in as
 //! `openapi/openapi.json`). Request bodies are parsed here so that every bad field answers 422
-//! with its JSON path; mutating endpoints require the bearer token when one is configured.
+//! with its JSON path; job endpoints require the bearer token when one is configured
+//! ([`Access`]).
 
+mod body;
 mod error;
 mod jobs;
 mod misc;
@@ -20,6 +22,7 @@ use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
 
+use crate::jobs::health::StoreHealth;
 use crate::jobs::runner::Live;
 use crate::jobs::JobStore;
 
@@ -51,39 +54,81 @@ impl Default for Limits {
     }
 }
 
+/// Who may do what (design §5.3). With a token, every request about jobs needs it — their
+/// scenes and results are their submitters' data — except that a read-only token also opens
+/// the reads, and `open_reads` (`wsm serve --open-reads`) leaves reads open to anyone. Without
+/// a token everything is open (a server on loopback for one user). The examples, `/healthz`,
+/// `/openapi.json` and the dashboard's files are always open.
+#[derive(Debug, Clone, Default)]
+pub struct Access {
+    /// Bearer token for every job endpoint (`WSM_API_TOKEN`; `None`: open).
+    pub token: Option<String>,
+    /// Bearer token for the reads only (`WSM_READ_TOKEN`).
+    pub read_token: Option<String>,
+    /// Reads need no token.
+    pub open_reads: bool,
+}
+
+/// The bearer credentials of a request ("" when there are none); the scheme is
+/// case-insensitive (RFC 9110 §11.1).
+fn bearer(headers: &HeaderMap) -> &str {
+    headers
+        .get(header::AUTHORIZATION)
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().split_once(' '))
+        .filter(|(scheme, _)| scheme.eq_ignore_ascii_case("bearer"))
+        .map_or("", |(_, credentials)| credentials.trim())
+}
+
+/// Constant-time comparison of given credentials with a configured token.
+fn matches(given: &str, token: &Option<String>) -> bool {
+    token
+        .as_ref()
+        .is_some_and(|t| bool::from(given.as_bytes().ct_eq(t.as_bytes())))
+}
+
+fn unauthorized(what: &str) -> ApiError {
+    ApiError::new(
+        StatusCode::UNAUTHORIZED,
+        "unauthorized",
+        format!("{what} needs the header 'Authorization: Bearer <token>' with the server's token"),
+    )
+}
+
+impl Access {
+    /// Refuse a request that changes something without the token.
+    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        if self.token.is_none() || matches(bearer(headers), &self.token) {
+            Ok(())
+        } else {
+            Err(unauthorized("this endpoint"))
+        }
+    }
+
+    /// Refuse a read of job data without the token or the read token (unless reads are open).
+    pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
+        let given = bearer(headers);
+        if self.open_reads
+            || self.token.is_none()
+            || matches(given, &self.token)
+            || matches(given, &self.read_token)
+        {
+            Ok(())
+        } else {
+            Err(unauthorized("reading jobs"))
+        }
+    }
+}
+
 /// What every handler shares.
 #[derive(Clone)]
 pub struct AppState {
     pub store: Arc<dyn JobStore>,
     pub live: Arc<Live>,
     pub limits: Arc<Limits>,
-    /// Bearer token required on mutating endpoints (`None`: open).
-    pub token: Option<Arc<String>>,
-}
-
-impl AppState {
-    /// Refuse a mutating request without the configured bearer token (constant-time compare).
-    pub fn authorize(&self, headers: &HeaderMap) -> Result<(), ApiError> {
-        let Some(token) = &self.token else {
-            return Ok(());
-        };
-        let given = headers
-            .get(header::AUTHORIZATION)
-            .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.trim().split_once(' '))
-            // The scheme is case-insensitive (RFC 9110 §11.1).
-            .filter(|(scheme, _)| scheme.eq_ignore_ascii_case("bearer"))
-            .map_or("", |(_, credentials)| credentials.trim());
-        if bool::from(given.as_bytes().ct_eq(token.as_bytes())) {
-            Ok(())
-        } else {
-            Err(ApiError::new(
-                StatusCode::UNAUTHORIZED,
-                "unauthorized",
-                "this endpoint needs the header 'Authorization: Bearer <token>' with the server's token",
-            ))
-        }
-    }
+    pub access: Arc<Access>,
+    /// Whether the store takes writes (probed in the background).
+    pub health: Arc<StoreHealth>,
 }
 
 #[derive(OpenApi)]

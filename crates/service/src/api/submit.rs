@@ -9,11 +9,11 @@ use axum::extract::State;
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::Json;
-use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 use utoipa::ToSchema;
 
+use super::body::parse_body;
 use super::error::{join_path, ApiError, ErrorBody};
 use super::{AppState, Limits};
 use crate::jobs::{JobState, NewJob};
@@ -59,40 +59,6 @@ pub struct Submitted {
     pub state: JobState,
     /// Where the job's status is.
     pub location: String,
-}
-
-/// Parse a JSON body: 413 when over the limit, 400 when not JSON, 422 naming a bad field.
-pub fn parse_body<T: DeserializeOwned>(body: Result<Bytes, BytesRejection>) -> Result<T, ApiError> {
-    let bytes = body.map_err(|rejection| {
-        if rejection.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            ApiError::new(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                "too_large",
-                "the request body is larger than the server's limit",
-            )
-        } else {
-            ApiError::new(
-                StatusCode::BAD_REQUEST,
-                "malformed_json",
-                rejection.body_text(),
-            )
-        }
-    })?;
-    let value: Value = serde_json::from_slice(&bytes).map_err(|e| {
-        ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "malformed_json",
-            format!("the body is not valid JSON: {e}"),
-        )
-    })?;
-    if !value.is_object() {
-        return Err(ApiError::invalid("$", "the body must be a JSON object"));
-    }
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let path = e.path().to_string();
-        let path = if path == "." { "$".to_string() } else { path };
-        ApiError::invalid(path, e.into_inner().to_string())
-    })
 }
 
 /// [`scene_of`] on a blocking thread: validation can take a while for large polygons (bounded by
@@ -206,6 +172,24 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
     Ok(())
 }
 
+/// An engine error about `scene`; an unsolvable one names the body it cannot balance
+/// (`scene.bodies[i]`).
+fn engine_error(scene: &Scene, error: wsm_core::error::WsmError) -> ApiError {
+    let bodies: Vec<String> = scene.bodies.iter().map(|b| b.name.clone()).collect();
+    engine_error_in(&bodies, error)
+}
+
+fn engine_error_in(bodies: &[String], error: wsm_core::error::WsmError) -> ApiError {
+    let body = error
+        .unbalanced_body()
+        .and_then(|name| bodies.iter().position(|b| b == name));
+    let api = ApiError::engine(error, "scene");
+    match body {
+        Some(i) => api.at(format!("scene.bodies[{i}]")),
+        None => api,
+    }
+}
+
 /// Queue a worst-scenario search.
 #[utoipa::path(
     post,
@@ -218,6 +202,7 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
         (status = 400, description = "Not JSON", body = ErrorBody),
         (status = 401, description = "Token required", body = ErrorBody),
         (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 415, description = "Body not declared as JSON", body = ErrorBody),
         (status = 422, description = "Invalid scene or settings (with the JSON path)", body = ErrorBody),
         (status = 503, description = "Queue full (see Retry-After)", body = ErrorBody),
     )
@@ -227,8 +212,8 @@ pub async fn submit_job(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, ApiError> {
-    state.authorize(&headers)?;
-    let submission: JobSubmission = parse_body(body)?;
+    state.access.authorize_write(&headers)?;
+    let submission: JobSubmission = parse_body(&headers, body)?;
     let (scene, text) = validated_scene(submission.scene, submission.example).await?;
     let request = submission.settings;
     check_limits(&scene, &request, &state.limits)?;
@@ -240,8 +225,27 @@ pub async fn submit_job(
     tokio::task::spawn_blocking(move || run::check_admissible_set(&checked))
         .await
         .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| ApiError::engine(e, "scene"))?;
-    if state.store.active_count().await? >= state.limits.max_active_jobs {
+        .map_err(|e| engine_error(&scene, e))?;
+    let header = run::log_header(&scene, &settings).map_err(|e| ApiError::engine(e, "scene"))?;
+    let id = uuid::Uuid::new_v4().to_string();
+    let job = NewJob {
+        id: id.clone(),
+        scene: text,
+        settings: request,
+        scene_name: scene.name.clone(),
+        criteria: settings
+            .criteria
+            .iter()
+            .map(|c| c.name().to_string())
+            .collect(),
+        budget: settings.budget,
+        run_hash: header.run_hash,
+    };
+    if !state
+        .store
+        .insert(job, state.limits.max_active_jobs)
+        .await?
+    {
         let mut error = ApiError::new(
             StatusCode::SERVICE_UNAVAILABLE,
             "queue_full",
@@ -253,24 +257,6 @@ pub async fn submit_job(
         error.retry_after = Some(10);
         return Err(error);
     }
-    let header = run::log_header(&scene, &settings).map_err(|e| ApiError::engine(e, "scene"))?;
-    let id = uuid::Uuid::new_v4().to_string();
-    state
-        .store
-        .insert(NewJob {
-            id: id.clone(),
-            scene: text,
-            settings: request,
-            scene_name: scene.name.clone(),
-            criteria: settings
-                .criteria
-                .iter()
-                .map(|c| c.name().to_string())
-                .collect(),
-            budget: settings.budget,
-            run_hash: header.run_hash,
-        })
-        .await?;
     let location = format!("/v1/jobs/{id}");
     Ok((
         StatusCode::ACCEPTED,
@@ -293,6 +279,9 @@ pub async fn submit_job(
     responses(
         (status = 200, description = "Solved", body = SolveOutput),
         (status = 400, description = "Not JSON", body = ErrorBody),
+        (status = 401, description = "Token required", body = ErrorBody),
+        (status = 413, description = "Body too large", body = ErrorBody),
+        (status = 415, description = "Body not declared as JSON", body = ErrorBody),
         (status = 422, description = "Invalid scene, too large, or unsolvable", body = ErrorBody),
     )
 )]
@@ -301,8 +290,8 @@ pub async fn solve(
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<SolveOutput>, ApiError> {
-    state.authorize(&headers)?;
-    let submission: SolveSubmission = parse_body(body)?;
+    state.access.authorize_write(&headers)?;
+    let submission: SolveSubmission = parse_body(&headers, body)?;
     let (scene, _) = validated_scene(submission.scene, submission.example).await?;
     check_size(
         &scene,
@@ -310,9 +299,10 @@ pub async fn solve(
         "a synchronous solve (submit a job)",
     )?;
     let request = submission.settings;
+    let bodies: Vec<String> = scene.bodies.iter().map(|b| b.name.clone()).collect();
     let output = tokio::task::spawn_blocking(move || run::solve(scene, &request))
         .await
         .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| ApiError::engine(e, "scene"))?;
+        .map_err(|e| engine_error_in(&bodies, e))?;
     Ok(Json(output))
 }

@@ -15,6 +15,7 @@
 //! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
 
 pub mod batch_tasks;
+pub mod health;
 pub mod runner;
 pub mod sql;
 pub mod tasks;
@@ -100,6 +101,10 @@ pub struct JobRecord {
     pub result: Option<WorstOutcome>,
     pub error: Option<String>,
     pub error_kind: Option<String>,
+    /// When the current lease ends (Unix seconds, database clock); `None` unless running.
+    pub lease_expires_at: Option<f64>,
+    /// Why part of the stored row could not be read (a damaged row is listed, never run).
+    pub damaged: Option<String>,
 }
 
 /// How a job ended.
@@ -185,12 +190,21 @@ pub type StoreResult<T> = Result<T, StoreError>;
 /// Where jobs, their evaluations and results live.
 #[async_trait::async_trait]
 pub trait JobStore: Send + Sync + 'static {
-    async fn insert(&self, job: NewJob) -> StoreResult<()>;
+    /// Queue a job unless `max_active` jobs are already queued or running (false: not
+    /// inserted). The count and the insert are one transaction: concurrent submissions cannot
+    /// pass the limit together.
+    async fn insert(&self, job: NewJob, max_active: usize) -> StoreResult<bool>;
     async fn get(&self, id: &str) -> StoreResult<Option<JobRecord>>;
-    /// Jobs, newest first, optionally in one state.
+    /// Jobs, newest first, optionally in one state; without their scene documents (`scene` is
+    /// empty: a listing reads only what a status shows).
     async fn list(&self, state: Option<JobState>, page: Page) -> StoreResult<Vec<JobRecord>>;
     /// Queued and running jobs.
     async fn active_count(&self) -> StoreResult<usize>;
+    /// Whether the store takes writes (a write in a transaction that is rolled back).
+    async fn check_writable(&self) -> StoreResult<()>;
+    /// Give back every job and task `owner` holds (a process shutting down): its running jobs
+    /// are queued again at once for any worker, their evaluations kept; the number of jobs.
+    async fn release_all(&self, owner: &str) -> StoreResult<usize>;
     /// Lease the oldest queued job, or a running job whose lease expired, for `owner`.
     async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>>;
     /// Extend the lease and read the job's cancel flag.

@@ -65,10 +65,12 @@ impl FaultRule {
     }
 }
 
-/// Jobs running in this process: their cancel flags.
+/// Jobs running in this process: their cancel flags; and whether the process is stopping (its
+/// job slots and task loop then lease nothing more).
 #[derive(Default)]
 pub struct Live {
     jobs: Mutex<HashMap<String, LiveJob>>,
+    stopping: Arc<AtomicBool>,
 }
 
 struct LiveJob {
@@ -85,6 +87,70 @@ impl Live {
         if let Some(job) = self.lock().get(id) {
             job.cancel.store(true, Ordering::SeqCst);
         }
+    }
+
+    /// Stop every job running here (the process is shutting down and has given the leases
+    /// back, so their ends are not stored: their next owner resumes them).
+    fn stop_all(&self) {
+        for job in self.lock().values() {
+            job.cancel.store(true, Ordering::SeqCst);
+        }
+    }
+}
+
+/// Give back what `owner` holds and stop its jobs: the shutdown of a worker process, so that
+/// its running jobs are resumed elsewhere at once instead of after their lease expires.
+pub async fn release_on_shutdown(store: &Arc<dyn JobStore>, live: &Live, owner: &str) {
+    live.stopping.store(true, Ordering::SeqCst);
+    match store.release_all(owner).await {
+        Ok(0) => {}
+        Ok(n) => eprintln!("wsm: {n} running job(s) given back to the queue"),
+        Err(e) => eprintln!("wsm: {e} (its jobs resume when their lease expires)"),
+    }
+    live.stop_all();
+    // Let them leave their batch while the runtime still serves their store calls.
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while !live.lock().is_empty() && std::time::Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
+/// Logs a repeated store error once (and again when it changes), with a growing pause between
+/// attempts: a store that cannot write must not fill the log twice a second.
+struct Backoff {
+    last: Option<String>,
+    pause: Duration,
+}
+
+impl Backoff {
+    const FIRST: Duration = Duration::from_millis(500);
+    const MAX: Duration = Duration::from_secs(30);
+
+    fn new() -> Backoff {
+        Backoff {
+            last: None,
+            pause: Backoff::FIRST,
+        }
+    }
+
+    /// Report `error` (if new) and wait before the next attempt.
+    async fn failed(&mut self, error: String) {
+        if self.last.as_deref() != Some(error.as_str()) {
+            eprintln!(
+                "wsm: {error} (retrying, with growing pauses up to {:?})",
+                Backoff::MAX
+            );
+            self.last = Some(error);
+        }
+        tokio::time::sleep(self.pause).await;
+        self.pause = (self.pause * 2).min(Backoff::MAX);
+    }
+
+    fn succeeded(&mut self) {
+        if self.last.take().is_some() {
+            eprintln!("wsm: the job store answers again");
+        }
+        self.pause = Backoff::FIRST;
     }
 }
 
@@ -103,15 +169,19 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
         let (store, live, config) = (store.clone(), live.clone(), config.clone());
         tokio::spawn(async move {
             let mut work = store.work_signal();
-            loop {
+            let mut backoff = Backoff::new();
+            while !live.stopping.load(Ordering::SeqCst) {
                 work.borrow_and_update();
                 match store.lease(&config.owner, config.lease_seconds).await {
-                    Ok(Some(job)) => run_job(&store, &live, &config, job).await,
-                    Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
-                    Err(e) => {
-                        eprintln!("wsm: {e}");
-                        tokio::time::sleep(Duration::from_secs(1)).await;
+                    Ok(Some(job)) => {
+                        backoff.succeeded();
+                        run_job(&store, &live, &config, job).await
                     }
+                    Ok(None) => {
+                        backoff.succeeded();
+                        wait(&mut work, Duration::from_millis(500)).await
+                    }
+                    Err(e) => backoff.failed(e.to_string()).await,
                 }
             }
         });
@@ -120,11 +190,15 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
         let (store, config) = (store.clone(), config.clone());
         tokio::spawn(async move {
             let period = Duration::from_secs_f64((config.lease_seconds / 3.0).max(0.05));
+            let mut backoff = Backoff::new();
             loop {
-                if let Err(e) = store.register_worker(&config.owner, config.threads()).await {
-                    eprintln!("wsm: {e}");
+                match store.register_worker(&config.owner, config.threads()).await {
+                    Ok(()) => {
+                        backoff.succeeded();
+                        tokio::time::sleep(period).await
+                    }
+                    Err(e) => backoff.failed(e.to_string()).await,
                 }
-                tokio::time::sleep(period).await;
             }
         });
     }
@@ -132,6 +206,7 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
         owner: config.owner.clone(),
         threads: config.threads(),
         lease_seconds: config.lease_seconds,
+        stopping: live.stopping.clone(),
     };
     tokio::spawn(async move {
         if let Err(e) = serve_tasks(store, tasks).await {
@@ -217,7 +292,14 @@ async fn run_job(
     ));
     let (progress_tx, progress_rx) = mpsc::unbounded_channel::<ProgressEvent>();
     let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx));
-    let end = match store.evaluations(&id, None).await {
+    let stored = match &job.damaged {
+        Some(why) => Err(format!("the stored job is damaged and cannot run: {why}")),
+        None => store
+            .evaluations(&id, None)
+            .await
+            .map_err(|e| e.to_string()),
+    };
+    let end = match stored {
         Ok(replay) => {
             let log = StoreLog {
                 store: store.clone(),
@@ -260,7 +342,11 @@ async fn run_job(
                 run::worst(scene, &request, &control)
             });
             match task.await {
-                Ok(Ok(outcome)) if outcome.status == Status::Cancelled => {
+                // A cancel that came after the last evaluation (during the sensitivities or
+                // the accuracy statement) still ends the job cancelled, as the 202 promised.
+                Ok(Ok(outcome))
+                    if outcome.status == Status::Cancelled || cancel.load(Ordering::SeqCst) =>
+                {
                     JobEnd::Cancelled(Some(outcome))
                 }
                 Ok(Ok(outcome)) => JobEnd::Succeeded(outcome),
@@ -279,9 +365,14 @@ async fn run_job(
                 },
             }
         }
-        Err(e) => JobEnd::Failed {
-            kind: "io".into(),
-            error: e.to_string(),
+        Err(error) => JobEnd::Failed {
+            kind: if job.damaged.is_some() {
+                "damaged"
+            } else {
+                "io"
+            }
+            .into(),
+            error,
         },
     };
     heartbeat.abort();

@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use sqlx::any::{AnyConnectOptions, AnyPoolOptions, AnyRow};
-use sqlx::{AnyPool, Executor, Row};
+use sqlx::{AnyPool, Connection, Executor, Row};
 use tokio::sync::watch;
 
 use super::{
@@ -83,6 +83,17 @@ impl Backend {
     }
 }
 
+/// Queued and running jobs.
+const ACTIVE_COUNT: &str = "SELECT COUNT(*) FROM jobs WHERE state IN ('queued', 'running')";
+
+/// The advisory lock (PostgreSQL) under which a submission counts the active jobs and inserts.
+const SUBMISSION_LOCK: i64 = 0x0077_736d_0001; // "wsm" 1
+
+/// What a listing reads: every column but the scene document (up to the body limit per job).
+const LISTED_COLUMNS: &str = "id, state, '' AS scene, settings, scene_name, criteria, budget,
+    run_hash, created_at, started_at, finished_at, attempts, cancel_requested, progress,
+    evaluations, result, error, error_kind, lease_expires_at";
+
 /// The notification channels on PostgreSQL.
 const WORK_CHANNEL: &str = "wsm_work";
 const RESULTS_CHANNEL: &str = "wsm_results";
@@ -119,6 +130,82 @@ fn parse<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> StoreResult<
     serde_json::from_str(text).map_err(|e| StoreError(format!("decoding {what}: {e}")))
 }
 
+/// The settings of every pooled SQLite connection.
+async fn prepare_sqlite(conn: &mut sqlx::AnyConnection) -> Result<(), sqlx::Error> {
+    conn.execute(
+        "PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;
+         PRAGMA foreign_keys = ON; PRAGMA busy_timeout = 10000;",
+    )
+    .await?;
+    Ok(())
+}
+
+/// Refuse a file that exists but is not a SQLite database (SQLite itself would only say so on
+/// the first statement).
+fn check_sqlite_header(url: &str) -> StoreResult<()> {
+    let path = url
+        .trim_start_matches("sqlite://")
+        .trim_start_matches("sqlite:");
+    let path = path.split('?').next().unwrap_or(path);
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return Ok(()); // created on open
+    };
+    let mut header = [0u8; 16];
+    use std::io::Read;
+    match file.read(&mut header) {
+        Ok(0) => Ok(()), // an empty file becomes a new database
+        Ok(n) if n == header.len() && &header == b"SQLite format 3\0" => Ok(()),
+        Ok(_) => Err(StoreError(format!(
+            "'{path}' is not a SQLite database (it does not start with the SQLite header); \
+             give a new file name or the right file"
+        ))),
+        Err(e) => Err(StoreError(format!("reading '{path}': {e}"))),
+    }
+}
+
+/// `PRAGMA quick_check` (SQLite): a damaged database is refused at start instead of being
+/// written to.
+async fn check_integrity(conn: &mut sqlx::AnyConnection) -> StoreResult<()> {
+    let check = db("checking the database's integrity");
+    let rows: Vec<String> = sqlx::query_scalar("PRAGMA quick_check")
+        .fetch_all(&mut *conn)
+        .await
+        .map_err(&check)?;
+    if rows.len() == 1 && rows[0] == "ok" {
+        return Ok(());
+    }
+    let shown: Vec<&str> = rows.iter().take(3).map(String::as_str).collect();
+    Err(StoreError(format!(
+        "the database is damaged (PRAGMA quick_check: {}); restore it from a backup or start \
+         with a new file",
+        shown.join("; ")
+    )))
+}
+
+/// A column of a job row, or `None` with the reason added to `damage`.
+fn column<T>(row: &AnyRow, name: &str, damage: &mut Vec<String>) -> Option<T>
+where
+    T: for<'r> sqlx::Decode<'r, sqlx::Any> + sqlx::Type<sqlx::Any>,
+{
+    row.try_get(name)
+        .map_err(|e| damage.push(format!("{name}: {e}")))
+        .ok()
+}
+
+/// A JSON column of a job row (`T` = `Option<_>` for a nullable one), or `None` with the reason
+/// added to `damage`.
+fn json_column<T: serde::de::DeserializeOwned>(
+    row: &AnyRow,
+    name: &str,
+    damage: &mut Vec<String>,
+) -> Option<T> {
+    let text: Option<String> = column(row, name, damage)?;
+    let text = text.unwrap_or_else(|| "null".into());
+    serde_json::from_str(&text)
+        .map_err(|e| damage.push(format!("{name}: not the JSON it should be ({e})")))
+        .ok()
+}
+
 impl SqlStore {
     /// Open the database (a SQLite file, created if needed, or a PostgreSQL URL) and apply the
     /// backend's migrations.
@@ -130,17 +217,29 @@ impl SqlStore {
             Backend::Sqlite if db_arg.starts_with("sqlite:") => db_arg.to_string(),
             Backend::Sqlite => format!("sqlite://{db_arg}?mode=rwc"),
         };
+        if backend == Backend::Sqlite {
+            check_sqlite_header(&url)?;
+        }
         let options = AnyConnectOptions::from_str(&url).map_err(db("database address"))?;
+        // One connection first: a damaged file answers with its own error at once (a pool
+        // would retry the connection until its timeout and report only that).
+        let mut first = sqlx::AnyConnection::connect_with(&options)
+            .await
+            .map_err(db("opening the database"))?;
+        if backend == Backend::Sqlite {
+            prepare_sqlite(&mut first)
+                .await
+                .map_err(db("opening the database"))?;
+            check_integrity(&mut first).await?;
+        }
+        first.close().await.map_err(db("opening the database"))?;
         let pool = AnyPoolOptions::new()
             .max_connections(8)
+            .acquire_timeout(Duration::from_secs(15))
             .after_connect(move |conn, _| {
                 Box::pin(async move {
                     if backend == Backend::Sqlite {
-                        conn.execute(
-                            "PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;
-                             PRAGMA foreign_keys = ON; PRAGMA busy_timeout = 10000;",
-                        )
-                        .await?;
+                        prepare_sqlite(conn).await?;
                     }
                     Ok(())
                 })
@@ -162,6 +261,7 @@ impl SqlStore {
             work: Arc::new(watch::channel(0).0),
             results: Arc::new(watch::channel(0).0),
         };
+        store.check_writable().await?;
         if backend == Backend::Postgres {
             store.listen(&url).await?;
         }
@@ -224,37 +324,48 @@ impl SqlStore {
             .map_err(error)
     }
 
+    /// A job row. Only its id must be readable: a column that does not decode (a damaged row)
+    /// leaves its field empty and is named in `damaged`, so that one bad row never hides the
+    /// others in a listing (and is never run: the runner fails it at once).
     fn record(row: &AnyRow) -> StoreResult<JobRecord> {
-        let read = db("reading a job");
-        let text = |name: &str| -> StoreResult<String> { row.try_get(name).map_err(&read) };
-        let opt_text =
-            |name: &str| -> StoreResult<Option<String>> { row.try_get(name).map_err(&read) };
-        let int = |name: &str| -> StoreResult<i64> { row.try_get(name).map_err(&read) };
-        let state = text("state")?;
+        let id: String = row.try_get("id").map_err(db("reading a job"))?;
+        let mut damage = Vec::new();
+        let d = &mut damage;
+        let state_text: Option<String> = column(row, "state", d);
+        let state = match state_text.as_deref().map(|t| (t, JobState::parse(t))) {
+            Some((_, Some(state))) => state,
+            Some((text, None)) => {
+                d.push(format!("state: unknown job state '{text}'"));
+                JobState::Failed
+            }
+            None => JobState::Failed,
+        };
+        let int = |name: &str, d: &mut Vec<String>| column::<i64>(row, name, d).unwrap_or(0);
+        let record = JobRecord {
+            state,
+            scene: column(row, "scene", d).unwrap_or_default(),
+            settings: json_column(row, "settings", d).unwrap_or_default(),
+            scene_name: column(row, "scene_name", d).unwrap_or_default(),
+            criteria: json_column(row, "criteria", d).unwrap_or_default(),
+            budget: int("budget", d).max(0) as usize,
+            run_hash: column(row, "run_hash", d).unwrap_or_default(),
+            created_at: column(row, "created_at", d).unwrap_or(0.0),
+            started_at: column(row, "started_at", d).flatten(),
+            finished_at: column(row, "finished_at", d).flatten(),
+            attempts: int("attempts", d).clamp(0, u32::MAX as i64) as u32,
+            cancel_requested: int("cancel_requested", d) != 0,
+            progress: json_column(row, "progress", d).flatten(),
+            evaluations: int("evaluations", d).max(0) as usize,
+            result: json_column(row, "result", d).flatten(),
+            error: column(row, "error", d).flatten(),
+            error_kind: column(row, "error_kind", d).flatten(),
+            lease_expires_at: column(row, "lease_expires_at", d).flatten(),
+            damaged: None,
+            id,
+        };
         Ok(JobRecord {
-            id: text("id")?,
-            state: JobState::parse(&state)
-                .ok_or_else(|| StoreError(format!("unknown job state '{state}'")))?,
-            scene: text("scene")?,
-            settings: parse(&text("settings")?, "settings")?,
-            scene_name: text("scene_name")?,
-            criteria: parse(&text("criteria")?, "criteria")?,
-            budget: int("budget")? as usize,
-            run_hash: text("run_hash")?,
-            created_at: row.try_get("created_at").map_err(&read)?,
-            started_at: row.try_get("started_at").map_err(&read)?,
-            finished_at: row.try_get("finished_at").map_err(&read)?,
-            attempts: int("attempts")? as u32,
-            cancel_requested: int("cancel_requested")? != 0,
-            progress: opt_text("progress")?
-                .map(|t| parse(&t, "progress"))
-                .transpose()?,
-            evaluations: int("evaluations")? as usize,
-            result: opt_text("result")?
-                .map(|t| parse(&t, "result"))
-                .transpose()?,
-            error: opt_text("error")?,
-            error_kind: opt_text("error_kind")?,
+            damaged: (!damage.is_empty()).then(|| damage.join("; ")),
+            ..record
         })
     }
 
@@ -320,7 +431,26 @@ fn bind_task_key<'q>(
 
 #[async_trait::async_trait]
 impl JobStore for SqlStore {
-    async fn insert(&self, job: NewJob) -> StoreResult<()> {
+    async fn insert(&self, job: NewJob, max_active: usize) -> StoreResult<bool> {
+        let insert = db("inserting a job");
+        let mut tx = self.begin_write(false, &insert).await?;
+        if self.backend == Backend::Postgres {
+            // Submissions take turns (SQLite's write transaction already serialises them).
+            sqlx::query(sql(format!(
+                "SELECT pg_advisory_xact_lock({SUBMISSION_LOCK})"
+            )))
+            .execute(&mut *tx)
+            .await
+            .map_err(&insert)?;
+        }
+        let active: i64 = sqlx::query_scalar(ACTIVE_COUNT)
+            .fetch_one(&mut *tx)
+            .await
+            .map_err(&insert)?;
+        if active as usize >= max_active {
+            tx.rollback().await.map_err(&insert)?;
+            return Ok(false);
+        }
         sqlx::query(sql(format!(
             "INSERT INTO jobs (id, state, scene, settings, scene_name, criteria, budget, run_hash, created_at)
              VALUES ($1, 'queued', $2, $3, $4, $5, $6, $7, {})",
@@ -333,11 +463,12 @@ impl JobStore for SqlStore {
         .bind(json(&job.criteria)?)
         .bind(job.budget as i64)
         .bind(&job.run_hash)
-        .execute(&self.pool)
+        .execute(&mut *tx)
         .await
-        .map_err(db("inserting a job"))?;
+        .map_err(&insert)?;
+        tx.commit().await.map_err(&insert)?;
         self.announce(WORK_CHANNEL).await;
-        Ok(())
+        Ok(true)
     }
 
     async fn get(&self, id: &str) -> StoreResult<Option<JobRecord>> {
@@ -350,26 +481,73 @@ impl JobStore for SqlStore {
     }
 
     async fn list(&self, state: Option<JobState>, page: Page) -> StoreResult<Vec<JobRecord>> {
-        let rows = sqlx::query(
-            "SELECT * FROM jobs WHERE ($1 = '' OR state = $1)
-             ORDER BY created_at DESC, id LIMIT $2 OFFSET $3",
-        )
+        let rows = sqlx::query(sql(format!(
+            "SELECT {LISTED_COLUMNS} FROM jobs WHERE ($1 = '' OR state = $1)
+             ORDER BY created_at DESC, id LIMIT $2 OFFSET $3"
+        )))
         .bind(state.map(JobState::as_str).unwrap_or(""))
         .bind(page.limit.min(i64::MAX as usize) as i64)
         .bind(page.offset.min(i64::MAX as usize) as i64)
         .fetch_all(&self.pool)
         .await
         .map_err(db("listing jobs"))?;
-        rows.iter().map(Self::record).collect()
+        // A row whose very id cannot be read is left out (and logged), never the whole list.
+        Ok(rows
+            .iter()
+            .filter_map(|row| {
+                Self::record(row)
+                    .map_err(|e| eprintln!("wsm: listing jobs: a row left out: {e}"))
+                    .ok()
+            })
+            .collect())
     }
 
     async fn active_count(&self) -> StoreResult<usize> {
-        let n: i64 =
-            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state IN ('queued', 'running')")
-                .fetch_one(&self.pool)
-                .await
-                .map_err(db("counting jobs"))?;
+        let n: i64 = sqlx::query_scalar(ACTIVE_COUNT)
+            .fetch_one(&self.pool)
+            .await
+            .map_err(db("counting jobs"))?;
         Ok(n as usize)
+    }
+
+    async fn check_writable(&self) -> StoreResult<()> {
+        let probe = |e: sqlx::Error| StoreError(format!("the database does not take writes: {e}"));
+        let mut tx = self.pool.begin().await.map_err(probe)?;
+        sqlx::query(
+            "INSERT INTO workers (owner, threads, started_at, last_seen)
+             VALUES ('wsm-write-probe', 0, 0, 0)
+             ON CONFLICT (owner) DO UPDATE SET threads = 0",
+        )
+        .execute(&mut *tx)
+        .await
+        .map_err(probe)?;
+        tx.rollback().await.map_err(probe)?;
+        Ok(())
+    }
+
+    async fn release_all(&self, owner: &str) -> StoreResult<usize> {
+        let release = db("giving leases back");
+        let mut tx = self.begin_write(false, &release).await?;
+        let jobs = sqlx::query(
+            "UPDATE jobs SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
+             WHERE lease_owner = $1 AND state = 'running'",
+        )
+        .bind(owner)
+        .execute(&mut *tx)
+        .await
+        .map_err(&release)?
+        .rows_affected();
+        sqlx::query(
+            "UPDATE tasks SET state = 'queued', lease_owner = NULL, lease_expires_at = NULL
+             WHERE lease_owner = $1 AND state = 'running'",
+        )
+        .bind(owner)
+        .execute(&mut *tx)
+        .await
+        .map_err(&release)?;
+        tx.commit().await.map_err(&release)?;
+        self.announce(WORK_CHANNEL).await;
+        Ok(jobs as usize)
     }
 
     async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>> {

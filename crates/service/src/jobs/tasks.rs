@@ -11,6 +11,7 @@
 //! it through a channel and are solved in the worker's thread pool.
 
 use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
@@ -30,6 +31,8 @@ pub struct TaskConfig {
     pub threads: usize,
     /// A task lease not renewed for this long is taken over \[s\].
     pub lease_seconds: f64,
+    /// Raised when the process stops: no more tasks are leased.
+    pub stopping: Arc<AtomicBool>,
 }
 
 type Reply = mpsc::Sender<Result<Vec<Evaluation>, WsmError>>;
@@ -131,7 +134,7 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
         pool,
     };
     let mut work = store.work_signal();
-    loop {
+    while !config.stopping.load(Ordering::SeqCst) {
         work.borrow_and_update();
         match store
             .lease_task(&config.owner, config.lease_seconds, TaskScope::Others)
@@ -158,6 +161,7 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
             }
         }
     }
+    Ok(())
 }
 
 /// Evaluate one task and store its evaluations (unless its lease was lost meanwhile).
