@@ -42,8 +42,9 @@ fi
 WORK=$(mktemp -d -t wsm-browser-XXXXXX)
 SERVER_PID=
 FAULT_PID=
+TOKEN_PID=
 cleanup() {
-    for pid in $SERVER_PID $FAULT_PID; do
+    for pid in $SERVER_PID $FAULT_PID $TOKEN_PID; do
         kill "$pid" 2>/dev/null || true
         wait "$pid" 2>/dev/null || true
     done
@@ -89,8 +90,20 @@ for _ in $(seq 1 100); do
 done
 echo "browser_test: failure-injecting wsm serve at ${FAULT_URL:-?} (pid $FAULT_PID)"
 
+# A third server that requires a token, also for reads (the access test).
+WSM_API_TOKEN=browser-secret "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/token.db" --workers 1 \
+    --threads-per-job 1 >"$WORK/token.out" 2>"$ARTIFACTS/token-server.log" &
+TOKEN_PID=$!
+TOKEN_URL=
+for _ in $(seq 1 100); do
+    TOKEN_URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/token.out" | head -n 1)
+    [[ -n $TOKEN_URL ]] && break
+    sleep 0.1
+done
+echo "browser_test: token-guarded wsm serve at ${TOKEN_URL:-?} (pid $TOKEN_PID)"
+
 set +e
-WSM_URL=$URL WSM_FAULT_URL=$FAULT_URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
+WSM_URL=$URL WSM_FAULT_URL=$FAULT_URL WSM_TOKEN_URL=$TOKEN_URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
     tests/browser/test_dashboard.py 2>&1 | tee "$ARTIFACTS/pytest.log"
 STATUS=${PIPESTATUS[0]}
 set -e

@@ -17,6 +17,8 @@ import pytest
 from playwright.sync_api import expect, sync_playwright
 
 BASE = os.environ.get("WSM_URL", "http://127.0.0.1:8099").rstrip("/")
+TOKEN_URL = os.environ.get("WSM_TOKEN_URL", "").rstrip("/")
+TOKEN = "browser-secret"  # scripts/browser_test.sh starts the token server with it
 ART = pathlib.Path(os.environ.get("WSM_ARTIFACTS", "target/browser-artifacts"))
 CHROMIUM = os.environ.get("WSM_CHROMIUM", "/usr/bin/chromium")
 FLAGS = [
@@ -44,6 +46,12 @@ def page():
                 return
             # The browser itself logs every HTTP error response; those the test provokes on
             # purpose (the refused submissions) are expected, any other is an error.
+            url = m.location.get("url", "")
+            # The token server's list before the token is entered (the access test).
+            if m.text.startswith("Failed to load resource") and "401" in m.text \
+                    and TOKEN_URL and url.startswith(TOKEN_URL + "/v1/jobs") \
+                    and STATE.get("expect_unauthorized"):
+                return
             expected = STATE.get("expect_refusals", 0)
             if m.text.startswith("Failed to load resource") and "422" in m.text \
                     and m.location.get("url") == BASE + "/v1/jobs" and expected > 0:
@@ -328,6 +336,39 @@ def test_failed_evaluations_are_shown(page):
     expect(page.locator("#job-progress-text")).to_contain_text(f"{failures['count']} failed")
     expect(page.locator("#failures-summary")).to_contain_text("unsettled")
     shot(page, "11-failed-evaluations")
+    page.goto(BASE + "/#/")
+
+
+def test_a_token_server_is_read_and_downloaded_with_the_token(page):
+    """A server with WSM_API_TOKEN: the list asks for the token; once it is entered the list,
+    the job page (polled: an EventSource cannot send the token) and the downloads work."""
+    assert TOKEN_URL, "scripts/browser_test.sh starts the token server"
+    auth = {"content-type": "application/json", "authorization": f"Bearer {TOKEN}"}
+    body = {"example": "block-on-base", "settings": {"criteria": ["phi3"], "budget": 30, "seed": 2}}
+    response = page.request.post(TOKEN_URL + "/v1/jobs", data=json.dumps(body), headers=auth)
+    assert response.status == 202, response.text()
+    job_id = response.json()["id"]
+    assert page.request.get(f"{TOKEN_URL}/v1/jobs/{job_id}").status == 401
+    STATE["expect_unauthorized"] = True
+    page.goto(TOKEN_URL + "/#/")
+    expect(page.locator("#jobs-empty")).to_contain_text("Access token")
+    page.locator("details.token summary").click()
+    page.get_by_label("Bearer token (only if the server requires one)").fill(TOKEN)
+    page.get_by_label("Bearer token (only if the server requires one)").dispatch_event("change")
+    row = page.locator(f"#jobs-table tr[data-id='{job_id}']")
+    expect(row).to_be_visible()
+    STATE["expect_unauthorized"] = False
+    row.get_by_role("link").click()
+    expect(page.locator("#job-state")).to_have_text("succeeded", timeout=90_000)
+    with page.expect_download() as info:
+        page.get_by_role("link", name="Result JSON").click()
+    assert info.value.suggested_filename == f"wsm-{job_id}-result.json"
+    path = ART / "downloaded-token-result.json"
+    info.value.save_as(str(path))
+    result = page.request.get(f"{TOKEN_URL}/v1/jobs/{job_id}/result", headers=auth).json()
+    assert json.loads(path.read_text())["run_hash"] == result["run_hash"]
+    shot(page, "12-token-server-job")
+    page.evaluate("sessionStorage.removeItem('wsm-token')")
     page.goto(BASE + "/#/")
 
 

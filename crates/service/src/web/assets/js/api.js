@@ -15,6 +15,35 @@ function authHeaders() {
   return token ? { Authorization: `Bearer ${token}` } : {};
 }
 
+/** Whether the user gave a token (the server may then require it on reads too). */
+export function hasToken() {
+  return Boolean(sessionStorage.getItem("wsm-token"));
+}
+
+/**
+ * Save the file at `url` under `filename`, fetched with the token (a plain link cannot send the
+ * Authorization header).
+ */
+export async function download(url, filename) {
+  const response = await fetch(url, { headers: authHeaders() });
+  if (!response.ok) {
+    let body = null;
+    try {
+      body = await response.json();
+    } catch {
+      /* not JSON */
+    }
+    throw new ApiError(response.status, body);
+  }
+  const link = document.createElement("a");
+  link.href = URL.createObjectURL(await response.blob());
+  link.download = filename;
+  document.body.append(link);
+  link.click();
+  link.remove();
+  setTimeout(() => URL.revokeObjectURL(link.href), 10000);
+}
+
 async function request(method, url, body) {
   const init = { method, headers: { Accept: "application/json", ...authHeaders() } };
   if (body !== undefined) {

@@ -76,7 +76,8 @@ async function refreshList() {
     $("jobs-empty").hidden = jobs.length > 0;
   } catch (e) {
     $("jobs-empty").hidden = false;
-    $("jobs-empty").textContent = `Could not load the jobs: ${e.message}`;
+    const hint = e instanceof ApiError && e.status === 401 ? " Enter it under “Access token”." : "";
+    $("jobs-empty").textContent = `Could not load the jobs: ${e.message}${hint}`;
   }
 }
 
@@ -259,6 +260,13 @@ async function submit(event) {
 /** Wire the form's controls (once). */
 export function initHome() {
   $("token").value = sessionStorage.getItem("wsm-token") || "";
+  // A token opens the reads too (the server may require it for the list).
+  $("token").addEventListener("change", () => {
+    const token = $("token").value.trim();
+    if (token === (sessionStorage.getItem("wsm-token") || "")) return; // e.g. a blur after typing
+    sessionStorage.setItem("wsm-token", token);
+    refreshList();
+  });
   $("submit-form").addEventListener("submit", submit);
   $("example").addEventListener("change", exampleChanged);
   $("scene-file").addEventListener("change", fileChanged);

@@ -1,6 +1,6 @@
 // The job view: live status (server-sent events, polling as fallback), convergence plots,
 // worst/best data, sensitivities, solver statistics, the scenario mesh and downloads.
-import { api, ApiError } from "./api.js";
+import { api, ApiError, download, hasToken } from "./api.js";
 import { ConvergencePlots, sensitivityChart } from "./charts.js";
 import { $, el, facts, num, duration, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
 import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
@@ -77,6 +77,12 @@ function resetView(id) {
 function setLink(id, href, filename) {
   const a = $(id);
   if (filename) a.setAttribute("download", filename);
+  // With a token, the file is fetched with it (a plain link cannot send it).
+  a.onclick = (event) => {
+    if (!hasToken() || !a.href) return;
+    event.preventDefault();
+    download(a.href, a.getAttribute("download") || "wsm-download").catch((e) => showJobError(e.message));
+  };
   if (href) {
     a.href = href;
     a.removeAttribute("aria-disabled");
@@ -96,7 +102,8 @@ function showJobError(text) {
 /** Live status: an EventSource; polling when it is unavailable or keeps failing. */
 function follow(id, gen) {
   const here = () => current && current.gen === gen;
-  if (!window.EventSource) return poll(id, gen);
+  // An EventSource cannot send the token: with one, poll (the server may require it on reads).
+  if (!window.EventSource || hasToken()) return poll(id, gen);
   const es = new EventSource(api.eventsUrl(id));
   current.es = es;
   let failures = 0;
@@ -368,7 +375,7 @@ async function loadFields() {
   delete $("mesh-canvas").dataset.ready;
   const criterion = $("mesh-criterion").value;
   const scenario = $("mesh-scenario").value;
-  setLink("dl-vtu", api.vtuUrl(id, scenario, criterion));
+  setLink("dl-vtu", api.vtuUrl(id, scenario, criterion), `wsm-${id}-${scenario}-${criterion}.vtu`);
   $("dl-vtu").textContent = `VTU (${scenario} ${criterion})`;
   const c = current.result.criteria.find((x) => x.criterion === criterion);
   const extremum = c && (scenario === "worst" ? c.worst : c.best);
