@@ -2,8 +2,8 @@
 # Benchmarks of the service, outside the test suite (loopback only, bounded in time and count):
 #  1. load: while a job runs (one worker, one thread per job), `wrk` hammers GET /v1/jobs/{id}
 #     for DURATION seconds with 16 connections and reports requests/s and latency percentiles;
-#  2. fuzz: schemathesis (PyPI, in a virtual environment) generates requests from the served
-#     OpenAPI document, MAX_EXAMPLES per operation, and checks that no response is a 5xx.
+#  2. fuzz: scripts/fuzz_openapi.sh (schemathesis from the served OpenAPI document,
+#     MAX_EXAMPLES per operation, no 5xx), the same as .ci/run runs.
 # Usage: scripts/load_and_fuzz.sh [WSM_BINARY] [DURATION] [MAX_EXAMPLES]
 # Needs: wrk (apt-get install wrk), python3 with venv. Results go to stdout; docs/service.md
 # records a run.
@@ -29,9 +29,4 @@ wrk -t1 -c16 -d"${duration}s" --latency "$base/v1/jobs/$id"
 curl -s "$base/v1/jobs/$id" | grep -o '"state":"[^"]*"\|"evaluations":[0-9]*' | head -2
 curl -s -X POST "$base/v1/jobs/$id/cancel" > /dev/null
 
-echo "== fuzz: schemathesis against $base/openapi.json, $examples examples per operation"
-venv="$work/venv"
-python3 -m venv "$venv"
-"$venv/bin/pip" install -q 'schemathesis==4.*'
-"$venv/bin/st" run "$base/openapi.json" --checks not_a_server_error \
-  --max-examples "$examples" --workers 1 --request-timeout 30 --seed 1
+"$(dirname "$0")/fuzz_openapi.sh" "$wsm" "$examples"

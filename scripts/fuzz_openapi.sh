@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Bounded black-box fuzz of `wsm serve` from its own OpenAPI document (issue #23), run by .ci/run:
+# schemathesis (PyPI, in a virtual environment) generates requests for every operation —
+# MAX_EXAMPLES each, plus its coverage and stateful phases — against a fresh server on a free
+# loopback port, and fails on any 5xx or an answer slower than 20 s; /healthz must answer
+# afterwards. Usage: scripts/fuzz_openapi.sh [WSM_BINARY] [MAX_EXAMPLES]
+# Needs python3 with venv; installs schemathesis 4 from PyPI (no browser, no Docker).
+set -euo pipefail
+wsm=${1:-target/release/wsm}
+examples=${2:-30}
+work=$(mktemp -d)
+"$wsm" serve --addr 127.0.0.1:0 --db "$work/fuzz.db" --workers 1 --threads-per-job 1 \
+  --max-budget 200 > "$work/serve.log" 2>&1 &
+server=$!
+trap 'kill $server 2>/dev/null || true; rm -rf "$work"' EXIT
+for _ in $(seq 1 100); do grep -q 'http://' "$work/serve.log" && break; sleep 0.1; done
+base=$(grep -o 'http://[0-9.:]*' "$work/serve.log" | head -1)
+
+venv="${WSM_FUZZ_VENV:-$work/venv}"
+[ -x "$venv/bin/st" ] || { python3 -m venv "$venv" && "$venv/bin/pip" install -q 'schemathesis==4.*'; }
+echo "== fuzz: schemathesis against $base/openapi.json, $examples examples per operation"
+# From the scratch folder: schemathesis keeps its cache (.schemathesis/) in the working directory.
+(cd "$work" && timeout 900 "$venv/bin/st" run "$base/openapi.json" --checks not_a_server_error \
+  --max-response-time 20 --max-examples "$examples" --workers 1 --request-timeout 30 --seed 1)
+curl -fsS --max-time 2 "$base/healthz" > /dev/null
+echo "fuzz: no server error, /healthz answers"
