@@ -56,54 +56,47 @@ rm -rf "$ARTIFACTS"
 mkdir -p "$ARTIFACTS"
 START=$(date +%s)
 
-# Port 0: the server picks a free port and prints it on its first line.
-env -u WSM_API_TOKEN "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/jobs.db" --workers 1 \
-    --threads-per-job 1 >"$WORK/server.out" 2>"$ARTIFACTS/server.log" &
-SERVER_PID=$!
-URL=
-for _ in $(seq 1 100); do
-    URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/server.out" | head -n 1)
-    [[ -n $URL ]] && break
-    if ! kill -0 "$SERVER_PID" 2>/dev/null; then
-        echo "browser_test: wsm serve exited:" >&2
-        cat "$ARTIFACTS/server.log" >&2
+# start_server NAME TOKEN [ARGS...]: `wsm serve` on a free port (port 0: it prints the port on
+# its first line) with its own database and WSM_API_TOKEN=TOKEN (empty: none); sets URL and PID.
+start_server() {
+    local name=$1 token=$2
+    shift 2
+    env -u WSM_API_TOKEN ${token:+WSM_API_TOKEN="$token"} "$WSM" serve --addr 127.0.0.1:0 \
+        --db "$WORK/$name.db" --workers 1 --threads-per-job 1 "$@" \
+        >"$WORK/$name.out" 2>"$ARTIFACTS/$name-server.log" &
+    PID=$!
+    URL=
+    for _ in $(seq 1 100); do
+        URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/$name.out" | head -n 1)
+        [[ -n $URL ]] && break
+        if ! kill -0 "$PID" 2>/dev/null; then
+            echo "browser_test: wsm serve ($name) exited:" >&2
+            cat "$ARTIFACTS/$name-server.log" >&2
+            exit 1
+        fi
+        sleep 0.1
+    done
+    if [[ -z $URL ]]; then
+        echo "browser_test: wsm serve ($name) did not report its address" >&2
         exit 1
     fi
-    sleep 0.1
-done
-if [[ -z $URL ]]; then
-    echo "browser_test: wsm serve did not report its address" >&2
-    exit 1
-fi
-echo "browser_test: wsm serve at $URL (pid $SERVER_PID)"
+    echo "browser_test: wsm serve ($name) at $URL (pid $PID)"
+}
 
+start_server jobs ""
+SERVER_PID=$PID
+MAIN_URL=$URL
 # A second server whose evaluations fail above a traction (the failure-reporting test).
-env -u WSM_API_TOKEN "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/faults.db" --workers 1 \
-    --threads-per-job 1 --inject-failures 'boundary[2].traction[0]=350000' \
-    >"$WORK/faults.out" 2>"$ARTIFACTS/faults-server.log" &
-FAULT_PID=$!
-FAULT_URL=
-for _ in $(seq 1 100); do
-    FAULT_URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/faults.out" | head -n 1)
-    [[ -n $FAULT_URL ]] && break
-    sleep 0.1
-done
-echo "browser_test: failure-injecting wsm serve at ${FAULT_URL:-?} (pid $FAULT_PID)"
-
+start_server faults "" --inject-failures 'boundary[2].traction[0]=350000'
+FAULT_PID=$PID
+FAULT_URL=$URL
 # A third server that requires a token, also for reads (the access test).
-WSM_API_TOKEN=browser-secret "$WSM" serve --addr 127.0.0.1:0 --db "$WORK/token.db" --workers 1 \
-    --threads-per-job 1 >"$WORK/token.out" 2>"$ARTIFACTS/token-server.log" &
-TOKEN_PID=$!
-TOKEN_URL=
-for _ in $(seq 1 100); do
-    TOKEN_URL=$(sed -n 's|.*serving \(http://[0-9.:]*\)/.*|\1|p' "$WORK/token.out" | head -n 1)
-    [[ -n $TOKEN_URL ]] && break
-    sleep 0.1
-done
-echo "browser_test: token-guarded wsm serve at ${TOKEN_URL:-?} (pid $TOKEN_PID)"
+start_server token browser-secret
+TOKEN_PID=$PID
+TOKEN_URL=$URL
 
 set +e
-WSM_URL=$URL WSM_FAULT_URL=$FAULT_URL WSM_TOKEN_URL=$TOKEN_URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
+WSM_URL=$MAIN_URL WSM_FAULT_URL=$FAULT_URL WSM_TOKEN_URL=$TOKEN_URL WSM_ARTIFACTS=$ARTIFACTS "$VENV/bin/python" -m pytest -q -p no:cacheprovider \
     tests/browser/test_dashboard.py 2>&1 | tee "$ARTIFACTS/pytest.log"
 STATUS=${PIPESTATUS[0]}
 set -e
