@@ -149,6 +149,9 @@ pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<S
     }
     let outcome = run::worst(scene, &request, &control)?;
     bar.finish_and_clear();
+    for warning in &outcome.warnings {
+        eprintln!("warning: {warning}");
+    }
     if let Some(p) = &files.out {
         write(p, &to_json(&outcome)?)?;
     }

@@ -394,6 +394,9 @@ impl Run<'_> {
         if let Some(warning) = outcome.failures.warning(outcome.evaluations, &names) {
             outcome.warnings.insert(0, warning);
         }
+        outcome
+            .warnings
+            .extend(crate::scenario::unproven::warnings(outcome));
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
             outcome.accuracy = self.accuracy(problem, outcome)?;
         }

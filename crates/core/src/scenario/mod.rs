@@ -4,4 +4,5 @@
 pub mod evaluator;
 pub mod failures;
 pub mod solvability;
+pub mod unproven;
 pub mod worst;

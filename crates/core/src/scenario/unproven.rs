@@ -1,0 +1,122 @@
+//! Plain-words warnings for the extrema a search did not settle (issue #24, a first step): an
+//! objective whose search stopped before its polish converged — budget exhausted, stagnation,
+//! time limit, cancel, failed evaluations next to its best point — says that its worst value may
+//! be higher (its best value lower), which of its data ended inside their intervals (where no
+//! optimality was reached) and what to do. A converged polish is a local statement, no proof of
+//! the global extremum; certificates from exact gradients are the search issue's later steps.
+
+use crate::scenario::worst::{CriterionOutcome, WorstOutcome};
+use wsm_search::{ActiveBound, ObjectiveResult, Status};
+
+/// One warning per extremum the search did not settle, worst before best, in criterion order.
+pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
+    let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
+    outcome
+        .criteria
+        .iter()
+        .flat_map(|c: &CriterionOutcome| {
+            [("worst", "higher", &c.worst), ("best", "lower", &c.best)]
+                .map(|(which, direction, o)| (c, which, direction, o))
+        })
+        .filter_map(|(c, which, direction, o)| {
+            let symbol = format!("Φ{}", c.criterion.name().trim_start_matches("phi"));
+            warning(&symbol, which, direction, o, &names, outcome.budget)
+        })
+        .collect()
+}
+
+fn warning(
+    symbol: &str,
+    which: &str,
+    direction: &str,
+    o: &ObjectiveResult,
+    names: &[&str],
+    budget: usize,
+) -> Option<String> {
+    let (reason, advice) = match o.status {
+        Status::Completed => return None,
+        Status::BudgetExhausted => (
+            format!("the budget of {budget} solves ran out before its polish converged"),
+            "raise the budget (settings.budget, --budget) or narrow the intervals",
+        ),
+        Status::Stagnated => (
+            "its polish stopped improving without converging".to_string(),
+            "raise the budget or try another seed",
+        ),
+        Status::TimeLimit => (
+            "the time limit stopped it".to_string(),
+            "raise the time limit (settings.max_seconds, --max-seconds)",
+        ),
+        Status::Cancelled => ("the run was cancelled".to_string(), "run it to its end"),
+        Status::Unsettled => (
+            "failed evaluations lie next to its best point".to_string(),
+            "see the failures: the extremum may be where the solver gave no answer",
+        ),
+    };
+    let Some(value) = o.best_value else {
+        return Some(format!(
+            "{symbol} {which}: no value — no evaluation gave one ({reason}); {advice}."
+        ));
+    };
+    let inside: Vec<&str> = names
+        .iter()
+        .zip(&o.active_bounds)
+        .filter(|(_, bound)| **bound == ActiveBound::None)
+        .map(|(name, _)| *name)
+        .collect();
+    let place = if inside.is_empty() {
+        "its data at a vertex of the box".to_string()
+    } else {
+        format!(
+            "{} of {} uncertain data inside their intervals ({})",
+            inside.len(),
+            names.len(),
+            inside.join(", ")
+        )
+    };
+    Some(format!(
+        "{symbol} {which} may be {direction} than the reported {value:.6e}: the search stopped before optimality — {reason}, with {place}; {advice}."
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn objective(status: Status, bounds: Vec<ActiveBound>) -> ObjectiveResult {
+        ObjectiveResult {
+            best_value: Some(2.5e-3),
+            best_point: Some(vec![0.0; bounds.len()]),
+            active_bounds: bounds,
+            ..ObjectiveResult::empty(0, wsm_search::Sense::Max, status, 2)
+        }
+    }
+
+    #[test]
+    fn an_unconverged_extremum_says_so_and_names_its_interior_data() {
+        let o = objective(
+            Status::BudgetExhausted,
+            vec![ActiveBound::Upper, ActiveBound::None],
+        );
+        let w = warning("Φ5", "worst", "higher", &o, &["E", "g"], 400).unwrap();
+        assert!(
+            w.starts_with("Φ5 worst may be higher than the reported 2.500000e-3"),
+            "{w}"
+        );
+        assert!(
+            w.contains("budget of 400 solves")
+                && w.contains("1 of 2 uncertain data inside their intervals (g)"),
+            "{w}"
+        );
+        assert!(w.contains("raise the budget"), "{w}");
+    }
+
+    #[test]
+    fn a_converged_extremum_has_no_warning() {
+        let o = objective(
+            Status::Completed,
+            vec![ActiveBound::Upper, ActiveBound::Lower],
+        );
+        assert_eq!(warning("Φ3", "best", "lower", &o, &["E", "g"], 400), None);
+    }
+}
