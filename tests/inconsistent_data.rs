@@ -156,3 +156,30 @@ fn the_service_refuses_the_overlap_with_422_and_the_path() {
         String::from_utf8_lossy(&reply.body)
     );
 }
+
+#[test]
+fn a_bilateral_pair_pulled_apart_by_its_fixed_nodes_is_refused_and_a_consistent_one_solves() {
+    let tied = |ux: f64| {
+        let mut scene = pushed(ux);
+        scene["contacts"][0]["kind"] = json!("bilateral");
+        scene["contacts"][0]
+            .as_object_mut()
+            .unwrap()
+            .remove("slip_limit"); // frictionless
+        scene
+    };
+    let path = write("tied-apart.json", &tied(0.015));
+    let (code, stderr, elapsed) = wsm(&["solve", path.to_str().unwrap()]);
+    assert_eq!(code, 2, "{stderr}");
+    for needle in [
+        "fault_low",
+        "pull the tied bodies apart by 6.000e-3 m",
+        "boundary[1].displacement[0] = 0.015",
+    ] {
+        assert!(stderr.contains(needle), "no {needle:?} in {stderr}");
+    }
+    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+    let path = write("tied-together.json", &tied(0.025));
+    let (code, stderr, _) = wsm(&["solve", path.to_str().unwrap()]);
+    assert_eq!(code, 0, "{stderr}");
+}
