@@ -13,6 +13,18 @@ fn block() -> Value {
     serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap()
 }
 
+/// The block's polygon with 100,000 vertices along its top edge (the probe's repro of defect 1).
+fn block_with_a_huge_polygon() -> Value {
+    let mut scene = block();
+    let mut polygon = vec![json!([0.5, 0.5]), json!([1.5, 0.5])];
+    let n = 100_000;
+    for k in 0..=n {
+        polygon.push(json!([1.5 - k as f64 / n as f64, 1.0]));
+    }
+    scene["bodies"][1]["zones"][0]["polygon"] = json!(polygon);
+    scene
+}
+
 fn text(reply: &common::Reply) -> String {
     String::from_utf8_lossy(&reply.body).into_owned()
 }
@@ -80,13 +92,7 @@ fn a_huge_polygon_or_a_repeated_criterion_is_refused_at_once_and_the_server_keep
     let db = temp_db("hostile-limits.db");
     let server = Server::start(&db, &["--workers", "1"]);
     let addr = &server.addr;
-    let mut scene = block();
-    let mut polygon = vec![json!([0.5, 0.5]), json!([1.5, 0.5])];
-    let n = 100_000;
-    for k in 0..=n {
-        polygon.push(json!([1.5 - k as f64 / n as f64, 1.0]));
-    }
-    scene["bodies"][1]["zones"][0]["polygon"] = json!(polygon);
+    let scene = block_with_a_huge_polygon();
     let start = std::time::Instant::now();
     let reply = post(addr, "/v1/solve", &json!({ "scene": scene }));
     assert_eq!(reply.status, 422, "{}", text(&reply));
@@ -170,13 +176,7 @@ fn health_answers_within_100_ms_while_huge_scenes_are_validated() {
     let db = temp_db("hostile-health.db");
     let server = Server::start(&db, &["--workers", "1"]);
     let addr = server.addr.clone();
-    let mut scene = block();
-    let mut polygon = vec![json!([0.5, 0.5]), json!([1.5, 0.5])];
-    let n = 100_000;
-    for k in 0..=n {
-        polygon.push(json!([1.5 - k as f64 / n as f64, 1.0]));
-    }
-    scene["bodies"][1]["zones"][0]["polygon"] = json!(polygon);
+    let scene = block_with_a_huge_polygon();
     let body = serde_json::to_vec(&json!({ "scene": scene })).unwrap();
     let senders: Vec<_> = (0..2)
         .map(|i| {

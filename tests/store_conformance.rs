@@ -507,21 +507,21 @@ conformance!(
     the_active_job_limit_holds_under_concurrent_submissions
 );
 
+/// The newest ten jobs.
+async fn first_ten(store: &dyn JobStore) -> Vec<wsm_service::jobs::JobRecord> {
+    let page = Page {
+        limit: 10,
+        offset: 0,
+    };
+    store.list(None, page).await.unwrap()
+}
+
 async fn a_stopping_process_gives_its_leases_back_and_listings_leave_scenes_out(
     store: Arc<dyn JobStore>,
 ) {
     store.check_writable().await.unwrap();
     assert!(store.insert(job("r"), usize::MAX).await.unwrap());
-    let listed = store
-        .list(
-            None,
-            Page {
-                limit: 10,
-                offset: 0,
-            },
-        )
-        .await
-        .unwrap();
+    let listed = first_ten(&*store).await;
     assert_eq!(
         listed[0].scene, "",
         "a listing does not read scene documents"
@@ -569,16 +569,7 @@ async fn a_damaged_row_is_listed_with_the_reason_and_hides_nothing() {
         .execute(&raw)
         .await
         .unwrap();
-    let listed = store
-        .list(
-            None,
-            Page {
-                limit: 10,
-                offset: 0,
-            },
-        )
-        .await
-        .unwrap();
+    let listed = first_ten(&store).await;
     assert_eq!(listed.len(), 3);
     let bad = listed.iter().find(|j| j.id == "bad").unwrap();
     let reason = bad.damaged.as_deref().unwrap();

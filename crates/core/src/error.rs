@@ -40,6 +40,8 @@ pub enum WsmError {
     Unbalanced {
         /// The body's name in the scene.
         body: String,
+        /// Its index in the scene's `bodies`.
+        index: usize,
         /// Why it is unsupported (e.g. no displacement or roller condition and no contact zone).
         reason: String,
     },
@@ -48,6 +50,8 @@ pub enum WsmError {
     UnbalancedMode {
         /// The floating body's name in the scene.
         body: String,
+        /// Its index in the scene's `bodies`.
+        index: usize,
         /// The rigid motion (translation and/or rotation) the loads drive, in words.
         motion: String,
     },
@@ -141,19 +145,15 @@ impl WsmError {
         }
     }
 
-    /// The body an unsolvable scene cannot balance, by its name in the scene.
-    pub fn unbalanced_body(&self) -> Option<&str> {
+    /// The JSON path of the offending field, where the error names one: the field of bad
+    /// input, the body (`bodies[i]`) an unsolvable scene cannot balance.
+    pub fn path(&self) -> Option<String> {
         match self {
-            WsmError::Unbalanced { body, .. } | WsmError::UnbalancedMode { body, .. } => Some(body),
-            WsmError::Fem(FemError::FloatingBody { name, .. }) => Some(name),
-            _ => None,
-        }
-    }
-
-    /// The JSON path of the offending field, where the error names one.
-    pub fn path(&self) -> Option<&str> {
-        match self {
-            WsmError::Scene(e) => Some(&e.path),
+            WsmError::Scene(e) => Some(e.path.clone()),
+            WsmError::Unbalanced { index, .. } | WsmError::UnbalancedMode { index, .. } => {
+                Some(format!("bodies[{index}]"))
+            }
+            WsmError::Fem(FemError::FloatingBody { body, .. }) => Some(format!("bodies[{body}]")),
             _ => None,
         }
     }

@@ -49,8 +49,9 @@ const MAX_REFINEMENTS: usize = 3;
 struct Kernel {
     /// n_free × k rigid modes of all floating bodies.
     modes: Mat<f64>,
-    /// Per mode: body name and (translation x, translation y, rotation) coefficients.
-    labels: Vec<(String, [f64; 3])>,
+    /// Per mode: body index and name, and (translation x, translation y, rotation)
+    /// coefficients.
+    labels: Vec<(usize, String, [f64; 3])>,
     pinned: Vec<usize>,
     /// (RᵀR)⁻¹, for the orthogonal projector P = I − R (RᵀR)⁻¹ Rᵀ onto the loads a floating
     /// body can carry.
@@ -213,6 +214,7 @@ impl DirectContact {
             if !touches {
                 return Err(WsmError::Unbalanced {
                     body: elastic.mesh().bodies[body].clone(),
+                    index: body,
                     reason: "it is not held by displacement or roller conditions and touches no contact zone".into(),
                 });
             }
@@ -229,7 +231,11 @@ impl DirectContact {
                 for i in 0..n {
                     all[(i, col)] = rm.modes[(i, j)];
                 }
-                labels.push((elastic.mesh().bodies[rm.body].clone(), rm.coefficients[j]));
+                labels.push((
+                    rm.body,
+                    elastic.mesh().bodies[rm.body].clone(),
+                    rm.coefficients[j],
+                ));
                 col += 1;
             }
             pinned.extend(pick_pinned(rm.modes.as_ref()));
@@ -575,7 +581,7 @@ impl DirectContact {
                 residuals,
             } => {
                 let row = equality_rows.first().copied().unwrap_or(0);
-                let (body, [tx, ty, rot]) =
+                let (index, body, [tx, ty, rot]) =
                     self.kernel.labels.get(row).cloned().unwrap_or_default();
                 // Residual G x − e < 0: the load's work on the mode exceeds what contact can
                 // resist, so the body would move along +mode (and along −mode otherwise).
@@ -588,6 +594,7 @@ impl DirectContact {
                 let (tx, ty, rot) = (sign * tx + 0.0, sign * ty + 0.0, sign * rot + 0.0);
                 WsmError::UnbalancedMode {
                     body,
+                    index,
                     motion: describe_motion(tx, ty, rot),
                 }
             }

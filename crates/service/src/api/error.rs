@@ -71,17 +71,18 @@ impl ApiError {
     /// An engine error; bad-input paths get `prefix` (the request field holding the scene).
     pub fn engine(error: WsmError, prefix: &str) -> ApiError {
         let detail = error.to_string();
+        let path = error.path().map(|p| join_path(prefix, &p));
         match error.kind() {
             ErrorKind::BadInput => {
-                let path = error
-                    .path()
-                    .map(|p| join_path(prefix, p))
-                    .unwrap_or_else(|| prefix.to_string());
-                ApiError::invalid(path, detail)
+                ApiError::invalid(path.unwrap_or_else(|| prefix.to_string()), detail)
             }
             ErrorKind::NotFound => ApiError::new(StatusCode::NOT_FOUND, "not_found", detail),
             ErrorKind::Unsolvable => {
-                ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "unsolvable", detail)
+                let error = ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "unsolvable", detail);
+                match path {
+                    Some(path) => error.at(path),
+                    None => error,
+                }
             }
             ErrorKind::Cancelled => ApiError::conflict(detail),
             ErrorKind::Solver => {

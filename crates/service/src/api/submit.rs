@@ -172,24 +172,6 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
     Ok(())
 }
 
-/// An engine error about `scene`; an unsolvable one names the body it cannot balance
-/// (`scene.bodies[i]`).
-fn engine_error(scene: &Scene, error: wsm_core::error::WsmError) -> ApiError {
-    let bodies: Vec<String> = scene.bodies.iter().map(|b| b.name.clone()).collect();
-    engine_error_in(&bodies, error)
-}
-
-fn engine_error_in(bodies: &[String], error: wsm_core::error::WsmError) -> ApiError {
-    let body = error
-        .unbalanced_body()
-        .and_then(|name| bodies.iter().position(|b| b == name));
-    let api = ApiError::engine(error, "scene");
-    match body {
-        Some(i) => api.at(format!("scene.bodies[{i}]")),
-        None => api,
-    }
-}
-
 /// Queue a worst-scenario search.
 #[utoipa::path(
     post,
@@ -225,7 +207,7 @@ pub async fn submit_job(
     tokio::task::spawn_blocking(move || run::check_admissible_set(&checked))
         .await
         .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| engine_error(&scene, e))?;
+        .map_err(|e| ApiError::engine(e, "scene"))?;
     let header = run::log_header(&scene, &settings).map_err(|e| ApiError::engine(e, "scene"))?;
     let id = uuid::Uuid::new_v4().to_string();
     let job = NewJob {
@@ -299,10 +281,9 @@ pub async fn solve(
         "a synchronous solve (submit a job)",
     )?;
     let request = submission.settings;
-    let bodies: Vec<String> = scene.bodies.iter().map(|b| b.name.clone()).collect();
     let output = tokio::task::spawn_blocking(move || run::solve(scene, &request))
         .await
         .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| engine_error_in(&bodies, e))?;
+        .map_err(|e| ApiError::engine(e, "scene"))?;
     Ok(Json(output))
 }
