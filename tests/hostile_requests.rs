@@ -498,3 +498,44 @@ fn a_cancel_after_the_last_search_evaluation_still_ends_the_job_cancelled() {
     let result = get(addr, &format!("/v1/jobs/{id}/result"));
     assert_eq!(result.status, 200, "the outcome is kept");
 }
+
+#[test]
+fn a_job_whose_server_died_shows_it_waits_for_a_worker_not_its_last_phase() {
+    let db = temp_db("hostile-stale-phase.db");
+    let mut first = Server::start(&db, &["--workers", "1"]);
+    let submitted = post(
+        &first.addr,
+        "/v1/jobs",
+        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": 4}}),
+    );
+    let id = submitted.json()["id"].as_str().unwrap().to_string();
+    let start = std::time::Instant::now();
+    loop {
+        let s = get(&first.addr, &format!("/v1/jobs/{id}")).json();
+        if s["state"] == "running" && s["phase"] != "queued" && s["evaluations"].as_u64() > Some(0)
+        {
+            break;
+        }
+        assert!(start.elapsed() < std::time::Duration::from_secs(60), "{s}");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    first.kill(); // SIGKILL: the lease is left to expire (2 s)
+    let reader = Server::start(&db, &["--workers", "0"]);
+    let start = std::time::Instant::now();
+    let waiting = loop {
+        let s = get(&reader.addr, &format!("/v1/jobs/{id}")).json();
+        assert_eq!(s["state"], "running", "nobody took it over: {s}");
+        if s["phase"] == "queued" {
+            break s;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(10),
+            "stale phase: {s}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    };
+    assert!(
+        waiting["best"].as_array().is_some_and(|b| !b.is_empty()),
+        "{waiting}"
+    );
+}
