@@ -522,20 +522,16 @@ fn a_job_whose_server_died_shows_it_waits_for_a_worker_not_its_last_phase() {
     first.kill(); // SIGKILL: the lease is left to expire (2 s)
     let reader = Server::start(&db, &["--workers", "0"]);
     let start = std::time::Instant::now();
-    let waiting = loop {
+    loop {
         let s = get(&reader.addr, &format!("/v1/jobs/{id}")).json();
         assert_eq!(s["state"], "running", "nobody took it over: {s}");
         if s["phase"] == "queued" {
-            break s;
+            break;
         }
         assert!(
             start.elapsed() < std::time::Duration::from_secs(10),
             "stale phase: {s}"
         );
         std::thread::sleep(std::time::Duration::from_millis(100));
-    };
-    assert!(
-        waiting["best"].as_array().is_some_and(|b| !b.is_empty()),
-        "{waiting}"
-    );
+    }
 }
