@@ -145,16 +145,23 @@ fn submit(addr: &str, seed: u64) -> String {
 
 /// A `wsm serve` that only serves and `workers` worker processes on a fresh schema (`None`,
 /// and a note saying so, without `WSM_TEST_POSTGRES_URL`). Fields drop in order: the
-/// processes stop before the schema goes.
+/// processes stop before the schema goes, and the next cluster starts after both.
 struct Cluster {
     db: Db,
     workers: Workers,
     server: Server,
     _schema: PgSchema,
+    _alone: std::sync::MutexGuard<'static, ()>,
 }
 
 impl Cluster {
     fn start(workers: usize) -> Option<Cluster> {
+        // One cluster at a time: its processes share the machine's cores, and a worker that
+        // prepares its model while another cluster computes may miss a short job entirely.
+        static ALONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+        let alone = ALONE
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
         let Some(server_url) = postgres_url() else {
             eprintln!("scale-out test skipped: WSM_TEST_POSTGRES_URL is not set");
             return None;
@@ -166,6 +173,7 @@ impl Cluster {
             db: Db::open(&schema.url),
             server,
             _schema: schema,
+            _alone: alone,
         })
     }
 }
@@ -247,7 +255,8 @@ fn workers_evaluate_a_target_error_job_on_the_scene_its_coordinator_chose() {
         return;
     };
     let (db, server) = (&cluster.db, &cluster.server);
-    let (budget, seed) = (40, 6);
+    // Long enough (a few seconds) for the second worker to mesh the chosen scene and take part.
+    let (budget, seed) = (120, 6);
     let id = submit_settings(
         &server.addr,
         json!({"criteria": ["phi3"], "budget": budget, "seed": seed, "target_error": 0.05}),
