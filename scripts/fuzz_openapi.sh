@@ -9,12 +9,7 @@ set -euo pipefail
 wsm=${1:-target/release/wsm}
 examples=${2:-30}
 work=$(mktemp -d)
-"$wsm" serve --addr 127.0.0.1:0 --db "$work/fuzz.db" --workers 1 --threads-per-job 1 \
-  --max-budget 200 > "$work/serve.log" 2>&1 &
-server=$!
-trap 'kill $server 2>/dev/null || true; rm -rf "$work"' EXIT
-for _ in $(seq 1 100); do grep -q 'http://' "$work/serve.log" && break; sleep 0.1; done
-base=$(grep -o 'http://[0-9.:]*' "$work/serve.log" | head -1)
+. "$(dirname "$0")/scratch_server.sh" fuzz.db
 
 venv="${WSM_FUZZ_VENV:-$work/venv}"
 [ -x "$venv/bin/st" ] || { python3 -m venv "$venv" && "$venv/bin/pip" install -q 'schemathesis==4.*'; }

@@ -12,12 +12,7 @@ wsm=${1:-target/release/wsm}
 duration=${2:-10}
 examples=${3:-25}
 work=$(mktemp -d)
-"$wsm" serve --addr 127.0.0.1:0 --db "$work/load.db" --workers 1 --threads-per-job 1 \
-  --max-budget 200 > "$work/serve.log" 2>&1 &
-server=$!
-trap 'kill $server 2>/dev/null || true; rm -rf "$work"' EXIT
-for _ in $(seq 1 100); do grep -q 'http://' "$work/serve.log" && break; sleep 0.1; done
-base=$(grep -o 'http://[0-9.:]*' "$work/serve.log" | head -1)
+. "$(dirname "$0")/scratch_server.sh" load.db
 
 echo "== load: GET /v1/jobs/{id} while the job runs"
 id=$(curl -s -H 'Content-Type: application/json' \

@@ -417,15 +417,20 @@ fn send_sigterm(server: &Server) {
     assert!(status.success());
 }
 
+/// Submit a tunnel job long enough (budget 300, Φ3) to be caught running.
+fn submit_tunnel_phi3(addr: &str, seed: u64) -> common::Reply {
+    post(
+        addr,
+        "/v1/jobs",
+        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": seed}}),
+    )
+}
+
 #[test]
 fn a_stopped_server_gives_its_running_job_back_and_another_resumes_it() {
     let db = temp_db("hostile-sigterm.db");
     let mut first = Server::start(&db, &["--workers", "1"]);
-    let submitted = post(
-        &first.addr,
-        "/v1/jobs",
-        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": 3}}),
-    );
+    let submitted = submit_tunnel_phi3(&first.addr, 3);
     assert_eq!(submitted.status, 202, "{}", text(&submitted));
     let id = submitted.json()["id"].as_str().unwrap().to_string();
     let start = std::time::Instant::now();
@@ -503,11 +508,7 @@ fn a_cancel_after_the_last_search_evaluation_still_ends_the_job_cancelled() {
 fn a_job_whose_server_died_shows_it_waits_for_a_worker_not_its_last_phase() {
     let db = temp_db("hostile-stale-phase.db");
     let mut first = Server::start(&db, &["--workers", "1"]);
-    let submitted = post(
-        &first.addr,
-        "/v1/jobs",
-        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": 4}}),
-    );
+    let submitted = submit_tunnel_phi3(&first.addr, 4);
     let id = submitted.json()["id"].as_str().unwrap().to_string();
     let start = std::time::Instant::now();
     loop {

@@ -507,6 +507,16 @@ conformance!(
     the_active_job_limit_holds_under_concurrent_submissions
 );
 
+/// Run one statement on the SQLite file at `path` through a connection of its own, as a fault
+/// or another program would, and close it.
+async fn execute_behind_the_store(path: &std::path::Path, statement: &'static str) {
+    let raw = sqlx::SqlitePool::connect(&format!("sqlite://{}", path.display()))
+        .await
+        .unwrap();
+    sqlx::query(statement).execute(&raw).await.unwrap();
+    raw.close().await;
+}
+
 /// The newest ten jobs.
 async fn first_ten(store: &dyn JobStore) -> Vec<wsm_service::jobs::JobRecord> {
     let page = Page {
@@ -562,13 +572,11 @@ async fn a_damaged_row_is_listed_with_the_reason_and_hides_nothing() {
     for id in ["ok1", "bad", "ok2"] {
         assert!(store.insert(job(id), usize::MAX).await.unwrap());
     }
-    let raw = sqlx::SqlitePool::connect(&format!("sqlite://{}", path.display()))
-        .await
-        .unwrap();
-    sqlx::query("UPDATE jobs SET settings = '{not json', progress = 'x' WHERE id = 'bad'")
-        .execute(&raw)
-        .await
-        .unwrap();
+    execute_behind_the_store(
+        &path,
+        "UPDATE jobs SET settings = '{not json', progress = 'x' WHERE id = 'bad'",
+    )
+    .await;
     let listed = first_ten(&store).await;
     assert_eq!(listed.len(), 3);
     let bad = listed.iter().find(|j| j.id == "bad").unwrap();
@@ -615,14 +623,7 @@ async fn unusable_database_files_are_refused_at_start_with_the_reason() {
                 .unwrap());
         }
     }
-    let raw = sqlx::SqlitePool::connect(&format!("sqlite://{}", damaged.display()))
-        .await
-        .unwrap();
-    sqlx::query("PRAGMA wal_checkpoint(TRUNCATE)")
-        .execute(&raw)
-        .await
-        .unwrap();
-    raw.close().await;
+    execute_behind_the_store(&damaged, "PRAGMA wal_checkpoint(TRUNCATE)").await;
     let mut bytes = std::fs::read(&damaged).unwrap();
     for b in bytes.iter_mut().skip(4096).take(8192) {
         *b ^= 0x5a;
