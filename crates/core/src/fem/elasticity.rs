@@ -320,6 +320,28 @@ impl ElasticProblem {
         ))
     }
 
+    /// The stresses of a displacement increment `du` with the temperature increment `dt`
+    /// (τ = A e(du) − β dT: the linear part of the law, no reference temperature).
+    pub fn stress_increments(
+        &self,
+        data: &Data,
+        du: &[[f64; 2]],
+        dt: Option<&[f64]>,
+    ) -> Result<Vec<ElementStress>, FemError> {
+        expect_len("nodal displacements", du.len(), self.mesh.nodes.len())?;
+        if let Some(t) = dt {
+            self.check_temperature(t)?;
+        }
+        let materials = self.zone_materials(data)?;
+        Ok(element_stresses(
+            &self.mesh,
+            &self.gradients,
+            &materials,
+            du,
+            dt.map(|t| (t, 0.0)),
+        ))
+    }
+
     /// Nodal residual K u − f in global components (thermal part included through the stress):
     /// the reaction forces at constrained nodes, ≈ 0 elsewhere.
     pub fn reactions(

@@ -227,13 +227,28 @@ impl HeatProblem {
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
         let b = self.rhs_with(&factor.coefficients, loads, fixed)?;
-        let x = factor.factor.solve(&b);
-        Ok((0..self.mesh.nodes.len())
+        Ok(self.expand(&factor.factor.solve(&b), fixed))
+    }
+
+    /// The nodal field of free and fixed unknown values.
+    pub fn expand(&self, free: &[f64], fixed: &[f64]) -> Vec<f64> {
+        (0..self.mesh.nodes.len())
             .map(|node| match self.slot(node) {
-                Slot::Free(i) => x[i],
+                Slot::Free(i) => free[i],
                 Slot::Fixed(i) => fixed[i],
             })
-            .collect())
+            .collect()
+    }
+
+    /// The free unknown values of a nodal field.
+    pub fn free_values(&self, field: &[f64]) -> Vec<f64> {
+        let mut free = vec![0.0; self.operator.n_free()];
+        for (node, &v) in field.iter().enumerate() {
+            if let Slot::Free(i) = self.slot(node) {
+                free[i] = v;
+            }
+        }
+        free
     }
 }
 

@@ -37,9 +37,19 @@ impl ElementStress {
 }
 
 /// I2² of (τ11, τ22, τ12, τ33).
-pub fn i2_squared([s11, s22, s12, s33]: [f64; 4]) -> f64 {
-    2.0 / 3.0 * (s11 * s11 + s22 * s22 + s33 * s33 - s11 * s22 - s11 * s33 - s22 * s33)
-        + 2.0 * s12 * s12
+pub fn i2_squared(s: [f64; 4]) -> f64 {
+    i2_bilinear(s, s)
+}
+
+/// The symmetric bilinear form of I2²: i2_bilinear(a, a) = I2²(a), so the derivative of I2²(τ)
+/// along dτ is 2 i2_bilinear(τ, dτ).
+pub fn i2_bilinear([a11, a22, a12, a33]: [f64; 4], [b11, b22, b12, b33]: [f64; 4]) -> f64 {
+    2.0 / 3.0
+        * (a11 * b11 + a22 * b22 + a33 * b33
+            - 0.5 * (a11 * b22 + a22 * b11)
+            - 0.5 * (a11 * b33 + a33 * b11)
+            - 0.5 * (a22 * b33 + a33 * b22))
+        + 2.0 * a12 * b12
 }
 
 /// Stress of a strain (e11, e22, e12) with temperature excess ΔT = T − T0.

@@ -301,6 +301,92 @@ pub fn apply(scene: &Scene, nominal: &Data, params: &[Parameter], theta: &[f64])
     data
 }
 
+/// Data at the points θ + t_k e_i with weights w_k such that Σ_k w_k F(D_k) is the derivative
+/// of F(D(θ)) along θ_i (design §4.3); the sensitivities of the state problem are built on it.
+///
+/// Along one parameter every map from θ to `Data` is affine (E, λ, μ, α and β enter the
+/// coefficients linearly), and the quantities the sensitivities combine are at most quadratic
+/// (β (T + t dT − T0)), except Poisson's ratio and the knots of a slope-limited slip limit. For
+/// the former the stencil is exact for degree ≤ 2 with a long step (0.1 × width: rounding only,
+/// ≈ 1e-15 relative); for ν it is of order 4 with a step well inside the poles at ν = 0.5 and
+/// ν = −1 (≈ 1e-12 relative); for slope-limited knots, whose projection is piecewise linear, it
+/// is exact on each piece with a short step.
+#[derive(Debug, Clone)]
+pub struct Stencil {
+    /// (t_k, w_k, D_k).
+    pub points: Vec<(f64, f64, Data)>,
+}
+
+/// Step of the affine parameters, relative to the interval width.
+const AFFINE_STEP: f64 = 0.1;
+/// Step of the non-affine parameters, relative to max(|θ_i|, width) (and for ν to the distance
+/// to its poles).
+const SHORT_STEP: f64 = 1e-6;
+/// Step of ν relative to its scale (order 4: truncation ≈ (step / distance to a pole)⁴).
+const POISSON_STEP: f64 = 1e-3;
+
+/// Derivative formulas as (offset in steps, weight × step) per point.
+const CENTRAL_2: &[(f64, f64)] = &[(-1.0, -0.5), (1.0, 0.5)];
+const FORWARD_2: &[(f64, f64)] = &[(0.0, -1.5), (1.0, 2.0), (2.0, -0.5)];
+const CENTRAL_4: &[(f64, f64)] = &[
+    (-2.0, 1.0 / 12.0),
+    (-1.0, -8.0 / 12.0),
+    (1.0, 8.0 / 12.0),
+    (2.0, -1.0 / 12.0),
+];
+const FORWARD_4: &[(f64, f64)] = &[
+    (0.0, -25.0 / 12.0),
+    (1.0, 4.0),
+    (2.0, -3.0),
+    (3.0, 4.0 / 3.0),
+    (4.0, -0.25),
+];
+
+/// The derivative stencil of parameter `i` at θ: central when its points lie in the box,
+/// otherwise one-sided pointing into it (see [`Stencil`] for the formulas and steps).
+pub fn stencil(
+    scene: &Scene,
+    nominal: &Data,
+    params: &[Parameter],
+    theta: &[f64],
+    i: usize,
+) -> Stencil {
+    let p = &params[i];
+    let x = theta[i];
+    let width = p.hi - p.lo;
+    let scale = x.abs().max(width).max(f64::MIN_POSITIVE);
+    let sloped_knot = matches!(p.target, ParamTarget::SlipKnot(c, _)
+        if matches!(scene.contacts[c].slip_limit, SlipLimit::PiecewiseLinear { max_slope: Some(_), .. }));
+    let (h, central, forward) = match p.target {
+        ParamTarget::Poisson(_) => (
+            POISSON_STEP * scale.min(0.5 - x).min(1.0 + x),
+            CENTRAL_4,
+            FORWARD_4,
+        ),
+        _ if sloped_knot || width == 0.0 => (SHORT_STEP * scale, CENTRAL_2, FORWARD_2),
+        _ => (AFFINE_STEP * width, CENTRAL_2, FORWARD_2),
+    };
+    let reach = |taps: &[(f64, f64)]| taps.iter().fold(0.0_f64, |m, (t, _)| m.max(t.abs())) * h;
+    let taps: Vec<(f64, f64)> = if x - reach(central) >= p.lo && x + reach(central) <= p.hi
+        || width < 2.0 * reach(central)
+    {
+        central.to_vec()
+    } else if x + reach(forward) <= p.hi {
+        forward.to_vec()
+    } else {
+        forward.iter().map(|&(t, w)| (-t, -w)).collect()
+    };
+    let points = taps
+        .iter()
+        .map(|&(steps, weight)| {
+            let mut at = theta.to_vec();
+            at[i] = x + steps * h;
+            (steps * h, weight / h, apply(scene, nominal, params, &at))
+        })
+        .collect();
+    Stencil { points }
+}
+
 fn set(data: &mut Data, target: ParamTarget, v: f64) {
     use ParamTarget as T;
     match target {

@@ -11,9 +11,11 @@
 //! fresh ones); the DD partition is built once.
 
 mod criterion_values;
+mod sensitivity;
 mod solution;
 
 pub use criterion_values::{evaluate as evaluate_criteria, Fields};
+pub use sensitivity::{OneSided, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
     piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
@@ -29,11 +31,14 @@ use crate::contact::direct::{ContactSolution, DirectContact, StiffnessFactor};
 use crate::contact::qp::WarmStart;
 use crate::dd::DirectAnswer;
 use crate::error::WsmError;
+use crate::fem::OperatorFactor;
 use crate::fem::{ElasticProblem, HeatProblem, Par};
 use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
+use crate::scene::params::Stencil;
 use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
+use sensitivity::{ElasticState, SolvedState};
 
 /// What a solve must compute.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -117,6 +122,8 @@ pub struct StateProblem {
     /// Per body block of K: its factors keyed by the coefficients of its zones.
     body_factors: Vec<Memo<Arc<BodyFactor>>>,
     temperatures: Memo<Arc<Vec<f64>>>,
+    /// Heat factors keyed by the conductivities.
+    heat_factors: Memo<Arc<OperatorFactor<1>>>,
     /// The DD partition, built on the first DD solve from the nominal data (it depends only on
     /// the mesh and the contact pairs).
     dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
@@ -164,6 +171,7 @@ impl StateProblem {
             factors: Memo::new(4),
             body_factors,
             temperatures: Memo::new(4),
+            heat_factors: Memo::new(2),
             dd_partition: OnceLock::new(),
             dd_operators: Arc::default(),
             counters: Counters::default(),
@@ -178,6 +186,18 @@ impl StateProblem {
 
     /// Solve the state problem for `data`.
     pub fn solve(&self, data: &Data, options: &SolveOptions) -> Result<Solution, WsmError> {
+        self.solve_with_sensitivities(data, options, &[])
+    }
+
+    /// Solve the state problem for `data` and differentiate the criteria along the parameter of
+    /// every stencil ([`Solution::sensitivities`], one entry per stencil). A derivative that
+    /// cannot be computed leaves the sensitivities empty with a warning; the state stands.
+    pub fn solve_with_sensitivities(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        stencils: &[Stencil],
+    ) -> Result<Solution, WsmError> {
         let start = Instant::now();
         let mesh = self.mesh();
         let mut report = SolveReport {
@@ -203,14 +223,15 @@ impl StateProblem {
             None
         };
         let mut solution = Solution::default();
+        let mut elastic = None;
         if options.needs.elastic {
-            self.solve_elastic(
+            elastic = Some(self.solve_elastic(
                 data,
                 options,
                 temperature.as_deref().map(Vec::as_slice),
                 &mut solution,
                 &mut report,
-            )?;
+            )?);
         } else {
             report
                 .skipped
@@ -231,11 +252,62 @@ impl StateProblem {
                     .then_some(solution.stresses.as_slice()),
             },
         );
-        solution.temperature = temperature.map(|t| t.as_ref().clone());
         report.timings.post += t0.elapsed().as_secs_f64();
+        if !stencils.is_empty() {
+            let t0 = Instant::now();
+            let sensitivities = self.differentiate(
+                data,
+                options,
+                temperature.as_deref().map(Vec::as_slice),
+                elastic.as_ref(),
+                &solution,
+                stencils,
+            );
+            match sensitivities {
+                Ok(s) => solution.sensitivities = s,
+                Err(e) => report
+                    .warnings
+                    .push(format!("the sensitivities are not available: {e}")),
+            }
+            report.timings.sensitivities = t0.elapsed().as_secs_f64();
+        }
+        solution.temperature = temperature.map(|t| t.as_ref().clone());
         report.timings.total = start.elapsed().as_secs_f64();
         solution.report = report;
         Ok(solution)
+    }
+
+    /// The sensitivities of a solved state (the direct factor is built for a DD state).
+    fn differentiate(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        temperature: Option<&[f64]>,
+        elastic: Option<&ElasticParts>,
+        solution: &Solution,
+        stencils: &[Stencil],
+    ) -> Result<Sensitivities, WsmError> {
+        let factor = match elastic {
+            Some(ElasticParts {
+                factor: Some(f), ..
+            }) => Some(f.clone()),
+            Some(parts) => Some(self.stiffness_factor(&parts.coefficients, options.par)?.0),
+            None => None,
+        };
+        let state = SolvedState {
+            data,
+            temperature,
+            elastic: elastic
+                .zip(factor.as_deref())
+                .map(|(parts, factor)| ElasticState {
+                    coefficients: &parts.coefficients,
+                    factor,
+                    contact: &parts.contact,
+                    displacement: &solution.displacement,
+                    stresses: &solution.stresses,
+                }),
+        };
+        self.sensitivities(&state, stencils)
     }
 
     fn solve_elastic(
@@ -245,7 +317,7 @@ impl StateProblem {
         temperature: Option<&[f64]>,
         solution: &mut Solution,
         report: &mut SolveReport,
-    ) -> Result<(), WsmError> {
+    ) -> Result<ElasticParts, WsmError> {
         let elastic = &self.elastic;
         let t0 = Instant::now();
         self.contact
@@ -261,10 +333,12 @@ impl StateProblem {
         report.timings.assembly = t0.elapsed().as_secs_f64();
         self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
         let t1 = Instant::now();
+        let mut direct_factor = None;
         let sol = if self.scene.solver.kind == SolverKind::Dd {
             self.solve_dd(data, &coefficients, &rhs, &fixed, options, report)?
         } else {
             let (factor, reused) = self.stiffness_factor(&coefficients, options.par)?;
+            direct_factor = Some(factor.clone());
             report.reused_factorisation = reused;
             report.timings.factor = t1.elapsed().as_secs_f64();
             if !reused {
@@ -312,7 +386,11 @@ impl StateProblem {
             alpha: sol.rigid.clone(),
         });
         report.timings.post += t2.elapsed().as_secs_f64();
-        Ok(())
+        Ok(ElasticParts {
+            coefficients,
+            factor: direct_factor,
+            contact: sol,
+        })
     }
 
     /// The stiffness factorisation of the direct solver for the coefficients (memoised), and
@@ -464,28 +542,54 @@ impl StateProblem {
 
     /// The temperature field of the data (reused when the thermal data did not change).
     fn temperature(&self, data: &Data, par: Par) -> Result<Arc<Vec<f64>>, WsmError> {
-        let Some(heat) = &self.heat else {
-            return Err(WsmError::Solver {
-                stage: crate::error::SolverStage::Heat,
-                reason: "the scene has no thermal part".into(),
-            });
-        };
-        let thermal_numbers = data
-            .materials
-            .iter()
-            .flat_map(|m| [m.conductivity, m.heat_source])
-            .chain(data.boundary.iter().filter_map(|b| match b.value {
-                BoundaryValue::Temperature(v) | BoundaryValue::HeatFlux(v) => Some(v),
-                _ => None,
-            }));
-        let key = memo::key(thermal_numbers);
-        let (t, _) = self.temperatures.get_or_try(key, || {
+        let heat = self.heat_problem()?;
+        let (t, _) = self.temperatures.get_or_try(thermal_key(data), || {
             self.counters.heat_solves.fetch_add(1, Ordering::Relaxed);
-            let factor = heat.factor(data, par)?;
+            let factor = self.heat_factor(data, par)?;
             Ok::<_, WsmError>(Arc::new(heat.solve(&factor, data)?))
         })?;
         Ok(t)
     }
+
+    /// The heat problem, or the error of a scene without a thermal part.
+    fn heat_problem(&self) -> Result<&HeatProblem, WsmError> {
+        self.heat.as_ref().ok_or_else(|| WsmError::Solver {
+            stage: crate::error::SolverStage::Heat,
+            reason: "the scene has no thermal part".into(),
+        })
+    }
+
+    /// The factor of the heat operator for the conductivities of `data` (memoised).
+    fn heat_factor(&self, data: &Data, par: Par) -> Result<Arc<OperatorFactor<1>>, WsmError> {
+        let heat = self.heat_problem()?;
+        let coefficients = heat.coefficients(data)?;
+        let key = memo::key(coefficients.iter().flatten().copied());
+        let (factor, _) = self.heat_factors.get_or_try(key, || {
+            Ok::<_, WsmError>(Arc::new(heat.operator().factor(&coefficients, par)?))
+        })?;
+        Ok(factor)
+    }
+}
+
+/// The elastic part of a solve that its sensitivities need.
+struct ElasticParts {
+    coefficients: Vec<[f64; 2]>,
+    /// The direct solver's factor (None after a DD solve).
+    factor: Option<Arc<StiffnessFactor>>,
+    contact: ContactSolution,
+}
+
+/// The memo key of the numbers the temperature field depends on.
+fn thermal_key(data: &Data) -> Vec<u64> {
+    let thermal_numbers = data
+        .materials
+        .iter()
+        .flat_map(|m| [m.conductivity, m.heat_source])
+        .chain(data.boundary.iter().filter_map(|b| match b.value {
+            BoundaryValue::Temperature(v) | BoundaryValue::HeatFlux(v) => Some(v),
+            _ => None,
+        }));
+    memo::key(thermal_numbers)
 }
 
 /// Memory for cached body factors of a scene \[bytes\] (shared by its bodies).

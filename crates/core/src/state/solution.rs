@@ -106,6 +106,8 @@ pub struct Timings {
     pub dd_recovery: f64,
     /// Contact results, stresses and criteria.
     pub post: f64,
+    /// The sensitivities of the criteria (when requested).
+    pub sensitivities: f64,
     /// The whole solve, heat to criteria.
     pub total: f64,
 }
@@ -125,6 +127,7 @@ impl Timings {
         self.dd_outer += other.dd_outer;
         self.dd_recovery += other.dd_recovery;
         self.post += other.post;
+        self.sensitivities += other.sensitivities;
         self.total += other.total;
     }
 }
@@ -183,6 +186,12 @@ pub struct Solution {
     pub warm_start: Option<WarmStart>,
     /// Φ1..Φ6 (None when not requested or not defined for the scene).
     pub criteria: [Option<f64>; 6],
+    /// Per requested stencil (parameter), the one-sided derivatives of Φ1..Φ6
+    /// ([`StateProblem::solve_with_sensitivities`]; empty when none were requested or they
+    /// could not be computed, with a warning).
+    ///
+    /// [`StateProblem::solve_with_sensitivities`]: super::StateProblem::solve_with_sensitivities
+    pub sensitivities: super::Sensitivities,
     /// Sizes, iterations, residuals, warnings and timings of the solve.
     pub report: SolveReport,
 }

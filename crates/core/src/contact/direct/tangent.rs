@@ -1,0 +1,206 @@
+//! Directional derivatives of the contact state (design §4.3): the derivative of the solution of
+//! the condensed contact problem along a data direction, on the converged active set.
+//!
+//! At the solution λ of min ½λᵀCλ − λᵀd over the box l ≤ λ ≤ u with Gλ = e, and with
+//! w = d − Cλ + Gᵀα the gaps and slips, a change of the data by ε changes K u = f − Bᵀλ (+ R α)
+//! to first order by K du = b − Bᵀ dλ with b = df − dK u (the derivative of the equilibrium
+//! residual at fixed u, λ). The one-sided derivative (dλ, dα) along +ε solves the tangent QP
+//! (the directional derivative of a parametric QP, e.g. Bonnans–Shapiro, *Perturbation Analysis
+//! of Optimization Problems*, §5.2):
+//!
+//! ```text
+//!   min ½ dλᵀ C dλ − dλᵀ d'   d' = B P K⁺ P b + B_d du_d,   G dλ = Rᵀ b,
+//!   free rows (l < λ < u): dλ unconstrained;   strictly active rows (λ at a bound, w ≠ 0):
+//!   dλ = d(bound);   weakly active rows (λ at a bound, w = 0): dλ ≥ dl (or ≤ du);
+//!   rows with l = u: dl ≤ dλ ≤ du.
+//! ```
+//!
+//! Then du = P K⁺ P (b − Bᵀ dλ) + R dα, with the same normal form along undetermined rigid
+//! motions as the state itself. Without weakly active rows the derivative is linear in the
+//! direction (the state is differentiable) and the derivative along −ε is minus that along +ε;
+//! with them it is computed separately and the state is only one-sided differentiable.
+//! C and the factors of K are those of the state solve: a derivative costs one projected solve
+//! with K, one with K for the recovery, and one QP on the (mostly fixed) active set.
+
+use super::{DirectContact, StiffnessFactor};
+use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
+use crate::error::WsmError;
+use crate::fem::rigid::remove_components;
+
+/// Relative distance of a multiplier to its bound below which it is on the bound.
+const AT_BOUND_TOL: f64 = 1e-10;
+/// Relative size of a gap or slip below which an active row is weakly active.
+const WEAK_TOL: f64 = 1e-9;
+
+/// How a multiplier may move in the tangent problem.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum RowMotion {
+    /// Strictly inside its bounds: free.
+    Free,
+    /// Strictly active at the lower bound: follows it.
+    Lower,
+    /// Strictly active at the upper bound: follows it.
+    Upper,
+    /// Weakly active at the lower bound: may leave it upwards.
+    WeakLower,
+    /// Weakly active at the upper bound: may leave it downwards.
+    WeakUpper,
+    /// Both bounds coincide: stays between their derivatives.
+    Pinched,
+}
+
+/// The converged contact state a derivative is taken at.
+pub struct ContactPoint<'a> {
+    /// Multipliers λ.
+    pub multipliers: &'a [f64],
+    /// Gaps and slips w = B u + B_d u_d − g0.
+    pub gaps: &'a [f64],
+    /// Lower multiplier bounds of the data.
+    pub lower: &'a [f64],
+    /// Upper multiplier bounds of the data.
+    pub upper: &'a [f64],
+    /// Largest displacement component (the scale of gaps and slips).
+    pub displacement_scale: f64,
+}
+
+/// The data derivative of one direction, as seen by the contact problem.
+pub struct DataDerivative<'a> {
+    /// b = df − dK u on the free DOFs.
+    pub residual: &'a [f64],
+    /// Derivative of the prescribed values u_d.
+    pub fixed: &'a [f64],
+    /// Derivatives of the lower and upper multiplier bounds (0 for infinite bounds).
+    pub lower: &'a [f64],
+    /// See `lower`.
+    pub upper: &'a [f64],
+}
+
+/// The derivative of the displacement on the free DOFs along +ε and, when the state is only
+/// one-sided differentiable, along −ε.
+pub struct TangentDisplacement {
+    /// du along +ε.
+    pub plus: Vec<f64>,
+    /// du along −ε (the change per unit decrease of the parameter); `None` when it is −`plus`.
+    pub minus: Option<Vec<f64>>,
+}
+
+impl DirectContact {
+    /// The derivative of the contact solution (`multipliers`, `gaps` of the state with bounds
+    /// `lower`, `upper`) along the data derivative `dd`, with the state's factor.
+    pub fn tangent(
+        &self,
+        factor: &StiffnessFactor,
+        state: &ContactPoint,
+        dd: &DataDerivative,
+    ) -> Result<TangentDisplacement, WsmError> {
+        let motions = classify(state);
+        let free_motions = self
+            .kernel
+            .free_motions(&self.geometry, state.lower, state.upper)?;
+        let solve = |sign: f64| -> Result<Vec<f64>, WsmError> {
+            let b: Vec<f64> = dd.residual.iter().map(|v| sign * v).collect();
+            let fixed: Vec<f64> = dd.fixed.iter().map(|v| sign * v).collect();
+            let (dlambda, dalpha) =
+                self.tangent_multipliers(factor, &motions, &b, &fixed, sign, dd)?;
+            let mut du = self.recover(factor, &b, &dlambda, &dalpha);
+            remove_components(free_motions.as_ref(), &mut du);
+            Ok(du)
+        };
+        let plus = solve(1.0)?;
+        let weak = motions.iter().enumerate().any(|(r, m)| match m {
+            RowMotion::WeakLower | RowMotion::WeakUpper => true,
+            RowMotion::Pinched => dd.lower[r] != dd.upper[r],
+            _ => false,
+        });
+        let minus = if weak { Some(solve(-1.0)?) } else { None };
+        Ok(TangentDisplacement { plus, minus })
+    }
+
+    /// (dλ, dα) of the tangent QP for the signed data derivative.
+    fn tangent_multipliers(
+        &self,
+        factor: &StiffnessFactor,
+        motions: &[RowMotion],
+        b: &[f64],
+        fixed: &[f64],
+        sign: f64,
+        dd: &DataDerivative,
+    ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
+        let m = self.geometry.dim();
+        if m == 0 && self.kernel_dim() == 0 {
+            return Ok((Vec::new(), Vec::new()));
+        }
+        let mut x0 = b.to_vec();
+        self.projected_solve(factor, &mut x0);
+        let d: Vec<f64> = self
+            .geometry
+            .rows
+            .iter()
+            .map(|row| row.dot(&x0) + row.dot_fixed(fixed))
+            .collect();
+        let (inf, ninf) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (lo, hi): (Vec<f64>, Vec<f64>) = motions
+            .iter()
+            .enumerate()
+            .map(|(r, motion)| {
+                let (dl, du) = (sign * dd.lower[r], sign * dd.upper[r]);
+                match motion {
+                    RowMotion::Free => (ninf, inf),
+                    RowMotion::Lower => (dl, dl),
+                    RowMotion::Upper => (du, du),
+                    RowMotion::WeakLower => (dl, inf),
+                    RowMotion::WeakUpper => (ninf, du),
+                    RowMotion::Pinched => (dl.min(du), du.max(dl)),
+                }
+            })
+            .unzip();
+        let (g, e) = self.equilibrium(b);
+        let start = WarmStart {
+            x: lo
+                .iter()
+                .zip(&hi)
+                .map(|(l, h)| 0.0_f64.clamp(*l, *h))
+                .collect(),
+            alpha: Vec::new(),
+        };
+        let problem = BoxQp::new(factor.c.clone(), d, lo, hi).with_equalities(g, e);
+        let sol = solve_box_qp(&problem, Some(&start), &QpOptions::default())
+            .map_err(|err| WsmError::contact(format!("sensitivity of the contact state: {err}")))?;
+        Ok((sol.x, sol.alpha))
+    }
+}
+
+/// The tangent motion of every multiplier from the converged state.
+fn classify(state: &ContactPoint) -> Vec<RowMotion> {
+    let finite_max = |v: &[f64]| {
+        v.iter()
+            .filter(|x| x.is_finite())
+            .fold(0.0_f64, |m, x| m.max(x.abs()))
+    };
+    let force_scale = finite_max(state.multipliers)
+        .max(finite_max(state.lower))
+        .max(finite_max(state.upper))
+        .max(f64::MIN_POSITIVE);
+    let gap_scale = finite_max(state.gaps)
+        .max(state.displacement_scale)
+        .max(f64::MIN_POSITIVE);
+    let (bound_tol, weak_tol) = (AT_BOUND_TOL * force_scale, WEAK_TOL * gap_scale);
+    state
+        .multipliers
+        .iter()
+        .zip(state.gaps)
+        .zip(state.lower.iter().zip(state.upper))
+        .map(|((&x, &w), (&l, &u))| {
+            let at_lower = x - l <= bound_tol;
+            let at_upper = u - x <= bound_tol;
+            match (at_lower, at_upper) {
+                (true, true) => RowMotion::Pinched,
+                (true, false) if w < -weak_tol => RowMotion::Lower,
+                (true, false) => RowMotion::WeakLower,
+                (false, true) if w > weak_tol => RowMotion::Upper,
+                (false, true) => RowMotion::WeakUpper,
+                (false, false) => RowMotion::Free,
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,301 @@
+//! Exact sensitivities of the criteria (design §4.3): dΦ_i/dθ_j of a solved state, by the
+//! tangent (forward) method on the converged state with the factors of the solve.
+//!
+//! Per parameter θ_j, the data derivative comes from a [`Stencil`] of data sets (exact up to
+//! rounding for the affine data maps, ≈ 1e-12 relative for ν). Then, reusing the state's factors:
+//! 1. heat (FGCS 2.1–2.4): K_h dT = −Σ_k w_k (K_h(D_k) T − q(D_k)) on the free unknowns, dT_d
+//!    the derivative of the prescribed temperatures;
+//! 2. elasticity with contact (FGCS 2.7–2.11, the discrete contact problem): the residual
+//!    derivative b = Σ_k w_k (f(D_k, T + t_k dT) − K(D_k) u) drives the tangent contact problem
+//!    ([`crate::contact::direct::DataDerivative`]), one-sided where the active set is weakly
+//!    active;
+//! 3. stresses: dτ = A e(du) − β dT + Σ_k w_k τ(D_k; u, T);
+//! 4. criteria (FGCS 4.29–4.34): Φ1–Φ4 and Φ6 are linear in the fields, so the derivative of a
+//!    region value is the region value of the tangent field; Φ5 = mean I2² has 2 mean B(τ, dτ).
+//!    Where regions tie in the maximum over r, the right derivative is the largest right
+//!    derivative of the tied regions and the left one the smallest left derivative.
+//!
+//! The DD solver's state is differentiated with the direct solver's factor and C (the same
+//! formulas on the DD multipliers), which costs one direct factorisation per stiffness.
+
+use serde::{Deserialize, Serialize};
+
+use super::criterion_values::{per_region, region_derivatives, Fields};
+use super::{thermal_key, StateProblem};
+use crate::contact::direct::{ContactPoint, ContactSolution, DataDerivative, StiffnessFactor};
+use crate::error::WsmError;
+use crate::fem::ElementStress;
+use crate::scene::params::Stencil;
+use crate::scene::Data;
+
+/// The one-sided derivatives of a criterion along one parameter: `right` = lim (Φ(θ + ε e) −
+/// Φ(θ))/ε and `left` = lim (Φ(θ) − Φ(θ − ε e))/ε for ε ↓ 0; equal where Φ is differentiable.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct OneSided {
+    /// Derivative as the parameter increases.
+    pub right: f64,
+    /// Derivative as the parameter decreases (the slope from the left).
+    pub left: f64,
+}
+
+/// Relative difference of the one-sided derivatives below which a criterion is differentiable.
+const SMOOTH_TOL: f64 = 1e-9;
+/// Relative distance to the maximum within which a region ties with the maximising one.
+const TIE_TOL: f64 = 1e-12;
+
+impl OneSided {
+    /// Whether both one-sided derivatives agree (to 1e-9 relative).
+    pub fn is_differentiable(&self) -> bool {
+        let scale = self.right.abs().max(self.left.abs());
+        (self.right - self.left).abs() <= SMOOTH_TOL * scale
+    }
+}
+
+/// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
+pub type Sensitivities = Vec<[Option<OneSided>; 6]>;
+
+/// The state a sensitivity is taken at.
+pub(super) struct SolvedState<'a> {
+    pub data: &'a Data,
+    pub temperature: Option<&'a [f64]>,
+    pub elastic: Option<ElasticState<'a>>,
+}
+
+/// The elastic part of a solved state.
+pub(super) struct ElasticState<'a> {
+    pub coefficients: &'a [[f64; 2]],
+    pub factor: &'a StiffnessFactor,
+    pub contact: &'a ContactSolution,
+    pub displacement: &'a [[f64; 2]],
+    pub stresses: &'a [ElementStress],
+}
+
+/// The tangent fields of one direction.
+struct Tangent {
+    temperature: Option<Vec<f64>>,
+    displacement: Option<Vec<[f64; 2]>>,
+    stresses: Option<Vec<ElementStress>>,
+}
+
+impl Tangent {
+    fn fields(&self) -> Fields<'_> {
+        Fields {
+            temperature: self.temperature.as_deref(),
+            displacement: self.displacement.as_deref(),
+            stresses: self.stresses.as_deref(),
+        }
+    }
+}
+
+impl StateProblem {
+    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state.
+    pub(super) fn sensitivities(
+        &self,
+        state: &SolvedState,
+        stencils: &[Stencil],
+    ) -> Result<Sensitivities, WsmError> {
+        let fields = Fields {
+            temperature: state.temperature,
+            displacement: state.elastic.as_ref().map(|e| e.displacement),
+            stresses: state.elastic.as_ref().map(|e| e.stresses),
+        };
+        let values = per_region(&self.criteria, &fields);
+        stencils
+            .iter()
+            .map(|stencil| {
+                let (plus, minus) = self.tangents(state, stencil)?;
+                let right = region_derivatives(&self.criteria, &fields, &plus.fields());
+                let left = match &minus {
+                    Some(m) => region_derivatives(&self.criteria, &fields, &m.fields())
+                        .map(|d| d.iter().map(|v| -v).collect()),
+                    None => right.clone(),
+                };
+                Ok(std::array::from_fn(|i| {
+                    one_sided(&values[i], &right[i], &left[i])
+                }))
+            })
+            .collect()
+    }
+
+    /// The tangent fields along +θ_j and, where the state is only one-sided differentiable,
+    /// along −θ_j (`None`: minus the first).
+    fn tangents(
+        &self,
+        state: &SolvedState,
+        stencil: &Stencil,
+    ) -> Result<(Tangent, Option<Tangent>), WsmError> {
+        let d_temperature = match state.temperature {
+            Some(t) => Some(self.temperature_derivative(state.data, t, stencil)?),
+            None => None,
+        };
+        let Some(el) = &state.elastic else {
+            let plus = Tangent {
+                temperature: d_temperature,
+                displacement: None,
+                stresses: None,
+            };
+            return Ok((plus, None));
+        };
+        let elastic = &self.elastic;
+        let geometry = &self.contact.geometry;
+        let m = geometry.dim();
+        let mut residual = vec![0.0; elastic.dofs().n_free()];
+        let mut fixed = vec![0.0; elastic.dofs().n_fixed()];
+        let (mut lower, mut upper) = (vec![0.0; m], vec![0.0; m]);
+        let mut stress_part: Option<Vec<[f64; 4]>> = None;
+        let materials = elastic.zone_materials(state.data)?;
+        let coefficients: Vec<Vec<[f64; 2]>> = stencil
+            .points
+            .iter()
+            .map(|(_, _, d)| elastic.coefficients(d))
+            .collect::<Result<_, _>>()?;
+        let stiffness_varies = coefficients.iter().any(|c| c != el.coefficients);
+        for ((t, w, d), coefficients) in stencil.points.iter().zip(&coefficients) {
+            let temperature: Option<Vec<f64>> =
+                state.temperature.map(|temp| match &d_temperature {
+                    Some(dt) => temp.iter().zip(dt).map(|(a, b)| a + t * b).collect(),
+                    None => temp.to_vec(),
+                });
+            let fixed_k = elastic.fixed_values(d)?;
+            let loads = elastic.loads(d, temperature.as_deref())?;
+            let rhs = elastic.rhs_with(coefficients, &loads, &fixed_k)?;
+            add_scaled(&mut residual, *w, &rhs);
+            if stiffness_varies {
+                let values = elastic.operator().assemble(coefficients)?;
+                let ku = elastic.operator().apply(&values, &el.contact.u_free);
+                add_scaled(&mut residual, -w, &ku);
+            }
+            add_scaled(&mut fixed, *w, &fixed_k);
+            let (lo, hi) = geometry.bounds(d);
+            add_scaled(&mut lower, *w, &finite_or_zero(&lo));
+            add_scaled(&mut upper, *w, &finite_or_zero(&hi));
+            let law_varies = elastic.zone_materials(d)? != materials
+                || d.reference_temperature != state.data.reference_temperature;
+            if law_varies {
+                let stresses = elastic.stresses(d, el.displacement, state.temperature)?;
+                let part = stress_part.get_or_insert_with(|| vec![[0.0; 4]; stresses.len()]);
+                for (p, s) in part.iter_mut().zip(&stresses) {
+                    for (pc, sc) in p.iter_mut().zip(&s.stress) {
+                        *pc += w * sc;
+                    }
+                }
+            }
+        }
+        let (lo, hi) = geometry.bounds(state.data);
+        let displacement_scale = el
+            .displacement
+            .iter()
+            .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs()));
+        let point = ContactPoint {
+            multipliers: &el.contact.multipliers,
+            gaps: &el.contact.gaps,
+            lower: &lo,
+            upper: &hi,
+            displacement_scale,
+        };
+        let derivative = DataDerivative {
+            residual: &residual,
+            fixed: &fixed,
+            lower: &lower,
+            upper: &upper,
+        };
+        let tangent = self.contact.tangent(el.factor, &point, &derivative)?;
+        let fields = |du_free: &[f64], sign: f64| -> Result<Tangent, WsmError> {
+            let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
+            let du = elastic.dofs().expand(du_free, &signed(&fixed));
+            let dt = d_temperature.as_deref().map(signed);
+            let mut stresses = elastic.stress_increments(state.data, &du, dt.as_deref())?;
+            if let Some(part) = &stress_part {
+                for (s, p) in stresses.iter_mut().zip(part) {
+                    for (sc, pc) in s.stress.iter_mut().zip(p) {
+                        *sc += sign * pc;
+                    }
+                }
+            }
+            Ok(Tangent {
+                temperature: dt,
+                displacement: Some(du),
+                stresses: Some(stresses),
+            })
+        };
+        let plus = fields(&tangent.plus, 1.0)?;
+        let minus = match &tangent.minus {
+            Some(du) => Some(fields(du, -1.0)?),
+            None => None,
+        };
+        Ok((plus, minus))
+    }
+
+    /// dT along the stencil's parameter: K_h dT_f = Σ_k w_k (q(D_k) − K_h(D_k) T_f) on the free
+    /// unknowns, dT_d = Σ_k w_k T_d(D_k); zero when the thermal data do not change.
+    fn temperature_derivative(
+        &self,
+        data: &Data,
+        temperature: &[f64],
+        stencil: &Stencil,
+    ) -> Result<Vec<f64>, WsmError> {
+        let heat = self.heat_problem()?;
+        let key = thermal_key(data);
+        if stencil.points.iter().all(|(_, _, d)| thermal_key(d) == key) {
+            return Ok(vec![0.0; temperature.len()]);
+        }
+        let factor = self.heat_factor(data, crate::fem::Par::Seq)?;
+        let t_free = heat.free_values(temperature);
+        let mut residual = vec![0.0; t_free.len()];
+        let mut fixed = vec![0.0; heat.operator().n_fixed()];
+        let coefficients: Vec<Vec<[f64; 1]>> = stencil
+            .points
+            .iter()
+            .map(|(_, _, d)| heat.coefficients(d))
+            .collect::<Result<_, _>>()?;
+        let conductivity_varies = coefficients.iter().any(|c| *c != factor.coefficients);
+        for ((_, w, d), coefficients) in stencil.points.iter().zip(&coefficients) {
+            let fixed_k = heat.fixed_values(d)?;
+            let rhs = heat.rhs_with(coefficients, &heat.loads(d)?, &fixed_k)?;
+            add_scaled(&mut residual, *w, &rhs);
+            if conductivity_varies {
+                let values = heat.operator().assemble(coefficients)?;
+                add_scaled(&mut residual, -w, &heat.operator().apply(&values, &t_free));
+            }
+            add_scaled(&mut fixed, *w, &fixed_k);
+        }
+        Ok(heat.expand(&factor.factor.solve(&residual), &fixed))
+    }
+}
+
+/// y += a x.
+fn add_scaled(y: &mut [f64], a: f64, x: &[f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += a * xi;
+    }
+}
+
+/// The bounds with infinite entries replaced by 0 (an infinite bound does not move).
+fn finite_or_zero(v: &[f64]) -> Vec<f64> {
+    v.iter()
+        .map(|x| if x.is_finite() { *x } else { 0.0 })
+        .collect()
+}
+
+/// The one-sided derivatives of max_r V_r from the region values and their right and left
+/// derivatives.
+fn one_sided(values: &[f64], right: &[f64], left: &[f64]) -> Option<OneSided> {
+    let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if values.is_empty() {
+        return None;
+    }
+    let scale = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    let tied = |r: &usize| values[*r] >= max - TIE_TOL * scale;
+    let regions = 0..values.len();
+    Some(OneSided {
+        right: regions
+            .clone()
+            .filter(tied)
+            .map(|r| right[r])
+            .fold(f64::NEG_INFINITY, f64::max),
+        left: regions
+            .filter(tied)
+            .map(|r| left[r])
+            .fold(f64::INFINITY, f64::min),
+    })
+}
