@@ -150,6 +150,13 @@ impl StateProblem {
             .map(|(_, _, d)| elastic.coefficients(d))
             .collect::<Result<_, _>>()?;
         let stiffness_varies = coefficients.iter().any(|c| c != el.coefficients);
+        // Whether the law τ(D; u, T) changes along the stencil: then every point's stresses
+        // enter, the unchanged one (t = 0 of a one-sided stencil) included.
+        let mut law_varies = false;
+        for (_, _, d) in &stencil.points {
+            law_varies |= elastic.zone_materials(d)? != materials
+                || d.reference_temperature != state.data.reference_temperature;
+        }
         for ((t, w, d), coefficients) in stencil.points.iter().zip(&coefficients) {
             let temperature: Option<Vec<f64>> =
                 state.temperature.map(|temp| match &d_temperature {
@@ -169,8 +176,6 @@ impl StateProblem {
             let (lo, hi) = geometry.bounds(d);
             add_scaled(&mut lower, *w, &finite_or_zero(&lo));
             add_scaled(&mut upper, *w, &finite_or_zero(&hi));
-            let law_varies = elastic.zone_materials(d)? != materials
-                || d.reference_temperature != state.data.reference_temperature;
             if law_varies {
                 let stresses = elastic.stresses(d, el.displacement, state.temperature)?;
                 let part = stress_part.get_or_insert_with(|| vec![[0.0; 4]; stresses.len()]);
