@@ -306,18 +306,7 @@ impl ElasticProblem {
         u: &[[f64; 2]],
         temperature: Option<&[f64]>,
     ) -> Result<Vec<ElementStress>, FemError> {
-        expect_len("nodal displacements", u.len(), self.mesh.nodes.len())?;
-        if let Some(t) = temperature {
-            self.check_temperature(t)?;
-        }
-        let materials = self.zone_materials(data)?;
-        Ok(element_stresses(
-            &self.mesh,
-            &self.gradients,
-            &materials,
-            u,
-            temperature.map(|t| (t, data.reference_temperature)),
-        ))
+        self.stresses_relative_to(data, u, temperature, data.reference_temperature)
     }
 
     /// The stresses of a displacement increment `du` with the temperature increment `dt`
@@ -328,8 +317,19 @@ impl ElasticProblem {
         du: &[[f64; 2]],
         dt: Option<&[f64]>,
     ) -> Result<Vec<ElementStress>, FemError> {
-        expect_len("nodal displacements", du.len(), self.mesh.nodes.len())?;
-        if let Some(t) = dt {
+        self.stresses_relative_to(data, du, dt, 0.0)
+    }
+
+    /// Element stresses of `u` with the temperature field's excess over `reference`.
+    fn stresses_relative_to(
+        &self,
+        data: &Data,
+        u: &[[f64; 2]],
+        temperature: Option<&[f64]>,
+        reference: f64,
+    ) -> Result<Vec<ElementStress>, FemError> {
+        expect_len("nodal displacements", u.len(), self.mesh.nodes.len())?;
+        if let Some(t) = temperature {
             self.check_temperature(t)?;
         }
         let materials = self.zone_materials(data)?;
@@ -337,8 +337,8 @@ impl ElasticProblem {
             &self.mesh,
             &self.gradients,
             &materials,
-            du,
-            dt.map(|t| (t, 0.0)),
+            u,
+            temperature.map(|t| (t, reference)),
         ))
     }
 

@@ -167,11 +167,6 @@ impl StateProblem {
             let loads = elastic.loads(d, temperature.as_deref())?;
             let rhs = elastic.rhs_with(coefficients, &loads, &fixed_k)?;
             add_scaled(&mut residual, *w, &rhs);
-            if stiffness_varies {
-                let values = elastic.operator().assemble(coefficients)?;
-                let ku = elastic.operator().apply(&values, &el.contact.u_free);
-                add_scaled(&mut residual, -w, &ku);
-            }
             add_scaled(&mut fixed, *w, &fixed_k);
             let (lo, hi) = geometry.bounds(d);
             add_scaled(&mut lower, *w, &finite_or_zero(&lo));
@@ -185,6 +180,14 @@ impl StateProblem {
                     }
                 }
             }
+        }
+        if stiffness_varies {
+            // K is linear in the zone coefficients: Σ w_k K(c_k) u = K(Σ w_k c_k) u.
+            let values = elastic
+                .operator()
+                .assemble(&weighted_sum(stencil, &coefficients))?;
+            let ku = elastic.operator().apply(&values, &el.contact.u_free);
+            add_scaled(&mut residual, -1.0, &ku);
         }
         let (lo, hi) = geometry.bounds(state.data);
         let displacement_scale = el
@@ -258,11 +261,17 @@ impl StateProblem {
             let fixed_k = heat.fixed_values(d)?;
             let rhs = heat.rhs_with(coefficients, &heat.loads(d)?, &fixed_k)?;
             add_scaled(&mut residual, *w, &rhs);
-            if conductivity_varies {
-                let values = heat.operator().assemble(coefficients)?;
-                add_scaled(&mut residual, -w, &heat.operator().apply(&values, &t_free));
-            }
             add_scaled(&mut fixed, *w, &fixed_k);
+        }
+        if conductivity_varies {
+            let values = heat
+                .operator()
+                .assemble(&weighted_sum(stencil, &coefficients))?;
+            add_scaled(
+                &mut residual,
+                -1.0,
+                &heat.operator().apply(&values, &t_free),
+            );
         }
         Ok(heat.expand(&factor.factor.solve(&residual), &fixed))
     }
@@ -273,6 +282,22 @@ fn add_scaled(y: &mut [f64], a: f64, x: &[f64]) {
     for (yi, xi) in y.iter_mut().zip(x) {
         *yi += a * xi;
     }
+}
+
+/// Σ_k w_k c_k of per-point zone coefficients, with the stencil's weights.
+fn weighted_sum<const NC: usize>(
+    stencil: &Stencil,
+    coefficients: &[Vec<[f64; NC]>],
+) -> Vec<[f64; NC]> {
+    let mut sum = vec![[0.0; NC]; coefficients.first().map_or(0, Vec::len)];
+    for ((_, w, _), point) in stencil.points.iter().zip(coefficients) {
+        for (s, c) in sum.iter_mut().zip(point) {
+            for (s, c) in s.iter_mut().zip(c) {
+                *s += w * c;
+            }
+        }
+    }
+    sum
 }
 
 /// The bounds with infinite entries replaced by 0 (an infinite bound does not move).
