@@ -2,10 +2,8 @@
 //! by the exact bit pattern of the physical point, kept in insertion order so that persisting
 //! and reloading it is deterministic. One cache belongs to one scene; the caller keys the scene.
 
+use super::Outcome;
 use std::collections::HashMap;
-
-/// Criteria vector of one evaluation, or the reason it failed.
-pub type Outcome = Result<Vec<f64>, String>;
 
 /// Evaluated points and their outcomes, in insertion order.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -64,15 +62,15 @@ mod tests {
     #[test]
     fn keyed_by_exact_bits_and_ordered() {
         let mut c = EvalCache::new();
-        c.insert(vec![1.0, 2.0], Ok(vec![3.0]));
+        c.insert(vec![1.0, 2.0], Ok(vec![3.0].into()));
         c.insert(vec![0.0], Err("bad".into()));
-        assert_eq!(c.get(&[1.0, 2.0]), Some(&Ok(vec![3.0])));
+        assert_eq!(c.get(&[1.0, 2.0]), Some(&Ok(vec![3.0].into())));
         assert_eq!(c.get(&[-0.0]), None, "-0.0 and 0.0 are different keys");
         assert_eq!(c.get(&[1.0, 2.0 + f64::EPSILON * 2.0]), None);
-        c.insert(vec![1.0, 2.0], Ok(vec![4.0]));
+        c.insert(vec![1.0, 2.0], Ok(vec![4.0].into()));
         assert_eq!(c.len(), 2);
         let order: Vec<_> = c.iter().map(|(p, _)| p.to_vec()).collect();
         assert_eq!(order, vec![vec![1.0, 2.0], vec![0.0]]);
-        assert_eq!(c.get(&[1.0, 2.0]), Some(&Ok(vec![4.0])));
+        assert_eq!(c.get(&[1.0, 2.0]), Some(&Ok(vec![4.0].into())));
     }
 }

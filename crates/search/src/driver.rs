@@ -1,10 +1,14 @@
-//! The search driver (design §4.3): validates the problem, runs the phases in order and splits the
-//! budget B between them. With k free parameters and m objectives:
+//! The search driver (design §4.3, issue #24): validates the problem, runs the phases in order and
+//! splits the budget B between them. With k free parameters and m objectives:
 //!
+//! - with derivatives from the evaluator, the vertex walk comes first; the objectives it settles
+//!   (certified at a vertex, monotone along the walk) are done, and only the others — the
+//!   unsettled ones — go through the phases below, which then need no reserve (R = 0);
 //! - R = min(k·m, B/2) evaluations are reserved for the sensitivities (k per objective);
 //! - screening (shared): the 2^k vertices and the centre if 2^k + 1 ≤ B/3, topped up with a
 //!   Latin hypercube to B/5 points in all (never more than B − R);
-//! - objective j (in order) gets the share (B − R − used) / (m − j) of what is left, so whatever
+//! - unsettled objective j (in order) gets the share (B − R − used) / (m' − j) of what is left
+//!   (m' unsettled objectives), so whatever
 //!   an objective leaves unused flows on to the next ones. Its swarm may use 40 % of the share;
 //!   the polish uses the rest of the share (including what the swarm left):
 //!   - coarse polishes (step 0.1 → 1e-3) from the basin tops of all points evaluated so far
@@ -14,20 +18,24 @@
 //!   - fine polishes (step 1e-3 → 1e-8, or a flat poll) from the best coarse end, then from
 //!     distinct ends (farther than 0.1 apart) within 1e-3 relative of it, so that several
 //!     maximisers are refined to 1e-9 and reported;
-//! - the sensitivities at every optimum come last, from what is left (at least R).
+//! - the sensitivities at every optimum come last, from what is left (at least R), or from the
+//!   derivatives at no cost; so does the [`Certificate`](super::Certificate) of every extremum,
+//!   whose verdict turns the status of a converged objective into `certified`.
 //!
 //! Cancellation and the time limit stop everything at the next batch; the partial result is
 //! returned with that status.
 
 use super::cache::EvalCache;
+use super::certificate::{self, Certificate};
 use super::optima::{self, OPTIMUM_TOL};
 use super::random::stream;
 use super::session::Session;
 use super::space::{is_vertex, Space};
 use super::{
+    ascent,
     polish::{self, Stage},
-    pso, screening, sensitivity, Evaluator, ObjectiveResult, Phase, SearchControl, SearchError,
-    SearchProblem, SearchResult, Status,
+    pso, screening, sensitivity, vertex_walk, Evaluator, ObjectiveResult, Phase, SearchControl,
+    SearchError, SearchProblem, SearchResult, Status, Verdict,
 };
 
 /// Fraction of an objective's share for the swarm.
@@ -68,8 +76,18 @@ pub fn search(
         problem.max_seconds,
         cache,
     );
-    let statuses = run_phases(&session, problem.seed)?;
-    let sensitivities = sensitivity_phase(&session);
+    let derivatives = evaluator.gives_derivatives() && space.dim() > 0;
+    let settled = if derivatives {
+        vertex_walk::run(&session)
+    } else {
+        vec![false; problem.objectives.len()]
+    };
+    let statuses = run_phases(&session, problem.seed, &settled, derivatives)?;
+    let sensitivities = if derivatives {
+        exact_sensitivities(&session)
+    } else {
+        sensitivity_phase(&session)
+    };
     let objectives: Vec<ObjectiveResult> = statuses
         .into_iter()
         .zip(sensitivities)
@@ -91,12 +109,26 @@ pub fn search(
     })
 }
 
-/// Screening, then swarm and polish per objective; the status of each objective.
-fn run_phases(session: &Session, seed: u64) -> Result<Vec<Status>, SearchError> {
+/// Screening, then swarm and polish per objective not `settled` by the vertex walk; the status of
+/// each objective. Without `derivatives`, evaluations are reserved for the finite differences.
+fn run_phases(
+    session: &Session,
+    seed: u64,
+    settled: &[bool],
+    derivatives: bool,
+) -> Result<Vec<Status>, SearchError> {
     let budget = session.budget();
     let dim = session.space.dim();
     let m = session.objectives().len();
-    let reserve = (dim * m).min(budget / 2);
+    let mut unsettled = settled.iter().filter(|&&s| !s).count();
+    if unsettled == 0 {
+        return Ok(vec![Status::Certified; m]);
+    }
+    let reserve = if derivatives {
+        0
+    } else {
+        (dim * m).min(budget / 2)
+    };
     let design = screening::design(
         dim,
         budget,
@@ -107,13 +139,18 @@ fn run_phases(session: &Session, seed: u64) -> Result<Vec<Status>, SearchError> 
     let _ = session.evaluate(&design);
 
     let mut statuses = Vec::with_capacity(m);
-    for k in 0..m {
+    for (k, &done) in settled.iter().enumerate() {
+        if done {
+            statuses.push(Status::Certified);
+            continue;
+        }
         if let Some(halt) = session.check_halt() {
             statuses.push(halt);
             continue;
         }
         let used = session.evaluations();
-        let share = budget.saturating_sub(reserve + used) / (m - k);
+        let share = budget.saturating_sub(reserve + used) / unsettled;
+        unsettled -= 1;
         let swarm_limit = used + (SWARM_FRACTION * share as f64) as usize;
         let polish_limit = used + share;
 
@@ -126,7 +163,11 @@ fn run_phases(session: &Session, seed: u64) -> Result<Vec<Status>, SearchError> 
         )?;
 
         session.set_phase(Phase::Polish { objective: k });
-        let status = polish_objective(session, k, polish_limit)?;
+        let status = if derivatives {
+            ascend_objective(session, k, polish_limit)
+        } else {
+            polish_objective(session, k, polish_limit)?
+        };
         statuses.push(session.halt().unwrap_or(status));
     }
     Ok(statuses)
@@ -179,6 +220,38 @@ fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status,
     Ok(status)
 }
 
+/// With derivatives: projected quasi-Newton ascents from the basin tops of the sample in the top
+/// half of its range of values (best first; a runner-up may use at most a third of what is
+/// left): a certificate is local, so the runner-ups look for a better basin. The status of the
+/// last ascent that improved the best point.
+fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
+    let ranked = session.ranked(k);
+    let (Some((_, best)), Some((_, worst))) = (ranked.first(), ranked.last()) else {
+        return Status::BudgetExhausted;
+    };
+    let tops = optima::basin_tops(
+        &ranked,
+        best - RUNNER_UP_GAP * (best - worst),
+        1 + RUNNERS_UP,
+    );
+    let sense = session.objectives()[k].sense;
+    let mut ended: Option<(f64, Status)> = None;
+    for (i, x) in tops.into_iter().enumerate() {
+        let cap = runner_up_cap(session, i, limit);
+        let status = ascent::run(session, k, x, cap);
+        if is_halt(status) {
+            return status;
+        }
+        let score = session
+            .best(k)
+            .map_or(f64::NEG_INFINITY, |(_, v)| sense.score(v));
+        if ended.is_none_or(|(best, _)| score > best) {
+            ended = Some((score, status));
+        }
+    }
+    ended.map_or(Status::BudgetExhausted, |(_, status)| status)
+}
+
 /// The evaluation limit of the `i`-th polish of a stage: the first may use everything up to
 /// `limit`, the others a third of what is left.
 fn runner_up_cap(session: &Session, i: usize, limit: usize) -> usize {
@@ -207,6 +280,54 @@ fn sensitivity_phase(session: &Session) -> Vec<Vec<Option<f64>>> {
         .collect()
 }
 
+/// Normalised sensitivities from the derivatives at every objective's best point: the mean of
+/// both one-sided slopes times the range over |Φ| (`None` for fixed data, Φ = 0, or no slopes).
+fn exact_sensitivities(session: &Session) -> Vec<Vec<Option<f64>>> {
+    let space = session.space;
+    (0..session.objectives().len())
+        .map(|k| {
+            let mut s = vec![None; space.len()];
+            let Some(probe) = session.best_probe(k) else {
+                return s;
+            };
+            let Some(slopes) = probe.slopes.filter(|_| probe.value != 0.0) else {
+                return s;
+            };
+            for j in 0..space.dim() {
+                let (i, width) = space.free_param(j);
+                s[i] = Some(slopes[i].mean() * width / probe.value.abs());
+            }
+            s
+        })
+        .collect()
+}
+
+/// The certificate of objective `k`'s best point, and its status: a converged (or settled)
+/// objective whose best point is certified is `certified`; one that claims convergence without
+/// that proof is `completed` (the caller says it is unproven).
+fn certified(session: &Session, k: usize, status: Status) -> (Option<Certificate>, Status) {
+    let Some(probe) = session.best_probe(k) else {
+        return (None, status);
+    };
+    let sense = session.objectives()[k].sense;
+    let proof = certificate::certify(
+        session.space,
+        sense,
+        &probe.unit,
+        probe.value,
+        probe.slopes.as_deref(),
+    );
+    let status = match (status, proof.verdict) {
+        (
+            Status::Certified | Status::Completed | Status::BudgetExhausted | Status::Stagnated,
+            Verdict::Certified,
+        ) => Status::Certified,
+        (Status::Certified, _) => Status::Completed,
+        (status, _) => status,
+    };
+    (Some(proof), status)
+}
+
 fn objective_result(
     session: &Session,
     k: usize,
@@ -216,6 +337,11 @@ fn objective_result(
     let objective = session.objectives()[k];
     let space = session.space;
     let best = session.best(k);
+    let (certificate, status) = certified(session, k, status);
+    let gradient = session
+        .best_probe(k)
+        .and_then(|p| p.slopes)
+        .unwrap_or_default();
     let ranked = session.ranked(k);
     let optima: Vec<Vec<f64>> = optima::representatives(&ranked, OPTIMUM_TOL, usize::MAX)
         .iter()
@@ -235,6 +361,8 @@ fn objective_result(
             .as_ref()
             .map_or_else(Vec::new, |(x, _)| space.active_bounds(x)),
         sensitivities,
+        gradient,
+        certificate,
         history: session.history(k),
     }
 }

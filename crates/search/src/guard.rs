@@ -156,13 +156,13 @@ mod tests {
     use super::*;
     use crate::cache::EvalCache;
     use crate::space::Space;
-    use crate::{Evaluator, Objective, SearchControl, Sense};
+    use crate::{Evaluator, Objective, Outcome, SearchControl, Sense};
     use std::sync::atomic::{AtomicBool, Ordering};
 
     struct Constant;
     impl Evaluator for Constant {
-        fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>> {
-            points.iter().map(|_| Ok(vec![1.0])).collect()
+        fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
+            points.iter().map(|_| Ok(vec![1.0].into())).collect()
         }
     }
 

@@ -6,13 +6,18 @@
 //! of evaluations; every point any phase asks for goes through the [`EvalCache`], which can be
 //! pre-loaded from a previous (interrupted) run and persisted afterwards. Phases, one module each:
 //!
+//! 0. `vertex_walk` — with exact derivatives from the evaluator: the centre, the vertex its
+//!    gradient signs point to per objective, then flips of the bounds the gradient does not
+//!    prove; an objective certified there (with the same signs at the centre) needs no more;
 //! 1. `screening` — all vertices of the box plus its centre when that is cheap, topped up with a
 //!    scrambled Latin hypercube (design §4.3 item 1);
 //! 2. `pso` — argmin's `ParticleSwarm`, seeded with the best points evaluated so far (item 2);
 //! 3. `polish` — a bounded compass search written as an argmin `Solver`, coarse from the basin
-//!    tops of the sample, then fine from the best of them and its ties (item 3);
-//! 4. `sensitivity` — normalised one-sided finite differences and active bounds at each
-//!    optimum; `optima` — basin tops, the vertex and several-maximiser reports (item 4).
+//!    tops of the sample, then fine from the best of them and its ties (item 3); with exact
+//!    derivatives `ascent` instead — a projected quasi-Newton ascent from the basin tops;
+//! 4. `sensitivity` — normalised sensitivities (exact from the derivatives, else one-sided finite
+//!    differences) at each optimum; `certificate` — the first-order optimality proof of every
+//!    extremum from the exact derivatives; `optima` — basin tops, the vertex and several-maximiser reports (item 4).
 //!
 //! `driver` runs them and splits the budget; `session` is the single gate to the evaluator
 //! (budget, wall time, cancellation, progress, convergence history); `guard` applies those
@@ -26,7 +31,9 @@
 
 #![warn(missing_docs)]
 
+mod ascent;
 mod cache;
+mod certificate;
 mod cost;
 mod driver;
 mod guard;
@@ -38,8 +45,10 @@ mod screening;
 mod sensitivity;
 mod session;
 mod space;
+mod vertex_walk;
 
-pub use cache::{EvalCache, Outcome};
+pub use cache::EvalCache;
+pub use certificate::{BoundProof, Certificate, Verdict, CERTIFY_TOL};
 pub use driver::search;
 
 use serde::{Deserialize, Serialize};
@@ -47,19 +56,93 @@ use serde::{Deserialize, Serialize};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
-/// The expensive black box: the criteria vector (Φ1, …, Φ6 or any other) at given parameters.
+/// The one-sided derivatives of a criterion along one parameter: `right` = lim (Φ(θ + ε e) −
+/// Φ(θ))/ε and `left` = lim (Φ(θ) − Φ(θ − ε e))/ε for ε ↓ 0; equal where Φ is differentiable.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct OneSided {
+    /// Derivative as the parameter increases.
+    pub right: f64,
+    /// Derivative as the parameter decreases (the slope from the left).
+    pub left: f64,
+}
+
+/// Relative difference of the one-sided derivatives below which a criterion is differentiable.
+const SMOOTH_TOL: f64 = 1e-9;
+
+impl OneSided {
+    /// The derivative of a differentiable criterion (both sides equal).
+    pub fn both(slope: f64) -> OneSided {
+        OneSided {
+            right: slope,
+            left: slope,
+        }
+    }
+
+    /// Whether both one-sided derivatives agree (to 1e-9 relative).
+    pub fn is_differentiable(&self) -> bool {
+        let scale = self.right.abs().max(self.left.abs());
+        (self.right - self.left).abs() <= SMOOTH_TOL * scale
+    }
+
+    /// Both derivatives multiplied by `factor` (a negative factor turns Φ into −Φ).
+    pub fn scaled(self, factor: f64) -> OneSided {
+        OneSided {
+            right: self.right * factor,
+            left: self.left * factor,
+        }
+    }
+
+    /// The mean of both sides (the derivative where Φ is differentiable).
+    pub fn mean(&self) -> f64 {
+        0.5 * (self.right + self.left)
+    }
+}
+
+/// What the black box answers at a feasible point.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Answer {
+    /// The criteria vector.
+    pub values: Vec<f64>,
+    /// `slopes[c][i]`: the one-sided derivatives of criterion `c` along parameter `i` (all
+    /// parameters of the box, fixed ones included); empty when the evaluator gives none.
+    pub slopes: Vec<Vec<OneSided>>,
+}
+
+impl From<Vec<f64>> for Answer {
+    /// Criteria values without derivatives.
+    fn from(values: Vec<f64>) -> Answer {
+        Answer {
+            values,
+            slopes: Vec::new(),
+        }
+    }
+}
+
+/// The answer of one evaluation, or the reason it failed.
+pub type Outcome = Result<Answer, String>;
+
+/// The expensive black box: the criteria vector (Φ1, …, Φ6 or any other) at given parameters,
+/// with their derivatives if it can give them.
 pub trait Evaluator: Sync {
     /// Evaluate the criteria vector at each point (physical parameter values, inside the box).
     /// Called with a whole generation at once; the implementation may run the batch in parallel
     /// but must return the results in input order. An `Err` marks an infeasible point; a
-    /// non-finite criterion value is treated the same way.
-    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Result<Vec<f64>, String>>;
+    /// non-finite criterion value is treated the same way. Derivatives (`Answer::slopes`), when
+    /// given, drive the vertex walk and prove the extrema ([`Certificate`]).
+    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome>;
 
     /// Points passed to [`Evaluator::evaluate`] at once, between two checks of cancellation and
     /// the time limit (a few per thread; more when the batch is spread over other processes).
     /// Chunking never changes results, only how soon a halt is seen.
     fn chunk_size(&self) -> usize {
         CHUNK_PER_THREAD * rayon::current_num_threads().max(1)
+    }
+
+    /// Whether the answers carry derivatives (`Answer::slopes`). Only then does the search
+    /// start with the vertex walk and take its sensitivities from them instead of extra
+    /// finite-difference points.
+    fn gives_derivatives(&self) -> bool {
+        false
     }
 }
 
@@ -103,6 +186,8 @@ pub struct SearchProblem {
 /// The phase a progress report comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Phase {
+    /// The centre and the vertices the exact gradients point to (with derivatives only).
+    VertexWalk,
     /// The screening shared by all objectives: box vertices and centre when cheap, then a Latin
     /// hypercube.
     Screening,
@@ -116,7 +201,7 @@ pub enum Phase {
         /// Index into `SearchProblem::objectives`.
         objective: usize,
     },
-    /// The finite-difference steps for the sensitivities at every optimum.
+    /// The finite-difference steps for the sensitivities at every optimum (without derivatives).
     Sensitivity,
 }
 
@@ -173,6 +258,11 @@ impl Default for SearchControl<'static> {
 )]
 #[serde(rename_all = "snake_case")]
 pub enum Status {
+    /// The exact derivatives prove first-order optimality at the reported point: every bound it
+    /// sits on is held by the sign of ∂Φ/∂θ, and the gradient along the other data is below
+    /// [`CERTIFY_TOL`] relative (see [`Certificate`]). A local statement: another point of the box
+    /// may be better where the criterion is not monotone, which the search then explores.
+    Certified,
     /// The fine polish of the best point converged: its step fell below 1e-8 of the unit box,
     /// or a poll around it was flat within 1e-9 relative.
     Completed,
@@ -232,9 +322,18 @@ pub struct ObjectiveResult {
     pub optima: Vec<Vec<f64>>,
     /// Per parameter, at the best point.
     pub active_bounds: Vec<ActiveBound>,
-    /// Per parameter: S_i = ∂Φ/∂θ_i · (hi − lo) / |Φ| by a one-sided difference pointing into the
-    /// box. `None` for fixed parameters, when Φ = 0, or when the step was not evaluated.
+    /// Per parameter: S_i = ∂Φ/∂θ_i · (hi − lo) / |Φ|, exact where the evaluator gives
+    /// derivatives (the mean of both sides at a kink), otherwise by a one-sided difference
+    /// pointing into the box. `None` for fixed parameters, when Φ = 0, or when the step was not
+    /// evaluated.
     pub sensitivities: Vec<Option<f64>>,
+    /// Per parameter, ∂Φ/∂θ_i at the best point in the criterion's unit per the parameter's unit
+    /// (both one-sided values), empty without derivatives.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gradient: Vec<OneSided>,
+    /// What the exact derivatives prove about the best point (absent when nothing was found).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub certificate: Option<Certificate>,
     /// (number of evaluations so far, best value so far) at every improvement.
     #[schema(value_type = Vec<Vec<f64>>)]
     pub history: Vec<(usize, f64)>,
@@ -255,6 +354,8 @@ impl ObjectiveResult {
             optima: Vec::new(),
             active_bounds: Vec::new(),
             sensitivities: vec![None; n],
+            gradient: Vec::new(),
+            certificate: None,
             history: Vec::new(),
         }
     }

@@ -10,9 +10,11 @@
 //! paid for by the interrupted run), so a resumed run with the same seed makes exactly the same
 //! decisions and reaches the same result without re-evaluating anything.
 
-use super::cache::{EvalCache, Outcome};
+use super::cache::EvalCache;
 use super::space::Space;
-use super::{Evaluator, Objective, Phase, Progress, SearchControl, Sense, Status};
+use super::{
+    Answer, Evaluator, Objective, OneSided, Outcome, Phase, Progress, SearchControl, Sense, Status,
+};
 use std::collections::{HashMap, HashSet};
 use std::sync::atomic::Ordering;
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -33,10 +35,20 @@ impl Sense {
     }
 }
 
-/// One distinct point of this run: its unit coordinates and criteria (`None` if infeasible).
+/// One distinct point of this run: its unit coordinates and answer (`None` if infeasible).
 struct Visit {
     unit: Vec<f64>,
-    criteria: Option<Vec<f64>>,
+    answer: Option<Answer>,
+}
+
+/// What the run knows at one evaluated point about one objective.
+pub(super) struct Probe {
+    /// Unit-box coordinates.
+    pub(super) unit: Vec<f64>,
+    /// The objective's criterion value.
+    pub(super) value: f64,
+    /// Its physical derivatives along every parameter, if the evaluator gave them.
+    pub(super) slopes: Option<Vec<OneSided>>,
 }
 
 struct Ledger<'a> {
@@ -65,14 +77,25 @@ pub(super) struct Session<'a> {
     ledger: Mutex<Ledger<'a>>,
 }
 
-/// An evaluator answer holding a non-finite value (NaN, ±∞) is an error.
-fn sanitize(outcome: Outcome) -> Outcome {
-    outcome.and_then(|c| {
-        if c.iter().all(|v| v.is_finite()) {
-            Ok(c)
-        } else {
-            Err(format!("non-finite criterion value in {c:?}"))
+/// An evaluator answer holding a non-finite value (NaN, ±∞) is an error; derivatives that do
+/// not give every criterion a finite slope along each of the `n` parameters are dropped (the
+/// point then proves nothing, but its values stand).
+fn sanitize(outcome: Outcome, n: usize) -> Outcome {
+    outcome.and_then(|mut answer| {
+        if !answer.values.iter().all(|v| v.is_finite()) {
+            return Err(format!("non-finite criterion value in {:?}", answer.values));
         }
+        let complete = answer.slopes.len() == answer.values.len()
+            && answer.slopes.iter().all(|row| {
+                row.len() == n
+                    && row
+                        .iter()
+                        .all(|s| s.right.is_finite() && s.left.is_finite())
+            });
+        if !complete {
+            answer.slopes.clear();
+        }
+        Ok(answer)
     })
 }
 
@@ -207,8 +230,8 @@ impl<'a> Session<'a> {
             let Some(outcome) = ledger.cache.get(&physical[j]).cloned() else {
                 continue;
             };
-            let criteria = sanitize(outcome).ok();
-            self.record(&mut ledger, units[j].as_ref().to_vec(), criteria);
+            let answer = sanitize(outcome, self.space.len()).ok();
+            self.record(&mut ledger, units[j].as_ref().to_vec(), answer);
             let index = ledger.trace.len() - 1;
             ledger.seen.insert(keys[j].clone(), index);
         }
@@ -257,7 +280,9 @@ impl<'a> Session<'a> {
                 let answer = answers.next().unwrap_or_else(|| {
                     Err("the evaluator returned fewer results than points".to_string())
                 });
-                ledger.cache.insert(point.clone(), sanitize(answer));
+                ledger
+                    .cache
+                    .insert(point.clone(), sanitize(answer, self.space.len()));
             }
             done += part.len();
         }
@@ -265,10 +290,10 @@ impl<'a> Session<'a> {
     }
 
     /// Append a visit to the trace and update every objective's best and history.
-    fn record(&self, ledger: &mut Ledger<'a>, unit: Vec<f64>, criteria: Option<Vec<f64>>) {
+    fn record(&self, ledger: &mut Ledger<'a>, unit: Vec<f64>, answer: Option<Answer>) {
         let index = ledger.trace.len();
         for (k, objective) in self.objectives.iter().enumerate() {
-            let Some(value) = criteria.as_deref().and_then(|c| objective.value(c)) else {
+            let Some(value) = answer.as_ref().and_then(|a| objective.value(&a.values)) else {
                 continue;
             };
             let improves = self
@@ -279,13 +304,13 @@ impl<'a> Session<'a> {
                 ledger.history[k].push((index + 1, value));
             }
         }
-        ledger.failed += usize::from(criteria.is_none());
-        ledger.trace.push(Visit { unit, criteria });
+        ledger.failed += usize::from(answer.is_none());
+        ledger.trace.push(Visit { unit, answer });
     }
 
     fn value_at(&self, ledger: &Ledger<'a>, k: usize, index: usize) -> Option<f64> {
-        let criteria = ledger.trace[index].criteria.as_deref()?;
-        self.objectives[k].value(criteria)
+        let answer = ledger.trace[index].answer.as_ref()?;
+        self.objectives[k].value(&answer.values)
     }
 
     fn best_in(&self, ledger: &Ledger<'a>, k: usize) -> Option<(usize, f64)> {
@@ -296,6 +321,30 @@ impl<'a> Session<'a> {
     /// Evaluate a batch (screening).
     pub(super) fn evaluate<U: AsRef<[f64]>>(&self, units: &[U]) -> Result<(), Stop> {
         self.run_batch(units).map(|_| ())
+    }
+
+    /// Evaluate a batch and return the trace indices of its points, in input order.
+    pub(super) fn indices<U: AsRef<[f64]>>(&self, units: &[U]) -> Result<Vec<usize>, Stop> {
+        self.run_batch(units)
+    }
+
+    /// Objective `k` at the trace point `index` (`None` where infeasible).
+    pub(super) fn probe(&self, k: usize, index: usize) -> Option<Probe> {
+        let ledger = self.ledger();
+        let visit = &ledger.trace[index];
+        let answer = visit.answer.as_ref()?;
+        let criterion = self.objectives[k].criterion;
+        Some(Probe {
+            unit: visit.unit.clone(),
+            value: self.objectives[k].value(&answer.values)?,
+            slopes: answer.slopes.get(criterion).cloned(),
+        })
+    }
+
+    /// Objective `k` at its best point so far.
+    pub(super) fn best_probe(&self, k: usize) -> Option<Probe> {
+        let index = self.ledger().best[k]?;
+        self.probe(k, index)
     }
 
     /// Evaluate a batch and return the values of objective `k` (`None` where infeasible).

@@ -37,7 +37,7 @@ impl<F: Fn(&[f64]) -> Criteria + Sync> Analytic<F> {
 }
 
 impl<F: Fn(&[f64]) -> Criteria + Sync> Evaluator for Analytic<F> {
-    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Criteria> {
+    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
         self.calls.fetch_add(points.len(), Ordering::SeqCst);
         self.batches.fetch_add(1, Ordering::SeqCst);
         {
@@ -49,7 +49,10 @@ impl<F: Fn(&[f64]) -> Criteria + Sync> Evaluator for Analytic<F> {
             }
         }
         std::thread::sleep(self.delay);
-        points.par_iter().map(|p| (self.f)(p)).collect()
+        points
+            .par_iter()
+            .map(|p| (self.f)(p).map(Answer::from))
+            .collect()
     }
 }
 
@@ -553,4 +556,167 @@ fn progress_is_reported_after_every_batch() {
     let last = reports.last().unwrap();
     assert_eq!((last.evaluations, last.budget), (r.evaluations, 400));
     assert_eq!(last.best, vec![Some(10.0), Some(-0.5)]);
+}
+
+// ---- exact derivatives: vertex walk and certificates ----
+
+/// Values and exact gradients (one row per criterion, one entry per parameter).
+type Smooth = (Vec<f64>, Vec<Vec<f64>>);
+
+/// An evaluator that gives exact derivatives with its values.
+struct WithSlopes<F> {
+    f: F,
+    calls: AtomicUsize,
+}
+
+impl<F: Fn(&[f64]) -> Smooth + Sync> WithSlopes<F> {
+    fn new(f: F) -> Self {
+        WithSlopes {
+            f,
+            calls: AtomicUsize::new(0),
+        }
+    }
+}
+
+impl<F: Fn(&[f64]) -> Smooth + Sync> Evaluator for WithSlopes<F> {
+    fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
+        self.calls.fetch_add(points.len(), Ordering::SeqCst);
+        points
+            .iter()
+            .map(|p| {
+                let (values, gradients) = (self.f)(p);
+                let slopes = gradients
+                    .into_iter()
+                    .map(|g| g.into_iter().map(OneSided::both).collect())
+                    .collect();
+                Ok(Answer { values, slopes })
+            })
+            .collect()
+    }
+
+    fn gives_derivatives(&self) -> bool {
+        true
+    }
+}
+
+#[test]
+fn monotone_criteria_are_certified_at_their_vertices_by_the_walk() {
+    // Φ0 = p0 + 2 p1 − p2 (linear), Φ1 = e^{p0} p1 / p2 (monotone, nonlinear) on a box with a
+    // fixed datum p3: every extremum at a vertex, found by the centre and one vertex each.
+    let f = |p: &[f64]| -> Smooth {
+        let e = p[0].exp() * p[1] / p[2];
+        (
+            vec![p[0] + 2.0 * p[1] - p[2], e],
+            vec![vec![1.0, 2.0, -1.0, 0.0], vec![e, e / p[1], -e / p[2], 0.0]],
+        )
+    };
+    let bounds = vec![[0.0, 1.0], [1.0, 3.0], [2.0, 4.0], [7.0, 7.0]];
+    let objectives = [
+        (0, Sense::Max),
+        (0, Sense::Min),
+        (1, Sense::Max),
+        (1, Sense::Min),
+    ];
+    let e = WithSlopes::new(f);
+    let r = search(
+        &problem(bounds, &objectives, 200),
+        &e,
+        &mut EvalCache::new(),
+        SearchControl::default(),
+    )
+    .unwrap();
+    // The centre, then two distinct vertices (each criterion's max and min share them).
+    assert_eq!(r.evaluations, 3);
+    assert_eq!(e.calls.load(Ordering::SeqCst), 3);
+    assert_eq!(r.status, Status::Certified);
+    let max = vec![1.0, 3.0, 2.0, 7.0];
+    let min = vec![0.0, 1.0, 4.0, 7.0];
+    for (o, vertex) in r.objectives.iter().zip([&max, &min, &max, &min]) {
+        assert_eq!(o.status, Status::Certified);
+        assert_eq!(o.best_point.as_ref(), Some(vertex));
+        let value = f(vertex).0[o.criterion];
+        assert_eq!(o.best_value, Some(value));
+        let c = o.certificate.as_ref().unwrap();
+        assert_eq!((c.verdict, c.residual), (Verdict::Certified, Some(0.0)));
+        // Every free datum is on a bound, each held by the slope's sign (≤ 0 proves a max).
+        assert_eq!(c.active.len(), 3);
+        let sign = if o.sense == Sense::Max { 1.0 } else { -1.0 };
+        assert!(c.active.iter().all(|b| sign * b.rate < 0.0), "{c:?}");
+        // Gradient and normalised sensitivities are the exact ones at the vertex.
+        let g = &f(vertex).1[o.criterion];
+        assert_eq!(
+            o.gradient,
+            g.iter().map(|&d| OneSided::both(d)).collect::<Vec<_>>()
+        );
+        let s0 = g[0] * 1.0 / value.abs();
+        assert!((o.sensitivities[0].unwrap() - s0).abs() <= 1e-15 * s0.abs());
+        assert_eq!(o.sensitivities[3], None);
+    }
+}
+
+#[test]
+fn an_interior_maximum_is_found_by_the_safeguard_and_certified() {
+    // Φ = 2 − (p0 − 0.3)² − (p1 − 0.7)²: the slope of p0 changes sign between the centre and
+    // the vertex it points to, so the walk settles nothing and the global phases run.
+    let f = |p: &[f64]| -> Smooth {
+        let (a, b) = (p[0] - 0.3, p[1] - 0.7);
+        (vec![2.0 - a * a - b * b], vec![vec![-2.0 * a, -2.0 * b]])
+    };
+    let e = WithSlopes::new(f);
+    let r = search(
+        &problem(vec![[0.0, 1.0], [0.0, 1.0]], &[(0, Sense::Max)], 300),
+        &e,
+        &mut EvalCache::new(),
+        SearchControl::default(),
+    )
+    .unwrap();
+    let o = &r.objectives[0];
+    println!(
+        "interior: {} evaluations, {:?}",
+        r.evaluations, o.certificate
+    );
+    assert!(r.evaluations > 3, "the global phases ran");
+    let x = o.best_point.as_ref().unwrap();
+    assert!(
+        (x[0] - 0.3).abs() < 1e-6 && (x[1] - 0.7).abs() < 1e-6,
+        "{x:?}"
+    );
+    assert_eq!(o.status, Status::Certified);
+    assert!(o.active_bounds.iter().all(|b| *b == ActiveBound::None));
+    assert!(o.certificate.as_ref().unwrap().active.is_empty());
+}
+
+#[test]
+fn a_walk_that_fails_proves_nothing() {
+    // Monotone Φ = p0 + p1, but the vertex the centre points to is infeasible: the walk cannot
+    // settle, the other phases run, and the best feasible point is what they find.
+    let f = |p: &[f64]| -> Smooth { (vec![p[0] + p[1]], vec![vec![1.0, 1.0]]) };
+    struct Holed<E>(E);
+    impl<E: Evaluator> Evaluator for Holed<E> {
+        fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
+            let mut out = self.0.evaluate(points);
+            for (p, o) in points.iter().zip(out.iter_mut()) {
+                if p[0] == 1.0 && p[1] == 1.0 {
+                    *o = Err("diverged".into());
+                }
+            }
+            out
+        }
+        fn gives_derivatives(&self) -> bool {
+            true
+        }
+    }
+    let e = Holed(WithSlopes::new(f));
+    let r = search(
+        &problem(vec![[0.0, 1.0], [0.0, 1.0]], &[(0, Sense::Max)], 200),
+        &e,
+        &mut EvalCache::new(),
+        SearchControl::default(),
+    )
+    .unwrap();
+    let o = &r.objectives[0];
+    assert!(r.evaluations > 2);
+    assert!(o.best_value.unwrap() < 2.0);
+    assert_ne!(o.status, Status::Certified, "{:?}", o.certificate);
+    assert_eq!(o.certificate.as_ref().unwrap().verdict, Verdict::NotOptimal);
 }

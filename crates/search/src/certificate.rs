@@ -1,0 +1,197 @@
+//! First-order optimality certificates of an extremum from the exact one-sided derivatives
+//! (issue #24 item 3). In unit coordinates u_j ∈ [0, 1] of the free data and with the score
+//! s = ±Φ (larger is better), a point is a first-order maximiser of s over the box when every
+//! feasible direction decreases s: at a lower bound the right derivative is ≤ 0, at an upper
+//! bound the left derivative is ≥ 0, strictly inside both hold (both vanish where s is
+//! differentiable — the projected gradient is zero). The residual is the largest violation
+//! relative to |Φ|; the point is certified when it is below [`CERTIFY_TOL`]. Each bound the point
+//! sits on is proven by the sign of ∂Φ/∂θ into the box, reported as a rate.
+
+use super::space::{Space, BOUND_TOL};
+use super::{ActiveBound, OneSided, Sense};
+use serde::{Deserialize, Serialize};
+
+/// Largest relative projected-gradient residual of a certified point: the change of Φ along
+/// any single datum moved over its whole interval, predicted by the first-order slope, is below
+/// this fraction of |Φ|.
+pub const CERTIFY_TOL: f64 = 1e-6;
+
+/// What the derivatives prove about a reported extremum.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, utoipa::ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// First-order optimal to [`CERTIFY_TOL`]: every active bound held by the derivative's sign,
+    /// the slope along every interior datum vanishing.
+    Certified,
+    /// Some datum can still be moved to make Φ more extreme (see `residual`).
+    NotOptimal,
+    /// The evaluator gave no derivatives at this point: nothing is proven.
+    NoDerivatives,
+}
+
+/// One active bound of an extremum and the derivative that holds it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct BoundProof {
+    /// Index of the parameter.
+    pub parameter: usize,
+    /// The bound it sits on (`lower` or `upper`).
+    pub bound: ActiveBound,
+    /// Relative change of Φ per whole interval when the datum leaves its bound into the box,
+    /// (∂Φ/∂θ into the box) · (hi − lo) / |Φ|: ≤ 0 proves a maximum, ≥ 0 a minimum.
+    pub rate: f64,
+}
+
+/// The optimality certificate of one extremum.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct Certificate {
+    /// What is proven.
+    pub verdict: Verdict,
+    /// Largest first-order violation relative to |Φ| (0 at a proven point); absent without
+    /// derivatives.
+    pub residual: Option<f64>,
+    /// The bounds the point sits on, each with the rate that proves (or disproves) it.
+    pub active: Vec<BoundProof>,
+}
+
+/// Per free datum j: the one-sided derivatives of the score along the unit coordinate u_j,
+/// from the physical derivatives `slopes` of Φ (all parameters).
+pub(super) fn unit_slopes(space: &Space, sense: Sense, slopes: &[OneSided]) -> Vec<OneSided> {
+    let sign = match sense {
+        Sense::Max => 1.0,
+        Sense::Min => -1.0,
+    };
+    (0..space.dim())
+        .map(|j| {
+            let (i, width) = space.free_param(j);
+            slopes[i].scaled(sign * width)
+        })
+        .collect()
+}
+
+/// Per free datum: how much the score still rises when u_j moves into the box from `unit`
+/// (0 where the point is first-order optimal along it).
+pub(super) fn violations(unit: &[f64], score_slopes: &[OneSided]) -> Vec<f64> {
+    unit.iter()
+        .zip(score_slopes)
+        .map(|(&u, s)| {
+            let up = if u < 1.0 - BOUND_TOL { s.right } else { 0.0 };
+            let down = if u > BOUND_TOL { -s.left } else { 0.0 };
+            up.max(down).max(0.0)
+        })
+        .collect()
+}
+
+/// Scale of relative statements about Φ = `value` (never zero).
+pub(super) fn scale(value: f64) -> f64 {
+    value.abs().max(f64::MIN_POSITIVE)
+}
+
+/// The certificate of the unit point `unit` with criterion value `value` and physical
+/// derivatives `slopes` (`None` without derivatives).
+pub(super) fn certify(
+    space: &Space,
+    sense: Sense,
+    unit: &[f64],
+    value: f64,
+    slopes: Option<&[OneSided]>,
+) -> Certificate {
+    let Some(slopes) = slopes else {
+        return Certificate {
+            verdict: Verdict::NoDerivatives,
+            residual: None,
+            active: Vec::new(),
+        };
+    };
+    let score_slopes = unit_slopes(space, sense, slopes);
+    let residual = violations(unit, &score_slopes)
+        .into_iter()
+        .fold(0.0, f64::max)
+        / scale(value);
+    let bounds = space.active_bounds(unit);
+    let active = (0..space.dim())
+        .filter_map(|j| {
+            let (i, width) = space.free_param(j);
+            let rate = match bounds[i] {
+                ActiveBound::Lower => slopes[i].right * width,
+                ActiveBound::Upper => -slopes[i].left * width,
+                ActiveBound::None | ActiveBound::Fixed => return None,
+            } / scale(value);
+            Some(BoundProof {
+                parameter: i,
+                bound: bounds[i],
+                rate,
+            })
+        })
+        .collect();
+    Certificate {
+        verdict: if residual <= CERTIFY_TOL {
+            Verdict::Certified
+        } else {
+            Verdict::NotOptimal
+        },
+        residual: Some(residual),
+        active,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn proves_vertices_and_interior_points_and_refuses_the_rest() {
+        // Φ = 3 p0 − p2 on p0 ∈ [0, 2], p1 fixed, p2 ∈ [1, 5]: max at (2, ·, 1), Φ = 5.
+        let space = Space::new(&[[0.0, 2.0], [4.0, 4.0], [1.0, 5.0]]).unwrap();
+        let slopes = [
+            OneSided::both(3.0),
+            OneSided::both(0.0),
+            OneSided::both(-1.0),
+        ];
+        let max = certify(&space, Sense::Max, &[1.0, 0.0], 5.0, Some(&slopes));
+        assert_eq!(max.verdict, Verdict::Certified);
+        assert_eq!(max.residual, Some(0.0));
+        assert_eq!(
+            max.active,
+            vec![
+                BoundProof {
+                    parameter: 0,
+                    bound: ActiveBound::Upper,
+                    rate: -3.0 * 2.0 / 5.0
+                },
+                BoundProof {
+                    parameter: 2,
+                    bound: ActiveBound::Lower,
+                    rate: -4.0 / 5.0
+                }
+            ]
+        );
+        // The same point is the worst place for a minimum: moving p0 down lowers Φ by 6 / 5.
+        let min = certify(&space, Sense::Min, &[1.0, 0.0], 5.0, Some(&slopes));
+        assert_eq!(min.verdict, Verdict::NotOptimal);
+        assert!((min.residual.unwrap() - 6.0 / 5.0).abs() < 1e-15);
+        // Interior: certified only where both one-sided slopes vanish, or at a concave kink.
+        let flat = [
+            OneSided::both(1e-9),
+            OneSided::both(0.0),
+            OneSided::both(0.0),
+        ];
+        let kink = [
+            OneSided {
+                right: -1.0,
+                left: 1.0,
+            },
+            OneSided::both(0.0),
+            OneSided::both(0.0),
+        ];
+        for s in [&flat, &kink] {
+            let c = certify(&space, Sense::Max, &[0.5, 0.5], 1.0, Some(s));
+            assert_eq!(c.verdict, Verdict::Certified);
+            assert!(c.active.is_empty());
+        }
+        let convex_kink = kink.map(|s| s.scaled(-1.0));
+        let c = certify(&space, Sense::Max, &[0.5, 0.5], 1.0, Some(&convex_kink));
+        assert_eq!(c.verdict, Verdict::NotOptimal);
+        let none = certify(&space, Sense::Max, &[0.5, 0.5], 1.0, None);
+        assert_eq!(none.verdict, Verdict::NoDerivatives);
+    }
+}
