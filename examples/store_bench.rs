@@ -20,6 +20,7 @@ fn evaluation(point: &[f64]) -> Evaluation {
         error: None,
         max_kkt_residual: Some(1e-14),
         solve_seconds: 0.0,
+        gradient: Vec::new(),
     }
 }
 

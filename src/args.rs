@@ -94,6 +94,10 @@ pub struct WorstArgs {
     /// within it, and reports the choice in `mesh_choice`.
     #[arg(long)]
     pub target_error: Option<f64>,
+    /// Search without exact derivatives (no vertex walk, no certificates; finite-difference
+    /// sensitivities): cheaper evaluations, weaker answers.
+    #[arg(long)]
+    pub no_derivatives: bool,
     /// Write the full result as JSON.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -120,6 +124,7 @@ impl TryFrom<&WorstArgs> for WorstRequest {
             threads: args.threads,
             accuracy_refinements: args.accuracy_refinements,
             target_error: args.target_error,
+            derivatives: args.no_derivatives.then_some(false),
         })
     }
 }

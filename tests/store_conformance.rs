@@ -11,7 +11,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use common::{postgres_url, PgSchema};
-use wsm_core::run::{Evaluation, WorstRequest};
+use wsm_core::run::{Evaluation, OneSided, WorstRequest};
 use wsm_service::jobs::sql::SqlStore;
 use wsm_service::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskScope};
 
@@ -63,6 +63,20 @@ fn evaluation(x: f64) -> Evaluation {
         error: None,
         max_kkt_residual: Some(1.234_567_890_123_456_7e-13),
         solve_seconds: 0.01,
+        // Per criterion, per datum: one-sided derivatives (a kink in the last one).
+        gradient: (0..2)
+            .map(|c| {
+                (0..3)
+                    .map(|j| {
+                        let slope = (c as f64 + 1.0) / 7.0 * x - j as f64 * 1e-200;
+                        OneSided {
+                            right: slope,
+                            left: if j == 2 { -slope } else { slope },
+                        }
+                    })
+                    .collect()
+            })
+            .collect(),
     }
 }
 

@@ -26,14 +26,19 @@ pub enum RunPhase {
     AdmissibleCheck,
     /// The solve at the nominal data (the warm start of every evaluation).
     NominalSolve,
+    /// With exact derivatives: the centre of the box and the vertices the gradients point to
+    /// (issue #24).
+    VertexWalk,
     /// The screening shared by all objectives: vertices and centre of the box when cheap, then
     /// a Latin hypercube (design §4.3 item 1).
     Screening,
     /// The particle swarm of one objective (design §4.3 item 2).
     Swarm,
-    /// The compass-search polish of one objective (design §4.3 item 3).
+    /// The local polish of one objective: compass search, or the projected quasi-Newton ascent
+    /// with exact derivatives (design §4.3 item 3).
     Polish,
-    /// The finite-difference sensitivities at every optimum (design §4.3 item 4).
+    /// The finite-difference sensitivities at every optimum, without exact derivatives (design
+    /// §4.3 item 4).
     Sensitivities,
     /// The accuracy statement: worst and best data re-solved on refined meshes.
     Accuracy,
@@ -146,6 +151,7 @@ impl RunControl {
 impl RunPhase {
     pub(super) fn of(phase: Phase) -> RunPhase {
         match phase {
+            Phase::VertexWalk => RunPhase::VertexWalk,
             Phase::Screening => RunPhase::Screening,
             Phase::Global { .. } => RunPhase::Swarm,
             Phase::Polish { .. } => RunPhase::Polish,
@@ -158,7 +164,7 @@ impl RunPhase {
 pub(super) fn phase_objective(phase: Phase) -> Option<usize> {
     match phase {
         Phase::Global { objective } | Phase::Polish { objective } => Some(objective),
-        Phase::Screening | Phase::Sensitivity => None,
+        Phase::VertexWalk | Phase::Screening | Phase::Sensitivity => None,
     }
 }
 

@@ -29,7 +29,9 @@ pub use crate::estimate::statement::{CriterionAccuracy, ExtremumAccuracy, Statem
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
-pub use wsm_search::{ActiveBound, ObjectiveResult, Sense, Status};
+pub use wsm_search::{
+    ActiveBound, BoundProof, Certificate, ObjectiveResult, OneSided, Sense, Status, Verdict,
+};
 
 use std::ops::ControlFlow;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -253,7 +255,8 @@ impl Run<'_> {
             return Ok(self.unstarted(&scene, status));
         }
         let model =
-            PreparedModel::new(scene, self.params.to_vec(), self.settings.criteria.clone())?;
+            PreparedModel::new(scene, self.params.to_vec(), self.settings.criteria.clone())?
+                .with_derivatives(self.settings.derivatives);
         let problem = model.problem();
         if let ControlFlow::Break(stopped) = self.check_box(problem)? {
             return Ok(stopped);

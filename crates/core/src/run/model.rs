@@ -37,6 +37,7 @@ pub struct PreparedModel {
     problem: StateProblem,
     params: Vec<Parameter>,
     criteria: Vec<Criterion>,
+    derivatives: bool,
 }
 
 impl PreparedModel {
@@ -51,7 +52,14 @@ impl PreparedModel {
             problem: StateProblem::new(scene)?,
             params,
             criteria,
+            derivatives: false,
         })
+    }
+
+    /// Evaluate with exact derivatives (see [`ScenarioEvaluator::with_derivatives`]).
+    pub fn with_derivatives(mut self, derivatives: bool) -> Self {
+        self.derivatives = derivatives;
+        self
     }
 
     /// The model a worker evaluates for a job: the submitted scene text and settings, on the
@@ -68,7 +76,8 @@ impl PreparedModel {
             Some(text) => crate::scene::parse(text)?,
             None => run_scene(scene, &settings, &|| false)?.0,
         };
-        PreparedModel::new(scene, params, settings.criteria)
+        Ok(PreparedModel::new(scene, params, settings.criteria)?
+            .with_derivatives(settings.derivatives))
     }
 
     /// The state problem (mesh, operators, nominal data).
@@ -79,7 +88,10 @@ impl PreparedModel {
     /// The evaluator of this model: solves the nominal state once (its contact state
     /// warm-starts every later solve).
     pub fn evaluator(&self) -> Result<ScenarioEvaluator<'_>, WsmError> {
-        ScenarioEvaluator::new(&self.problem, &self.params, &self.criteria)
+        Ok(
+            ScenarioEvaluator::new(&self.problem, &self.params, &self.criteria)?
+                .with_derivatives(self.derivatives),
+        )
     }
 }
 

@@ -159,6 +159,10 @@ impl Evaluator for Dispatched<'_> {
             .chunk_size(seconds_per_point)
             .max(self.local.chunk_size())
     }
+
+    fn gives_derivatives(&self) -> bool {
+        self.local.gives_derivatives()
+    }
 }
 
 impl Dispatched<'_> {

@@ -49,6 +49,11 @@ pub struct WorstRequest {
     /// criterion at the nominal data is within it (see the outcome's `mesh_choice`).
     #[serde(default)]
     pub target_error: Option<f64>,
+    /// Exact derivatives on every evaluation (default: the scene's `search.derivatives`, true):
+    /// they drive the vertex walk and the quasi-Newton polish and certify every extremum.
+    /// `false` searches without them (finite-difference sensitivities, no certificates).
+    #[serde(default)]
+    pub derivatives: Option<bool>,
 }
 
 impl WorstRequest {
@@ -100,6 +105,9 @@ impl WorstRequest {
         if let Some(target) = self.target_error {
             check_target(scene, target)?;
             settings.target_error = Some(target);
+        }
+        if let Some(derivatives) = self.derivatives {
+            settings.derivatives = derivatives;
         }
         if self.threads == Some(0) {
             return Err(SceneError::new("threads", "must be at least 1").into());

@@ -1,6 +1,8 @@
 //! The physics behind the black box of the outer search (FGCS 4.35–4.36): Φ_i(θ) for the
 //! requested criteria by one state solve at the data θ (only what the criteria need), with the
-//! solve's largest KKT residual and its time, and inner-solver statistics over the run.
+//! solve's largest KKT residual and its time, and inner-solver statistics over the run. With
+//! derivatives on, the same solve also gives the exact one-sided dΦ_i/dθ_j along every
+//! uncertain datum ([`crate::state::sensitivity`]), which drive and certify the search.
 //!
 //! Evaluations of a batch run in parallel (rayon, sequential factorisations inside); each
 //! warm-starts its contact solve from the nominal solution, so results do not depend on the
@@ -17,10 +19,10 @@ use serde::{Deserialize, Serialize};
 use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
 use crate::fem::Par;
-use crate::scene::params::{apply, Parameter};
+use crate::scene::params::{apply, stencil, Parameter, Stencil};
 use crate::scene::Criterion;
-use crate::state::{Needs, SolveOptions, StateProblem, Timings};
-use wsm_search::{Evaluator, Outcome};
+use crate::state::{Needs, Solution, SolveOptions, StateProblem, Timings};
+use wsm_search::{Answer, Evaluator, OneSided, Outcome};
 
 /// One evaluation of the criteria at a point θ.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -34,15 +36,24 @@ pub struct Evaluation {
     pub error: Option<String>,
     /// Largest relative KKT residual of the contact solution (`None` without contact).
     pub max_kkt_residual: Option<f64>,
-    /// Wall time of the state solve \[s\].
+    /// Wall time of the state solve \[s\] (with its derivatives).
     pub solve_seconds: f64,
+    /// `gradient[c][j]`: the one-sided derivatives of the c-th requested criterion along the
+    /// j-th uncertain datum, in the criterion's unit per the datum's unit (empty without
+    /// derivatives).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gradient: Vec<Vec<OneSided>>,
 }
 
 impl Evaluation {
-    /// What the search sees: the criteria vector or the reason it is missing.
+    /// What the search sees: the criteria vector (and its derivatives) or the reason it is
+    /// missing.
     pub fn outcome(&self) -> Outcome {
         match (&self.values, &self.error) {
-            (Some(v), _) => Ok(v.clone()),
+            (Some(v), _) => Ok(Answer {
+                values: v.clone(),
+                slopes: self.gradient.clone(),
+            }),
             (None, Some(e)) => Err(e.clone()),
             (None, None) => Err("no value recorded".into()),
         }
@@ -106,6 +117,7 @@ pub struct ScenarioEvaluator<'a> {
     stats: InnerStats,
     observer: Option<&'a Observer<'a>>,
     fault: Option<&'a EvaluationFault>,
+    derivatives: bool,
 }
 
 impl<'a> ScenarioEvaluator<'a> {
@@ -125,6 +137,7 @@ impl<'a> ScenarioEvaluator<'a> {
             stats: InnerStats::default(),
             observer: None,
             fault: None,
+            derivatives: false,
         };
         if needs.elastic && problem.contact.geometry.dim() > 0 {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
@@ -142,6 +155,13 @@ impl<'a> ScenarioEvaluator<'a> {
     /// Fail the evaluations where `fault` answers (see [`EvaluationFault`]).
     pub fn with_fault(mut self, fault: Option<&'a EvaluationFault>) -> Self {
         self.fault = fault;
+        self
+    }
+
+    /// Also compute the exact derivatives of the criteria along every uncertain datum at each
+    /// evaluation (off by default).
+    pub fn with_derivatives(mut self, derivatives: bool) -> Self {
+        self.derivatives = derivatives;
         self
     }
 
@@ -168,9 +188,22 @@ impl<'a> ScenarioEvaluator<'a> {
             self.params,
             theta,
         );
+        let stencils: Vec<Stencil> = if self.derivatives {
+            (0..self.params.len())
+                .map(|i| {
+                    let (scene, nominal) = (&self.problem.scene, &self.problem.nominal);
+                    stencil(scene, nominal, self.params, theta, i)
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
         let result = match self.fault.and_then(|fault| fault(theta)) {
             Some(reason) => Err(WsmError::contact(reason)),
-            None => self.problem.solve(&data, &self.options(Par::Seq)),
+            None => {
+                self.problem
+                    .solve_with_sensitivities(&data, &self.options(Par::Seq), &stencils)
+            }
         };
         let seconds = start.elapsed().as_secs_f64();
         self.stats
@@ -183,6 +216,7 @@ impl<'a> ScenarioEvaluator<'a> {
             error: None,
             max_kkt_residual: None,
             solve_seconds: seconds,
+            gradient: Vec::new(),
         };
         let solution = match result {
             Ok(s) => s,
@@ -220,10 +254,32 @@ impl<'a> ScenarioEvaluator<'a> {
             })
             .collect();
         match values {
-            Ok(v) => evaluation.values = Some(v),
+            Ok(v) => {
+                evaluation.values = Some(v);
+                evaluation.gradient = self.gradient(&solution);
+            }
             Err(e) => evaluation.error = Some(e),
         }
         evaluation
+    }
+
+    /// The requested criteria's derivatives along every datum, or nothing when one is missing
+    /// (not requested, or the sensitivities could not be computed: the solve's warning says so).
+    fn gradient(&self, solution: &Solution) -> Vec<Vec<OneSided>> {
+        if solution.sensitivities.len() != self.params.len() {
+            return Vec::new();
+        }
+        self.criteria
+            .iter()
+            .map(|&c| {
+                solution
+                    .sensitivities
+                    .iter()
+                    .map(|per_param| per_param[c as usize])
+                    .collect::<Option<Vec<OneSided>>>()
+            })
+            .collect::<Option<Vec<_>>>()
+            .unwrap_or_default()
     }
 
     /// Phase times of the evaluations so far, summed over threads \[s\].
@@ -258,5 +314,9 @@ impl Evaluator for ScenarioEvaluator<'_> {
             observe(&evaluations);
         }
         evaluations.iter().map(Evaluation::outcome).collect()
+    }
+
+    fn gives_derivatives(&self) -> bool {
+        self.derivatives
     }
 }

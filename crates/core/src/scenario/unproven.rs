@@ -1,12 +1,14 @@
-//! Plain-words warnings for the extrema a search did not settle (issue #24, a first step): an
-//! objective whose search stopped before its polish converged — budget exhausted, stagnation,
-//! time limit, cancel, failed evaluations next to its best point — says that its worst value may
-//! be higher (its best value lower), which of its data ended inside their intervals (where no
-//! optimality was reached) and what to do. A converged polish is a local statement, no proof of
-//! the global extremum; certificates from exact gradients are the search issue's later steps.
+//! Plain-words warnings for the extrema a search did not prove (issue #24): an objective whose
+//! search stopped before optimality — budget exhausted, stagnation, time limit, cancel, failed
+//! evaluations next to its best point, or a converged polish that the exact derivatives do not
+//! certify — says that its worst value may be higher (its best value lower), which of its data
+//! ended inside their intervals and what to do. A `certified` extremum needs no warning: the
+//! derivatives prove first-order optimality there (a local statement, like any converged
+//! search; see [`wsm_search::Certificate`]). Without derivatives (turned off), a converged
+//! polish is not warned about either: nothing could prove it.
 
 use crate::scenario::worst::{CriterionOutcome, WorstOutcome};
-use wsm_search::{ActiveBound, ObjectiveResult, Status};
+use wsm_search::{ActiveBound, ObjectiveResult, Status, Verdict};
 
 /// One warning per extremum the search did not settle, worst before best, in criterion order.
 pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
@@ -34,7 +36,17 @@ fn warning(
     budget: usize,
 ) -> Option<String> {
     let (reason, advice) = match o.status {
-        Status::Completed => return None,
+        Status::Certified => return None,
+        Status::Completed => match &o.certificate {
+            Some(c) if c.verdict == Verdict::NotOptimal => (
+                format!(
+                    "its polish converged but the exact derivatives do not prove optimality (relative residual {:.1e})",
+                    c.residual.unwrap_or(f64::NAN)
+                ),
+                "the criterion may have a kink there; raise the budget or try another seed",
+            ),
+            _ => return None,
+        },
         Status::BudgetExhausted => (
             format!("the budget of {budget} solves ran out before its polish converged"),
             "raise the budget (settings.budget, --budget) or narrow the intervals",

@@ -40,6 +40,8 @@ pub struct WorstSettings {
     /// Relative error the run's mesh must meet at the nominal data (`None`: the scene's mesh;
     /// see [`crate::estimate::mesh_choice`]).
     pub target_error: Option<f64>,
+    /// Exact derivatives on every evaluation (vertex walk, quasi-Newton polish, certificates).
+    pub derivatives: bool,
 }
 
 impl WorstSettings {
@@ -52,6 +54,7 @@ impl WorstSettings {
             max_seconds: scene.search.max_seconds,
             accuracy_refinements: None,
             target_error: None,
+            derivatives: scene.search.derivatives,
         }
     }
 

@@ -461,6 +461,14 @@ pub struct SearchSettings {
     /// Wall-time limit \[s\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_seconds: Option<f64>,
+    /// Exact derivatives on every evaluation (default true): they drive the search and certify
+    /// its extrema; `false` searches without them.
+    #[serde(default = "default_derivatives")]
+    pub derivatives: bool,
+}
+
+fn default_derivatives() -> bool {
+    true
 }
 
 fn default_budget() -> usize {
@@ -477,6 +485,7 @@ impl Default for SearchSettings {
             budget: default_budget(),
             seed: default_seed(),
             max_seconds: None,
+            derivatives: default_derivatives(),
         }
     }
 }

@@ -18,8 +18,6 @@
 //! The DD solver's state is differentiated with the direct solver's factor and C (the same
 //! formulas on the DD multipliers), which costs one direct factorisation per stiffness.
 
-use serde::{Deserialize, Serialize};
-
 use super::criterion_values::{per_region, region_derivatives, Fields};
 use super::{thermal_key, StateProblem};
 use crate::contact::direct::{ContactPoint, ContactSolution, DataDerivative, StiffnessFactor};
@@ -27,29 +25,10 @@ use crate::error::WsmError;
 use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
 use crate::scene::Data;
+pub use wsm_search::OneSided;
 
-/// The one-sided derivatives of a criterion along one parameter: `right` = lim (Φ(θ + ε e) −
-/// Φ(θ))/ε and `left` = lim (Φ(θ) − Φ(θ − ε e))/ε for ε ↓ 0; equal where Φ is differentiable.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
-pub struct OneSided {
-    /// Derivative as the parameter increases.
-    pub right: f64,
-    /// Derivative as the parameter decreases (the slope from the left).
-    pub left: f64,
-}
-
-/// Relative difference of the one-sided derivatives below which a criterion is differentiable.
-const SMOOTH_TOL: f64 = 1e-9;
 /// Relative distance to the maximum within which a region ties with the maximising one.
 const TIE_TOL: f64 = 1e-12;
-
-impl OneSided {
-    /// Whether both one-sided derivatives agree (to 1e-9 relative).
-    pub fn is_differentiable(&self) -> bool {
-        let scale = self.right.abs().max(self.left.abs());
-        (self.right - self.left).abs() <= SMOOTH_TOL * scale
-    }
-}
 
 /// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
 pub type Sensitivities = Vec<[Option<OneSided>; 6]>;

@@ -52,7 +52,7 @@ export const $ = (id) => document.getElementById(id);
 
 export const PHASES = {
   queued: "queued", mesh_choice: "choosing the mesh for the target error", meshing: "meshing", admissible_check: "checking the admissible set",
-  nominal_solve: "nominal solve", screening: "screening vertices", swarm: "swarm search",
+  nominal_solve: "nominal solve", vertex_walk: "vertex walk (gradients)", screening: "screening vertices", swarm: "swarm search",
   polish: "polishing", sensitivities: "sensitivities",
   accuracy: "accuracy statement", finished: "finished",
 };
