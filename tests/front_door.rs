@@ -60,7 +60,12 @@ fn cancel_mid_search_returns_the_partial_result_with_its_best_values() {
             *at.lock().unwrap() = Some(e.evaluations);
         }
     });
-    let outcome = run::worst(block(0.1), &request(200, 1), &control).unwrap();
+    // Without derivatives: the walk would certify this block before any swarm.
+    let plain = WorstRequest {
+        derivatives: Some(false),
+        ..request(200, 1)
+    };
+    let outcome = run::worst(block(0.1), &plain, &control).unwrap();
     assert_eq!(outcome.status, Status::Cancelled);
     let at_cancel = at_cancel.lock().unwrap().expect("cancelled in the swarm");
     assert_eq!(
@@ -166,36 +171,51 @@ fn complete_lines(path: &Path) -> usize {
         .count()
 }
 
-#[test]
-fn a_cut_last_line_is_dropped_and_that_evaluation_redone() {
-    let path = temp("cut.jsonl");
+/// Run `request` on `scene` with a log, cut the log after `kept` records and half of the next,
+/// resume: the same result, with only the cut evaluations redone.
+fn cut_and_resume(scene: Scene, request: &WorstRequest, kept: usize, name: &str) {
+    let path = temp(name);
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
-    let full = run::worst(
-        block(0.1),
-        &request(30, 1),
-        &RunControl::new().with_log(log),
-    )
-    .unwrap();
+    let full = run::worst(scene.clone(), request, &RunControl::new().with_log(log)).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     let lines: Vec<&str> = text.lines().collect();
-    // Keep the header and 10 records, then half of the 11th.
-    let kept = 11;
-    let mut cut = lines[..kept].join("\n");
+    assert!(lines.len() > kept + 1, "{} evaluations", full.evaluations);
+    // Keep the header and `kept` records, then half of the next.
+    let mut cut = lines[..=kept].join("\n");
     cut.push('\n');
-    cut.push_str(&lines[kept][..lines[kept].len() / 2]);
+    cut.push_str(&lines[kept + 1][..lines[kept + 1].len() / 2]);
     std::fs::write(&path, cut).unwrap();
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
-    let resumed = run::worst(
-        block(0.1),
-        &request(30, 1),
-        &RunControl::new().with_log(log.clone()),
-    )
-    .unwrap();
+    let resumed = run::worst(scene, request, &RunControl::new().with_log(log.clone())).unwrap();
     assert_eq!(resumed.criteria, full.criteria);
-    assert_eq!(resumed.new_evaluations, full.evaluations - (kept - 1));
+    assert_eq!(resumed.new_evaluations, full.evaluations - kept);
     // The file is whole again: header + one line per evaluation.
     assert_eq!(complete_lines(&path), 1 + full.evaluations);
     assert_eq!(log.evaluations().len(), full.evaluations);
+}
+
+#[test]
+fn a_cut_last_line_is_dropped_and_that_evaluation_redone() {
+    let plain = WorstRequest {
+        derivatives: Some(false),
+        ..request(30, 1)
+    };
+    cut_and_resume(block(0.1), &plain, 10, "cut.jsonl");
+}
+
+/// With derivatives the log holds the gradients: the resumed walk, ascent and certificates
+/// make the same decisions from the replayed slopes.
+#[test]
+fn a_resumed_run_with_derivatives_replays_the_gradients() {
+    let tunnel = parse(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
+    let request = WorstRequest {
+        budget: Some(120),
+        seed: Some(1),
+        threads: Some(2),
+        accuracy_refinements: Some(0),
+        ..WorstRequest::default()
+    };
+    cut_and_resume(tunnel, &request, 30, "cut-gradients.jsonl");
 }
 
 #[test]
@@ -222,12 +242,14 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
     let rows: Vec<&str> = text.lines().collect();
     assert_eq!(
         rows[0],
-        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error"
+        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error,\
+         d(phi3)/d(materials.rock.E),d(phi3)/d(boundary[2].traction[0]),d(phi3)/d(contacts[0].slip_limit),\
+         d(phi6)/d(materials.rock.E),d(phi6)/d(boundary[2].traction[0]),d(phi6)/d(contacts[0].slip_limit)"
     );
     assert_eq!(rows.len(), 1 + evaluations.len());
     for (i, row) in rows[1..].iter().enumerate() {
         let cells: Vec<&str> = row.split(',').collect();
-        assert_eq!(cells.len(), 9, "{row}");
+        assert_eq!(cells.len(), 15, "{row}");
         assert_eq!(cells[0], (i + 1).to_string());
         let e = &evaluations[i];
         for (k, x) in e.point.iter().enumerate() {
@@ -235,6 +257,14 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
         }
         let phi3: f64 = cells[4].parse().unwrap();
         assert_eq!(phi3, e.values.as_ref().unwrap()[0]);
+        // ∂Φ6/∂g, exact (one number where both sides agree).
+        let slope = e.gradient[1][2];
+        let cell = cells[14];
+        if slope.right == slope.left {
+            assert_eq!(cell.parse::<f64>().unwrap(), slope.right, "{row}");
+        } else {
+            assert_eq!(cell, format!("{:e}/{:e}", slope.left, slope.right));
+        }
         assert!(
             cells[6].parse::<f64>().unwrap() < 1e-8,
             "KKT residual {}",
@@ -260,6 +290,8 @@ fn worst_args(extra: &[&str]) -> Vec<String> {
         "1",
         "--criteria",
         "phi3,phi6",
+        // A long enough run to be killed in (the walk would certify this block in 3 solves).
+        "--no-derivatives",
     ]
     .iter()
     .chain(extra)

@@ -3,22 +3,59 @@
 //! heat solve, and bad admissible sets refused before any solve.
 
 use serde_json::{json, Value};
-use wsm_core::run::{worst as run_worst, RunControl, WorstOutcome, WorstRequest};
+use wsm_core::run::{worst as run_worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
 use wsm_core::scenario::evaluator::ScenarioEvaluator;
 use wsm_core::scene::params::parameters;
 use wsm_core::scene::{parse, Criterion};
 use wsm_core::state::StateProblem;
 
-/// Search a scene for the given criteria (fresh run, never cancelled).
+/// Search a scene for the given criteria (fresh run, never cancelled, exact derivatives).
 fn worst(scene: &Value, criteria: &[Criterion], budget: usize, seed: u64) -> WorstOutcome {
+    worst_with(scene, criteria, budget, seed, true)
+}
+
+/// [`worst`], with or without exact derivatives.
+fn worst_with(
+    scene: &Value,
+    criteria: &[Criterion],
+    budget: usize,
+    seed: u64,
+    derivatives: bool,
+) -> WorstOutcome {
     let scene = parse(&scene.to_string()).unwrap();
     let request = WorstRequest {
         criteria: Some(criteria.to_vec()),
         budget: Some(budget),
         seed: Some(seed),
+        derivatives: Some(derivatives),
         ..WorstRequest::default()
     };
     run_worst(scene, &request, &RunControl::new()).unwrap()
+}
+
+/// Every extremum of the run is `certified` by its certificate, with no warning.
+fn assert_all_certified(r: &WorstOutcome) {
+    for c in &r.criteria {
+        for o in [&c.worst, &c.best] {
+            assert_eq!(
+                o.status,
+                Status::Certified,
+                "{:?}: {:?}",
+                c.criterion,
+                o.certificate
+            );
+            let proof = o.certificate.as_ref().expect("a certificate");
+            assert_eq!(proof.verdict, Verdict::Certified);
+            assert!(proof.residual.unwrap() <= wsm_search_tol(), "{proof:?}");
+        }
+    }
+    assert_eq!(r.status, Status::Certified);
+    assert!(r.warnings.is_empty(), "{:?}", r.warnings);
+}
+
+/// The certificate's relative residual tolerance.
+fn wsm_search_tol() -> f64 {
+    1e-6
 }
 
 /// One clamped block under a top pressure p ∈ [1, 2] MPa with E ∈ [5, 10] GPa.
@@ -57,6 +94,23 @@ fn monotone_displacement_criterion_worst_is_the_max_load_min_stiffness_vertex() 
     // Linear elasticity: Φ3 ∝ load / E, so worst/best = (2/5)/(1/10) = 4.
     let ratio = c.worst.best_value.unwrap() / c.best.best_value.unwrap();
     assert!((ratio - 4.0).abs() < 1e-9, "ratio {ratio}");
+    // Certified at the exact vertices by the centre and one vertex each.
+    assert_all_certified(&r);
+    assert!(r.evaluations <= 3 * 2, "{} evaluations", r.evaluations);
+    // The certificate holds each bound by the sign of its derivative: Φ3 falls with the load
+    // (it is negative: more negative is a larger push) and with E.
+    let proof = c.worst.certificate.as_ref().unwrap();
+    assert_eq!(proof.active.len(), 2);
+    assert!(proof.active.iter().all(|b| b.rate < 0.0), "{proof:?}");
+    // The gradient is Φ3's: ∂Φ3/∂E = −Φ3/E exactly (Φ3 ∝ 1/E).
+    let (value, e) = (c.worst.best_value.unwrap(), 5.0e9);
+    let d_e = c.worst.gradient[1];
+    assert!((d_e.right + value / e).abs() <= 1e-6 * value / e, "{d_e:?}");
+    // Without derivatives the same vertices are found, with no certificate.
+    let plain = worst_with(&loaded_block(), &[Criterion::Phi3], 40, 7, false);
+    assert_eq!(point(&plain.criteria[0].worst), vec![-2.0e6, 5.0e9]);
+    assert_ne!(plain.criteria[0].worst.status, Status::Certified);
+    assert!(plain.criteria[0].worst.gradient.is_empty());
 }
 
 #[test]
@@ -68,6 +122,8 @@ fn monotone_stress_criterion_worst_is_the_max_load() {
     // Stress does not depend on E here (one material, force boundary data): I2² ∝ load².
     let ratio = c.worst.best_value.unwrap() / c.best.best_value.unwrap();
     assert!((ratio - 4.0).abs() < 1e-9, "ratio {ratio}");
+    assert_all_certified(&r);
+    assert!(r.evaluations <= 3 * 2, "{} evaluations", r.evaluations);
 }
 
 #[test]
@@ -114,6 +170,76 @@ fn thermal_criteria_use_the_heat_solve_only() {
     );
     // Φ1 grows with the heat source and the rim temperature and falls with conductivity.
     assert_eq!(point(&r.criteria[0].worst), vec![2.5e4, 2.5, 25.0]);
+    assert_eq!(r.criteria[0].worst.status, Status::Certified);
+    let thermal = worst(&scene, &[Criterion::Phi1], 30, 7);
+    assert_all_certified(&thermal);
+    assert!(thermal.evaluations <= 3 * 2, "{}", thermal.evaluations);
+    assert_eq!(point(&thermal.criteria[0].worst), vec![2.5e4, 2.5, 25.0]);
+}
+
+#[test]
+fn knee_is_certified_in_a_few_evaluations() {
+    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    let r = worst(&scene, &[Criterion::Phi5, Criterion::Phi6], 150, 1);
+    assert_all_certified(&r);
+    assert!(r.evaluations <= 20, "{} evaluations", r.evaluations);
+}
+
+/// The acceptance case of the search issue: the tunnel's 2^8 vertices solved independently
+/// (as `wsm solve` would) against the search at a budget of 120 — every extremum at least as
+/// extreme as every vertex, each certified.
+#[test]
+fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
+    let text = wsm_core::bundled::example("tunnel-fault").unwrap();
+    let scene: Value = serde_json::from_str(text).unwrap();
+    let criteria = [
+        Criterion::Phi3,
+        Criterion::Phi4,
+        Criterion::Phi5,
+        Criterion::Phi6,
+    ];
+    let parsed = parse(text).unwrap();
+    let params = parameters(&parsed).unwrap();
+    assert_eq!(params.len(), 8);
+    let problem = StateProblem::new(parsed).unwrap();
+    let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
+    let vertices: Vec<Vec<f64>> = (0..1usize << params.len())
+        .map(|mask| {
+            params
+                .iter()
+                .enumerate()
+                .map(|(i, p)| if mask >> i & 1 == 1 { p.hi } else { p.lo })
+                .collect()
+        })
+        .collect();
+    let values: Vec<Vec<f64>> = evaluator
+        .evaluate_batch(&vertices)
+        .into_iter()
+        .map(|e| e.values.expect("every vertex solves"))
+        .collect();
+    let r = worst(&scene, &criteria, 120, 1);
+    println!("tunnel: {} evaluations, {:?}", r.evaluations, r.status);
+    assert!(r.evaluations <= 120);
+    assert_all_certified(&r);
+    for (c, outcome) in r.criteria.iter().enumerate() {
+        let max = values
+            .iter()
+            .map(|v| v[c])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let min = values.iter().map(|v| v[c]).fold(f64::INFINITY, f64::min);
+        let worst = outcome.worst.best_value.unwrap();
+        let best = outcome.best.best_value.unwrap();
+        assert!(
+            worst >= max - 1e-9 * max.abs(),
+            "{:?} worst {worst} < vertex {max}",
+            outcome.criterion
+        );
+        assert!(
+            best <= min + 1e-9 * min.abs(),
+            "{:?} best {best} > vertex {min}",
+            outcome.criterion
+        );
+    }
 }
 
 #[test]
@@ -125,7 +251,8 @@ fn changing_only_loads_and_slip_limits_never_refactorises() {
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 4.0e5]},
         {"field": "contacts[0].slip_limit", "interval": [2.5e5, 4.0e5]}
     ]);
-    let r = worst(&scene, &[Criterion::Phi6], 30, 7);
+    // Without derivatives, so that the search makes its 30 solves (the walk would certify in 3).
+    let r = worst_with(&scene, &[Criterion::Phi6], 30, 7, false);
     assert!(r.inner.elastic_solves >= 20, "{:?}", r.inner);
     assert_eq!(
         r.inner.factorisations, 1,

@@ -11,7 +11,8 @@
 //! box and backtracked until the Armijo condition s(y) ≥ s(x) + 1e-4 · d·(y − x) holds. It stops
 //! as soon as the relative residual max|d| / |Φ| is below [`CERTIFY_TOL`] (certified), when no
 //! backtracked step improves even from the identity (stagnated: a kink or the resolution of Φ),
-//! at the evaluation `limit`, or on a halt. One point per evaluation.
+//! after a few infeasible trial points (stagnated: the optimum borders a failure region), at
+//! the evaluation `limit`, or on a halt. One point per evaluation.
 
 use super::certificate::{scale, unit_slopes, CERTIFY_TOL};
 use super::session::{Probe, Session};
@@ -28,6 +29,12 @@ const BACKTRACKS: usize = 20;
 const MAX_ITERATIONS: usize = 200;
 /// Coordinates this close to a bound are put on it.
 const SNAP: f64 = 1e-12;
+/// An infeasible trial point shrinks the step by this factor (a failure region is not worth
+/// probing at half steps) ...
+const FAILED_SHRINK: f64 = 0.1;
+/// ... and after this many infeasible trials the ascent ends: the optimum it heads for lies
+/// next to points the solver cannot answer, which no derivative can certify.
+const FAILED_TRIALS: usize = 2;
 
 /// A point of the ascent: unit coordinates, score, projected ascent direction, free set.
 struct Iterate {
@@ -134,6 +141,7 @@ pub(super) fn run(session: &Session, k: usize, start: Vec<f64>, limit: usize) ->
     };
     let n = x.unit.len();
     let mut h: Option<Vec<Vec<f64>>> = None;
+    let mut failed_trials = 0;
     for _ in 0..MAX_ITERATIONS {
         if x.residual() <= CERTIFY_TOL {
             return Status::Certified;
@@ -178,7 +186,14 @@ pub(super) fn run(session: &Session, k: usize, start: Vec<f64>, limit: usize) ->
                     accepted = Some((z, moved));
                     break;
                 }
-                Ok(_) => step *= 0.5,
+                Ok(Some(_)) => step *= 0.5,
+                Ok(None) => {
+                    failed_trials += 1;
+                    if failed_trials >= FAILED_TRIALS {
+                        return Status::Stagnated;
+                    }
+                    step *= FAILED_SHRINK;
+                }
             }
         }
         let Some((z, moved)) = accepted else {

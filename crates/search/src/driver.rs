@@ -129,6 +129,7 @@ fn run_phases(
     } else {
         (dim * m).min(budget / 2)
     };
+    session.set_phase(Phase::Screening);
     let design = screening::design(
         dim,
         budget,

@@ -273,7 +273,8 @@ function dataTables(result) {
       el("td", { class: "num" }, `[${num(p.interval[0])}, ${num(p.interval[1])}]`),
       ...[c.worst, c.best].flatMap((o) => [
         el("td", { class: "num" }, o.best_point ? num(o.best_point[i], 6) : "—"),
-        el("td", { class: "bound" }, boundText(o.active_bounds[i])),
+        el("td", { class: "bound" }, boundText(o.active_bounds[i]),
+          o.gradient && o.gradient[i] ? el("span", { class: "gradient" }, ` ∂Φ/∂θ ${slopeText(o.gradient[i])}`) : null),
       ]),
     ));
     return el("div", { class: "crit-table table-wrap" },
@@ -297,9 +298,24 @@ function dataTables(result) {
             el("td", { class: "num" }, yesNo(c.best.several_optima)), el("td")),
           el("tr", {}, el("th", { scope: "row" }, "Search status"), el("td"),
             el("td", { class: "num" }, c.worst.status), el("td"), el("td", { class: "num" }, c.best.status), el("td")),
+          el("tr", {}, el("th", { scope: "row" }, "Optimality proof (relative residual)"), el("td"),
+            el("td", { class: "num" }, proofText(c.worst.certificate)), el("td"),
+            el("td", { class: "num" }, proofText(c.best.certificate)), el("td")),
         )));
   });
   $("data-tables").replaceChildren(...blocks);
+}
+
+/** A one-sided derivative pair: one number where both sides agree. */
+function slopeText(s) {
+  return s.right === s.left ? num(s.right, 4) : `${num(s.left, 4)} (left) / ${num(s.right, 4)} (right)`;
+}
+
+/** What the exact derivatives prove about an extremum. */
+function proofText(c) {
+  if (!c) return "—";
+  const words = { certified: "certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
+  return c.residual === null || c.residual === undefined ? words[c.verdict] : `${words[c.verdict]} (${num(c.residual, 2)})`;
 }
 
 /** The failed evaluations of a result: where in the box the solver gave no answer, and why. */
