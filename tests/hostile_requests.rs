@@ -422,7 +422,8 @@ fn submit_tunnel_phi3(addr: &str, seed: u64) -> common::Reply {
     post(
         addr,
         "/v1/jobs",
-        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": seed}}),
+        // Without derivatives, so that it runs long (with them it is certified in a few solves).
+        &json!({"example": "tunnel-fault", "settings": {"budget": 300, "criteria": ["phi3"], "seed": seed, "derivatives": false}}),
     )
 }
 
@@ -473,7 +474,8 @@ fn a_cancel_after_the_last_search_evaluation_still_ends_the_job_cancelled() {
     let submitted = post(
         addr,
         "/v1/jobs",
-        &json!({"example": "tunnel-fault", "settings": {"budget": 40, "criteria": ["phi3", "phi5", "phi4"], "seed": 1}}),
+        // Without derivatives: the finite-difference sensitivities are the late phase to catch.
+        &json!({"example": "tunnel-fault", "settings": {"budget": 40, "criteria": ["phi3", "phi5", "phi4"], "seed": 1, "derivatives": false}}),
     );
     let id = submitted.json()["id"].as_str().unwrap().to_string();
     let start = std::time::Instant::now();

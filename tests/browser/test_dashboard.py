@@ -107,6 +107,9 @@ def test_submit_and_watch_progress(page):
     expect(page.locator("#criteria input[value=phi6]")).to_be_checked()
     page.get_by_label("Budget (solves)").fill(str(BUDGET))
     page.get_by_label("Seed").fill("3")
+    # A derivative-free search spends its whole budget: progress to watch (with derivatives
+    # this block is certified in 3 solves).
+    page.get_by_label("Exact derivatives").uncheck()
     page.get_by_role("button", name="Submit job").click()
     page.wait_for_url("**/#/jobs/*")
     job_id = page.url.rsplit("/", 1)[1]
@@ -278,6 +281,7 @@ def test_cancel(page):
     page.get_by_label("Bundled example").check()
     page.get_by_label("Example", exact=True).select_option("block-on-base")
     page.get_by_label("Budget (solves)").fill("5000")
+    page.get_by_label("Exact derivatives").uncheck()
     page.get_by_role("button", name="Submit job").click()
     page.wait_for_url("**/#/jobs/*")
     expect(page.locator("#job-state")).to_have_text("running", timeout=30_000)
@@ -335,6 +339,8 @@ def test_failed_evaluations_are_shown(page):
     expect(page.locator("#stat-failures")).to_have_attribute("data-value", str(failures["count"]))
     expect(page.locator("#job-progress-text")).to_contain_text(f"{failures['count']} failed")
     expect(page.locator("#failures-summary")).to_contain_text("unsettled")
+    # With derivatives, every extremum states what its derivatives prove.
+    expect(page.locator("#data-tables")).to_contain_text("Optimality proof")
     shot(page, "11-failed-evaluations")
     page.goto(BASE + "/#/")
 

@@ -233,6 +233,7 @@ async function submit(event) {
     }
     settings.target_error = percent / 100;
   }
+  if (!$("derivatives").checked) settings.derivatives = false;
   const body = { settings };
   if (sourceIsUpload()) {
     if (!uploaded) return showError("scene", "Choose a scene file (JSON).");
