@@ -271,6 +271,10 @@ pub struct BenchArgs {
     /// Inner-solve budget of each --worst run.
     #[arg(long, default_value_t = 400)]
     pub budget: usize,
+    /// Instead: the cost of the exact derivatives of all criteria along all uncertain data,
+    /// per evaluation on the tunnel (with / without, medians over --runs points).
+    #[arg(long)]
+    pub gradients: bool,
 }
 
 /// `wsm example`.

@@ -197,9 +197,12 @@ pub fn openapi() -> Result<String, WsmError> {
         .map_err(|e| WsmError::io("OpenAPI document", e))
 }
 
-/// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop.
+/// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop, or with
+/// `--gradients` the cost of the exact derivatives.
 pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
-    if args.worst {
+    if args.gradients {
+        wsm_study::bench::run_gradients(&args.sizes, args.runs)
+    } else if args.worst {
         wsm_study::bench::run_worst(&args.sizes, args.budget, args.dd)
     } else {
         wsm_study::bench::run(&args.sizes, args.runs, args.dd)

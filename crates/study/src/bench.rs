@@ -260,7 +260,8 @@ pub fn worst_benchmark(
         &problem,
         &params,
         &settings.criteria,
-    )?;
+    )?
+    .with_derivatives(settings.derivatives);
     let mut cache = wsm_search::EvalCache::new();
     let (outcome, wall) = time(|| {
         wsm_core::scenario::worst::run(
@@ -297,6 +298,64 @@ pub fn worst_benchmark(
             .map(|c| c.worst.best_value.unwrap_or(f64::NAN))
             .collect(),
     })
+}
+
+/// `wsm bench --gradients`: per size, the median time of one evaluation of the tunnel's criteria
+/// at `runs` fixed interior points of its box, without and with the exact derivatives of all
+/// of them along all uncertain data, and their ratio (issue #24: at most 1.5 at 10^4 unknowns).
+pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
+    let mut out = String::from(
+        "Exact derivatives on the tunnel (all criteria along all uncertain data; one thread per evaluation):\n\n| unknowns | uncertain data | criteria | evaluation [s] | with derivatives [s] | ratio |\n|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let probe = StateProblem::new(scaled_scene("tunnel-fault", 1.0)?)?;
+        let factor = (probe.elastic.dofs().n_free() as f64 / n as f64).sqrt();
+        let problem = StateProblem::new(scaled_scene("tunnel-fault", factor)?)?;
+        let params = wsm_core::scene::params::parameters(&problem.scene)?;
+        let criteria = problem.scene.search.criteria.clone();
+        let plain =
+            wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)?;
+        let exact =
+            wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)?
+                .with_derivatives(true);
+        // Fixed interior points: a low-discrepancy walk through the box.
+        let points: Vec<Vec<f64>> = (0..runs.max(1))
+            .map(|r| {
+                params
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| {
+                        let u = ((r + 1) as f64 * (0.618_034 + 0.1 * i as f64)).fract();
+                        p.lo + (0.1 + 0.8 * u) * (p.hi - p.lo)
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut without = Vec::new();
+        let mut with = Vec::new();
+        for x in &points {
+            without.push(time(|| plain.evaluate_one(x)).1);
+            let (e, t) = time(|| exact.evaluate_one(x));
+            if e.gradient.is_empty() {
+                return Err(WsmError::io(
+                    "gradient benchmark",
+                    format!("no derivatives at {x:?}: {:?}", e.error),
+                ));
+            }
+            with.push(t);
+        }
+        let (a, b) = (median(without), median(with));
+        out.push_str(&format!(
+            "| {} | {} | {} | {:.4} | {:.4} | {:.2} |\n",
+            problem.elastic.dofs().n_free(),
+            params.len(),
+            criteria.len(),
+            a,
+            b,
+            b / a
+        ));
+    }
+    Ok(out)
 }
 
 /// `wsm bench --worst`: the worst-scenario loop on the tunnel, both solvers, as Markdown.
