@@ -37,11 +37,12 @@ for _ in $(seq 1 600); do
 done
 if [ "$state" = succeeded ]; then ok "$(grep -o '"evaluations":[0-9]*' "$body" | head -1)"; else fail "state '$state' $(cat "$body")"; fi
 
-step "fetch the result: Φ values, worst data, gradients and certificates present"
+step "fetch the result: data, gradient, certificate"
 code=$(curl -s -o "$body" -w '%{http_code}' "$BASE/v1/jobs/$id/result")
 if [ "$code" = 200 ] && grep -q '"criterion":"phi3"' "$body" && grep -q '"criterion":"phi6"' "$body" \
    && grep -q '"best_value":[-0-9]' "$body" && grep -q '"best_point":\[' "$body" \
-   && grep -q '"gradient":\[{"right":' "$body" && grep -q '"certificate":{"verdict":"' "$body"; then
+   && grep -qF '"data":{"boundary[2].traction[0]":' "$body" \
+   && grep -qF '"gradient":{"boundary[2].traction[0]":{"right":' "$body" && grep -q '"certificate":{"verdict":"' "$body"; then
   ok "$(grep -o '"best_value":[^,]*' "$body" | head -1), $(grep -o '"verdict":"[^"]*"' "$body" | sort | uniq -c | tr -s ' ' | tr '\n' ' ')"
 else fail "HTTP $code"; fi
 

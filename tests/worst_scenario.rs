@@ -104,7 +104,11 @@ fn monotone_displacement_criterion_worst_is_the_max_load_min_stiffness_vertex() 
     assert!(proof.active.iter().all(|b| b.rate < 0.0), "{proof:?}");
     // The gradient is Φ3's: ∂Φ3/∂E = −Φ3/E exactly (Φ3 ∝ 1/E).
     let (value, e) = (c.worst.best_value.unwrap(), 5.0e9);
-    let d_e = c.worst.gradient[1];
+    let d_e = c.worst.gradient["materials.m.E"];
+    // The result speaks in field paths: the worst data and gradient by the scene's names.
+    assert_eq!(c.worst.data["materials.m.E"], 5.0e9);
+    assert_eq!(c.worst.data["boundary[1].traction[1]"], -2.0e6);
+    assert_eq!(c.worst.gradient.len(), 2);
     assert!((d_e.right + value / e).abs() <= 1e-6 * value / e, "{d_e:?}");
     // Without derivatives the same vertices are found, with no certificate.
     let plain = worst_with(&loaded_block(), &[Criterion::Phi3], 40, 7, false);

@@ -92,7 +92,7 @@ pub fn search(
         .into_iter()
         .zip(sensitivities)
         .enumerate()
-        .map(|(k, (status, s))| objective_result(&session, k, status, s))
+        .map(|(k, (status, s))| objective_result(&session, k, status, s, &problem.names))
         .collect();
     let status = objectives
         .iter()
@@ -329,11 +329,17 @@ fn certified(session: &Session, k: usize, status: Status) -> (Option<Certificate
     (Some(proof), status)
 }
 
+/// Name of parameter `i` among `names`.
+fn name(names: &[String], i: usize) -> String {
+    names.get(i).cloned().unwrap_or_else(|| format!("θ{i}"))
+}
+
 fn objective_result(
     session: &Session,
     k: usize,
     status: Status,
     sensitivities: Vec<Option<f64>>,
+    names: &[String],
 ) -> ObjectiveResult {
     let objective = session.objectives()[k];
     let space = session.space;
@@ -342,7 +348,19 @@ fn objective_result(
     let gradient = session
         .best_probe(k)
         .and_then(|p| p.slopes)
-        .unwrap_or_default();
+        .unwrap_or_default()
+        .into_iter()
+        .enumerate()
+        .map(|(i, s)| (name(names, i), s))
+        .collect();
+    let data = best.as_ref().map_or_else(Default::default, |(x, _)| {
+        space
+            .to_physical(x)
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| (name(names, i), v))
+            .collect()
+    });
     let ranked = session.ranked(k);
     let optima: Vec<Vec<f64>> = optima::representatives(&ranked, OPTIMUM_TOL, usize::MAX)
         .iter()
@@ -362,6 +380,7 @@ fn objective_result(
             .as_ref()
             .map_or_else(Vec::new, |(x, _)| space.active_bounds(x)),
         sensitivities,
+        data,
         gradient,
         certificate,
         history: session.history(k),

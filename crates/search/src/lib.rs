@@ -52,6 +52,7 @@ pub use certificate::{BoundProof, Certificate, Verdict, CERTIFY_TOL};
 pub use driver::search;
 
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -181,6 +182,9 @@ pub struct SearchProblem {
     pub max_seconds: Option<f64>,
     /// Seed of every random choice; the result is a function of the problem and the seed.
     pub seed: u64,
+    /// Names of the parameters, which key the result's `data` and `gradient` (a parameter
+    /// without one is `θ<index>`).
+    pub names: Vec<String>,
 }
 
 /// The phase a progress report comes from.
@@ -327,10 +331,13 @@ pub struct ObjectiveResult {
     /// pointing into the box. `None` for fixed parameters, when Φ = 0, or when the step was not
     /// evaluated.
     pub sensitivities: Vec<Option<f64>>,
-    /// Per parameter, ∂Φ/∂θ_i at the best point in the criterion's unit per the parameter's unit
-    /// (both one-sided values), empty without derivatives.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub gradient: Vec<OneSided>,
+    /// The best point by parameter name (the same numbers as `best_point`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub data: BTreeMap<String, f64>,
+    /// By parameter name, ∂Φ/∂θ at the best point in the criterion's unit per the parameter's
+    /// unit (both one-sided values); empty without derivatives.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub gradient: BTreeMap<String, OneSided>,
     /// What the exact derivatives prove about the best point (absent when nothing was found).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub certificate: Option<Certificate>,
@@ -354,7 +361,8 @@ impl ObjectiveResult {
             optima: Vec::new(),
             active_bounds: Vec::new(),
             sensitivities: vec![None; n],
-            gradient: Vec::new(),
+            data: BTreeMap::new(),
+            gradient: BTreeMap::new(),
             certificate: None,
             history: Vec::new(),
         }

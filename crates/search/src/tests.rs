@@ -66,6 +66,7 @@ fn problem(bounds: Vec<[f64; 2]>, objectives: &[(usize, Sense)], budget: usize) 
         budget,
         max_seconds: None,
         seed: 2024,
+        names: Vec::new(),
     }
 }
 
@@ -642,12 +643,21 @@ fn monotone_criteria_are_certified_at_their_vertices_by_the_walk() {
         assert_eq!(c.active.len(), 3);
         let sign = if o.sense == Sense::Max { 1.0 } else { -1.0 };
         assert!(c.active.iter().all(|b| sign * b.rate < 0.0), "{c:?}");
-        // Gradient and normalised sensitivities are the exact ones at the vertex.
+        // Gradient and normalised sensitivities are the exact ones at the vertex, keyed by
+        // parameter (unnamed here: θ<index>), and so is the point.
         let g = &f(vertex).1[o.criterion];
-        assert_eq!(
-            o.gradient,
-            g.iter().map(|&d| OneSided::both(d)).collect::<Vec<_>>()
-        );
+        let keyed = |v: Vec<(usize, f64)>| -> Vec<(String, f64)> {
+            v.into_iter().map(|(i, x)| (format!("θ{i}"), x)).collect()
+        };
+        let gradient: Vec<(String, f64)> = o
+            .gradient
+            .iter()
+            .map(|(n, s)| (n.clone(), s.right))
+            .collect();
+        assert_eq!(gradient, keyed(g.iter().copied().enumerate().collect()));
+        assert!(o.gradient.values().all(OneSided::is_differentiable));
+        let data: Vec<(String, f64)> = o.data.iter().map(|(n, x)| (n.clone(), *x)).collect();
+        assert_eq!(data, keyed(vertex.iter().copied().enumerate().collect()));
         let s0 = g[0] * 1.0 / value.abs();
         assert!((o.sensitivities[0].unwrap() - s0).abs() <= 1e-15 * s0.abs());
         assert_eq!(o.sensitivities[3], None);

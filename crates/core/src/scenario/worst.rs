@@ -234,6 +234,12 @@ pub fn run(
         budget: settings.budget,
         max_seconds: settings.max_seconds,
         seed: settings.seed,
+        names: problem
+            .scene
+            .uncertain
+            .iter()
+            .map(|u| u.field.clone())
+            .collect(),
     };
     let result = search(&search_problem, evaluator, cache, control)?;
     let mut objectives = result.objectives.into_iter();

@@ -274,7 +274,7 @@ function dataTables(result) {
       ...[c.worst, c.best].flatMap((o) => [
         el("td", { class: "num" }, o.best_point ? num(o.best_point[i], 6) : "—"),
         el("td", { class: "bound" }, boundText(o.active_bounds[i]),
-          o.gradient && o.gradient[i] ? el("span", { class: "gradient" }, ` ∂Φ/∂θ ${slopeText(o.gradient[i])}`) : null),
+          o.gradient && o.gradient[p.field] ? el("span", { class: "gradient" }, ` ∂Φ/∂θ ${slopeText(o.gradient[p.field])}`) : null),
       ]),
     ));
     return el("div", { class: "crit-table table-wrap" },
