@@ -368,19 +368,26 @@ impl DirectContact {
         Ok(factor)
     }
 
-    /// x = K⁺ b (pinned entries zero on input and output).
-    fn pseudo_solve(&self, factor: &StiffnessFactor, b: &mut [f64]) {
-        for &p in &self.kernel.pinned {
-            b[p] = 0.0;
+    /// X = K⁺ B for the `columns` right-hand sides stored one after the other in `b`, in one
+    /// multi-right-hand-side solve per body (pinned entries zero on input and output).
+    fn pseudo_solve(&self, factor: &StiffnessFactor, b: &mut [f64], columns: usize) {
+        if columns == 0 {
+            return;
         }
-        let n = b.len();
-        let mut x = faer::MatMut::from_column_major_slice_mut(b, n, 1);
+        let n = b.len() / columns;
+        let zero_pinned = |b: &mut [f64]| {
+            for column in b.chunks_exact_mut(n) {
+                for &p in &self.kernel.pinned {
+                    column[p] = 0.0;
+                }
+            }
+        };
+        zero_pinned(b);
+        let mut x = faer::MatMut::from_column_major_slice_mut(b, n, columns);
         for (block, part) in self.bodies.iter().zip(&factor.parts) {
             block.solve_in_place(part, x.as_mut());
         }
-        for &p in &self.kernel.pinned {
-            b[p] = 0.0;
-        }
+        zero_pinned(b);
     }
 
     /// x = P K⁺ P b: the symmetric generalised inverse of the TFETI-style projected formulation.
@@ -389,9 +396,18 @@ impl DirectContact {
     /// keeps d and C on the scale of the true displacements (relative QP tolerances stay
     /// meaningful for slender floating bodies).
     fn projected_solve(&self, factor: &StiffnessFactor, b: &mut [f64]) {
-        self.kernel.project(b);
-        self.pseudo_solve(factor, b);
-        self.kernel.project(b);
+        self.projected_solve_columns(factor, b, 1);
+    }
+
+    /// [`Self::projected_solve`] of `columns` right-hand sides stored one after the other.
+    fn projected_solve_columns(&self, factor: &StiffnessFactor, b: &mut [f64], columns: usize) {
+        if columns == 0 {
+            return;
+        }
+        let n = b.len() / columns;
+        b.chunks_exact_mut(n).for_each(|c| self.kernel.project(c));
+        self.pseudo_solve(factor, b, columns);
+        b.chunks_exact_mut(n).for_each(|c| self.kernel.project(c));
     }
 
     /// C' = B P K⁺ P Bᵀ from C = B K⁺ Bᵀ: with Z = K⁺R, X = B Z, Q = Rᵀ Z, M = (RᵀR)⁻¹ and
@@ -402,14 +418,12 @@ impl DirectContact {
             return c;
         }
         let (n, m) = (self.kernel.modes.nrows(), self.geometry.dim());
-        let mut z = Mat::<f64>::zeros(n, k);
-        for j in 0..k {
-            let mut col: Vec<f64> = (0..n).map(|i| self.kernel.modes[(i, j)]).collect();
-            self.pseudo_solve(factor, &mut col);
-            for (i, v) in col.into_iter().enumerate() {
-                z[(i, j)] = v;
-            }
-        }
+        let mut columns: Vec<f64> = (0..k)
+            .flat_map(|j| (0..n).map(move |i| (i, j)))
+            .map(|(i, j)| self.kernel.modes[(i, j)])
+            .collect();
+        self.pseudo_solve(factor, &mut columns, k);
+        let z = Mat::<f64>::from_fn(n, k, |i, j| columns[j * n + i]);
         let x = Mat::<f64>::from_fn(m, k, |r, j| {
             self.geometry.rows[r]
                 .free
@@ -562,19 +576,43 @@ impl DirectContact {
         multipliers: &[f64],
         rigid: &[f64],
     ) -> Vec<f64> {
-        let mut u_free = rhs.to_vec();
-        for (row, l) in self.geometry.rows.iter().zip(multipliers) {
-            for &(i, c) in &row.free {
-                u_free[i] -= c * l;
+        self.recover_all(factor, &[(rhs, multipliers, rigid)])
+            .pop()
+            .unwrap_or_default()
+    }
+
+    /// [`Self::recover`] for several (f, λ, α), in one multi-right-hand-side solve.
+    fn recover_all(
+        &self,
+        factor: &StiffnessFactor,
+        states: &[(&[f64], &[f64], &[f64])],
+    ) -> Vec<Vec<f64>> {
+        let n = states.first().map_or(0, |(rhs, _, _)| rhs.len());
+        let mut buffer: Vec<f64> = Vec::with_capacity(n * states.len());
+        for (rhs, multipliers, _) in states {
+            let start = buffer.len();
+            buffer.extend_from_slice(rhs);
+            let u_free = &mut buffer[start..];
+            for (row, l) in self.geometry.rows.iter().zip(multipliers.iter()) {
+                for &(i, c) in &row.free {
+                    u_free[i] -= c * l;
+                }
             }
         }
-        self.projected_solve(factor, &mut u_free);
-        for (j, a) in rigid.iter().enumerate() {
-            for (i, ui) in u_free.iter_mut().enumerate() {
-                *ui += self.kernel.modes[(i, j)] * a;
-            }
-        }
-        u_free
+        self.projected_solve_columns(factor, &mut buffer, states.len());
+        buffer
+            .chunks_exact(n.max(1))
+            .zip(states)
+            .map(|(u, (_, _, rigid))| {
+                let mut u_free = u.to_vec();
+                for (j, a) in rigid.iter().enumerate() {
+                    for (i, ui) in u_free.iter_mut().enumerate() {
+                        *ui += self.kernel.modes[(i, j)] * a;
+                    }
+                }
+                u_free
+            })
+            .collect()
     }
 
     /// Turn an infeasible equilibrium into a message naming the body and the motion.

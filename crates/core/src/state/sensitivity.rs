@@ -50,6 +50,19 @@ pub(super) struct ElasticState<'a> {
 }
 
 /// The tangent fields of one direction.
+/// The data derivative of the elastic contact problem along one parameter.
+struct ElasticDerivative {
+    /// b on the free DOFs.
+    residual: Vec<f64>,
+    /// du_d.
+    fixed: Vec<f64>,
+    /// Derivatives of the multiplier bounds (0 for infinite ones).
+    lower: Vec<f64>,
+    upper: Vec<f64>,
+    /// Σ_k w_k τ(D_k; u, T) per element, when the law changes along the parameter.
+    stress_part: Option<Vec<[f64; 4]>>,
+}
+
 struct Tangent {
     temperature: Option<Vec<f64>>,
     displacement: Option<Vec<[f64; 2]>>,
@@ -79,49 +92,133 @@ impl StateProblem {
             stresses: state.elastic.as_ref().map(|e| e.stresses),
         };
         let values = per_region(&self.criteria, &fields);
-        stencils
+        Ok(self
+            .tangents(state, stencils)?
             .iter()
-            .map(|stencil| {
-                let (plus, minus) = self.tangents(state, stencil)?;
+            .map(|(plus, minus)| {
                 let right = region_derivatives(&self.criteria, &fields, &plus.fields());
-                let left = match &minus {
+                let left = match minus {
                     Some(m) => region_derivatives(&self.criteria, &fields, &m.fields())
                         .map(|d| d.iter().map(|v| -v).collect()),
                     None => right.clone(),
                 };
-                Ok(std::array::from_fn(|i| {
-                    one_sided(&values[i], &right[i], &left[i])
-                }))
+                std::array::from_fn(|i| one_sided(&values[i], &right[i], &left[i]))
+            })
+            .collect())
+    }
+
+    /// Per stencil, the tangent fields along +θ_j and, where the state is only one-sided
+    /// differentiable, along −θ_j (`None`: minus the first). The contact tangents of all
+    /// stencils share their solves with K (one multi-right-hand-side solve for all).
+    fn tangents(
+        &self,
+        state: &SolvedState,
+        stencils: &[Stencil],
+    ) -> Result<Vec<(Tangent, Option<Tangent>)>, WsmError> {
+        let d_temperatures: Vec<Option<Vec<f64>>> = stencils
+            .iter()
+            .map(|stencil| {
+                state
+                    .temperature
+                    .map(|t| self.temperature_derivative(state.data, t, stencil))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        let Some(el) = &state.elastic else {
+            return Ok(d_temperatures
+                .into_iter()
+                .map(|temperature| {
+                    let plus = Tangent {
+                        temperature,
+                        displacement: None,
+                        stresses: None,
+                    };
+                    (plus, None)
+                })
+                .collect());
+        };
+        let parts: Vec<ElasticDerivative> = stencils
+            .iter()
+            .zip(&d_temperatures)
+            .map(|(stencil, dt)| self.elastic_derivative(state, el, stencil, dt.as_deref()))
+            .collect::<Result<_, _>>()?;
+        let (lo, hi) = self.contact.geometry.bounds(state.data);
+        let displacement_scale = el
+            .displacement
+            .iter()
+            .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs()));
+        let point = ContactPoint {
+            multipliers: &el.contact.multipliers,
+            gaps: &el.contact.gaps,
+            lower: &lo,
+            upper: &hi,
+            displacement_scale,
+        };
+        let derivatives: Vec<DataDerivative> = parts
+            .iter()
+            .map(|p| DataDerivative {
+                residual: &p.residual,
+                fixed: &p.fixed,
+                lower: &p.lower,
+                upper: &p.upper,
+            })
+            .collect();
+        let tangents = self.contact.tangents(el.factor, &point, &derivatives)?;
+        let elastic = &self.elastic;
+        parts
+            .iter()
+            .zip(&d_temperatures)
+            .zip(tangents)
+            .map(|((part, d_temperature), tangent)| {
+                let fields = |du_free: &[f64], sign: f64| -> Result<Tangent, WsmError> {
+                    let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
+                    let du = elastic.dofs().expand(du_free, &signed(&part.fixed));
+                    let dt = d_temperature.as_deref().map(signed);
+                    let mut stresses = elastic.stress_increments(state.data, &du, dt.as_deref())?;
+                    if let Some(stress_part) = &part.stress_part {
+                        for (s, p) in stresses.iter_mut().zip(stress_part) {
+                            for (sc, pc) in s.stress.iter_mut().zip(p) {
+                                *sc += sign * pc;
+                            }
+                        }
+                    }
+                    Ok(Tangent {
+                        temperature: dt,
+                        displacement: Some(du),
+                        stresses: Some(stresses),
+                    })
+                };
+                let plus = fields(&tangent.plus, 1.0)?;
+                let minus = match &tangent.minus {
+                    Some(du) => Some(fields(du, -1.0)?),
+                    None => None,
+                };
+                Ok((plus, minus))
             })
             .collect()
     }
 
-    /// The tangent fields along +θ_j and, where the state is only one-sided differentiable,
-    /// along −θ_j (`None`: minus the first).
-    fn tangents(
+    /// The data derivative of the elastic contact problem along the stencil's parameter (with
+    /// the temperature derivative `d_temperature`): b = Σ_k w_k (f(D_k, T + t_k dT) − K(D_k) u),
+    /// the derivatives of u_d and of the multiplier bounds, and the part of dτ from the law's
+    /// change, Σ_k w_k τ(D_k; u, T), when the law changes.
+    fn elastic_derivative(
         &self,
         state: &SolvedState,
+        el: &ElasticState,
         stencil: &Stencil,
-    ) -> Result<(Tangent, Option<Tangent>), WsmError> {
-        let d_temperature = match state.temperature {
-            Some(t) => Some(self.temperature_derivative(state.data, t, stencil)?),
-            None => None,
-        };
-        let Some(el) = &state.elastic else {
-            let plus = Tangent {
-                temperature: d_temperature,
-                displacement: None,
-                stresses: None,
-            };
-            return Ok((plus, None));
-        };
+        d_temperature: Option<&[f64]>,
+    ) -> Result<ElasticDerivative, WsmError> {
         let elastic = &self.elastic;
         let geometry = &self.contact.geometry;
         let m = geometry.dim();
-        let mut residual = vec![0.0; elastic.dofs().n_free()];
-        let mut fixed = vec![0.0; elastic.dofs().n_fixed()];
-        let (mut lower, mut upper) = (vec![0.0; m], vec![0.0; m]);
-        let mut stress_part: Option<Vec<[f64; 4]>> = None;
+        let mut part = ElasticDerivative {
+            residual: vec![0.0; elastic.dofs().n_free()],
+            fixed: vec![0.0; elastic.dofs().n_fixed()],
+            lower: vec![0.0; m],
+            upper: vec![0.0; m],
+            stress_part: None,
+        };
         let materials = elastic.zone_materials(state.data)?;
         let coefficients: Vec<Vec<[f64; 2]>> = stencil
             .points
@@ -137,23 +234,24 @@ impl StateProblem {
                 || d.reference_temperature != state.data.reference_temperature;
         }
         for ((t, w, d), coefficients) in stencil.points.iter().zip(&coefficients) {
-            let temperature: Option<Vec<f64>> =
-                state.temperature.map(|temp| match &d_temperature {
-                    Some(dt) => temp.iter().zip(dt).map(|(a, b)| a + t * b).collect(),
-                    None => temp.to_vec(),
-                });
+            let temperature: Option<Vec<f64>> = state.temperature.map(|temp| match d_temperature {
+                Some(dt) => temp.iter().zip(dt).map(|(a, b)| a + t * b).collect(),
+                None => temp.to_vec(),
+            });
             let fixed_k = elastic.fixed_values(d)?;
             let loads = elastic.loads(d, temperature.as_deref())?;
             let rhs = elastic.rhs_with(coefficients, &loads, &fixed_k)?;
-            add_scaled(&mut residual, *w, &rhs);
-            add_scaled(&mut fixed, *w, &fixed_k);
+            add_scaled(&mut part.residual, *w, &rhs);
+            add_scaled(&mut part.fixed, *w, &fixed_k);
             let (lo, hi) = geometry.bounds(d);
-            add_scaled(&mut lower, *w, &finite_or_zero(&lo));
-            add_scaled(&mut upper, *w, &finite_or_zero(&hi));
+            add_scaled(&mut part.lower, *w, &finite_or_zero(&lo));
+            add_scaled(&mut part.upper, *w, &finite_or_zero(&hi));
             if law_varies {
                 let stresses = elastic.stresses(d, el.displacement, state.temperature)?;
-                let part = stress_part.get_or_insert_with(|| vec![[0.0; 4]; stresses.len()]);
-                for (p, s) in part.iter_mut().zip(&stresses) {
+                let sum = part
+                    .stress_part
+                    .get_or_insert_with(|| vec![[0.0; 4]; stresses.len()]);
+                for (p, s) in sum.iter_mut().zip(&stresses) {
                     for (pc, sc) in p.iter_mut().zip(&s.stress) {
                         *pc += w * sc;
                     }
@@ -166,51 +264,9 @@ impl StateProblem {
                 .operator()
                 .assemble(&weighted_sum(stencil, &coefficients))?;
             let ku = elastic.operator().apply(&values, &el.contact.u_free);
-            add_scaled(&mut residual, -1.0, &ku);
+            add_scaled(&mut part.residual, -1.0, &ku);
         }
-        let (lo, hi) = geometry.bounds(state.data);
-        let displacement_scale = el
-            .displacement
-            .iter()
-            .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs()));
-        let point = ContactPoint {
-            multipliers: &el.contact.multipliers,
-            gaps: &el.contact.gaps,
-            lower: &lo,
-            upper: &hi,
-            displacement_scale,
-        };
-        let derivative = DataDerivative {
-            residual: &residual,
-            fixed: &fixed,
-            lower: &lower,
-            upper: &upper,
-        };
-        let tangent = self.contact.tangent(el.factor, &point, &derivative)?;
-        let fields = |du_free: &[f64], sign: f64| -> Result<Tangent, WsmError> {
-            let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
-            let du = elastic.dofs().expand(du_free, &signed(&fixed));
-            let dt = d_temperature.as_deref().map(signed);
-            let mut stresses = elastic.stress_increments(state.data, &du, dt.as_deref())?;
-            if let Some(part) = &stress_part {
-                for (s, p) in stresses.iter_mut().zip(part) {
-                    for (sc, pc) in s.stress.iter_mut().zip(p) {
-                        *sc += sign * pc;
-                    }
-                }
-            }
-            Ok(Tangent {
-                temperature: dt,
-                displacement: Some(du),
-                stresses: Some(stresses),
-            })
-        };
-        let plus = fields(&tangent.plus, 1.0)?;
-        let minus = match &tangent.minus {
-            Some(du) => Some(fields(du, -1.0)?),
-            None => None,
-        };
-        Ok((plus, minus))
+        Ok(part)
     }
 
     /// dT along the stencil's parameter: K_h dT_f = Σ_k w_k (q(D_k) − K_h(D_k) T_f) on the free

@@ -20,7 +20,8 @@
 //! direction (the state is differentiable) and the derivative along −ε is minus that along +ε;
 //! with them it is computed separately and the state is only one-sided differentiable.
 //! C and the factors of K are those of the state solve: a derivative costs one projected solve
-//! with K, one with K for the recovery, and one QP on the (mostly fixed) active set.
+//! with K, one with K for the recovery, and one QP on the (mostly fixed) active set; the solves
+//! of all directions are made together, as one multi-right-hand-side solve each.
 
 use super::{DirectContact, StiffnessFactor};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
@@ -85,42 +86,90 @@ pub struct TangentDisplacement {
 }
 
 impl DirectContact {
-    /// The derivative of the contact solution (`multipliers`, `gaps` of the state with bounds
-    /// `lower`, `upper`) along the data derivative `dd`, with the state's factor.
-    pub fn tangent(
+    /// The derivatives of the contact solution (`multipliers`, `gaps` of the state with bounds
+    /// `lower`, `upper`) along each data derivative of `directions`, with the state's factor:
+    /// the solves with K of all directions are made together (one multi-right-hand-side solve
+    /// for d', one for the recovery), the tangent QPs one by one.
+    pub fn tangents(
         &self,
         factor: &StiffnessFactor,
         state: &ContactPoint,
-        dd: &DataDerivative,
-    ) -> Result<TangentDisplacement, WsmError> {
+        directions: &[DataDerivative],
+    ) -> Result<Vec<TangentDisplacement>, WsmError> {
+        let Some(first) = directions.first() else {
+            return Ok(Vec::new());
+        };
+        let n = first.residual.len();
         let motions = classify(state);
         let free_motions = self
             .kernel
             .free_motions(&self.geometry, state.lower, state.upper)?;
-        let solve = |sign: f64| -> Result<Vec<f64>, WsmError> {
-            let b: Vec<f64> = dd.residual.iter().map(|v| sign * v).collect();
-            let fixed: Vec<f64> = dd.fixed.iter().map(|v| sign * v).collect();
-            let (dlambda, dalpha) =
-                self.tangent_multipliers(factor, &motions, &b, &fixed, sign, dd)?;
-            let mut du = self.recover(factor, &b, &dlambda, &dalpha);
-            remove_components(free_motions.as_ref(), &mut du);
-            Ok(du)
+        // x0 = P K⁺ P b of every direction; along −ε it is −x0.
+        let mut x0: Vec<f64> = directions
+            .iter()
+            .flat_map(|dd| dd.residual.iter().copied())
+            .collect();
+        if self.geometry.dim() > 0 || self.kernel_dim() > 0 {
+            self.projected_solve_columns(factor, &mut x0, directions.len());
+        }
+        let x0: Vec<&[f64]> = x0.chunks_exact(n.max(1)).collect();
+        let signed = |v: &[f64], sign: f64| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
+        // (b, dλ, dα) of one direction and sign.
+        let multipliers = |j: usize, sign: f64| -> Result<[Vec<f64>; 3], WsmError> {
+            let dd = &directions[j];
+            let b = signed(dd.residual, sign);
+            let (dlambda, dalpha) = self.tangent_multipliers(
+                factor,
+                &motions,
+                &signed(x0.get(j).copied().unwrap_or(&[]), sign),
+                &b,
+                &signed(dd.fixed, sign),
+                sign,
+                dd,
+            )?;
+            Ok([b, dlambda, dalpha])
         };
-        let plus = solve(1.0)?;
-        let weak = motions.iter().enumerate().any(|(r, m)| match m {
-            RowMotion::WeakLower | RowMotion::WeakUpper => true,
-            RowMotion::Pinched => dd.lower[r] != dd.upper[r],
-            _ => false,
-        });
-        let minus = if weak { Some(solve(-1.0)?) } else { None };
-        Ok(TangentDisplacement { plus, minus })
+        let recover = |states: &[[Vec<f64>; 3]]| -> Vec<Vec<f64>> {
+            let views: Vec<(&[f64], &[f64], &[f64])> = states
+                .iter()
+                .map(|[b, l, a]| (b.as_slice(), l.as_slice(), a.as_slice()))
+                .collect();
+            let mut du = self.recover_all(factor, &views);
+            for u in &mut du {
+                remove_components(free_motions.as_ref(), u);
+            }
+            du
+        };
+        let plus_states: Vec<[Vec<f64>; 3]> = (0..directions.len())
+            .map(|j| multipliers(j, 1.0))
+            .collect::<Result<_, _>>()?;
+        let plus = recover(&plus_states);
+        plus.into_iter()
+            .enumerate()
+            .map(|(j, plus)| {
+                let dd = &directions[j];
+                let weak = motions.iter().enumerate().any(|(r, m)| match m {
+                    RowMotion::WeakLower | RowMotion::WeakUpper => true,
+                    RowMotion::Pinched => dd.lower[r] != dd.upper[r],
+                    _ => false,
+                });
+                let minus = if weak {
+                    recover(&[multipliers(j, -1.0)?]).pop()
+                } else {
+                    None
+                };
+                Ok(TangentDisplacement { plus, minus })
+            })
+            .collect()
     }
 
-    /// (dλ, dα) of the tangent QP for the signed data derivative.
+    /// (dλ, dα) of the tangent QP for the signed data derivative (`x0` = P K⁺ P b).
+    #[allow(clippy::too_many_arguments)]
     fn tangent_multipliers(
         &self,
         factor: &StiffnessFactor,
         motions: &[RowMotion],
+        x0: &[f64],
         b: &[f64],
         fixed: &[f64],
         sign: f64,
@@ -130,13 +179,11 @@ impl DirectContact {
         if m == 0 && self.kernel_dim() == 0 {
             return Ok((Vec::new(), Vec::new()));
         }
-        let mut x0 = b.to_vec();
-        self.projected_solve(factor, &mut x0);
         let d: Vec<f64> = self
             .geometry
             .rows
             .iter()
-            .map(|row| row.dot(&x0) + row.dot_fixed(fixed))
+            .map(|row| row.dot(x0) + row.dot_fixed(fixed))
             .collect();
         let (inf, ninf) = (f64::INFINITY, f64::NEG_INFINITY);
         let (lo, hi): (Vec<f64>, Vec<f64>) = motions
