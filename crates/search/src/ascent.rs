@@ -132,13 +132,25 @@ fn bfgs_update(h: &mut [Vec<f64>], s: &[f64], y: &[f64]) {
 
 /// Ascend objective `k` from the evaluated unit point `start` while the run's evaluation count
 /// stays within `limit`; the status says why it stopped (`Certified` when the residual is below
-/// [`CERTIFY_TOL`]).
-pub(super) fn run(session: &Session, k: usize, start: Vec<f64>, limit: usize) -> Status {
+/// [`CERTIFY_TOL`]), with the unit point where the ascent ended (`None` if the start gave no
+/// derivatives).
+pub(super) fn run(
+    session: &Session,
+    k: usize,
+    start: Vec<f64>,
+    limit: usize,
+) -> (Status, Option<Vec<f64>>) {
     let mut x = match visit(session, k, start) {
         Ok(Some(x)) => x,
-        Ok(None) => return Status::Stagnated,
-        Err(stop) => return stop,
+        Ok(None) => return (Status::Stagnated, None),
+        Err(stop) => return (stop, None),
     };
+    let status = climb(session, k, &mut x, limit);
+    (status, Some(x.unit))
+}
+
+/// The iterations of [`run`] from the evaluated iterate `x`, which ends where the ascent did.
+fn climb(session: &Session, k: usize, x: &mut Iterate, limit: usize) -> Status {
     let n = x.unit.len();
     let mut h: Option<Vec<Vec<f64>>> = None;
     let mut failed_trials = 0;
@@ -222,7 +234,7 @@ pub(super) fn run(session: &Session, k: usize, start: Vec<f64>, limit: usize) ->
             });
             bfgs_update(estimate, &moved, &change);
         }
-        x = z;
+        *x = z;
     }
     Status::Stagnated
 }

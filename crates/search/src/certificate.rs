@@ -51,6 +51,10 @@ pub struct Certificate {
     pub residual: Option<f64>,
     /// The bounds the point sits on, each with the rate that proves (or disproves) it.
     pub active: Vec<BoundProof>,
+    /// How many local searches (the vertex walk, quasi-Newton ascents from different starts)
+    /// ended at this point (within 1e-6 of the unit box). More than one is evidence, not proof,
+    /// that no nearby basin is better; 0 when the point was found otherwise.
+    pub starts: usize,
 }
 
 /// Per free datum j: the one-sided derivatives of the score along the unit coordinate u_j,
@@ -100,6 +104,7 @@ pub(super) fn certify(
             verdict: Verdict::NoDerivatives,
             residual: None,
             active: Vec::new(),
+            starts: 0,
         };
     };
     let score_slopes = unit_slopes(space, sense, slopes);
@@ -131,6 +136,7 @@ pub(super) fn certify(
         },
         residual: Some(residual),
         active,
+        starts: 0,
     }
 }
 

@@ -47,6 +47,9 @@ const RUNNER_UP_GAP: f64 = 0.5;
 /// Basin tops this close (relative) to the best after the coarse polish are all refined.
 const TIE_TOL: f64 = 1e-3;
 
+/// Local searches that end this close (unit box) to the reported point reached the same point.
+const SAME_POINT: f64 = 1e-6;
+
 /// Random stream ids.
 const SCREENING_STREAM: u64 = 0;
 const SWARM_STREAM: u64 = 1;
@@ -239,7 +242,10 @@ fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
     let mut ended: Option<(f64, Status)> = None;
     for (i, x) in tops.into_iter().enumerate() {
         let cap = runner_up_cap(session, i, limit);
-        let status = ascent::run(session, k, x, cap);
+        let (status, end) = ascent::run(session, k, x, cap);
+        if let Some(end) = end {
+            session.note_end(k, end);
+        }
         if is_halt(status) {
             return status;
         }
@@ -311,13 +317,14 @@ fn certified(session: &Session, k: usize, status: Status) -> (Option<Certificate
         return (None, status);
     };
     let sense = session.objectives()[k].sense;
-    let proof = certificate::certify(
+    let mut proof = certificate::certify(
         session.space,
         sense,
         &probe.unit,
         probe.value,
         probe.slopes.as_deref(),
     );
+    proof.starts = session.ends_near(k, &probe.unit, SAME_POINT);
     let status = match (status, proof.verdict) {
         (
             Status::Certified | Status::Completed | Status::BudgetExhausted | Status::Stagnated,

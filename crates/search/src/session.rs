@@ -63,6 +63,8 @@ struct Ledger<'a> {
     /// Per objective: trace index of the best point.
     best: Vec<Option<usize>>,
     history: Vec<Vec<(usize, f64)>>,
+    /// Per objective: where its local searches (vertex walk, ascents) ended (unit box).
+    ends: Vec<Vec<Vec<f64>>>,
     halt: Option<Status>,
 }
 
@@ -127,6 +129,7 @@ impl<'a> Session<'a> {
                 phase: Phase::Screening,
                 best: vec![None; objectives.len()],
                 history: vec![Vec::new(); objectives.len()],
+                ends: vec![Vec::new(); objectives.len()],
                 halt: None,
             }),
         }
@@ -381,6 +384,19 @@ impl<'a> Session<'a> {
             .collect();
         points.sort_by(|a, b| b.1.total_cmp(&a.1));
         points
+    }
+
+    /// Note that a local search of objective `k` ended at the unit point `unit`.
+    pub(super) fn note_end(&self, k: usize, unit: Vec<f64>) {
+        self.ledger().ends[k].push(unit);
+    }
+
+    /// How many local searches of objective `k` ended within `tol` (unit box) of `unit`.
+    pub(super) fn ends_near(&self, k: usize, unit: &[f64], tol: f64) -> usize {
+        self.ledger().ends[k]
+            .iter()
+            .filter(|end| super::space::distance(end, unit) <= tol)
+            .count()
     }
 
     pub(super) fn history(&self, k: usize) -> Vec<(usize, f64)> {

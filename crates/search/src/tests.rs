@@ -639,6 +639,7 @@ fn monotone_criteria_are_certified_at_their_vertices_by_the_walk() {
         assert_eq!(o.best_value, Some(value));
         let c = o.certificate.as_ref().unwrap();
         assert_eq!((c.verdict, c.residual), (Verdict::Certified, Some(0.0)));
+        assert_eq!(c.starts, 1, "the vertex walk ended there");
         // Every free datum is on a bound, each held by the slope's sign (≤ 0 proves a max).
         assert_eq!(c.active.len(), 3);
         let sign = if o.sense == Sense::Max { 1.0 } else { -1.0 };
@@ -693,7 +694,12 @@ fn an_interior_maximum_is_found_by_the_safeguard_and_certified() {
     );
     assert_eq!(o.status, Status::Certified);
     assert!(o.active_bounds.iter().all(|b| *b == ActiveBound::None));
-    assert!(o.certificate.as_ref().unwrap().active.is_empty());
+    let proof = o.certificate.as_ref().unwrap();
+    assert!(proof.active.is_empty());
+    assert!(
+        proof.starts >= 1,
+        "an ascent ended at the maximum: {proof:?}"
+    );
 }
 
 #[test]

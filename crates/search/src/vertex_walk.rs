@@ -121,6 +121,7 @@ fn step(session: &Session, k: usize, index: usize, walk: &mut Walk) {
     walk.score = score;
     let proof = certificate::certify(session.space, sense, &probe.unit, probe.value, Some(slopes));
     if proof.verdict == Verdict::Certified {
+        session.note_end(k, probe.unit.clone());
         walk.settled = walk.monotone
             && session
                 .best(k)

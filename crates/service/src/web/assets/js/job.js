@@ -315,7 +315,9 @@ function slopeText(s) {
 function proofText(c) {
   if (!c) return "—";
   const words = { certified: "certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
-  return c.residual === null || c.residual === undefined ? words[c.verdict] : `${words[c.verdict]} (${num(c.residual, 2)})`;
+  if (c.residual === null || c.residual === undefined) return words[c.verdict];
+  const starts = c.starts > 1 ? ` · ${c.starts} local searches agree` : "";
+  return `${words[c.verdict]} (${num(c.residual, 2)})${starts}`;
 }
 
 /** The failed evaluations of a result: where in the box the solver gave no answer, and why. */
