@@ -2,9 +2,9 @@
 //! score in the unit box, L-BFGS-B-like in spirit for the small dimensions of a worst-scenario
 //! box (a dense inverse-Hessian estimate).
 //!
-//! At each point the projected ascent direction d is read off the one-sided unit slopes: d_j is
-//! the slope into the box where moving u_j raises the score (right slope if it is > 0 and u_j < 1,
-//! minus the left slope if that is > 0 and u_j > 0), else 0. A datum on a bound whose slope holds
+//! At each point the projected ascent direction d is read off the one-sided unit slopes
+//! ([`ascent_direction`]: d_j is the slope into the box where moving u_j raises the score,
+//! else 0). A datum on a bound whose slope holds
 //! it there is *identified* as active and frozen; the others form the free set. The step is
 //! p = H d with the BFGS inverse-Hessian estimate H of −score on the free set (reset to a scaled
 //! identity whenever the free set changes or p is not an ascent direction), projected onto the
@@ -14,7 +14,7 @@
 //! after a few infeasible trial points (stagnated: the optimum borders a failure region), at
 //! the evaluation `limit`, or on a halt. One point per evaluation.
 
-use super::certificate::{scale, unit_slopes, CERTIFY_TOL};
+use super::certificate::{ascent_direction, residual, unit_slopes, CERTIFY_TOL};
 use super::session::{Probe, Session};
 use super::space::BOUND_TOL;
 use super::Status;
@@ -49,28 +49,7 @@ impl Iterate {
     fn new(session: &Session, k: usize, probe: Probe) -> Option<Iterate> {
         let sense = session.objectives()[k].sense;
         let slopes = unit_slopes(session.space, sense, probe.slopes.as_deref()?);
-        let direction: Vec<f64> = probe
-            .unit
-            .iter()
-            .zip(&slopes)
-            .map(|(&u, s)| {
-                let up = if u < 1.0 - BOUND_TOL {
-                    s.right.max(0.0)
-                } else {
-                    0.0
-                };
-                let down = if u > BOUND_TOL {
-                    (-s.left).max(0.0)
-                } else {
-                    0.0
-                };
-                if up >= down {
-                    up
-                } else {
-                    -down
-                }
-            })
-            .collect();
+        let direction = ascent_direction(&probe.unit, &slopes);
         let free = probe
             .unit
             .iter()
@@ -86,9 +65,9 @@ impl Iterate {
         })
     }
 
-    /// Relative projected-gradient residual.
+    /// Relative projected-gradient residual (the certificate's).
     fn residual(&self) -> f64 {
-        self.direction.iter().fold(0.0_f64, |m, d| m.max(d.abs())) / scale(self.value)
+        residual(&self.direction, self.value)
     }
 }
 

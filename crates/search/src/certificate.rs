@@ -72,17 +72,36 @@ pub(super) fn unit_slopes(space: &Space, sense: Sense, slopes: &[OneSided]) -> V
         .collect()
 }
 
-/// Per free datum: how much the score still rises when u_j moves into the box from `unit`
-/// (0 where the point is first-order optimal along it).
-pub(super) fn violations(unit: &[f64], score_slopes: &[OneSided]) -> Vec<f64> {
+/// Per free datum: the projected ascent direction at `unit` — the rate at which the score still
+/// rises when u_j moves into the box (> 0 upwards, < 0 downwards, the steeper side at a convex
+/// kink), 0 where the point is first-order optimal along it. Its magnitude is the violation the
+/// certificate measures.
+pub(super) fn ascent_direction(unit: &[f64], score_slopes: &[OneSided]) -> Vec<f64> {
     unit.iter()
         .zip(score_slopes)
         .map(|(&u, s)| {
-            let up = if u < 1.0 - BOUND_TOL { s.right } else { 0.0 };
-            let down = if u > BOUND_TOL { -s.left } else { 0.0 };
-            up.max(down).max(0.0)
+            let up = if u < 1.0 - BOUND_TOL {
+                s.right.max(0.0)
+            } else {
+                0.0
+            };
+            let down = if u > BOUND_TOL {
+                (-s.left).max(0.0)
+            } else {
+                0.0
+            };
+            if up >= down {
+                up
+            } else {
+                -down
+            }
         })
         .collect()
+}
+
+/// The relative projected-gradient residual: the largest magnitude of `direction` over |Φ|.
+pub(super) fn residual(direction: &[f64], value: f64) -> f64 {
+    direction.iter().fold(0.0_f64, |m, d| m.max(d.abs())) / scale(value)
 }
 
 /// Scale of relative statements about Φ = `value` (never zero).
@@ -108,10 +127,7 @@ pub(super) fn certify(
         };
     };
     let score_slopes = unit_slopes(space, sense, slopes);
-    let residual = violations(unit, &score_slopes)
-        .into_iter()
-        .fold(0.0, f64::max)
-        / scale(value);
+    let residual = residual(&ascent_direction(unit, &score_slopes), value);
     let bounds = space.active_bounds(unit);
     let active = (0..space.dim())
         .filter_map(|j| {

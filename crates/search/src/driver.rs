@@ -29,7 +29,7 @@ use super::cache::EvalCache;
 use super::certificate::{self, Certificate};
 use super::optima::{self, OPTIMUM_TOL};
 use super::random::stream;
-use super::session::Session;
+use super::session::{Probe, Session};
 use super::space::{is_vertex, Space};
 use super::{
     ascent,
@@ -37,6 +37,7 @@ use super::{
     pso, screening, sensitivity, vertex_walk, Evaluator, ObjectiveResult, Phase, SearchControl,
     SearchError, SearchProblem, SearchResult, Status, Verdict,
 };
+use std::collections::BTreeMap;
 
 /// Fraction of an objective's share for the swarm.
 const SWARM_FRACTION: f64 = 0.4;
@@ -182,19 +183,13 @@ fn run_phases(
 /// distinct ends (farther than 0.1 apart) within 1e-3 relative of the best end — the best end
 /// and its ties, possibly several maximisers. The status of the fine polish of the best end.
 fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status, SearchError> {
-    let ranked = session.ranked(k);
-    let (Some((_, best)), Some((_, worst))) = (ranked.first(), ranked.last()) else {
+    let Some(tops) = basin_tops(session, k) else {
         return Ok(Status::BudgetExhausted);
     };
     if session.space.dim() == 0 {
         // The single point is the whole box.
         return Ok(Status::Completed);
     }
-    let tops = optima::basin_tops(
-        &ranked,
-        best - RUNNER_UP_GAP * (best - worst),
-        1 + RUNNERS_UP,
-    );
     // (point, cost) where each coarse polish ended.
     let mut ends: Vec<(Vec<f64>, f64)> = Vec::new();
     for (i, x) in tops.into_iter().enumerate() {
@@ -229,15 +224,9 @@ fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status,
 /// left): a certificate is local, so the runner-ups look for a better basin. The status of the
 /// last ascent that improved the best point.
 fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
-    let ranked = session.ranked(k);
-    let (Some((_, best)), Some((_, worst))) = (ranked.first(), ranked.last()) else {
+    let Some(tops) = basin_tops(session, k) else {
         return Status::BudgetExhausted;
     };
-    let tops = optima::basin_tops(
-        &ranked,
-        best - RUNNER_UP_GAP * (best - worst),
-        1 + RUNNERS_UP,
-    );
     let sense = session.objectives()[k].sense;
     let mut ended: Option<(f64, Status)> = None;
     for (i, x) in tops.into_iter().enumerate() {
@@ -257,6 +246,21 @@ fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
         }
     }
     ended.map_or(Status::BudgetExhausted, |(_, status)| status)
+}
+
+/// The starts of the local searches of objective `k`: the basin tops of all points evaluated so
+/// far in the top half of their range of values, best first, at most 1 + `RUNNERS_UP` (`None`
+/// while no point is feasible).
+fn basin_tops(session: &Session, k: usize) -> Option<Vec<Vec<f64>>> {
+    let ranked = session.ranked(k);
+    let (Some((_, best)), Some((_, worst))) = (ranked.first(), ranked.last()) else {
+        return None;
+    };
+    Some(optima::basin_tops(
+        &ranked,
+        best - RUNNER_UP_GAP * (best - worst),
+        1 + RUNNERS_UP,
+    ))
 }
 
 /// The evaluation limit of the `i`-th polish of a stage: the first may use everything up to
@@ -312,8 +316,13 @@ fn exact_sensitivities(session: &Session) -> Vec<Vec<Option<f64>>> {
 /// The certificate of objective `k`'s best point, and its status: a converged (or settled)
 /// objective whose best point is certified is `certified`; one that claims convergence without
 /// that proof is `completed` (the caller says it is unproven).
-fn certified(session: &Session, k: usize, status: Status) -> (Option<Certificate>, Status) {
-    let Some(probe) = session.best_probe(k) else {
+fn certified(
+    session: &Session,
+    k: usize,
+    probe: Option<&Probe>,
+    status: Status,
+) -> (Option<Certificate>, Status) {
+    let Some(probe) = probe else {
         return (None, status);
     };
     let sense = session.objectives()[k].sense;
@@ -336,9 +345,13 @@ fn certified(session: &Session, k: usize, status: Status) -> (Option<Certificate
     (Some(proof), status)
 }
 
-/// Name of parameter `i` among `names`.
-fn name(names: &[String], i: usize) -> String {
-    names.get(i).cloned().unwrap_or_else(|| format!("θ{i}"))
+/// Per-parameter `values` keyed by the parameters' `names` (`θ<index>` for an unnamed one).
+fn by_name<T>(names: &[String], values: Vec<T>) -> BTreeMap<String, T> {
+    values
+        .into_iter()
+        .enumerate()
+        .map(|(i, v)| (names.get(i).cloned().unwrap_or_else(|| format!("θ{i}")), v))
+        .collect()
 }
 
 fn objective_result(
@@ -350,24 +363,16 @@ fn objective_result(
 ) -> ObjectiveResult {
     let objective = session.objectives()[k];
     let space = session.space;
-    let best = session.best(k);
-    let (certificate, status) = certified(session, k, status);
-    let gradient = session
-        .best_probe(k)
-        .and_then(|p| p.slopes)
-        .unwrap_or_default()
-        .into_iter()
-        .enumerate()
-        .map(|(i, s)| (name(names, i), s))
-        .collect();
-    let data = best.as_ref().map_or_else(Default::default, |(x, _)| {
-        space
-            .to_physical(x)
-            .into_iter()
-            .enumerate()
-            .map(|(i, v)| (name(names, i), v))
-            .collect()
-    });
+    let best = session.best_probe(k);
+    let (certificate, status) = certified(session, k, best.as_ref(), status);
+    let best_point = best.as_ref().map(|p| space.to_physical(&p.unit));
+    let gradient = by_name(
+        names,
+        best.as_ref()
+            .and_then(|p| p.slopes.clone())
+            .unwrap_or_default(),
+    );
+    let data = by_name(names, best_point.clone().unwrap_or_default());
     let ranked = session.ranked(k);
     let optima: Vec<Vec<f64>> = optima::representatives(&ranked, OPTIMUM_TOL, usize::MAX)
         .iter()
@@ -376,16 +381,16 @@ fn objective_result(
     ObjectiveResult {
         criterion: objective.criterion,
         sense: objective.sense,
-        best_value: best.as_ref().map(|(_, v)| *v),
-        best_point: best.as_ref().map(|(x, _)| space.to_physical(x)),
+        best_value: best.as_ref().map(|p| p.value),
+        best_point,
         status,
-        at_vertex: best.as_ref().is_some_and(|(x, _)| is_vertex(x)),
+        at_vertex: best.as_ref().is_some_and(|p| is_vertex(&p.unit)),
         vertex_optimal: optima::vertex_optimal(&ranked),
         several_optima: optima.len() > 1,
         optima,
         active_bounds: best
             .as_ref()
-            .map_or_else(Vec::new, |(x, _)| space.active_bounds(x)),
+            .map_or_else(Vec::new, |p| space.active_bounds(&p.unit)),
         sensitivities,
         data,
         gradient,

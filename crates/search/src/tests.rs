@@ -70,7 +70,7 @@ fn problem(bounds: Vec<[f64; 2]>, objectives: &[(usize, Sense)], budget: usize) 
     }
 }
 
-fn run<F: Fn(&[f64]) -> Criteria + Sync>(p: &SearchProblem, e: &Analytic<F>) -> SearchResult {
+fn run(p: &SearchProblem, e: &dyn Evaluator) -> SearchResult {
     search(p, e, &mut EvalCache::new(), SearchControl::default()).unwrap()
 }
 
@@ -619,13 +619,7 @@ fn monotone_criteria_are_certified_at_their_vertices_by_the_walk() {
         (1, Sense::Min),
     ];
     let e = WithSlopes::new(f);
-    let r = search(
-        &problem(bounds, &objectives, 200),
-        &e,
-        &mut EvalCache::new(),
-        SearchControl::default(),
-    )
-    .unwrap();
+    let r = run(&problem(bounds, &objectives, 200), &e);
     // The centre, then two distinct vertices (each criterion's max and min share them).
     assert_eq!(r.evaluations, 3);
     assert_eq!(e.calls.load(Ordering::SeqCst), 3);
@@ -674,13 +668,10 @@ fn an_interior_maximum_is_found_by_the_safeguard_and_certified() {
         (vec![2.0 - a * a - b * b], vec![vec![-2.0 * a, -2.0 * b]])
     };
     let e = WithSlopes::new(f);
-    let r = search(
+    let r = run(
         &problem(vec![[0.0, 1.0], [0.0, 1.0]], &[(0, Sense::Max)], 300),
         &e,
-        &mut EvalCache::new(),
-        SearchControl::default(),
-    )
-    .unwrap();
+    );
     let o = &r.objectives[0];
     println!(
         "interior: {} evaluations, {:?}",
@@ -723,13 +714,10 @@ fn a_walk_that_fails_proves_nothing() {
         }
     }
     let e = Holed(WithSlopes::new(f));
-    let r = search(
+    let r = run(
         &problem(vec![[0.0, 1.0], [0.0, 1.0]], &[(0, Sense::Max)], 200),
         &e,
-        &mut EvalCache::new(),
-        SearchControl::default(),
-    )
-    .unwrap();
+    );
     let o = &r.objectives[0];
     assert!(r.evaluations > 2);
     assert!(o.best_value.unwrap() < 2.0);

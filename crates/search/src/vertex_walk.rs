@@ -129,12 +129,12 @@ fn step(session: &Session, k: usize, index: usize, walk: &mut Walk) {
         return;
     }
     let tol = CERTIFY_TOL * scale(probe.value);
-    for (u, v) in walk
+    for (u, d) in walk
         .vertex
         .iter_mut()
-        .zip(certificate::violations(&probe.unit, &s))
+        .zip(certificate::ascent_direction(&probe.unit, &s))
     {
-        if v > tol {
+        if d.abs() > tol {
             *u = 1.0 - *u;
         }
     }

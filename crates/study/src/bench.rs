@@ -308,9 +308,7 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
         "Exact derivatives on the tunnel (all criteria along all uncertain data; one thread per evaluation):\n\n| unknowns | uncertain data | criteria | evaluation [s] | with derivatives [s] | ratio |\n|---|---|---|---|---|---|\n",
     );
     for &n in sizes {
-        let probe = StateProblem::new(scaled_scene("tunnel-fault", 1.0)?)?;
-        let factor = (probe.elastic.dofs().n_free() as f64 / n as f64).sqrt();
-        let problem = StateProblem::new(scaled_scene("tunnel-fault", factor)?)?;
+        let problem = problem_of_size("tunnel-fault", n)?;
         let params = wsm_core::scene::params::parameters(&problem.scene)?;
         let criteria = problem.scene.search.criteria.clone();
         let plain =

@@ -188,22 +188,13 @@ impl<'a> ScenarioEvaluator<'a> {
             self.params,
             theta,
         );
-        let stencils: Vec<Stencil> = if self.derivatives {
-            (0..self.params.len())
-                .map(|i| {
-                    let (scene, nominal) = (&self.problem.scene, &self.problem.nominal);
-                    stencil(scene, nominal, self.params, theta, i)
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
         let result = match self.fault.and_then(|fault| fault(theta)) {
             Some(reason) => Err(WsmError::contact(reason)),
-            None => {
-                self.problem
-                    .solve_with_sensitivities(&data, &self.options(Par::Seq), &stencils)
-            }
+            None => self.problem.solve_with_sensitivities(
+                &data,
+                &self.options(Par::Seq),
+                &self.stencils(theta),
+            ),
         };
         let seconds = start.elapsed().as_secs_f64();
         self.stats
@@ -261,6 +252,17 @@ impl<'a> ScenarioEvaluator<'a> {
             Err(e) => evaluation.error = Some(e),
         }
         evaluation
+    }
+
+    /// The derivative stencils of every datum at θ (none without derivatives).
+    fn stencils(&self, theta: &[f64]) -> Vec<Stencil> {
+        if !self.derivatives {
+            return Vec::new();
+        }
+        let (scene, nominal) = (&self.problem.scene, &self.problem.nominal);
+        (0..self.params.len())
+            .map(|i| stencil(scene, nominal, self.params, theta, i))
+            .collect()
     }
 
     /// The requested criteria's derivatives along every datum, or nothing when one is missing
