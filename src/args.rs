@@ -40,6 +40,31 @@ pub struct SceneArgs {
     pub example: Option<String>,
 }
 
+/// `wsm evaluate`.
+#[derive(Args)]
+pub struct EvaluateArgs {
+    #[command(flatten)]
+    pub input: SceneArgs,
+    /// Criteria, e.g. phi3,phi5 (default: the scene's `search.criteria`).
+    #[arg(long, value_delimiter = ',')]
+    pub criteria: Vec<String>,
+    /// Values only, without the exact derivatives.
+    #[arg(long)]
+    pub no_derivatives: bool,
+}
+
+impl TryFrom<&EvaluateArgs> for WorstRequest {
+    type Error = WsmError;
+
+    fn try_from(args: &EvaluateArgs) -> Result<WorstRequest, WsmError> {
+        Ok(WorstRequest {
+            criteria: crate::cli::parse_criteria(&args.criteria)?,
+            derivatives: args.no_derivatives.then_some(false),
+            ..WorstRequest::default()
+        })
+    }
+}
+
 /// `wsm solve`.
 #[derive(Args)]
 pub struct SolveArgs {

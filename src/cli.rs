@@ -97,6 +97,19 @@ pub fn solve(
     to_json(&output.summary)
 }
 
+/// `wsm evaluate`: answers stream to stdout as the points arrive on stdin; the summary line
+/// (the number of points) goes to stderr.
+pub fn evaluate(scene: Scene, request: WorstRequest) -> Result<String, WsmError> {
+    let count = run::evaluate_points(
+        scene,
+        &request,
+        &mut std::io::stdin().lock(),
+        &mut std::io::stdout().lock(),
+    )?;
+    eprintln!("{count} points evaluated");
+    Ok(String::new())
+}
+
 /// Files of `wsm worst`.
 pub struct WorstFiles {
     pub out: Option<PathBuf>,

@@ -12,8 +12,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use args::{
-    AccuracyArgs, BenchArgs, ExampleArgs, ServeArgs, SolveArgs, StabilityArgs, WorkerArgs,
-    WorstArgs,
+    AccuracyArgs, BenchArgs, EvaluateArgs, ExampleArgs, ServeArgs, SolveArgs, StabilityArgs,
+    WorkerArgs, WorstArgs,
 };
 
 #[derive(Parser)]
@@ -33,6 +33,10 @@ enum Command {
     Solve(SolveArgs),
     /// Worst-scenario search: worst and best value of each criterion over the admissible set.
     Worst(WorstArgs),
+    /// Evaluate the criteria (and their exact derivatives) at data points read as JSON lines
+    /// from stdin — an array in the order of `parameters`, or an object of field: value — and
+    /// write a header line, then one answer line per point, to stdout (mesh and assembly once).
+    Evaluate(EvaluateArgs),
     /// Run the HTTP service and dashboard (job store: an embedded SQLite file, or PostgreSQL).
     Serve(ServeArgs),
     /// A worker process for a shared job store: coordinates jobs and evaluates batches of any
@@ -67,6 +71,9 @@ fn main() -> ExitCode {
             .and_then(|scene| cli::solve(scene, (&a).into(), a.out.as_deref(), a.vtu.as_deref())),
         Command::Worst(a) => cli::load_scene(&a.input)
             .and_then(|scene| cli::worst(scene, (&a).try_into()?, (&a).into())),
+        Command::Evaluate(a) => {
+            cli::load_scene(&a.input).and_then(|scene| cli::evaluate(scene, (&a).try_into()?))
+        }
         Command::Serve(a) => cli::serve(a.into()),
         Command::Worker(a) => cli::worker(a.into()),
         Command::Openapi => cli::openapi(),
@@ -85,7 +92,10 @@ fn main() -> ExitCode {
     match result {
         Ok(text) => {
             // A reader that went away (`| head`, a closed pipe) is not a failure of the command.
-            let _ = writeln!(std::io::stdout(), "{text}");
+            // A command that streamed its output returns no text.
+            if !text.is_empty() {
+                let _ = writeln!(std::io::stdout(), "{text}");
+            }
             ExitCode::SUCCESS
         }
         Err(e) => {
