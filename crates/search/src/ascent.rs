@@ -12,7 +12,8 @@
 //! as soon as the relative residual max|d| / |Φ| is below [`CERTIFY_TOL`] (certified), when no
 //! backtracked step improves even from the identity (stagnated: a kink or the resolution of Φ),
 //! after a few infeasible trial points (stagnated: the optimum borders a failure region), at
-//! the evaluation `limit`, or on a halt. One point per evaluation.
+//! the evaluation `limit`, or on a halt. The ascents from several starts run in lockstep (one
+//! trial point of each per batch), so their solves run in parallel.
 
 use super::certificate::{ascent_direction, residual, unit_slopes, CERTIFY_TOL};
 use super::session::{Probe, Session};
@@ -71,14 +72,6 @@ impl Iterate {
     }
 }
 
-/// Evaluate the unit point `unit` for objective `k` (`None` if infeasible or without slopes).
-fn visit(session: &Session, k: usize, unit: Vec<f64>) -> Result<Option<Iterate>, Status> {
-    let index = session.indices(&[unit]).map_err(|stop| stop.0)?;
-    Ok(session
-        .probe(k, index[0])
-        .and_then(|probe| Iterate::new(session, k, probe)))
-}
-
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -109,95 +102,143 @@ fn bfgs_update(h: &mut [Vec<f64>], s: &[f64], y: &[f64]) {
     }
 }
 
-/// Ascend objective `k` from the evaluated unit point `start` while the run's evaluation count
-/// stays within `limit`; the status says why it stopped (`Certified` when the residual is below
-/// [`CERTIFY_TOL`]), with the unit point where the ascent ended (`None` if the start gave no
-/// derivatives).
-pub(super) fn run(
-    session: &Session,
-    k: usize,
-    start: Vec<f64>,
-    limit: usize,
-) -> (Status, Option<Vec<f64>>) {
-    let mut x = match visit(session, k, start) {
-        Ok(Some(x)) => x,
-        Ok(None) => return (Status::Stagnated, None),
-        Err(stop) => return (stop, None),
-    };
-    let status = climb(session, k, &mut x, limit);
-    (status, Some(x.unit))
+/// The backtracking line search of one iteration: ascent direction g on the free set, step
+/// p = H g, current step length and the trials made.
+struct LineSearch {
+    g: Vec<f64>,
+    /// The scale of the identity step.
+    gamma: f64,
+    p: Vec<f64>,
+    step: f64,
+    tries: usize,
 }
 
-/// The iterations of [`run`] from the evaluated iterate `x`, which ends where the ascent did.
-fn climb(session: &Session, k: usize, x: &mut Iterate, limit: usize) -> Status {
-    let n = x.unit.len();
-    let mut h: Option<Vec<Vec<f64>>> = None;
-    let mut failed_trials = 0;
-    for _ in 0..MAX_ITERATIONS {
-        if x.residual() <= CERTIFY_TOL {
-            return Status::Certified;
+/// One ascent: where it is, its inverse-Hessian estimate and line search, and why it ended.
+struct Ascent {
+    x: Iterate,
+    h: Option<Vec<Vec<f64>>>,
+    line: Option<LineSearch>,
+    iterations: usize,
+    failed_trials: usize,
+    /// The trial point under evaluation.
+    trial: Vec<f64>,
+    end: Option<Status>,
+}
+
+impl Ascent {
+    fn new(x: Iterate) -> Ascent {
+        Ascent {
+            x,
+            h: None,
+            line: None,
+            iterations: 0,
+            failed_trials: 0,
+            trial: Vec::new(),
+            end: None,
         }
-        let g: Vec<f64> = (0..n)
+    }
+
+    /// The next point to evaluate, or `None` once the ascent has ended (`self.end` says why).
+    fn propose(&mut self) -> Option<Vec<f64>> {
+        while self.end.is_none() {
+            if self.line.is_none() {
+                if self.x.residual() <= CERTIFY_TOL {
+                    self.end = Some(Status::Certified);
+                    break;
+                }
+                if self.iterations >= MAX_ITERATIONS {
+                    self.end = Some(Status::Stagnated);
+                    break;
+                }
+                self.iterations += 1;
+                self.line = Some(self.line_search());
+            }
+            let line = self.line.as_ref().expect("a line search is under way");
+            if line.tries < BACKTRACKS {
+                let y = trial_point(&self.x.unit, &line.p, line.step);
+                if y != self.x.unit {
+                    self.trial = y.clone();
+                    return Some(y);
+                }
+            }
+            self.give_up_line();
+        }
+        None
+    }
+
+    /// The line search from the current point: the step H g, from the scaled identity when no
+    /// estimate exists or H g is no ascent direction.
+    fn line_search(&mut self) -> LineSearch {
+        let x = &self.x;
+        let g: Vec<f64> = (0..x.unit.len())
             .map(|j| if x.free[j] { x.direction[j] } else { 0.0 })
             .collect();
         let gamma = FIRST_STEP / g.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
-        let mut p = match &h {
+        let mut p: Vec<f64> = match &self.h {
             Some(h) => h.iter().map(|row| dot(row, &g)).collect(),
-            None => g.iter().map(|d| gamma * d).collect::<Vec<f64>>(),
+            None => g.iter().map(|d| gamma * d).collect(),
         };
         if dot(&p, &g) <= 0.0 {
-            h = None;
+            self.h = None;
             p = g.iter().map(|d| gamma * d).collect();
         }
-        let mut step = 1.0;
-        let mut accepted = None;
-        for _ in 0..BACKTRACKS {
-            let y: Vec<f64> = (0..n)
-                .map(|j| {
-                    let u = (x.unit[j] + step * p[j]).clamp(0.0, 1.0);
-                    if u < SNAP {
-                        0.0
-                    } else if u > 1.0 - SNAP {
-                        1.0
-                    } else {
-                        u
-                    }
-                })
-                .collect();
-            let moved: Vec<f64> = y.iter().zip(&x.unit).map(|(a, b)| a - b).collect();
-            if moved.iter().all(|&d| d == 0.0) {
-                break;
+        LineSearch {
+            g,
+            gamma,
+            p,
+            step: 1.0,
+            tries: 0,
+        }
+    }
+
+    /// No step of the line search improved: retry from the identity, or end (stagnated).
+    fn give_up_line(&mut self) {
+        self.line = None;
+        if self.h.take().is_none() {
+            self.end = Some(Status::Stagnated);
+        }
+    }
+
+    /// The trial point's iterate (`None` if infeasible or without slopes): accept it (Armijo),
+    /// backtrack, or end after too many infeasible trials.
+    fn take(&mut self, z: Option<Iterate>) {
+        let line = self
+            .line
+            .as_mut()
+            .expect("a trial belongs to a line search");
+        line.tries += 1;
+        let moved: Vec<f64> = self
+            .trial
+            .iter()
+            .zip(&self.x.unit)
+            .map(|(a, b)| a - b)
+            .collect();
+        match z {
+            Some(z) if z.score > self.x.score + ARMIJO * dot(&line.g, &moved) => {
+                let gamma = line.gamma;
+                self.line = None;
+                self.accept(z, &moved, gamma);
             }
-            if session.evaluations() >= limit {
-                return Status::BudgetExhausted;
-            }
-            match visit(session, k, y) {
-                Err(stop) => return stop,
-                Ok(Some(z)) if z.score > x.score + ARMIJO * dot(&g, &moved) => {
-                    accepted = Some((z, moved));
-                    break;
+            Some(_) => line.step *= 0.5,
+            None => {
+                self.failed_trials += 1;
+                if self.failed_trials >= FAILED_TRIALS {
+                    self.end = Some(Status::Stagnated);
                 }
-                Ok(Some(_)) => step *= 0.5,
-                Ok(None) => {
-                    failed_trials += 1;
-                    if failed_trials >= FAILED_TRIALS {
-                        return Status::Stagnated;
-                    }
-                    step *= FAILED_SHRINK;
-                }
+                line.step *= FAILED_SHRINK;
             }
         }
-        let Some((z, moved)) = accepted else {
-            if h.take().is_some() {
-                // Retry from the identity before giving up.
-                continue;
-            }
-            return Status::Stagnated;
-        };
+    }
+
+    /// Move to the accepted iterate `z` (reached by the step `moved`), updating the estimate
+    /// on the free set (reset when the free set changed; a new estimate starts from the
+    /// secant scale, else `gamma`).
+    fn accept(&mut self, z: Iterate, moved: &[f64], gamma: f64) {
+        let x = &self.x;
         if z.free != x.free {
-            h = None;
+            self.h = None;
         } else {
-            let change: Vec<f64> = (0..n)
+            let change: Vec<f64> = (0..x.unit.len())
                 .map(|j| {
                     if z.free[j] {
                         x.direction[j] - z.direction[j]
@@ -206,16 +247,112 @@ fn climb(session: &Session, k: usize, x: &mut Iterate, limit: usize) -> Status {
                     }
                 })
                 .collect();
-            let sy = dot(&moved, &change);
-            let estimate = h.get_or_insert_with(|| {
-                let yy = dot(&change, &change);
-                scaled_identity(n, if sy > 0.0 && yy > 0.0 { sy / yy } else { gamma })
+            let sy = dot(moved, &change);
+            let yy = dot(&change, &change);
+            let estimate = self.h.get_or_insert_with(|| {
+                let scale = if sy > 0.0 && yy > 0.0 { sy / yy } else { gamma };
+                scaled_identity(x.unit.len(), scale)
             });
-            bfgs_update(estimate, &moved, &change);
+            bfgs_update(estimate, moved, &change);
         }
-        *x = z;
+        self.x = z;
     }
-    Status::Stagnated
+}
+
+/// `x + step · p`, projected onto the unit box, coordinates within [`SNAP`] of a bound put on it.
+fn trial_point(x: &[f64], p: &[f64], step: f64) -> Vec<f64> {
+    x.iter()
+        .zip(p)
+        .map(|(&u, &d)| {
+            let u = (u + step * d).clamp(0.0, 1.0);
+            if u < SNAP {
+                0.0
+            } else if u > 1.0 - SNAP {
+                1.0
+            } else {
+                u
+            }
+        })
+        .collect()
+}
+
+/// Ascend objective `k` from each of the evaluated unit points `starts` at once — every round
+/// evaluates the next trial point of every ascent still running in one batch, so that the
+/// batches are as wide as the starts — while the run's evaluation count stays within `limit`
+/// (when a round does not fit, the ascents listed last end first). Per start: why its ascent
+/// stopped (`Certified` when the residual is below [`CERTIFY_TOL`]) and the unit point where it
+/// ended (`None` if the start gave no derivatives).
+pub(super) fn run(
+    session: &Session,
+    k: usize,
+    starts: Vec<Vec<f64>>,
+    limit: usize,
+) -> Vec<(Status, Option<Vec<f64>>)> {
+    let iterates = match visit(session, k, &starts) {
+        Ok(iterates) => iterates,
+        Err(stop) => return starts.iter().map(|_| (stop, None)).collect(),
+    };
+    let mut ascents: Vec<Option<Ascent>> =
+        iterates.into_iter().map(|x| x.map(Ascent::new)).collect();
+    loop {
+        let mut round: Vec<(usize, Vec<f64>)> = ascents
+            .iter_mut()
+            .enumerate()
+            .filter_map(|(i, a)| Some((i, a.as_mut()?.propose()?)))
+            .collect();
+        if round.is_empty() {
+            break;
+        }
+        let room = limit.saturating_sub(session.evaluations());
+        for (i, _) in round.iter().skip(room) {
+            if let Some(a) = ascents[*i].as_mut() {
+                a.end = Some(Status::BudgetExhausted);
+            }
+        }
+        round.truncate(room);
+        if round.is_empty() {
+            break;
+        }
+        let points: Vec<Vec<f64>> = round.iter().map(|(_, y)| y.clone()).collect();
+        match visit(session, k, &points) {
+            Ok(iterates) => {
+                for ((i, _), z) in round.iter().zip(iterates) {
+                    if let Some(a) = ascents[*i].as_mut() {
+                        a.take(z);
+                    }
+                }
+            }
+            Err(stop) => {
+                for (i, _) in &round {
+                    if let Some(a) = ascents[*i].as_mut() {
+                        a.end = Some(stop);
+                    }
+                }
+                break;
+            }
+        }
+    }
+    ascents
+        .into_iter()
+        .map(|a| match a {
+            Some(a) => (a.end.unwrap_or(Status::Stagnated), Some(a.x.unit)),
+            None => (Status::Stagnated, None),
+        })
+        .collect()
+}
+
+/// Evaluate the unit points `units` in one batch for objective `k` (`None` where infeasible or
+/// without slopes).
+fn visit(session: &Session, k: usize, units: &[Vec<f64>]) -> Result<Vec<Option<Iterate>>, Status> {
+    let indices = session.indices(units).map_err(|stop| stop.0)?;
+    Ok(indices
+        .into_iter()
+        .map(|index| {
+            session
+                .probe(k, index)
+                .and_then(|probe| Iterate::new(session, k, probe))
+        })
+        .collect())
 }
 
 #[cfg(test)]

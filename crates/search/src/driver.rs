@@ -220,27 +220,26 @@ fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status,
 }
 
 /// With derivatives: projected quasi-Newton ascents from the basin tops of the sample in the top
-/// half of its range of values (best first; a runner-up may use at most a third of what is
-/// left): a certificate is local, so the runner-ups look for a better basin. The status of the
-/// last ascent that improved the best point.
+/// half of its range of values, all at once (their solves share the batches): a certificate is
+/// local, so the runner-ups look for a better basin. The status of the ascent that ended at the
+/// best score.
 fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
     let Some(tops) = basin_tops(session, k) else {
         return Status::BudgetExhausted;
     };
     let sense = session.objectives()[k].sense;
     let mut ended: Option<(f64, Status)> = None;
-    for (i, x) in tops.into_iter().enumerate() {
-        let cap = runner_up_cap(session, i, limit);
-        let (status, end) = ascent::run(session, k, x, cap);
-        if let Some(end) = end {
-            session.note_end(k, end);
-        }
+    for (status, end) in ascent::run(session, k, tops, limit) {
         if is_halt(status) {
             return status;
         }
+        let Some(end) = end else { continue };
         let score = session
-            .best(k)
-            .map_or(f64::NEG_INFINITY, |(_, v)| sense.score(v));
+            .values(&[end.as_slice()], k)
+            .ok()
+            .and_then(|v| v[0])
+            .map_or(f64::NEG_INFINITY, |v| sense.score(v));
+        session.note_end(k, end);
         if ended.is_none_or(|(best, _)| score > best) {
             ended = Some((score, status));
         }
