@@ -202,6 +202,12 @@ fn tunnel_fault_matches_finite_differences() {
     example("tunnel-fault", 2.0, 2);
 }
 
+/// The knots of a slope-limited slip limit, through its projection.
+#[test]
+fn tunnel_fault_slip_profile_matches_finite_differences() {
+    example("tunnel-fault-slip-profile", 2.0, 2);
+}
+
 /// Block on a base with every kind of datum uncertain: Poisson's ratio, λ and μ, specific weight
 /// and body force, a prescribed displacement, traction and pressure, the knots of a piecewise
 /// linear slip limit, and the heat problem's conductivity, source, boundary temperature, heat

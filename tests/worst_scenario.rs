@@ -285,3 +285,82 @@ fn unbalanced_vertex_is_refused_before_any_solve() {
         "{msg}"
     );
 }
+
+/// The slope-limited slip limit of `tunnel-fault-slip-profile` (FGCS 4.15, C = 4e4 Pa/m on the
+/// 22 m zone: adjacent knots, 11 m apart, differ by at most 0.44 MPa) with only its three knots
+/// uncertain: every extremum is at least as extreme as every point of a grid of the admissible
+/// set (knot values 0.3, 0.5, …, 1.5 MPa with the slope bound), and the reported data are the
+/// projected slip limit, which satisfies the bound.
+#[test]
+fn slope_limited_slip_limit_extrema_beat_an_enumeration_of_its_set() {
+    let text = wsm_core::bundled::example("tunnel-fault-slip-profile").unwrap();
+    let mut scene: Value = serde_json::from_str(text).unwrap();
+    let knots = scene["uncertain"].as_array().unwrap()[..3].to_vec();
+    scene["uncertain"] = Value::Array(knots);
+    let max_step = 4e4 * 22.0 * 0.5;
+    let criteria = [Criterion::Phi3, Criterion::Phi4, Criterion::Phi6];
+    let parsed = parse(&scene.to_string()).unwrap();
+    let params = parameters(&parsed).unwrap();
+    let problem = StateProblem::new(parsed).unwrap();
+    let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
+    let levels: Vec<f64> = (0..7).map(|i| 3e5 + 2e5 * i as f64).collect();
+    let mut grid = Vec::new();
+    for &a in &levels {
+        for &b in &levels {
+            for &c in &levels {
+                if (b - a).abs() <= max_step && (c - b).abs() <= max_step {
+                    grid.push(vec![a, b, c]);
+                }
+            }
+        }
+    }
+    assert!(
+        grid.len() < levels.len().pow(3),
+        "the slope bound cuts the box"
+    );
+    let values: Vec<Vec<f64>> = evaluator
+        .evaluate_batch(&grid)
+        .into_iter()
+        .map(|e| e.values.expect("every admissible slip limit solves"))
+        .collect();
+    let r = worst(&scene, &criteria, 200, 1);
+    let mut projected = 0;
+    for (c, outcome) in r.criteria.iter().enumerate() {
+        let max = values
+            .iter()
+            .map(|v| v[c])
+            .fold(f64::NEG_INFINITY, f64::max);
+        let min = values.iter().map(|v| v[c]).fold(f64::INFINITY, f64::min);
+        let worst = outcome.worst.best_value.unwrap();
+        let best = outcome.best.best_value.unwrap();
+        assert!(
+            worst >= max - 1e-9 * max.abs(),
+            "{:?} worst {worst} < grid {max}",
+            outcome.criterion
+        );
+        assert!(
+            best <= min + 1e-9 * min.abs(),
+            "{:?} best {best} > grid {min}",
+            outcome.criterion
+        );
+        for o in [&outcome.worst, &outcome.best] {
+            let g: Vec<f64> = (0..3)
+                .map(|k| o.data[&format!("contacts[0].slip_limit.values[{k}]")])
+                .collect();
+            for k in 0..2 {
+                assert!(
+                    (g[k + 1] - g[k]).abs() <= max_step * (1.0 + 1e-9),
+                    "{:?}: reported slip limit {g:?} breaks the slope bound",
+                    outcome.criterion
+                );
+            }
+            assert!(g.iter().all(|&v| (3e5 - 1e-6..=1.5e6 + 1e-6).contains(&v)));
+            let point = o.best_point.as_ref().unwrap();
+            projected += usize::from(g.iter().zip(point).any(|(a, b)| (a - b).abs() > 1.0));
+        }
+    }
+    assert!(
+        projected > 0,
+        "some extremum lies where the search coordinates are projected"
+    );
+}

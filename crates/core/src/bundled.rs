@@ -25,6 +25,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "tunnel-fault",
         include_str!("../../../scenes/tunnel-fault.json"),
     ),
+    (
+        "tunnel-fault-slip-profile",
+        include_str!("../../../scenes/tunnel-fault-slip-profile.json"),
+    ),
 ];
 
 /// The JSON text of a bundled example.

@@ -9,21 +9,37 @@
 //! motion does no work against stiffness, prescribed displacements or thermal strain), and the
 //! bounds on g only — all linearly. The set of parameters where it holds is therefore convex, and
 //! it holds on the whole box exactly when it holds at every vertex of the force and slip-limit
-//! parameters. Up to 2^12 vertices are checked exhaustively; beyond, a deterministic sample.
+//! parameters. Up to 2^12 vertices are checked exhaustively; beyond, a deterministic sample. A
+//! slope-limited slip limit is not a box: the check takes it at the least element of its set,
+//! since a larger g only makes balance easier.
 
 use faer::Mat;
 
 use crate::contact::feasibility::UncertainDisplacement;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
-use crate::scene::params::{apply, ParamTarget, Parameter};
+use crate::scene::params::{apply, least_slip_limits, ParamTarget, Parameter};
 use crate::scene::SceneError;
+use crate::scene::{Scene, SlipLimit};
 use crate::state::StateProblem;
 
 const MAX_VERTICES: usize = 4096;
 
-/// Whether a parameter can change the balance of a floating body.
-fn affects_balance(target: ParamTarget) -> bool {
+/// Whether a parameter can change the balance of a floating body at the vertices: the knots of
+/// a slope-limited slip limit do not, since the check takes that slip limit at the least
+/// element of its set (see [`crate::scene::params`]).
+fn affects_balance(scene: &Scene, target: ParamTarget) -> bool {
+    if let ParamTarget::SlipKnot(c, _) = target {
+        if matches!(
+            scene.contacts[c].slip_limit,
+            SlipLimit::PiecewiseLinear {
+                max_slope: Some(_),
+                ..
+            }
+        ) {
+            return false;
+        }
+    }
     matches!(
         target,
         ParamTarget::SpecificWeight(_)
@@ -78,7 +94,7 @@ pub fn check_balance_on_vertices(
         return Ok(());
     }
     let relevant: Vec<usize> = (0..params.len())
-        .filter(|&i| affects_balance(params[i].target))
+        .filter(|&i| affects_balance(&problem.scene, params[i].target))
         .collect();
     let n = relevant.len();
     let count = if n < 12 { 1usize << n } else { MAX_VERTICES };
@@ -97,7 +113,8 @@ pub fn check_balance_on_vertices(
                 params[i].lo
             };
         }
-        let data = apply(&problem.scene, &problem.nominal, params, &theta);
+        let mut data = apply(&problem.scene, &problem.nominal, params, &theta);
+        least_slip_limits(&problem.scene, params, &mut data);
         if n == 0 {
             // No uncertain datum moves the balance: the nominal data decide, as in a solve.
             return balance(problem, &data);

@@ -15,7 +15,7 @@ use super::failures::FailureSummary;
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::MeshChoice;
 use crate::estimate::statement::{AccuracyStatement, Extrema};
-use crate::scene::params::Parameter;
+use crate::scene::params::{applied_values, Parameter};
 use crate::scene::{Criterion, Scene, SceneError};
 use crate::state::StateProblem;
 use wsm_search::{
@@ -254,6 +254,11 @@ pub fn run(
             })
         })
         .collect();
+    for outcome in &mut criteria {
+        for extremum in [&mut outcome.worst, &mut outcome.best] {
+            report_applied_data(problem, params, extremum);
+        }
+    }
     let failures = FailureSummary::from_cache(cache);
     failures.unsettle(&mut criteria, &search_problem.bounds, settings.budget);
     let wall = start.elapsed().as_secs_f64();
@@ -278,4 +283,22 @@ pub fn run(
         failures,
         warnings: Vec::new(),
     })
+}
+
+/// The extremum's `data` as the solve used it: slope-limited slip-limit knots take their
+/// projected values (`best_point` keeps the search coordinates).
+fn report_applied_data(
+    problem: &StateProblem,
+    params: &[Parameter],
+    extremum: &mut ObjectiveResult,
+) {
+    let Some(point) = &extremum.best_point else {
+        return;
+    };
+    let values = applied_values(&problem.scene, &problem.nominal, params, point);
+    for (u, v) in problem.scene.uncertain.iter().zip(values) {
+        if let Some(slot) = extremum.data.get_mut(&u.field) {
+            *slot = v;
+        }
+    }
 }

@@ -7,10 +7,17 @@
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g), and
 //! `thermal.reference_temperature`.
 //!
-//! A piecewise linear slip limit with `max_slope` C lives in the set {0 ≤ g, |dg/ds| ≤ C} (FGCS
-//! 4.15). The box of knot values is mapped onto that set by the Euclidean projection (Dykstra's
-//! algorithm over the slope slabs and the box), so every admissible g is reached (it is its own
-//! image) and every θ in the box gives an admissible g.
+//! A piecewise linear slip limit with `max_slope` C \[Pa/m\] lives in the set U = {lo_k ≤ g_k ≤
+//! hi_k, g ≥ 0, |dg/ds| ≤ C} (FGCS 4.15), s the arc length along the zone (knots are fractions of
+//! the zone length L, so adjacent knots differ by at most C · L · Δfraction); a knot that is not
+//! uncertain keeps its value (lo_k = hi_k). The box of knot values is mapped onto U by the
+//! Euclidean projection (Dykstra's algorithm over the slope slabs and the box), so every
+//! admissible g is reached (it is its own image) and every θ in the box gives an admissible g
+//! ([`applied_values`] are the values a solve uses). U is a lattice (pointwise max and min of
+//! two members are members) with the least element L_k = max_j (lo_j − C L |s_k − s_j|)
+//! ([`least_slip_limit`]): U is empty unless L ≤ hi ([`parameters`] refuses it), and since the
+//! balance of a floating body only gets easier as g grows, L is the one slip limit the balance
+//! check needs.
 
 use super::data::{BoundaryValue, Data, Elastic, Expansion};
 use super::model::{Scene, SlipLimit, Uncertain};
@@ -270,35 +277,133 @@ pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
             ));
         }
     }
+    for set in slope_sets(scene, &params) {
+        let least = least_slip_limit(&set.knots, set.slope, &set.bounds);
+        if let Some(k) = (0..least.len()).find(|&k| least[k] > set.bounds[k].1) {
+            return Err(SceneError::new(
+                format!("contacts[{}].slip_limit.max_slope", set.contact),
+                format!(
+                    "no slip limit satisfies the slope bound and the knot intervals: the other \
+                     knots' lower bounds force knot {k} to at least {} Pa, above its upper bound \
+                     {} Pa (raise max_slope or widen the intervals)",
+                    least[k], set.bounds[k].1
+                ),
+            ));
+        }
+    }
     Ok(params)
 }
 
-/// Write θ into a copy of the nominal data, then map piecewise slip limits onto their
-/// slope-constrained sets.
+/// Write θ into a copy of the nominal data, then map slope-limited slip limits onto their sets.
 pub fn apply(scene: &Scene, nominal: &Data, params: &[Parameter], theta: &[f64]) -> Data {
     let mut data = nominal.clone();
     for (p, &v) in params.iter().zip(theta) {
         set(&mut data, p.target, v);
     }
-    for (c, contact) in scene.contacts.iter().enumerate() {
-        if let SlipLimit::PiecewiseLinear {
-            max_slope: Some(slope),
-            ..
-        } = contact.slip_limit
-        {
-            let bounds: Vec<(f64, f64)> = (0..data.slip[c].values.len())
+    for set in slope_sets(scene, params) {
+        let slip = &mut data.slip[set.contact];
+        slip.values = project_slope(&slip.values, &slip.knots, set.slope, &set.bounds);
+    }
+    data
+}
+
+/// The value each parameter's datum takes in the data of θ: θ itself, except for the knots of
+/// slope-limited slip limits, which take their projected values.
+pub fn applied_values(
+    scene: &Scene,
+    nominal: &Data,
+    params: &[Parameter],
+    theta: &[f64],
+) -> Vec<f64> {
+    let data = apply(scene, nominal, params, theta);
+    params
+        .iter()
+        .zip(theta)
+        .map(|(p, &v)| match p.target {
+            ParamTarget::SlipKnot(c, k) => data.slip[c].values[k],
+            _ => v,
+        })
+        .collect()
+}
+
+/// Set the slope-limited slip limits of `data` to the least elements of their sets.
+pub fn least_slip_limits(scene: &Scene, params: &[Parameter], data: &mut Data) {
+    for set in slope_sets(scene, params) {
+        data.slip[set.contact].values = least_slip_limit(&set.knots, set.slope, &set.bounds);
+    }
+}
+
+/// The admissible set of one slope-limited slip limit: its knots (fractions), the slope bound
+/// per fraction (C × zone length) and the bounds of each knot value.
+struct SlopeSet {
+    contact: usize,
+    knots: Vec<f64>,
+    slope: f64,
+    bounds: Vec<(f64, f64)>,
+}
+
+/// The slope-limited slip limits of the scene, with the scene's value as both bounds of a knot
+/// that is not uncertain.
+fn slope_sets(scene: &Scene, params: &[Parameter]) -> Vec<SlopeSet> {
+    scene
+        .contacts
+        .iter()
+        .enumerate()
+        .filter_map(|(c, contact)| {
+            let SlipLimit::PiecewiseLinear {
+                knots,
+                values,
+                max_slope: Some(slope),
+            } = &contact.slip_limit
+            else {
+                return None;
+            };
+            let bounds = (0..values.len())
                 .map(|k| {
                     params
                         .iter()
                         .find(|p| p.target == ParamTarget::SlipKnot(c, k))
-                        .map_or((0.0, f64::INFINITY), |p| (p.lo, p.hi))
+                        .map_or((values[k], values[k]), |p| (p.lo, p.hi))
                 })
                 .collect();
-            let slip = &mut data.slip[c];
-            slip.values = project_slope(&slip.values, &slip.knots, slope, &bounds);
-        }
-    }
-    data
+            Some(SlopeSet {
+                contact: c,
+                knots: knots.clone(),
+                slope: slope * zone_length(scene, c),
+                bounds,
+            })
+        })
+        .collect()
+}
+
+/// Arc length \[m\] of contact zone `c` along body k's segment (its knots' reference).
+fn zone_length(scene: &Scene, c: usize) -> f64 {
+    scene
+        .segments
+        .get(&scene.contacts[c].between[0])
+        .map_or(0.0, |segment| {
+            segment
+                .polyline()
+                .windows(2)
+                .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+                .sum()
+        })
+}
+
+/// The least element of {lo ≤ g ≤ hi, g ≥ 0, |g_j − g_k| ≤ slope |s_j − s_k|}: L_k = max_j
+/// (max(lo_j, 0) − slope |s_k − s_j|); a member of the set exactly when the set is not empty
+/// (L ≤ hi).
+pub fn least_slip_limit(knots: &[f64], slope: f64, bounds: &[(f64, f64)]) -> Vec<f64> {
+    knots
+        .iter()
+        .map(|&s| {
+            knots
+                .iter()
+                .zip(bounds)
+                .map(|(&t, &(lo, _))| lo.max(0.0) - slope * (s - t).abs())
+                .fold(0.0_f64, f64::max)
+        })
+        .collect()
 }
 
 /// Data at the points θ + t_k e_i with weights w_k such that Σ_k w_k F(D_k) is the derivative
@@ -427,7 +532,7 @@ fn set(data: &mut Data, target: ParamTarget, v: f64) {
 
 /// Euclidean projection of knot values onto {lo ≤ g ≤ hi, g ≥ 0, |g_{k+1} − g_k| ≤ C (s_{k+1} − s_k)}
 /// by Dykstra's alternating projections (exact limit; iterated to 1e-13 relative).
-/// `knots` are fractions of the zone; the caller scales C to fractions (C × zone length) if needed.
+/// `knots` are fractions of the zone and `slope` the bound per fraction (C × zone length).
 pub fn project_slope(values: &[f64], knots: &[f64], slope: f64, bounds: &[(f64, f64)]) -> Vec<f64> {
     let n = values.len();
     let mut x = values.to_vec();
@@ -506,5 +611,48 @@ mod tests {
             (out[0] - 1.5).abs() < 1e-6 && (out[1] - 2.0).abs() < 1e-6,
             "{out:?}"
         );
+    }
+
+    /// The least element is a member of the set and below each of its members (a lattice).
+    #[test]
+    fn least_slip_limit_is_the_least_member() {
+        let knots = [0.0, 0.25, 1.0];
+        let bounds = [(5.0, 6.0), (0.0, 6.0), (1.0, 6.0)];
+        let slope = 8.0;
+        let least = least_slip_limit(&knots, slope, &bounds);
+        assert_eq!(least, vec![5.0, 3.0, 1.0]);
+        for values in [[6.0, 6.0, 6.0], [5.0, 0.0, 0.0], [6.0, 2.0, 5.0]] {
+            let member = project_slope(&values, &knots, slope, &bounds);
+            assert!(
+                member.iter().zip(&least).all(|(m, l)| m >= &(l - 1e-9)),
+                "{member:?}"
+            );
+        }
+        assert_eq!(project_slope(&least, &knots, slope, &bounds), least);
+    }
+
+    /// `max_slope` is in Pa per metre of the zone; a set the slope bound empties is refused
+    /// naming the field.
+    #[test]
+    fn max_slope_is_per_metre_and_an_empty_set_is_refused() {
+        let text = crate::bundled::find("tunnel-fault-slip-profile").unwrap();
+        let scene = crate::scene::parse(text).unwrap();
+        assert!((zone_length(&scene, 0) - 22.0).abs() < 1e-9);
+        let params = parameters(&scene).unwrap();
+        let problem_data = crate::scene::data::Data::from_scene(&scene);
+        let mut theta: Vec<f64> = params.iter().map(|p| p.lo).collect();
+        theta[1] = 1.5e6;
+        let g = &apply(&scene, &problem_data, &params, &theta).slip[0].values;
+        // 4e4 Pa/m over 11 m between adjacent knots: 0.44 MPa, not 4e4 × 0.5.
+        assert!(((g[1] - g[0]) - 4.4e5).abs() < 1.0, "{g:?}");
+        assert!(((g[1] - g[2]) - 4.4e5).abs() < 1.0, "{g:?}");
+
+        let mut value: serde_json::Value = serde_json::from_str(text).unwrap();
+        value["uncertain"][0]["interval"] = serde_json::json!([1.4e6, 1.5e6]);
+        value["uncertain"][1]["interval"] = serde_json::json!([3e5, 4e5]);
+        let scene = crate::scene::parse(&value.to_string()).unwrap();
+        let error = parameters(&scene).unwrap_err();
+        assert_eq!(error.path, "contacts[0].slip_limit.max_slope");
+        assert!(error.reason.contains("knot 1"), "{}", error.reason);
     }
 }
