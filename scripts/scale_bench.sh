@@ -7,7 +7,8 @@
 # Usage: scripts/scale_bench.sh [WORKER_COUNTS (default "1 2")]
 # Environment: WSM_BIN (default target/release/wsm), PG_URL (default
 # postgres://postgres@127.0.0.1:5432/test), BUDGET (default 400), SCALE (default 1), RUNS
-# (default 3; the median is printed). Every run gets a fresh schema, dropped afterwards.
+# (default 3; the median is printed), CRITERIA (default phi3,phi5), DERIVATIVES (default true;
+# false searches without exact derivatives). Every run gets a fresh schema, dropped afterwards.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${WSM_BIN:-target/release/wsm}
@@ -16,6 +17,10 @@ budget=${BUDGET:-400}
 scale=${SCALE:-1}
 runs=${RUNS:-3}
 counts=${1:-"1 2"}
+criteria=${CRITERIA:-phi3,phi5}
+derivatives=${DERIVATIVES:-true}
+local_flags=()
+[ "$derivatives" = false ] && local_flags+=(--no-derivatives)
 work=$(mktemp -d)
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
@@ -29,7 +34,8 @@ s['mesh']['max_size'] *= f
 for r in s['mesh'].get('refine', []):
     r['max_size'] *= f
 json.dump(s, open('$work/scene.json', 'w'))
-json.dump({'scene': s, 'settings': {'criteria': ['phi3', 'phi5'], 'budget': $budget, 'seed': 1}},
+json.dump({'scene': s, 'settings': {'criteria': '$criteria'.split(','), 'budget': $budget, 'seed': 1,
+                                    'derivatives': '$derivatives' == 'true'}},
           open('$work/job.json', 'w'))
 "
 
@@ -37,15 +43,15 @@ median() { python3 -c "import statistics, sys; print(f'{statistics.median(float(
 field() { python3 -c "import json, sys; d = json.load(open(sys.argv[1])); print(eval(sys.argv[2], {}, {'d': d}))" "$@"; }
 
 echo "load: $(uptime | sed 's/.*load average/load average/')"
-echo "tunnel x$scale, criteria phi3,phi5, budget $budget, median of $runs runs"
+echo "tunnel x$scale, criteria $criteria, derivatives $derivatives, budget $budget, median of $runs runs"
 echo
 echo "| setting | evaluations | wall [s] | evaluations/s | solver share |"
 echo "|---|---|---|---|---|"
 for threads in 1 2; do
   rates=()
   for _ in $(seq "$runs"); do
-    "$bin" worst "$work/scene.json" --criteria phi3,phi5 --budget "$budget" --seed 1 \
-      --threads "$threads" --out "$work/local.json" > /dev/null 2>&1
+    "$bin" worst "$work/scene.json" --criteria "$criteria" --budget "$budget" --seed 1 \
+      --threads "$threads" "${local_flags[@]}" --out "$work/local.json" > /dev/null 2>&1
     rates+=("$(field "$work/local.json" "d['evaluations_per_second']")")
   done
   echo "| one process, $threads thread(s), no store | $(field "$work/local.json" "d['new_evaluations']") | $(field "$work/local.json" "round(d['wall_seconds'], 2)") | $(median "${rates[@]}") | $(field "$work/local.json" "round(d['inner_time_share'], 2)") |"
