@@ -216,16 +216,25 @@ fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
                 .collect()
         })
         .collect();
-    let values: Vec<Vec<f64>> = evaluator
-        .evaluate_batch(&vertices)
-        .into_iter()
-        .map(|e| e.values.expect("every vertex solves"))
-        .collect();
+    let values = solve_all(&evaluator, &vertices);
     let r = worst(&scene, &criteria, 120, 1);
     println!("tunnel: {} evaluations, {:?}", r.evaluations, r.status);
     assert!(r.evaluations <= 120);
     assert_all_certified(&r);
     assert_at_least_as_extreme(&r, &values, "vertex");
+}
+
+/// The criteria at every one of `points`, solved independently of any search (each must solve).
+fn solve_all(evaluator: &ScenarioEvaluator<'_>, points: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    evaluator
+        .evaluate_batch(points)
+        .into_iter()
+        .zip(points)
+        .map(|(e, p)| {
+            e.values
+                .unwrap_or_else(|| panic!("{p:?} does not solve: {:?}", e.error))
+        })
+        .collect()
 }
 
 /// Every extremum of `r` is at least as extreme (to 1e-9 relative) as the criteria `values`
@@ -324,11 +333,7 @@ fn slope_limited_slip_limit_extrema_beat_an_enumeration_of_its_set() {
         grid.len() < levels.len().pow(3),
         "the slope bound cuts the box"
     );
-    let values: Vec<Vec<f64>> = evaluator
-        .evaluate_batch(&grid)
-        .into_iter()
-        .map(|e| e.values.expect("every admissible slip limit solves"))
-        .collect();
+    let values = solve_all(&evaluator, &grid);
     let r = worst(&scene, &criteria, 200, 1);
     assert_at_least_as_extreme(&r, &values, "grid point");
     let mut projected = 0;

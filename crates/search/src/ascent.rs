@@ -276,18 +276,21 @@ fn trial_point(x: &[f64], p: &[f64], step: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Where an ascent ended: unit point and score.
+pub(super) type End = (Vec<f64>, f64);
+
 /// Ascend objective `k` from each of the evaluated unit points `starts` at once — every round
 /// evaluates the next trial point of every ascent still running in one batch, so that the
 /// batches are as wide as the starts — while the run's evaluation count stays within `limit`
 /// (when a round does not fit, the ascents listed last end first). Per start: why its ascent
 /// stopped (`Certified` when the residual is below [`CERTIFY_TOL`]) and the unit point where it
-/// ended (`None` if the start gave no derivatives).
+/// ended with its score (`None` if the start gave no derivatives).
 pub(super) fn run(
     session: &Session,
     k: usize,
     starts: Vec<Vec<f64>>,
     limit: usize,
-) -> Vec<(Status, Option<Vec<f64>>)> {
+) -> Vec<(Status, Option<End>)> {
     let iterates = match visit(session, k, &starts) {
         Ok(iterates) => iterates,
         Err(stop) => return starts.iter().map(|_| (stop, None)).collect(),
@@ -335,7 +338,10 @@ pub(super) fn run(
     ascents
         .into_iter()
         .map(|a| match a {
-            Some(a) => (a.end.unwrap_or(Status::Stagnated), Some(a.x.unit)),
+            Some(a) => (
+                a.end.unwrap_or(Status::Stagnated),
+                Some((a.x.unit, a.x.score)),
+            ),
             None => (Status::Stagnated, None),
         })
         .collect()

@@ -227,18 +227,12 @@ fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
     let Some(tops) = basin_tops(session, k) else {
         return Status::BudgetExhausted;
     };
-    let sense = session.objectives()[k].sense;
     let mut ended: Option<(f64, Status)> = None;
     for (status, end) in ascent::run(session, k, tops, limit) {
         if is_halt(status) {
             return status;
         }
-        let Some(end) = end else { continue };
-        let score = session
-            .values(&[end.as_slice()], k)
-            .ok()
-            .and_then(|v| v[0])
-            .map_or(f64::NEG_INFINITY, |v| sense.score(v));
+        let Some((end, score)) = end else { continue };
         session.note_end(k, end);
         if ended.is_none_or(|(best, _)| score > best) {
             ended = Some((score, status));
