@@ -10,7 +10,7 @@
 
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{Criterion, Scene};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
 use wsm_study::bench::scaled_scene;
 
 fn options(problem: &StateProblem) -> SolveOptions {
@@ -154,6 +154,72 @@ fn check(scene: Scene, points: usize, seed: u64) -> Tally {
         }
     }
     tally
+}
+
+/// The adjoint route equals the forward tangent where the state is differentiable: at the nominal
+/// point and random interior points of every bundled example, every derivative of every
+/// criterion agrees to 1e-9 relative (to the derivative, or to |Φ| over the interval width for
+/// a vanishing one), and the adjoint gave most directions.
+#[test]
+fn adjoint_equals_forward_on_every_example() {
+    let mut rng = Rng(11);
+    for name in wsm_core::bundled::names() {
+        let coarsen = if name.starts_with("tunnel") || name == "knee" {
+            2.0
+        } else {
+            1.0
+        };
+        let problem = StateProblem::new(scaled_scene(name, coarsen).unwrap()).unwrap();
+        let params = parameters(&problem.scene).unwrap();
+        let (mut adjoint, mut directions) = (0, 0);
+        for point in 0..3 {
+            let theta: Vec<f64> = params
+                .iter()
+                .map(|p| match point {
+                    0 => 0.5 * (p.lo + p.hi),
+                    _ => p.lo + (0.1 + 0.8 * rng.next()) * (p.hi - p.lo),
+                })
+                .collect();
+            let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+            let stencils: Vec<_> = (0..params.len())
+                .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                .collect();
+            let solve = |route| {
+                problem
+                    .solve_with_sensitivities_by(&data, &options(&problem), &stencils, route)
+                    .unwrap()
+            };
+            let by_adjoint = solve(DerivativeRoute::Adjoint);
+            let by_forward = solve(DerivativeRoute::Forward);
+            assert_eq!(by_forward.report.adjoint_directions, 0);
+            adjoint += by_adjoint.report.adjoint_directions;
+            directions += params.len();
+            for (j, p) in params.iter().enumerate() {
+                for c in Criterion::ALL {
+                    let i = c as usize;
+                    let Some(value) = by_adjoint.criteria[i] else {
+                        continue;
+                    };
+                    let (a, f) = (
+                        by_adjoint.sensitivities[j][i].unwrap(),
+                        by_forward.sensitivities[j][i].unwrap(),
+                    );
+                    let scale = f.right.abs().max(f.left.abs()) + value.abs() / (p.hi - p.lo);
+                    let error = (a.right - f.right).abs().max((a.left - f.left).abs()) / scale;
+                    assert!(
+                        error < 1e-9,
+                        "{name} point {point} d{c:?}/d{}: adjoint {a:?}, forward {f:?} (error {error:e})",
+                        p.name
+                    );
+                }
+            }
+        }
+        eprintln!("{name}: the adjoint gave {adjoint} of {directions} directions");
+        assert!(
+            2 * adjoint >= directions,
+            "{name}: the adjoint gave only {adjoint} of {directions} directions"
+        );
+    }
 }
 
 fn example(name: &str, coarsen: f64, points: usize) {

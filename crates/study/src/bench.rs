@@ -5,8 +5,9 @@ use std::time::Instant;
 
 use wsm_core::error::WsmError;
 use wsm_core::fem::Par;
+use wsm_core::scene::params::{apply, stencil};
 use wsm_core::scene::{parse, BoundaryValue, Scene};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -301,56 +302,66 @@ pub fn worst_benchmark(
 }
 
 /// `wsm bench --gradients`: per size, the median time of one evaluation of the tunnel's criteria
-/// at `runs` fixed interior points of its box, without and with the exact derivatives of all
-/// of them along all uncertain data, and their ratio (issue #24: at most 1.5 at 10^4 unknowns).
+/// at `runs` fixed interior points of its box (new λ, μ: the stiffness is factorised), and of
+/// the same solve once the factor is cached, without and with the exact derivatives of all
+/// criteria along all uncertain data — by the adjoint (the product's route) and by the forward
+/// tangent. The ratio is that of an evaluation with derivatives to one without, 1 + (with −
+/// without, factor cached) / evaluation (issue #24: at most 1.5 at 10^4 unknowns).
 pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
     let mut out = String::from(
-        "Exact derivatives on the tunnel (all criteria along all uncertain data; one thread per evaluation):\n\n| unknowns | uncertain data | criteria | evaluation [s] | with derivatives [s] | ratio |\n|---|---|---|---|---|---|\n",
+        "Exact derivatives on the tunnel (all criteria along all uncertain data; one thread per solve):\n\n| unknowns | uncertain data | criteria | evaluation [s] | solve, factor cached [s] | with derivatives: adjoint [s] | ratio | forward tangent [s] | ratio |\n|---|---|---|---|---|---|---|---|---|\n",
     );
     for &n in sizes {
         let problem = problem_of_size("tunnel-fault", n)?;
         let params = wsm_core::scene::params::parameters(&problem.scene)?;
         let criteria = problem.scene.search.criteria.clone();
-        let plain =
-            wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)?;
-        let exact =
-            wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)?
-                .with_derivatives(true);
-        // Fixed interior points: a low-discrepancy walk through the box.
-        let points: Vec<Vec<f64>> = (0..runs.max(1))
-            .map(|r| {
-                params
-                    .iter()
-                    .enumerate()
-                    .map(|(i, p)| {
-                        let u = ((r + 1) as f64 * (0.618_034 + 0.1 * i as f64)).fract();
-                        p.lo + (0.1 + 0.8 * u) * (p.hi - p.lo)
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut without = Vec::new();
-        let mut with = Vec::new();
-        for x in &points {
-            without.push(time(|| plain.evaluate_one(x)).1);
-            let (e, t) = time(|| exact.evaluate_one(x));
-            if e.gradient.is_empty() {
-                return Err(WsmError::io(
-                    "gradient benchmark",
-                    format!("no derivatives at {x:?}: {:?}", e.error),
-                ));
+        let options = SolveOptions {
+            needs: Needs::for_criteria(&problem.scene, &criteria),
+            par: Par::Seq,
+            warm: None,
+        };
+        let mut times: [Vec<f64>; 4] = Default::default();
+        for r in 0..runs.max(1) {
+            // Fixed interior points: a low-discrepancy walk through the box.
+            let theta: Vec<f64> = params
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let u = ((r + 1) as f64 * (0.618_034 + 0.1 * i as f64)).fract();
+                    p.lo + (0.1 + 0.8 * u) * (p.hi - p.lo)
+                })
+                .collect();
+            let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+            let stencils: Vec<_> = (0..params.len())
+                .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                .collect();
+            times[0].push(time(|| problem.solve(&data, &options)).1);
+            times[1].push(time(|| problem.solve(&data, &options)).1);
+            for (slot, route) in [(2, DerivativeRoute::Adjoint), (3, DerivativeRoute::Forward)] {
+                let (solution, t) =
+                    time(|| problem.solve_with_sensitivities_by(&data, &options, &stencils, route));
+                if solution?.sensitivities.len() != params.len() {
+                    return Err(WsmError::io(
+                        "gradient benchmark",
+                        format!("no derivatives at {theta:?}"),
+                    ));
+                }
+                times[slot].push(t);
             }
-            with.push(t);
         }
-        let (a, b) = (median(without), median(with));
+        let [evaluation, cached, adjoint, forward] = times.map(median);
+        let ratio = |with: f64| 1.0 + (with - cached) / evaluation;
         out.push_str(&format!(
-            "| {} | {} | {} | {:.4} | {:.4} | {:.2} |\n",
+            "| {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} |\n",
             problem.elastic.dofs().n_free(),
             params.len(),
             criteria.len(),
-            a,
-            b,
-            b / a
+            evaluation,
+            cached,
+            adjoint,
+            ratio(adjoint),
+            forward,
+            ratio(forward)
         ));
     }
     Ok(out)

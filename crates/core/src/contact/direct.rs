@@ -24,8 +24,10 @@
 //! ([`super::bodies`]), so that the factor of a body whose zone coefficients did not change can
 //! be reused ([`DirectContact::factor_with`]).
 
+mod adjoint;
 mod tangent;
 
+pub use adjoint::AdjointForms;
 pub use tangent::{ContactPoint, DataDerivative};
 
 use std::sync::Arc;

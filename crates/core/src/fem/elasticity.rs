@@ -18,7 +18,10 @@ use super::dofs::DofMap;
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
-use super::stress::{element_stresses, internal_forces, ElementStress, ZoneMaterial};
+use super::stress::{
+    element_stress, element_stresses, internal_forces, plane_strain_stress, ElementStress,
+    ZoneMaterial,
+};
 use super::{expect_len, material_of, FemError};
 
 /// The elasticity problem of a mesh and scene topology: DOFs, operator, unit loads.
@@ -309,6 +312,39 @@ impl ElasticProblem {
         self.stresses_relative_to(data, u, temperature, data.reference_temperature)
     }
 
+    /// Element stresses of `u` (with the temperature field's excess over T0) at `elements` only,
+    /// in their order.
+    pub fn stresses_at(
+        &self,
+        data: &Data,
+        u: &[[f64; 2]],
+        temperature: Option<&[f64]>,
+        elements: &[usize],
+    ) -> Result<Vec<ElementStress>, FemError> {
+        expect_len("nodal displacements", u.len(), self.mesh.nodes.len())?;
+        if let Some(t) = temperature {
+            self.check_temperature(t)?;
+        }
+        let materials = self.zone_materials(data)?;
+        let thermal = temperature.map(|t| (t, data.reference_temperature));
+        elements
+            .iter()
+            .map(|&e| {
+                if e >= self.mesh.triangles.len() {
+                    return Err(FemError::Input(format!("triangle {e} out of range")));
+                }
+                Ok(element_stress(
+                    &self.mesh,
+                    &self.gradients,
+                    &materials,
+                    u,
+                    thermal,
+                    e,
+                ))
+            })
+            .collect()
+    }
+
     /// The stresses of a displacement increment `du` with the temperature increment `dt`
     /// (τ = A e(du) − β dT: the linear part of the law, no reference temperature).
     pub fn stress_increments(
@@ -318,6 +354,49 @@ impl ElasticProblem {
         dt: Option<&[f64]>,
     ) -> Result<Vec<ElementStress>, FemError> {
         self.stresses_relative_to(data, du, dt, 0.0)
+    }
+
+    /// The transpose of [`Self::stress_increments`] for a linear form Σ_e g_e·dτ_e of the element
+    /// stresses: adds to `displacement` (global x, y per node) and `temperature` (per node) the
+    /// coefficients a, t with Σ_e g_e·dτ_e(du, dT) = Σ_n a_n·du_n + Σ_n t_n dT_n. The law is
+    /// linear in (e(du), dT), so its columns are its values at unit strains and a unit ΔT.
+    pub fn add_stress_form_transpose(
+        &self,
+        data: &Data,
+        form: &[(usize, [f64; 4])],
+        displacement: &mut [[f64; 2]],
+        temperature: &mut [f64],
+    ) -> Result<(), FemError> {
+        expect_len(
+            "nodal coefficients",
+            displacement.len(),
+            self.mesh.nodes.len(),
+        )?;
+        self.check_temperature(temperature)?;
+        let materials = self.zone_materials(data)?;
+        let dot = |g: &[f64; 4], s: [f64; 4]| (0..4).map(|k| g[k] * s[k]).sum::<f64>();
+        for &(e, g) in form {
+            let tri = *self
+                .mesh
+                .triangles
+                .get(e)
+                .ok_or_else(|| FemError::Input(format!("triangle {e} out of range")))?;
+            let m = &materials[self.mesh.triangle_zone[e]];
+            // g·τ(strain) = h·(e11, e22, e12); the element strain is (s0, s1, s2/2) of B v.
+            let h: [f64; 3] = std::array::from_fn(|k| {
+                let unit = std::array::from_fn(|j| f64::from(u8::from(j == k)));
+                dot(&g, plane_strain_stress(m, unit, 0.0))
+            });
+            let grads = &self.gradients[e];
+            let per_area = grads.nodal_forces([h[0], h[1], 0.5 * h[2]]);
+            let thermal = dot(&g, plane_strain_stress(m, [0.0; 3], 1.0)) / 3.0;
+            for (i, &node) in tri.iter().enumerate() {
+                displacement[node][0] += per_area[2 * i] / grads.area;
+                displacement[node][1] += per_area[2 * i + 1] / grads.area;
+                temperature[node] += thermal;
+            }
+        }
+        Ok(())
     }
 
     /// Element stresses of `u` with the temperature field's excess over `reference`.

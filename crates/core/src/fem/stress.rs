@@ -79,23 +79,32 @@ pub fn element_stresses(
     u: &[[f64; 2]],
     thermal: Option<(&[f64], f64)>,
 ) -> Vec<ElementStress> {
-    mesh.triangles
-        .iter()
-        .enumerate()
-        .map(|(t, tri)| {
-            let v = element_displacements(u, *tri);
-            let [e11, e22, gamma] = gradients[t].strain(&v);
-            let strain = [e11, e22, gamma / 2.0];
-            let delta_t = thermal.map_or(0.0, |(temp, t0)| {
-                tri.iter().map(|&n| temp[n]).sum::<f64>() / 3.0 - t0
-            });
-            let m = &materials[mesh.triangle_zone[t]];
-            ElementStress {
-                strain,
-                stress: plane_strain_stress(m, strain, delta_t),
-            }
-        })
+    (0..mesh.triangles.len())
+        .map(|t| element_stress(mesh, gradients, materials, u, thermal, t))
         .collect()
+}
+
+/// [`element_stresses`] of triangle `t` alone.
+pub fn element_stress(
+    mesh: &Mesh,
+    gradients: &[TriangleGradients],
+    materials: &[ZoneMaterial],
+    u: &[[f64; 2]],
+    thermal: Option<(&[f64], f64)>,
+    t: usize,
+) -> ElementStress {
+    let tri = mesh.triangles[t];
+    let v = element_displacements(u, tri);
+    let [e11, e22, gamma] = gradients[t].strain(&v);
+    let strain = [e11, e22, gamma / 2.0];
+    let delta_t = thermal.map_or(0.0, |(temp, t0)| {
+        tri.iter().map(|&n| temp[n]).sum::<f64>() / 3.0 - t0
+    });
+    let m = &materials[mesh.triangle_zone[t]];
+    ElementStress {
+        strain,
+        stress: plane_strain_stress(m, strain, delta_t),
+    }
 }
 
 /// Nodal internal forces Σ_e area Bᵀ(τ11, τ22, τ12) in global components.

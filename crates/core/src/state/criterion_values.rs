@@ -6,6 +6,11 @@
 //! with τ_n = n(X_r)·τ·n(X_r); Φ3 over the regions that have a normal, Φ6 over those of them that
 //! touch a contact zone (G_r adjacent to Γc, FGCS 4.34). The region weights are
 //! normalised (they sum to one), so a mean is a weighted sum of nodal or element values.
+//!
+//! Each region value has a derivative that is a [`LinearForm`] of the tangent fields (dT, du, dτ):
+//! the region value itself for the linear criteria, 2 mean B(τ, dτ) for Φ5 (B the bilinear form
+//! of I2²). The sensitivities apply the forms to tangent fields (forward) or hand them to the
+//! adjoint (design §4.3).
 
 use crate::fem::stress::i2_bilinear;
 use crate::fem::ElementStress;
@@ -21,8 +26,126 @@ pub struct Fields<'a> {
     pub stresses: Option<&'a [ElementStress]>,
 }
 
-fn mean(weights: &[(usize, f64)], f: impl Fn(usize) -> f64) -> f64 {
-    weights.iter().map(|&(i, w)| w * f(i)).sum()
+/// A linear form on (temperature, displacement, stresses): Σ t_n T_n + Σ a_n·u_n + Σ g_e·τ_e,
+/// with τ_e = (τ11, τ22, τ12, τ33).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinearForm {
+    /// (node, coefficient of T_node).
+    pub temperature: Vec<(usize, f64)>,
+    /// (node, coefficients of u_node in global x, y).
+    pub displacement: Vec<(usize, [f64; 2])>,
+    /// (element, coefficients of its stress components).
+    pub stresses: Vec<(usize, [f64; 4])>,
+}
+
+impl LinearForm {
+    /// The form's value on `fields` (a missing field contributes nothing).
+    pub fn apply(&self, fields: &Fields) -> f64 {
+        let temperature = fields.temperature.map_or(0.0, |t| {
+            self.temperature.iter().map(|&(i, w)| w * t[i]).sum()
+        });
+        let displacement = fields.displacement.map_or(0.0, |u| {
+            self.displacement
+                .iter()
+                .map(|&(i, a)| a[0] * u[i][0] + a[1] * u[i][1])
+                .sum()
+        });
+        let stresses = fields.stresses.map_or(0.0, |s| {
+            self.stresses
+                .iter()
+                .map(|&(e, g)| (0..4).map(|k| g[k] * s[e].stress[k]).sum::<f64>())
+                .sum()
+        });
+        temperature + displacement + stresses
+    }
+
+    /// Whether the form reads the displacement or the stresses.
+    pub fn is_mechanical(&self) -> bool {
+        !self.displacement.is_empty() || !self.stresses.is_empty()
+    }
+}
+
+/// −n·τ·n as a form on (τ11, τ22, τ12, τ33), scaled by `w`.
+fn normal_pressure([n0, n1]: [f64; 2], w: f64) -> [f64; 4] {
+    [-w * n0 * n0, -w * n1 * n1, -2.0 * w * n0 * n1, 0.0]
+}
+
+/// The derivative forms of the region values of Φ1..Φ6 (empty where the field or a suitable
+/// region is missing). The forms of Φ5 linearise I2² at `fields.stresses`.
+pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<LinearForm>; 6] {
+    let mut out: [Vec<LinearForm>; 6] = Default::default();
+    if fields.temperature.is_some() {
+        let of = |weights: &[(usize, f64)]| LinearForm {
+            temperature: weights.to_vec(),
+            ..LinearForm::default()
+        };
+        out[0] = geometry
+            .regions
+            .iter()
+            .map(|r| of(&r.node_weights))
+            .collect();
+        out[1] = geometry
+            .pieces
+            .iter()
+            .map(|p| of(&p.node_weights))
+            .collect();
+    }
+    if fields.displacement.is_some() {
+        let along = |weights: &[(usize, f64)], n: [f64; 2]| LinearForm {
+            displacement: weights
+                .iter()
+                .map(|&(i, w)| (i, [w * n[0], w * n[1]]))
+                .collect(),
+            ..LinearForm::default()
+        };
+        out[2] = geometry
+            .regions
+            .iter()
+            .filter_map(|r| r.normal.map(|n| along(&r.node_weights, n)))
+            .collect();
+        out[3] = geometry
+            .pieces
+            .iter()
+            .map(|p| along(&p.node_weights, p.normal))
+            .collect();
+    }
+    if let Some(s) = fields.stresses {
+        let unit = |k: usize| std::array::from_fn::<f64, 4, _>(|j| f64::from(u8::from(j == k)));
+        out[4] = geometry
+            .regions
+            .iter()
+            .map(|r| LinearForm {
+                stresses: r
+                    .element_weights
+                    .iter()
+                    .map(|&(e, w)| {
+                        (
+                            e,
+                            std::array::from_fn(|k| 2.0 * w * i2_bilinear(s[e].stress, unit(k))),
+                        )
+                    })
+                    .collect(),
+                ..LinearForm::default()
+            })
+            .collect();
+        out[5] = geometry
+            .regions
+            .iter()
+            .filter_map(|r| {
+                r.normal
+                    .filter(|_| r.adjacent_to_contact)
+                    .map(|n| LinearForm {
+                        stresses: r
+                            .element_weights
+                            .iter()
+                            .map(|&(e, w)| (e, normal_pressure(n, w)))
+                            .collect(),
+                        ..LinearForm::default()
+                    })
+            })
+            .collect();
+    }
+    out
 }
 
 fn max_of(values: &[f64]) -> Option<f64> {
@@ -31,84 +154,26 @@ fn max_of(values: &[f64]) -> Option<f64> {
         .fold(None, |m: Option<f64>, &v| Some(m.map_or(v, |m| m.max(v))))
 }
 
-/// The region values of Φ1..Φ6 (empty where the field or a suitable region is missing), with
-/// `i2_of(e)` the element value used for Φ5 (I2² for the criteria, its derivative for the
-/// sensitivities); the other criteria are linear in the fields.
-fn region_values(
-    geometry: &CriteriaGeometry,
-    fields: &Fields,
-    i2_of: &dyn Fn(usize) -> f64,
-) -> [Vec<f64>; 6] {
-    let mut out: [Vec<f64>; 6] = Default::default();
-    if let Some(t) = fields.temperature {
-        out[0] = geometry
-            .regions
-            .iter()
-            .map(|r| mean(&r.node_weights, |i| t[i]))
-            .collect();
-        out[1] = geometry
-            .pieces
-            .iter()
-            .map(|p| mean(&p.node_weights, |i| t[i]))
-            .collect();
-    }
-    if let Some(u) = fields.displacement {
-        let along = |n: [f64; 2]| move |i: usize| u[i][0] * n[0] + u[i][1] * n[1];
-        out[2] = geometry
-            .regions
-            .iter()
-            .filter_map(|r| r.normal.map(|n| mean(&r.node_weights, along(n))))
-            .collect();
-        out[3] = geometry
-            .pieces
-            .iter()
-            .map(|p| mean(&p.node_weights, along(p.normal)))
-            .collect();
-    }
-    if let Some(s) = fields.stresses {
-        out[4] = geometry
-            .regions
-            .iter()
-            .map(|r| mean(&r.element_weights, i2_of))
-            .collect();
-        out[5] = geometry
-            .regions
-            .iter()
-            .filter_map(|r| {
-                r.normal.filter(|_| r.adjacent_to_contact).map(|n| {
-                    mean(&r.element_weights, |e| {
-                        let [s11, s22, s12, _] = s[e].stress;
-                        -(n[0] * n[0] * s11 + 2.0 * n[0] * n[1] * s12 + n[1] * n[1] * s22)
-                    })
-                })
-            })
-            .collect();
-    }
-    out
-}
-
 /// Φ1..Φ6 (None where the field or a suitable region is missing).
 pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6] {
     per_region(geometry, fields).map(|values| max_of(&values))
 }
 
-/// The region values behind each Φ_i (the maximum over them is Φ_i).
+/// The region values behind each Φ_i (the maximum over them is Φ_i): the linear criteria are
+/// their forms applied to the fields, Φ5 the mean of I2².
 pub fn per_region(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<f64>; 6] {
-    let i2 = |e: usize| fields.stresses.map_or(0.0, |s| s[e].i2_squared());
-    region_values(geometry, fields, &i2)
-}
-
-/// The derivatives of the region values along the tangent fields `tangent` (the derivatives of
-/// temperature, displacement and stresses): the region values of the tangent fields for the
-/// linear criteria, 2 mean B(τ, dτ) for Φ5 (B the bilinear form of I2²).
-pub fn region_derivatives(
-    geometry: &CriteriaGeometry,
-    fields: &Fields,
-    tangent: &Fields,
-) -> [Vec<f64>; 6] {
-    let i2 = |e: usize| match (fields.stresses, tangent.stresses) {
-        (Some(s), Some(ds)) => 2.0 * i2_bilinear(s[e].stress, ds[e].stress),
-        _ => 0.0,
-    };
-    region_values(geometry, tangent, &i2)
+    let forms = region_forms(geometry, fields);
+    std::array::from_fn(|i| match (i, fields.stresses) {
+        (4, Some(s)) => geometry
+            .regions
+            .iter()
+            .map(|r| {
+                r.element_weights
+                    .iter()
+                    .map(|&(e, w)| w * s[e].i2_squared())
+                    .sum()
+            })
+            .collect(),
+        _ => forms[i].iter().map(|f| f.apply(fields)).collect(),
+    })
 }

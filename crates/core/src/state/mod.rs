@@ -38,6 +38,7 @@ use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
 use crate::scene::params::Stencil;
 use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
+pub use sensitivity::DerivativeRoute;
 use sensitivity::{ElasticState, SolvedState};
 
 /// What a solve must compute.
@@ -198,6 +199,18 @@ impl StateProblem {
         options: &SolveOptions,
         stencils: &[Stencil],
     ) -> Result<Solution, WsmError> {
+        self.solve_with_sensitivities_by(data, options, stencils, DerivativeRoute::Adjoint)
+    }
+
+    /// [`Self::solve_with_sensitivities`] with the derivatives taken by `route` (the forward
+    /// route serves as the check and the cost baseline of the adjoint one).
+    pub fn solve_with_sensitivities_by(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        stencils: &[Stencil],
+        route: DerivativeRoute,
+    ) -> Result<Solution, WsmError> {
         let start = Instant::now();
         let mesh = self.mesh();
         let mut report = SolveReport {
@@ -253,25 +266,22 @@ impl StateProblem {
             },
         );
         report.timings.post += t0.elapsed().as_secs_f64();
+        solution.temperature = temperature.map(|t| t.as_ref().clone());
         if !stencils.is_empty() {
             let t0 = Instant::now();
-            let sensitivities = self.differentiate(
-                data,
-                options,
-                temperature.as_deref().map(Vec::as_slice),
-                elastic.as_ref(),
-                &solution,
-                stencils,
-            );
+            let sensitivities =
+                self.differentiate(data, options, elastic.as_ref(), &solution, stencils, route);
             match sensitivities {
-                Ok(s) => solution.sensitivities = s,
+                Ok((s, adjoint)) => {
+                    solution.sensitivities = s;
+                    report.adjoint_directions = adjoint;
+                }
                 Err(e) => report
                     .warnings
                     .push(format!("the sensitivities are not available: {e}")),
             }
             report.timings.sensitivities = t0.elapsed().as_secs_f64();
         }
-        solution.temperature = temperature.map(|t| t.as_ref().clone());
         report.timings.total = start.elapsed().as_secs_f64();
         solution.report = report;
         Ok(solution)
@@ -282,11 +292,11 @@ impl StateProblem {
         &self,
         data: &Data,
         options: &SolveOptions,
-        temperature: Option<&[f64]>,
         elastic: Option<&ElasticParts>,
         solution: &Solution,
         stencils: &[Stencil],
-    ) -> Result<Sensitivities, WsmError> {
+        route: DerivativeRoute,
+    ) -> Result<(Sensitivities, usize), WsmError> {
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
@@ -296,7 +306,7 @@ impl StateProblem {
         };
         let state = SolvedState {
             data,
-            temperature,
+            temperature: solution.temperature.as_deref(),
             elastic: elastic
                 .zip(factor.as_deref())
                 .map(|(parts, factor)| ElasticState {
@@ -307,7 +317,7 @@ impl StateProblem {
                     stresses: &solution.stresses,
                 }),
         };
-        self.sensitivities(&state, stencils)
+        self.sensitivities(&state, stencils, route)
     }
 
     fn solve_elastic(

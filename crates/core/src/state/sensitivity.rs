@@ -18,9 +18,11 @@
 //! The DD solver's state is differentiated with the direct solver's factor and C (the same
 //! formulas on the DD multipliers), which costs one direct factorisation per stiffness.
 
-use super::criterion_values::{per_region, region_derivatives, Fields};
+use super::criterion_values::{per_region, region_forms, Fields, LinearForm};
 use super::{thermal_key, StateProblem};
-use crate::contact::direct::{ContactPoint, ContactSolution, DataDerivative, StiffnessFactor};
+use crate::contact::direct::{
+    AdjointForms, ContactPoint, ContactSolution, DataDerivative, StiffnessFactor,
+};
 use crate::error::WsmError;
 use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
@@ -32,6 +34,18 @@ const TIE_TOL: f64 = 1e-12;
 
 /// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
 pub type Sensitivities = Vec<[Option<OneSided>; 6]>;
+
+/// How the derivatives of the criteria are taken (design §4.3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DerivativeRoute {
+    /// The adjoint where the state is differentiable, the forward tangent elsewhere.
+    Adjoint,
+    /// The forward tangent along every direction.
+    Forward,
+}
+
+/// The derivatives of the region values of Φ1..Φ6 along +θ_j (right) and −θ_j, negated (left).
+type OneSidedRegions = ([Vec<f64>; 6], [Vec<f64>; 6]);
 
 /// The state a sensitivity is taken at.
 pub(super) struct SolvedState<'a> {
@@ -49,7 +63,6 @@ pub(super) struct ElasticState<'a> {
     pub stresses: &'a [ElementStress],
 }
 
-/// The tangent fields of one direction.
 /// The data derivative of the elastic contact problem along one parameter.
 struct ElasticDerivative {
     /// b on the free DOFs.
@@ -59,10 +72,66 @@ struct ElasticDerivative {
     /// Derivatives of the multiplier bounds (0 for infinite ones).
     lower: Vec<f64>,
     upper: Vec<f64>,
-    /// Σ_k w_k τ(D_k; u, T) per element, when the law changes along the parameter.
+    /// Σ_k w_k τ(D_k; u, T) per element, when the law changes along the parameter (at the
+    /// elements the criteria read; 0 elsewhere).
     stress_part: Option<Vec<[f64; 4]>>,
 }
 
+impl ElasticDerivative {
+    /// The part the contact problem sees.
+    fn view(&self) -> DataDerivative<'_> {
+        DataDerivative {
+            residual: &self.residual,
+            fixed: &self.fixed,
+            lower: &self.lower,
+            upper: &self.upper,
+        }
+    }
+}
+
+/// The adjoint forms of the tied region values (design §4.3): per form, the contact adjoint of
+/// its displacement part, its coefficients on du_d and on dT, and its stress part (which also
+/// reads the change of the law along the parameter).
+struct AdjointCriteria {
+    contact: AdjointForms,
+    /// Regions per criterion.
+    shape: [usize; 6],
+    /// (criterion, region) of each form.
+    regions: Vec<(usize, usize)>,
+    /// Per form, its index in `contact` when it reads the displacement or the stresses.
+    mechanical: Vec<Option<usize>>,
+    fixed: Vec<Vec<f64>>,
+    temperature: Vec<Vec<f64>>,
+    stress_forms: Vec<Vec<(usize, [f64; 4])>>,
+}
+
+impl AdjointCriteria {
+    /// The derivatives of the region values along the data derivative `part` with the
+    /// temperature derivative `dt` (0 for the regions that do not tie for the maximum).
+    fn along(&self, part: &ElasticDerivative, dt: Option<&[f64]>) -> [Vec<f64>; 6] {
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let mut out: [Vec<f64>; 6] = self.shape.map(|n| vec![0.0; n]);
+        for (f, &(i, r)) in self.regions.iter().enumerate() {
+            let mut value = dot(&self.fixed[f], &part.fixed);
+            if let Some(c) = self.mechanical[f] {
+                value += self.contact.apply(c, &part.view());
+            }
+            if let Some(dt) = dt {
+                value += dot(&self.temperature[f], dt);
+            }
+            if let Some(stress_part) = &part.stress_part {
+                value += self.stress_forms[f]
+                    .iter()
+                    .map(|&(e, g)| dot(&g, &stress_part[e]))
+                    .sum::<f64>();
+            }
+            out[i][r] = value;
+        }
+        out
+    }
+}
+
+/// The tangent fields of one direction.
 struct Tangent {
     temperature: Option<Vec<f64>>,
     displacement: Option<Vec<[f64; 2]>>,
@@ -80,41 +149,22 @@ impl Tangent {
 }
 
 impl StateProblem {
-    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state.
+    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state, by `route`, and how many
+    /// directions the adjoint gave.
     pub(super) fn sensitivities(
         &self,
         state: &SolvedState,
         stencils: &[Stencil],
-    ) -> Result<Sensitivities, WsmError> {
+        route: DerivativeRoute,
+    ) -> Result<(Sensitivities, usize), WsmError> {
         let fields = Fields {
             temperature: state.temperature,
             displacement: state.elastic.as_ref().map(|e| e.displacement),
             stresses: state.elastic.as_ref().map(|e| e.stresses),
         };
         let values = per_region(&self.criteria, &fields);
-        Ok(self
-            .tangents(state, stencils)?
-            .iter()
-            .map(|(plus, minus)| {
-                let right = region_derivatives(&self.criteria, &fields, &plus.fields());
-                let left = match minus {
-                    Some(m) => region_derivatives(&self.criteria, &fields, &m.fields())
-                        .map(|d| d.iter().map(|v| -v).collect()),
-                    None => right.clone(),
-                };
-                std::array::from_fn(|i| one_sided(&values[i], &right[i], &left[i]))
-            })
-            .collect())
-    }
-
-    /// Per stencil, the tangent fields along +θ_j and, where the state is only one-sided
-    /// differentiable, along −θ_j (`None`: minus the first). The contact tangents of all
-    /// stencils share their solves with K (one multi-right-hand-side solve for all).
-    fn tangents(
-        &self,
-        state: &SolvedState,
-        stencils: &[Stencil],
-    ) -> Result<Vec<(Tangent, Option<Tangent>)>, WsmError> {
+        let forms = region_forms(&self.criteria, &fields);
+        let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
         let d_temperatures: Vec<Option<Vec<f64>>> = stencils
             .iter()
             .map(|stencil| {
@@ -124,56 +174,171 @@ impl StateProblem {
                     .transpose()
             })
             .collect::<Result<_, _>>()?;
-        let Some(el) = &state.elastic else {
-            return Ok(d_temperatures
-                .into_iter()
-                .map(|temperature| {
-                    let plus = Tangent {
-                        temperature,
+        // Per stencil: the region derivatives along +θ_j and −θ_j.
+        let mut derivatives: Vec<Option<OneSidedRegions>> = vec![None; stencils.len()];
+        let mut adjoint_directions = 0;
+        match &state.elastic {
+            None => {
+                for (slot, dt) in derivatives.iter_mut().zip(&d_temperatures) {
+                    let tangent = Fields {
+                        temperature: dt.as_deref(),
                         displacement: None,
                         stresses: None,
                     };
-                    (plus, None)
-                })
-                .collect());
-        };
-        let parts: Vec<ElasticDerivative> = stencils
-            .iter()
-            .zip(&d_temperatures)
-            .map(|(stencil, dt)| self.elastic_derivative(state, el, stencil, dt.as_deref()))
-            .collect::<Result<_, _>>()?;
-        let (lo, hi) = self.contact.geometry.bounds(state.data);
-        let displacement_scale = el
-            .displacement
-            .iter()
-            .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs()));
-        let point = ContactPoint {
-            multipliers: &el.contact.multipliers,
-            gaps: &el.contact.gaps,
-            lower: &lo,
-            upper: &hi,
-            displacement_scale,
-        };
-        let derivatives: Vec<DataDerivative> = parts
-            .iter()
-            .map(|p| DataDerivative {
-                residual: &p.residual,
-                fixed: &p.fixed,
-                lower: &p.lower,
-                upper: &p.upper,
+                    let right = apply_forms(&forms, &tangent);
+                    *slot = Some((right.clone(), right));
+                }
+            }
+            Some(el) => {
+                let mut elements: Vec<usize> = forms
+                    .iter()
+                    .flatten()
+                    .flat_map(|f| f.stresses.iter().map(|&(e, _)| e))
+                    .collect();
+                elements.sort_unstable();
+                elements.dedup();
+                let parts: Vec<ElasticDerivative> = stencils
+                    .iter()
+                    .zip(&d_temperatures)
+                    .map(|(stencil, dt)| {
+                        self.elastic_derivative(state, el, stencil, dt.as_deref(), &elements)
+                    })
+                    .collect::<Result<_, _>>()?;
+                let (lo, hi) = self.contact.geometry.bounds(state.data);
+                let point = contact_point(el, &lo, &hi);
+                if route == DerivativeRoute::Adjoint {
+                    if let Some(adjoint) =
+                        self.adjoint_criteria(state, el, &point, &forms, &tied)?
+                    {
+                        for (j, part) in parts.iter().enumerate() {
+                            if adjoint.contact.is_linear_along(&part.view()) {
+                                let right = adjoint.along(part, d_temperatures[j].as_deref());
+                                derivatives[j] = Some((right.clone(), right));
+                            }
+                        }
+                    }
+                }
+                adjoint_directions = derivatives.iter().filter(|d| d.is_some()).count();
+                let rest: Vec<usize> = (0..stencils.len())
+                    .filter(|&j| derivatives[j].is_none())
+                    .collect();
+                let rest_parts: Vec<&ElasticDerivative> = rest.iter().map(|&j| &parts[j]).collect();
+                let rest_dt: Vec<Option<&[f64]>> =
+                    rest.iter().map(|&j| d_temperatures[j].as_deref()).collect();
+                let tangents = self.tangents(state, el, &point, &rest_parts, &rest_dt)?;
+                for (j, (plus, minus)) in rest.into_iter().zip(tangents) {
+                    let right = apply_forms(&forms, &plus.fields());
+                    let left = match minus {
+                        Some(m) => {
+                            apply_forms(&forms, &m.fields()).map(|d| d.iter().map(|v| -v).collect())
+                        }
+                        None => right.clone(),
+                    };
+                    derivatives[j] = Some((right, left));
+                }
+            }
+        }
+        let sensitivities = derivatives
+            .into_iter()
+            .map(|d| {
+                let (right, left) =
+                    d.ok_or_else(|| WsmError::contact("a direction was not differentiated"))?;
+                Ok(std::array::from_fn(|i| {
+                    one_sided(&values[i], &tied[i], &right[i], &left[i])
+                }))
             })
-            .collect();
-        let tangents = self.contact.tangents(el.factor, &point, &derivatives)?;
+            .collect::<Result<_, WsmError>>()?;
+        Ok((sensitivities, adjoint_directions))
+    }
+
+    /// The adjoint of every tied region form of the criteria (design §4.3): the contact adjoint
+    /// of their displacement parts and the coefficients of du_d and dT; `None` where the contact
+    /// state is only one-sided differentiable.
+    fn adjoint_criteria(
+        &self,
+        state: &SolvedState,
+        el: &ElasticState,
+        point: &ContactPoint,
+        forms: &[Vec<LinearForm>; 6],
+        tied: &[Vec<bool>; 6],
+    ) -> Result<Option<AdjointCriteria>, WsmError> {
+        let elastic = &self.elastic;
+        let nodes = elastic.mesh().nodes.len();
+        let mut regions = Vec::new();
+        let mut mechanical = Vec::new();
+        let mut free_forms = Vec::new();
+        let mut fixed = Vec::new();
+        let mut temperature = Vec::new();
+        let mut stress_forms = Vec::new();
+        for (i, criterion) in forms.iter().enumerate() {
+            for (r, form) in criterion.iter().enumerate() {
+                if !tied[i][r] {
+                    continue;
+                }
+                let mut a_u = vec![[0.0; 2]; nodes];
+                let mut a_t = vec![0.0; nodes];
+                for &(n, a) in &form.displacement {
+                    a_u[n][0] += a[0];
+                    a_u[n][1] += a[1];
+                }
+                for &(n, t) in &form.temperature {
+                    a_t[n] += t;
+                }
+                elastic.add_stress_form_transpose(
+                    state.data,
+                    &form.stresses,
+                    &mut a_u,
+                    &mut a_t,
+                )?;
+                let (a_free, a_fixed) = elastic.dofs().restrict(&a_u);
+                regions.push((i, r));
+                mechanical.push(form.is_mechanical().then_some(free_forms.len()));
+                if form.is_mechanical() {
+                    free_forms.push(a_free);
+                }
+                fixed.push(a_fixed);
+                temperature.push(a_t);
+                stress_forms.push(form.stresses.clone());
+            }
+        }
+        let n_fixed = elastic.dofs().n_fixed();
+        Ok(self
+            .contact
+            .adjoint(el.factor, point, &free_forms, n_fixed)?
+            .map(|contact| AdjointCriteria {
+                contact,
+                shape: forms.each_ref().map(Vec::len),
+                regions,
+                mechanical,
+                fixed,
+                temperature,
+                stress_forms,
+            }))
+    }
+
+    /// Per direction, the tangent fields along +θ_j and, where the state is only one-sided
+    /// differentiable, along −θ_j (`None`: minus the first). The contact tangents of all
+    /// directions share their solves with K (one multi-right-hand-side solve for all).
+    fn tangents(
+        &self,
+        state: &SolvedState,
+        el: &ElasticState,
+        point: &ContactPoint,
+        parts: &[&ElasticDerivative],
+        d_temperatures: &[Option<&[f64]>],
+    ) -> Result<Vec<(Tangent, Option<Tangent>)>, WsmError> {
+        let derivatives: Vec<DataDerivative> = parts.iter().map(|p| p.view()).collect();
+        let tangents = self.contact.tangents(el.factor, point, &derivatives)?;
         let elastic = &self.elastic;
         parts
             .iter()
-            .zip(&d_temperatures)
+            .zip(d_temperatures)
             .zip(tangents)
             .map(|((part, d_temperature), tangent)| {
                 let fields = |du_free: &[f64], sign: f64| -> Result<Tangent, WsmError> {
                     let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
                     let du = elastic.dofs().expand(du_free, &signed(&part.fixed));
-                    let dt = d_temperature.as_deref().map(signed);
+                    let dt = d_temperature.map(signed);
                     let mut stresses = elastic.stress_increments(state.data, &du, dt.as_deref())?;
                     if let Some(stress_part) = &part.stress_part {
                         for (s, p) in stresses.iter_mut().zip(stress_part) {
@@ -201,13 +366,15 @@ impl StateProblem {
     /// The data derivative of the elastic contact problem along the stencil's parameter (with
     /// the temperature derivative `d_temperature`): b = Σ_k w_k (f(D_k, T + t_k dT) − K(D_k) u),
     /// the derivatives of u_d and of the multiplier bounds, and the part of dτ from the law's
-    /// change, Σ_k w_k τ(D_k; u, T), when the law changes.
+    /// change, Σ_k w_k τ(D_k; u, T), when the law changes, at the `elements` the criteria read
+    /// (0 elsewhere).
     fn elastic_derivative(
         &self,
         state: &SolvedState,
         el: &ElasticState,
         stencil: &Stencil,
         d_temperature: Option<&[f64]>,
+        elements: &[usize],
     ) -> Result<ElasticDerivative, WsmError> {
         let elastic = &self.elastic;
         let geometry = &self.contact.geometry;
@@ -247,12 +414,13 @@ impl StateProblem {
             add_scaled(&mut part.lower, *w, &finite_or_zero(&lo));
             add_scaled(&mut part.upper, *w, &finite_or_zero(&hi));
             if law_varies {
-                let stresses = elastic.stresses(d, el.displacement, state.temperature)?;
+                let stresses =
+                    elastic.stresses_at(d, el.displacement, state.temperature, elements)?;
                 let sum = part
                     .stress_part
-                    .get_or_insert_with(|| vec![[0.0; 4]; stresses.len()]);
-                for (p, s) in sum.iter_mut().zip(&stresses) {
-                    for (pc, sc) in p.iter_mut().zip(&s.stress) {
+                    .get_or_insert_with(|| vec![[0.0; 4]; el.stresses.len()]);
+                for (&e, s) in elements.iter().zip(&stresses) {
+                    for (pc, sc) in sum[e].iter_mut().zip(&s.stress) {
                         *pc += w * sc;
                     }
                 }
@@ -342,25 +510,45 @@ fn finite_or_zero(v: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The one-sided derivatives of max_r V_r from the region values and their right and left
-/// derivatives.
-fn one_sided(values: &[f64], right: &[f64], left: &[f64]) -> Option<OneSided> {
+/// The contact state of an elastic state with its multiplier bounds.
+fn contact_point<'a>(el: &'a ElasticState, lower: &'a [f64], upper: &'a [f64]) -> ContactPoint<'a> {
+    ContactPoint {
+        multipliers: &el.contact.multipliers,
+        gaps: &el.contact.gaps,
+        lower,
+        upper,
+        displacement_scale: el
+            .displacement
+            .iter()
+            .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs())),
+    }
+}
+
+/// The region derivatives of Φ1..Φ6: the forms applied to the tangent fields.
+fn apply_forms(forms: &[Vec<LinearForm>; 6], tangent: &Fields) -> [Vec<f64>; 6] {
+    forms
+        .each_ref()
+        .map(|f| f.iter().map(|form| form.apply(tangent)).collect())
+}
+
+/// Which regions tie for the maximum of the region values (within [`TIE_TOL`]).
+fn tied_regions(values: &[f64]) -> Vec<bool> {
     let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let scale = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    values.iter().map(|v| *v >= max - TIE_TOL * scale).collect()
+}
+
+/// The one-sided derivatives of max_r V_r from the region values, the regions that tie for the
+/// maximum and their right and left derivatives.
+fn one_sided(values: &[f64], tied: &[bool], right: &[f64], left: &[f64]) -> Option<OneSided> {
     if values.is_empty() {
         return None;
     }
-    let scale = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-    let tied = |r: &usize| values[*r] >= max - TIE_TOL * scale;
-    let regions = 0..values.len();
+    let regions = || (0..values.len()).filter(|&r| tied[r]);
     Some(OneSided {
-        right: regions
-            .clone()
-            .filter(tied)
+        right: regions()
             .map(|r| right[r])
             .fold(f64::NEG_INFINITY, f64::max),
-        left: regions
-            .filter(tied)
-            .map(|r| left[r])
-            .fold(f64::INFINITY, f64::min),
+        left: regions().map(|r| left[r]).fold(f64::INFINITY, f64::min),
     })
 }

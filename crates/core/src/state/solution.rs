@@ -160,6 +160,9 @@ pub struct SolveReport {
     pub kkt: ContactKkt,
     /// The stiffness factorisation was reused from an earlier solve with the same λ, μ.
     pub reused_factorisation: bool,
+    /// Data directions whose derivatives the adjoint gave (design §4.3); the others were taken
+    /// by the forward tangent, one-sided where the contact state is not differentiable.
+    pub adjoint_directions: usize,
     /// Parts of the computation skipped because nothing needed them.
     pub skipped: Vec<String>,
     /// Messages for the user (e.g. undetermined rigid motions, near-incompressibility).

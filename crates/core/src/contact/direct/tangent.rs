@@ -35,7 +35,7 @@ const WEAK_TOL: f64 = 1e-9;
 
 /// How a multiplier may move in the tangent problem.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum RowMotion {
+pub(super) enum RowMotion {
     /// Strictly inside its bounds: free.
     Free,
     /// Strictly active at the lower bound: follows it.
@@ -218,7 +218,7 @@ impl DirectContact {
 }
 
 /// The tangent motion of every multiplier from the converged state.
-fn classify(state: &ContactPoint) -> Vec<RowMotion> {
+pub(super) fn classify(state: &ContactPoint) -> Vec<RowMotion> {
     let finite_max = |v: &[f64]| {
         v.iter()
             .filter(|x| x.is_finite())
