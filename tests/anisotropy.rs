@@ -233,12 +233,11 @@ fn uniaxial_stress_matches_plane_strain_compliance() {
         let strain_scale = exact.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let mut worst = (0.0f64, 0.0f64);
         for st in problem.stresses(&d, &u, None).unwrap() {
-            for k in 0..3 {
-                worst.0 = worst.0.max((st.strain[k] - exact[k]).abs() / strain_scale);
+            for (a, b) in st.strain.iter().zip(exact) {
+                worst.0 = worst.0.max((a - b).abs() / strain_scale);
             }
-            let expected = [sigma, 0.0, 0.0, tau33];
-            for k in 0..4 {
-                worst.1 = worst.1.max((st.stress[k] - expected[k]).abs() / sigma);
+            for (a, b) in st.stress.iter().zip([sigma, 0.0, 0.0, tau33]) {
+                worst.1 = worst.1.max((a - b).abs() / sigma);
             }
         }
         println!(
@@ -299,8 +298,8 @@ fn patch_test_with_a_general_matrix() {
     ];
     let mut stress_err = 0.0f64;
     for s in problem.stresses(&d, &u, None).unwrap() {
-        for k in 0..4 {
-            stress_err = stress_err.max((s.stress[k] - expected[k]).abs());
+        for (a, b) in s.stress.iter().zip(expected) {
+            stress_err = stress_err.max((a - b).abs());
         }
     }
     println!(

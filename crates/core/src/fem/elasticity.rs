@@ -384,7 +384,7 @@ fn element_matrices(g: &TriangleGradients) -> [[[f64; 6]; 6]; 6] {
     // e(φ_a e_x) = (xa, 0, ya), e(φ_a e_y) = (0, ya, xa) as (e11, e22, γ12).
     let strain = |i: usize| {
         let (x, y) = (g.dx[i / 2], g.dy[i / 2]);
-        if i % 2 == 0 {
+        if i.is_multiple_of(2) {
             [x, 0.0, y]
         } else {
             [0.0, y, x]
