@@ -1,4 +1,4 @@
-//! Anisotropic elasticity (FGCS 2.7′, design §2.4) against analytic answers: an orthotropic
+//! Anisotropic elasticity (FGCS 2.7′, design §2.1) against analytic answers: an orthotropic
 //! material with isotropic constants is the isotropic one; rotating an orthotropic block with its
 //! load rotates the solution; uniaxial stress of an orthotropic plate at 0°, 30° and 90° gives the
 //! plane-strain compliance; the patch test with a general matrix; free anisotropic thermal

@@ -1,7 +1,7 @@
 //! Post-processing: element strain and plane-strain stress, I2², nodal internal forces.
 //!
 //! Duhamel–Neumann law in Voigt form (FGCS 2.7′) in plane strain: (τ11, τ22, τ12) = D e −
-//! (β11, β22, β12)(T − T0) and τ33 = c·e − β33 (T − T0), e = (e11, e22, γ12) (design §2.4;
+//! (β11, β22, β12)(T − T0) and τ33 = c·e − β33 (T − T0), e = (e11, e22, γ12) (design §2.1;
 //! isotropic: τ = λ tr e I + 2μ e − β (T − T0) I, τ33 = λ tr e − β (T − T0)). I2² = τᴰ:τᴰ with τ33 included (design §4.2, FGCS 4.33).
 //! Internal forces Σ_e area Bᵀτ equal K u − f_thermal, so subtracting the mechanical loads gives
 //! the residual K u − f: the reaction forces at constrained DOFs.

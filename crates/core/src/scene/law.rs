@@ -1,4 +1,4 @@
-//! The plane-strain stress–strain law of a zone in Voigt form (FGCS 2.7′, design §2.4):
+//! The plane-strain stress–strain law of a zone in Voigt form (FGCS 2.7′, design §2.1):
 //! τ = D e − β (T − T0) in the plane and τ33 = c · e − β33 (T − T0), with
 //! e = (e11, e22, γ12) (engineering shear γ12 = 2 e12), τ = (τ11, τ22, τ12), D the symmetric
 //! in-plane 3×3 stiffness and c = (c31, c32, c36) the out-of-plane row (ε33 = 0, τ13 = τ23 = 0).

@@ -125,7 +125,7 @@ impl Segment {
 /// The elastic law is exactly one of: isotropic (`E`, `nu`) or (`lambda`, `mu`); orthotropic
 /// (`E1`, `E2`, `E3`, `nu12`, `nu13`, `nu23`, `G12`, optional `angle`); or the plane-strain
 /// matrix itself (`matrix`, `out_of_plane`). Voigt order (e11, e22, γ12) with engineering shear
-/// γ12 = 2 e12 (design §2.4).
+/// γ12 = 2 e12 (design §2.1).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
