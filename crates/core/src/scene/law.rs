@@ -9,8 +9,8 @@
 //! angle of axis 1 in the plane, axis 3 out of plane), whose 3D compliance is inverted, restricted
 //! to ε33 = 0 and rotated; or the matrix itself. Also here: the symmetric eigenvalues of small
 //! matrices and the interval-matrix margin of FGCS (4.6)/(4.8),
-//! λ_min(½(B̲ + B̄)) − ρ(½(B̄ − B̲)), positive exactly when it guarantees every symmetric member
-//! of the box is positive definite.
+//! λ_min(½(B̲ + B̄)) − ρ(½(B̄ − B̲)), whose positivity guarantees that every symmetric member of
+//! the box is positive definite.
 
 /// The plane-strain law of a zone without its thermal part.
 #[derive(Debug, Clone, Copy, PartialEq)]
