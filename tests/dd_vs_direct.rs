@@ -106,6 +106,16 @@ fn tunnel_fault_dd_equals_direct() {
     // reports 21 / 15 / 39 with plain successive approximations on its own mesh).
 }
 
+/// Anisotropic bundled examples (FGCS 2.7′): the Neumann–Neumann weights ρ_s are the mean
+/// diagonal of the anisotropic subdomain stiffness.
+#[test]
+fn anisotropic_examples_dd_equal_direct() {
+    for name in ["tunnel-layered-rock", "knee-orthotropic-bone"] {
+        let scene: Value = serde_json::from_str(wsm_core::bundled::example(name).unwrap()).unwrap();
+        compare(name, scene);
+    }
+}
+
 #[test]
 fn knee_dd_equals_direct() {
     // Three bodies, one cluster holding the insert and the whole floating femur; the femur's

@@ -19,7 +19,7 @@ fn material(elastic: Elastic) -> MaterialData {
         elastic,
         specific_weight: 0.0,
         body_force: [0.0, 0.0],
-        conductivity: 1.0,
+        conductivity: [1.0, 0.0, 1.0],
         heat_source: 0.0,
         expansion: Expansion::Beta(0.0),
     }
@@ -184,8 +184,9 @@ fn manufactured_elasticity_converges_at_optimal_rates() {
     );
 }
 
-/// T = sin πx sin πy + x², W = −κ ΔT = κ (2π² sin πx sin πy − 2); (L², H¹-seminorm) errors.
-fn heat_errors(kappa: f64, n: usize) -> (f64, f64) {
+/// T = sin πx sin πy + x², W = −div(κ∇T) = κ11 (π² sin πx sin πy − 2) − 2κ12 π² cos πx cos πy
+/// + κ22 π² sin πx sin πy for the conductivity κ = (κ11, κ12, κ22); (L², H¹-seminorm) errors.
+fn heat_errors(kappa: [f64; 3], n: usize) -> (f64, f64) {
     let exact = |[x, y]: [f64; 2]| (PI * x).sin() * (PI * y).sin() + x * x;
     let grad = |[x, y]: [f64; 2]| {
         [
@@ -193,7 +194,11 @@ fn heat_errors(kappa: f64, n: usize) -> (f64, f64) {
             PI * (PI * x).sin() * (PI * y).cos(),
         ]
     };
-    let source = |[x, y]: [f64; 2]| kappa * (2.0 * PI * PI * (PI * x).sin() * (PI * y).sin() - 2.0);
+    let [k11, k12, k22] = kappa;
+    let source = |[x, y]: [f64; 2]| {
+        let sines = PI * PI * (PI * x).sin() * (PI * y).sin();
+        k11 * (sines - 2.0) - 2.0 * k12 * PI * PI * (PI * x).cos() * (PI * y).cos() + k22 * sines
+    };
     let mut mesh = rectangle(0.0, 0.0, 1.0, 1.0, n, n);
     perturb_interior(&mut mesh, 0.15 / n as f64, 5);
     let mut m = material(Elastic::Lame {
@@ -240,12 +245,22 @@ fn heat_errors(kappa: f64, n: usize) -> (f64, f64) {
 #[test]
 fn manufactured_heat_converges_at_optimal_rates() {
     let levels = [8, 16, 32, 64, 128];
-    let (l2, h1): (Vec<f64>, Vec<f64>) = levels.iter().map(|&n| heat_errors(2.5, n)).unzip();
-    let (rl2, rh1) = (rate(&l2), rate(&h1));
-    println!("heat L2 errors {:?} rates {rl2:.3?}", sci(&l2));
-    println!("heat H1 errors {:?} rates {rh1:.3?}", sci(&h1));
-    assert!(rl2.iter().skip(1).all(|&r| r >= 1.9), "L2 rates {rl2:?}");
-    assert!(rh1.iter().skip(1).all(|&r| r >= 0.95), "H1 rates {rh1:?}");
+    // Isotropic κ = 2.5 and an anisotropic symmetric positive definite κ (FGCS 4.7).
+    for kappa in [[2.5, 0.0, 2.5], [3.0, 1.2, 2.0]] {
+        let (l2, h1): (Vec<f64>, Vec<f64>) = levels.iter().map(|&n| heat_errors(kappa, n)).unzip();
+        let (rl2, rh1) = (rate(&l2), rate(&h1));
+        println!(
+            "heat κ = {kappa:?} L2 errors {:?} rates {rl2:.3?}",
+            sci(&l2)
+        );
+        println!(
+            "heat κ = {kappa:?} H1 errors {:?} rates {rh1:.3?}",
+            sci(&h1)
+        );
+        assert!(rl2.iter().skip(1).all(|&r| r >= 1.9), "L2 rates {rl2:?}");
+        assert!(rh1.iter().skip(1).all(|&r| r >= 0.95), "H1 rates {rh1:?}");
+        assert!(l2[l2.len() - 1] < 1e-4, "L2 error {l2:?}");
+    }
 }
 
 // ---------- thick-walled cylinder (Lamé) ----------
@@ -403,7 +418,7 @@ fn free_thermal_expansion_is_stress_free() {
     let (e, nu, alpha, t0, dt) = (200e9, 0.3, 1.2e-5, 293.0, 50.0);
     let mut m = material(Elastic::Young { e, nu });
     m.expansion = Expansion::Alpha(alpha);
-    let beta = m.beta();
+    let beta = m.beta().unwrap()[0];
     let boundary = vec![
         bc(
             &mesh,
@@ -448,8 +463,8 @@ fn free_thermal_expansion_is_stress_free() {
 fn two_block_heat_data(mesh: &Mesh, top_condition: BoundaryValue) -> Data {
     let mut lower = lame(1.0, 1.0);
     let mut upper = lame(1.0, 1.0);
-    lower.conductivity = 1.0;
-    upper.conductivity = 3.0;
+    lower.conductivity = [1.0, 0.0, 1.0];
+    upper.conductivity = [3.0, 0.0, 3.0];
     data(
         vec![lower, upper],
         vec![

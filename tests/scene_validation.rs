@@ -348,3 +348,174 @@ fn long_lists_strings_and_keys_are_refused_with_their_path() {
         "materials",
     );
 }
+
+// ---------- anisotropic materials and interval matrices (FGCS 2.7′, 4.5–4.8) ----------
+
+/// The block-on-base example with `rock` replaced by `material` and the first uncertain entry
+/// (the rock's E) replaced by `uncertain` (or dropped).
+fn with_rock(material: Value, uncertain: &[Value]) -> Value {
+    let mut scene = base();
+    scene["materials"]["rock"] = material;
+    let mut list = uncertain.to_vec();
+    list.extend(scene["uncertain"].as_array().unwrap()[1..].iter().cloned());
+    scene["uncertain"] = json!(list);
+    scene
+}
+
+fn orthotropic() -> Value {
+    json!({"E1": 20e9, "E2": 10e9, "E3": 12e9, "nu12": 0.22, "nu13": 0.2, "nu23": 0.25,
+           "G12": 4e9, "angle": 30.0, "specific_weight": 24500.0})
+}
+
+fn general_matrix() -> Value {
+    json!({"matrix": [[14e9, 4e9, 1e9], [4e9, 12e9, -0.5e9], [1e9, -0.5e9, 4e9]],
+           "out_of_plane": [4e9, 4e9, 0.0], "specific_weight": 24500.0})
+}
+
+/// The error of a scene that must be refused.
+fn refusal(scene: &Value) -> wsm_core::scene::SceneError {
+    match parse(&scene.to_string()) {
+        Ok(_) => panic!("scene accepted, expected an error"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn orthotropic_and_matrix_materials_are_accepted() {
+    let uncertain = [
+        json!({"field": "materials.rock.E1", "interval": [15e9, 25e9]}),
+        json!({"field": "materials.rock.angle", "interval": [0.0, 60.0]}),
+        json!({"field": "materials.rock.nu23", "interval": [0.2, 0.3]}),
+    ];
+    parse(&with_rock(orthotropic(), &uncertain).to_string()).unwrap();
+    let uncertain = [
+        json!({"field": "materials.rock.matrix[0][1]", "interval": [3e9, 5e9]}),
+        json!({"field": "materials.rock.matrix[2][2]", "interval": [3.5e9, 4.5e9]}),
+        json!({"field": "materials.rock.out_of_plane[0]", "interval": [3e9, 5e9]}),
+    ];
+    parse(&with_rock(general_matrix(), &uncertain).to_string()).unwrap();
+}
+
+#[test]
+fn orthotropic_material_needs_all_constants() {
+    let mut m = orthotropic();
+    m.as_object_mut().unwrap().remove("G12");
+    assert_eq!(refusal(&with_rock(m, &[])).path, "materials.rock.G12");
+    let mut m = orthotropic();
+    m["E"] = json!(1e9);
+    assert_eq!(refusal(&with_rock(m, &[])).path, "materials.rock");
+}
+
+#[test]
+fn orthotropic_poisson_ratios_must_keep_the_compliance_positive_definite() {
+    let mut m = orthotropic();
+    // ν12 √(E2/E1) = 1.6 × 0.707 > 1.
+    m["nu12"] = json!(1.6);
+    let e = refusal(&with_rock(m, &[]));
+    assert_eq!(e.path, "materials.rock.nu12");
+    assert!(e.reason.contains("1.6"), "{}", e.reason);
+}
+
+#[test]
+fn stiffness_matrix_must_be_symmetric_and_positive_definite() {
+    let mut m = general_matrix();
+    m["matrix"][0][1] = json!(5e9);
+    assert_eq!(
+        refusal(&with_rock(m, &[])).path,
+        "materials.rock.matrix[0][1]"
+    );
+    let mut m = general_matrix();
+    m["matrix"][2][2] = json!(-1e9);
+    let e = refusal(&with_rock(m, &[]));
+    assert_eq!(e.path, "materials.rock.matrix");
+    assert!(
+        e.reason.contains("smallest eigenvalue is -1.1"),
+        "{}",
+        e.reason
+    );
+    let mut m = general_matrix();
+    m["expansion"] = json!(1e-5);
+    assert_eq!(refusal(&with_rock(m, &[])).path, "materials.rock.expansion");
+}
+
+#[test]
+fn conductivity_matrix_must_be_symmetric_positive_definite() {
+    let mut m = orthotropic();
+    m["conductivity"] = json!([[2.0, 3.0], [3.0, 2.0]]);
+    let e = refusal(&with_rock(m, &[]));
+    assert_eq!(e.path, "materials.rock.conductivity");
+    assert!(e.reason.contains("eigenvalues -1"), "{}", e.reason);
+    let mut m = orthotropic();
+    m["conductivity"] = json!([[2.0, 0.5], [0.4, 2.0]]);
+    assert_eq!(
+        refusal(&with_rock(m, &[])).path,
+        "materials.rock.conductivity[0][1]"
+    );
+}
+
+/// FGCS (4.6): the box of stiffness-matrix entries passes when the margin is positive, and is
+/// refused naming the material, its zones and the margin when it is not, although the nominal
+/// matrix is positive definite.
+#[test]
+fn stiffness_interval_matrix_checks_margin_4_6() {
+    let passing = [json!({"field": "materials.rock.matrix[0][1]", "interval": [2e9, 6e9]})];
+    parse(&with_rock(general_matrix(), &passing).to_string()).unwrap();
+    // Mid [[14, 4, 1], [4, 12, -0.5], [1, -0.5, 4]] GPa has λ_min < 4 GPa (below d33); a radius
+    // of 6 GPa on d12 alone has ρ = 6 GPa.
+    let failing = [json!({"field": "materials.rock.matrix[1][0]", "interval": [-2e9, 10e9]})];
+    let e = refusal(&with_rock(general_matrix(), &failing));
+    assert_eq!(e.path, "materials.rock.matrix");
+    assert!(
+        e.reason.contains("(4.6)") && e.reason.contains("zones base, block"),
+        "{}",
+        e.reason
+    );
+    assert!(
+        e.reason.contains("e9 ≤ 0"),
+        "a margin of GPa order: {}",
+        e.reason
+    );
+}
+
+/// FGCS (4.8) on the conductivity matrix.
+#[test]
+fn conductivity_interval_matrix_checks_margin_4_8() {
+    let mut m = orthotropic();
+    m["conductivity"] = json!([[3.0, 0.5], [0.5, 2.0]]);
+    let passing = [json!({"field": "materials.rock.conductivity[0][1]", "interval": [0.0, 1.0]})];
+    parse(&with_rock(m.clone(), &passing).to_string()).unwrap();
+    let failing = [
+        json!({"field": "materials.rock.conductivity[0][1]", "interval": [-2.0, 3.0]}),
+        json!({"field": "materials.rock.conductivity[1][1]", "interval": [1.5, 2.5]}),
+    ];
+    let e = refusal(&with_rock(m, &failing));
+    assert_eq!(e.path, "materials.rock.conductivity");
+    assert!(
+        e.reason.contains("(4.8)") && e.reason.contains("zones base, block"),
+        "{}",
+        e.reason
+    );
+}
+
+/// Uncertain orthotropic constants: the interval compliance must stay positive definite.
+#[test]
+fn orthotropic_interval_box_checks_the_compliance() {
+    let failing = [
+        json!({"field": "materials.rock.nu12", "interval": [0.2, 1.3]}),
+        json!({"field": "materials.rock.E2", "interval": [5e9, 20e9]}),
+    ];
+    let e = refusal(&with_rock(orthotropic(), &failing));
+    assert_eq!(e.path, "materials.rock");
+    assert!(e.reason.contains("(4.6)"), "{}", e.reason);
+}
+
+#[test]
+fn symmetric_entry_is_uncertain_once() {
+    let twice = [
+        json!({"field": "materials.rock.matrix[0][1]", "interval": [3e9, 5e9]}),
+        json!({"field": "materials.rock.matrix[1][0]", "interval": [3e9, 5e9]}),
+    ];
+    let scene = parse(&with_rock(general_matrix(), &twice).to_string()).unwrap();
+    let e = wsm_core::scene::params::parameters(&scene).unwrap_err();
+    assert_eq!(e.path, "uncertain[1].field");
+}

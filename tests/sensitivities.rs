@@ -191,6 +191,14 @@ fn adjoint_equals_forward_on_every_example() {
             };
             let by_adjoint = solve(DerivativeRoute::Adjoint);
             let by_forward = solve(DerivativeRoute::Forward);
+            for solution in [&by_adjoint, &by_forward] {
+                assert_eq!(
+                    solution.sensitivities.len(),
+                    params.len(),
+                    "{name}: {:?}",
+                    solution.report.warnings
+                );
+            }
             assert_eq!(by_forward.report.adjoint_directions, 0);
             adjoint += by_adjoint.report.adjoint_directions;
             directions += params.len();
@@ -251,6 +259,11 @@ fn hertz_matches_finite_differences() {
 #[test]
 fn knee_matches_finite_differences() {
     example("knee", 1.5, 2);
+}
+
+#[test]
+fn knee_orthotropic_bone_matches_finite_differences() {
+    example("knee-orthotropic-bone", 1.5, 2);
 }
 
 #[test]
@@ -344,4 +357,66 @@ proptest::proptest! {
         // others agreed to 1e-8, so the 10 % bound of the bundled examples is too tight here.
         proptest::prop_assert!(tally.kinks <= tally.checked, "{tally:?}");
     }
+}
+
+/// The layered-rock tunnel: the modulus along the bedding and the bedding angle (order-4
+/// stencils) besides the pressures and slip limits.
+#[test]
+fn tunnel_layered_rock_matches_finite_differences() {
+    example("tunnel-layered-rock", 2.0, 2);
+}
+
+/// Block on a base with every kind of anisotropic datum uncertain (FGCS 2.7′, 4.5–4.8): the
+/// orthotropic E1, ν12, G12 and angle with an expansion α, a conductivity-matrix entry, the
+/// entries of a plane-strain matrix and its out-of-plane row, and a Voigt β entry.
+fn anisotropic_kind_scene() -> Scene {
+    let text = wsm_core::bundled::find("block-on-base").unwrap();
+    let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
+    scene["mesh"] = serde_json::json!({"max_size": 0.1, "refine": [
+        {"segments": ["block_contact"], "max_size": 0.05}]});
+    scene["bodies"][1]["zones"][0]["material"] = "block".into();
+    scene["materials"] = serde_json::json!({
+        "rock": {"E1": 2e10, "E2": 1e10, "E3": 1.2e10, "nu12": 0.22, "nu13": 0.2, "nu23": 0.25,
+                 "G12": 4e9, "angle": 30.0, "specific_weight": 24500.0,
+                 "conductivity": [[3.0, 0.5], [0.5, 2.0]], "expansion": 8e-6},
+        "block": {"matrix": [[1.2e10, 4e9, 5e8], [4e9, 1.1e10, -3e8], [5e8, -3e8, 4e9]],
+                  "out_of_plane": [4e9, 3.5e9, 1e8], "conductivity": 2.0,
+                  "beta": [8e4, 7e4, 5e3, 6e4]}
+    });
+    scene["thermal"] = serde_json::json!({"reference_temperature": 15.0});
+    scene["boundary"] = serde_json::json!([
+        {"segment": "bottom", "displacement": [0.0, 0.0]},
+        {"segment": "top", "pressure": 1e6},
+        {"segment": "push", "traction": [4e5, 0.0]},
+        {"segment": "bottom", "temperature": 20.0},
+        {"segment": "top", "heat_flux": 30.0}
+    ]);
+    let interval = |lo: f64, hi: f64| serde_json::json!([lo, hi]);
+    let fields = [
+        ("materials.rock.E1", interval(1.6e10, 2.4e10)),
+        ("materials.rock.nu12", interval(0.18, 0.26)),
+        ("materials.rock.G12", interval(3e9, 5e9)),
+        ("materials.rock.angle", interval(10.0, 50.0)),
+        ("materials.rock.conductivity[0][1]", interval(0.0, 1.0)),
+        ("materials.block.matrix[0][1]", interval(3e9, 5e9)),
+        ("materials.block.matrix[2][2]", interval(3.5e9, 4.5e9)),
+        ("materials.block.out_of_plane[0]", interval(3e9, 5e9)),
+        ("materials.block.beta[2]", interval(0.0, 1e4)),
+    ];
+    scene["uncertain"] = fields
+        .iter()
+        .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
+        .collect();
+    wsm_core::scene::parse(&scene.to_string()).unwrap()
+}
+
+#[test]
+fn anisotropic_data_match_finite_differences() {
+    let tally = check(anisotropic_kind_scene(), 2, 11);
+    eprintln!("anisotropic kinds: {tally:?}");
+    assert!(tally.checked > 0, "nothing checked");
+    assert!(
+        tally.kinks * 4 <= tally.checked,
+        "too many components straddle a kink: {tally:?}"
+    );
 }

@@ -14,6 +14,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("hertz", include_str!("../../../scenes/hertz.json")),
     ("knee", include_str!("../../../scenes/knee.json")),
     (
+        "knee-orthotropic-bone",
+        include_str!("../../../scenes/knee-orthotropic-bone.json"),
+    ),
+    (
         "loaded-block",
         include_str!("../../../scenes/loaded-block.json"),
     ),
@@ -28,6 +32,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     (
         "tunnel-fault-slip-profile",
         include_str!("../../../scenes/tunnel-fault-slip-profile.json"),
+    ),
+    (
+        "tunnel-layered-rock",
+        include_str!("../../../scenes/tunnel-layered-rock.json"),
     ),
 ];
 

@@ -678,7 +678,8 @@ impl<'a> LevelProblem<'a> {
             Some(f) => {
                 let coefficients = problem.elastic.coefficients(&problem.nominal)?;
                 let lame = |t: usize| {
-                    let [l, m] = coefficients[mesh.triangle_zone[t]];
+                    // The analytic cases are isotropic: λ = d12 and μ = d33 of D.
+                    let [_, l, _, _, _, m] = coefficients[mesh.triangle_zone[t]];
                     (l, m)
                 };
                 Some(field_errors(

@@ -53,10 +53,13 @@ pub fn energy(
         .enumerate()
         .map(|(t, s)| {
             let m = &materials[mesh.triangle_zone[t]];
-            let [e11, e22, e12] = s.strain;
-            let tr = e11 + e22;
+            // eᵀ D e with e = (e11, e22, γ12) (FGCS 2.7′).
+            let e = [s.strain[0], s.strain[1], 2.0 * s.strain[2]];
+            let d = &m.law.d;
             mesh.triangle_area(t)
-                * (m.lambda * tr * tr + 2.0 * m.mu * (e11 * e11 + e22 * e22 + 2.0 * e12 * e12))
+                * (0..3)
+                    .map(|i| e[i] * (0..3).map(|j| d[i][j] * e[j]).sum::<f64>())
+                    .sum::<f64>()
         })
         .sum();
     let loads = elastic.loads(data, solution.temperature.as_deref())?;

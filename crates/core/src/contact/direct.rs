@@ -42,7 +42,7 @@ use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use crate::error::WsmError;
 use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
-use crate::fem::{ElasticProblem, RigidModes};
+use crate::fem::{ElasticCoefficients, ElasticProblem, RigidModes};
 use crate::scene::Data;
 
 /// Relative size (to the largest displacement) of the gap defect that triggers a refinement.
@@ -163,7 +163,7 @@ pub struct DirectContact {
 #[derive(Debug, Clone)]
 pub struct StiffnessFactor {
     /// Zone coefficients [λ_z, μ_z] the factor was built from.
-    pub coefficients: Vec<[f64; 2]>,
+    pub coefficients: Vec<ElasticCoefficients>,
     /// Values of the unpinned K (for residual checks).
     values: Vec<f64>,
     parts: Vec<Arc<BodyFactor>>,
@@ -313,7 +313,7 @@ impl DirectContact {
     pub fn factor(
         &self,
         elastic: &ElasticProblem,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         par: Par,
     ) -> Result<StiffnessFactor, WsmError> {
         let fresh = |_: usize, body: &BodyBlock, values: &[f64]| {
@@ -328,7 +328,7 @@ impl DirectContact {
     pub fn factor_with(
         &self,
         elastic: &ElasticProblem,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         par: Par,
         cache: BodyCache,
     ) -> Result<StiffnessFactor, WsmError> {

@@ -19,7 +19,7 @@ fn material(e: f64, weight: f64) -> MaterialData {
         elastic: Elastic::Young { e, nu: 0.3 },
         specific_weight: weight,
         body_force: [0.0, 0.0],
-        conductivity: 1.0,
+        conductivity: [1.0, 0.0, 1.0],
         heat_source: 0.0,
         expansion: Expansion::Alpha(0.0),
     }

@@ -17,7 +17,7 @@ use super::successive::{solve, DdSolution, Fallback};
 use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::ContactGeometry;
-use crate::fem::ElasticProblem;
+use crate::fem::{ElasticCoefficients, ElasticProblem};
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
 use crate::scene::{Data, SolverSettings};
@@ -136,7 +136,7 @@ pub fn solve_elastic(
     elastic: &ElasticProblem,
     direct: &DirectContact,
     data: &Data,
-    coefficients: &[[f64; 2]],
+    coefficients: &[ElasticCoefficients],
     rhs: &[f64],
     fixed: &[f64],
     options: &DdOptions,

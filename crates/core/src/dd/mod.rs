@@ -52,7 +52,7 @@ mod report;
 pub(crate) mod subdomain;
 mod successive;
 
-use crate::fem::{ElasticProblem, FemError, Slot};
+use crate::fem::{ElasticCoefficients, ElasticProblem, FemError, Slot};
 
 pub use from_scene::{options as scene_options, solve_elastic};
 pub use options::{CoarseKind, DdOptions, Pcg1Preconditioner};
@@ -140,7 +140,7 @@ impl DdProblem {
     /// right-hand side and the contact rows (from the contact assembly).
     pub fn from_elastic(
         problem: &ElasticProblem,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         rhs: Vec<f64>,
         pairs: Vec<DdContactPair>,
     ) -> Result<DdProblem, DdError> {

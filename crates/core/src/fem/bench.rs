@@ -50,7 +50,7 @@ fn cantilever_data(mesh: &crate::mesh::Mesh, e: f64) -> Data {
             elastic: Elastic::Young { e, nu: 0.3 },
             specific_weight: 2.0e4,
             body_force: [0.0; 2],
-            conductivity: 1.0,
+            conductivity: [1.0, 0.0, 1.0],
             heat_source: 0.0,
             expansion: Expansion::Beta(0.0),
         }],

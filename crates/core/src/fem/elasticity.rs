@@ -1,17 +1,21 @@
 //! Plane-strain P1 elasticity: the reduced operator, unit loads and the linear solve.
 //!
-//! Bilinear form (FGCS 2.13', D05 Def. 2.1):
-//! a(u, v) = Σ_z ∫_{Ω_z} (λ_z tr e(u) tr e(v) + 2μ_z e(u):e(v)),
-//! so K = Σ_z λ_z K^λ_z + μ_z K^μ_z with, per element,
-//! K^λ_e = area·Bᵀ m mᵀ B (m = (1, 1, 0)) and K^μ_e = area·Bᵀ diag(2, 2, 1) B (engineering shear).
-//! Load functional (FGCS 2.16, D05 §3): S(v, T) = Σ_z ∫ F_z·v + ∫_{Γτ} P·v + Σ_z ∫ (T − T0) β_z tr e(v),
-//! with the pressure form P = −p n. Loads are linear in F, P, p and T − T0: unit load vectors
-//! (nodal weights) are precomputed and scaled by the data. The thermal term uses the element mean
-//! of the P1 temperature, exact because tr e(v) is constant per element.
+//! Bilinear form (FGCS 2.13' with the Voigt law 2.7′, D05 Def. 2.1):
+//! a(u, v) = Σ_z ∫_{Ω_z} e(v)ᵀ D_z e(u) with e = (e11, e22, γ12) and D_z the zone's symmetric
+//! plane-strain stiffness ([`crate::scene::law`]), so K = Σ_z Σ_k d_{z,k} K^k_z over the six
+//! independent entries d_k = D_ij (i ≤ j) with, per element, K^k_e = area·Bᵀ E_k B, E_k the
+//! symmetric unit matrix of entry (i, j) (design §2.4). Isotropic zones have D = λ m mᵀ +
+//! μ diag(2, 2, 1) (m = (1, 1, 0)).
+//! Load functional (FGCS 2.16, D05 §3): S(v, T) = Σ_z ∫ F_z·v + ∫_{Γτ} P·v + Σ_z ∫ (T − T0) β_z·e(v),
+//! β·e = β11 e11 + β22 e22 + β12 γ12, with the pressure form P = −p n. Loads are linear in F, P, p
+//! and T − T0: unit load vectors (nodal weights) are precomputed and scaled by the data. The
+//! thermal term uses the element mean of the P1 temperature, exact because e(v) is constant per
+//! element.
 
 use faer::Par;
 
 use crate::mesh::Mesh;
+use crate::scene::law::{symmetric_eigenvalues, ENTRIES};
 use crate::scene::{BoundaryValue, Data, Scene};
 
 use super::dofs::DofMap;
@@ -22,14 +26,14 @@ use super::stress::{
     element_stress, element_stresses, internal_forces, plane_strain_stress, ElementStress,
     ZoneMaterial,
 };
-use super::{expect_len, material_of, FemError};
+use super::{expect_len, material_of, ElasticCoefficients, FemError};
 
 /// The elasticity problem of a mesh and scene topology: DOFs, operator, unit loads.
 #[derive(Debug, Clone)]
 pub struct ElasticProblem {
     mesh: Mesh,
     dofs: DofMap,
-    operator: ZonedOperator<2>,
+    operator: ZonedOperator<6>,
     gradients: Vec<TriangleGradients>,
     /// Load weights per zone and per boundary condition.
     unit_loads: UnitLoads,
@@ -70,8 +74,8 @@ impl ElasticProblem {
         &self.dofs
     }
 
-    /// The reduced operator K_ff(λ, μ) with coefficients [λ_z, μ_z] per zone.
-    pub fn operator(&self) -> &ZonedOperator<2> {
+    /// The reduced operator K_ff(D) with the six entries of D_z per zone as coefficients.
+    pub fn operator(&self) -> &ZonedOperator<6> {
         &self.operator
     }
 
@@ -85,14 +89,14 @@ impl ElasticProblem {
         rigid_modes(&self.mesh, &self.dofs, body)
     }
 
-    /// Matrix of triangle `t` in the rotated nodal basis for zone coefficients `coefs` ([λ_z, μ_z]
+    /// Matrix of triangle `t` in the rotated nodal basis for zone coefficients `coefs` (the entries of D_z
     /// per zone, as from [`Self::coefficients`]), with the slots of its six local DOFs (node-major,
     /// in the order of the triangle's nodes): the element contribution to K_ff and K_fd. Used by
     /// the domain decomposition to assemble subdomain matrices.
     pub fn element_matrix(
         &self,
         t: usize,
-        coefs: &[[f64; 2]],
+        coefs: &[ElasticCoefficients],
     ) -> Result<([Slot; 6], [[f64; 6]; 6]), FemError> {
         let tri = *self
             .mesh
@@ -113,46 +117,56 @@ impl ElasticProblem {
         let mut m = [[0.0; 6]; 6];
         for (i, row) in m.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
-                *v = c[0] * k[i][j][0] + c[1] * k[i][j][1];
+                *v = (0..6).map(|q| c[q] * k[i][j][q]).sum();
             }
         }
         Ok((slots, m))
     }
 
-    /// Validated (λ, μ, β) of every zone.
+    /// Validated plane-strain law and β of every zone: D positive definite, all finite.
     pub fn zone_materials(&self, data: &Data) -> Result<Vec<ZoneMaterial>, FemError> {
         self.mesh
             .zones
             .iter()
             .map(|zone| {
                 let m = material_of(data, zone)?;
-                let (lambda, mu) = m.elastic.lame();
-                let beta = m.beta();
-                if !(mu > 0.0 && lambda + mu > 0.0 && lambda.is_finite() && beta.is_finite()) {
-                    return Err(FemError::InvalidMaterial {
-                        material: zone.material,
-                        reason: format!(
-                            "λ = {lambda}, μ = {mu}, β = {beta}: need μ > 0 and λ + μ > 0 (plane strain)"
-                        ),
-                    });
+                let invalid = |reason: String| FemError::InvalidMaterial {
+                    material: zone.material,
+                    reason,
+                };
+                let law = m.elastic.law().ok_or_else(|| {
+                    invalid("the orthotropic compliance is singular".to_string())
+                })?;
+                let beta = m.beta().ok_or_else(|| {
+                    invalid("an expansion α needs the full 3D stiffness; give β".to_string())
+                })?;
+                let least = symmetric_eigenvalues(&law.d)[0];
+                let finite = law.d.iter().flatten().chain(&law.out_of_plane).chain(&beta);
+                if !(least > 0.0 && finite.into_iter().all(|v| v.is_finite())) {
+                    return Err(invalid(format!(
+                        "plane-strain stiffness {:?} (smallest eigenvalue {least:e}), β = {beta:?}: \
+                         need a finite positive definite stiffness",
+                        law.d
+                    )));
                 }
-                Ok(ZoneMaterial { lambda, mu, beta })
+                Ok(ZoneMaterial { law, beta })
             })
             .collect()
     }
 
-    /// Operator coefficients [λ_z, μ_z] per zone.
-    pub fn coefficients(&self, data: &Data) -> Result<Vec<[f64; 2]>, FemError> {
+    /// Operator coefficients per zone: the six independent entries of D_z
+    /// ([`crate::scene::law::ENTRIES`]).
+    pub fn coefficients(&self, data: &Data) -> Result<Vec<ElasticCoefficients>, FemError> {
         Ok(self
             .zone_materials(data)?
             .iter()
-            .map(|m| [m.lambda, m.mu])
+            .map(|m| m.law.coefficients())
             .collect())
     }
 
     /// Assemble and factorise K_ff for the data (numeric factorisation only; the symbolic one
     /// is shared). Errors naming the body when a body is floating.
-    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<2>, FemError> {
+    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<6>, FemError> {
         if let Some(&body) = self.floating.first() {
             return Err(FemError::FloatingBody {
                 body,
@@ -214,7 +228,7 @@ impl ElasticProblem {
         Ok(())
     }
 
-    /// f_i += Σ_e β_z (T̄_e − T0) area_e ∂φ_i (the Duhamel–Neumann term of S).
+    /// f += Σ_e (T̄_e − T0) area_e Bᵀ(β11, β22, β12)_z (the Duhamel–Neumann term of S).
     fn add_thermal_load(
         &self,
         data: &Data,
@@ -226,11 +240,11 @@ impl ElasticProblem {
         for (t, tri) in self.mesh.triangles.iter().enumerate() {
             let beta = materials[self.mesh.triangle_zone[t]].beta;
             let mean = tri.iter().map(|&n| temperature[n]).sum::<f64>() / 3.0;
-            let g = &self.gradients[t];
-            let s = beta * (mean - data.reference_temperature) * g.area;
+            let dt = mean - data.reference_temperature;
+            let fe = self.gradients[t].nodal_forces([beta[0] * dt, beta[1] * dt, beta[2] * dt]);
             for (i, &node) in tri.iter().enumerate() {
-                f[node][0] += s * g.dx[i];
-                f[node][1] += s * g.dy[i];
+                f[node][0] += fe[2 * i];
+                f[node][1] += fe[2 * i + 1];
             }
         }
         Ok(())
@@ -249,7 +263,7 @@ impl ElasticProblem {
         self.dofs.fixed_values(&self.mesh, &data.boundary)
     }
 
-    /// Reduced right-hand side b = Rᵀf|_free − K_fd(λ, μ) u_d for the data.
+    /// Reduced right-hand side b = Rᵀf|_free − K_fd(D) u_d for the data.
     pub fn rhs(&self, data: &Data, temperature: Option<&[f64]>) -> Result<Vec<f64>, FemError> {
         self.rhs_with(
             &self.coefficients(data)?,
@@ -261,7 +275,7 @@ impl ElasticProblem {
     /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values.
     pub fn rhs_with(
         &self,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         loads: &[[f64; 2]],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
@@ -274,7 +288,7 @@ impl ElasticProblem {
     /// Solve K u = f for the data with a factor of the same data: the global nodal displacement.
     pub fn solve(
         &self,
-        factor: &OperatorFactor<2>,
+        factor: &OperatorFactor<6>,
         data: &Data,
         temperature: Option<&[f64]>,
     ) -> Result<Vec<[f64; 2]>, FemError> {
@@ -293,7 +307,7 @@ impl ElasticProblem {
     /// Solve with explicit nodal loads and prescribed local values.
     pub fn solve_with(
         &self,
-        factor: &OperatorFactor<2>,
+        factor: &OperatorFactor<6>,
         loads: &[[f64; 2]],
         fixed: &[f64],
     ) -> Result<Vec<[f64; 2]>, FemError> {
@@ -442,24 +456,32 @@ impl ElasticProblem {
     }
 }
 
-/// Per element: K^λ_e = area d dᵀ (d = mᵀB) and K^μ_e = area Bᵀ diag(2, 2, 1) B, global xy.
-fn element_matrices(g: &TriangleGradients) -> [[[f64; 2]; 6]; 6] {
-    let d = g.divergence_row();
-    let mut k = [[[0.0; 2]; 6]; 6];
-    for a in 0..3 {
-        for b in 0..3 {
-            let (xa, ya, xb, yb) = (g.dx[a], g.dy[a], g.dx[b], g.dy[b]);
-            // e(φ_a e_x) = (xa, 0, ya), e(φ_a e_y) = (0, ya, xa) as (e11, e22, γ12).
-            let mu = [
-                [2.0 * xa * xb + ya * yb, ya * xb],
-                [xa * yb, 2.0 * ya * yb + xa * xb],
-            ];
-            for i in 0..2 {
-                for j in 0..2 {
-                    k[2 * a + i][2 * b + j] =
-                        [g.area * d[2 * a + i] * d[2 * b + j], g.area * mu[i][j]];
-                }
-            }
+/// Per element and independent entry k = (p, q) of D: K^k_e = area Bᵀ E_k B in global xy, E_k
+/// the symmetric unit matrix of (p, q): area (s_a[p] s_b[q] + s_a[q] s_b[p]) for p ≠ q and
+/// area s_a[p] s_b[p] for p = q, s_a the strain (e11, e22, γ12) of the shape function's unknown.
+fn element_matrices(g: &TriangleGradients) -> [[[f64; 6]; 6]; 6] {
+    // e(φ_a e_x) = (xa, 0, ya), e(φ_a e_y) = (0, ya, xa) as (e11, e22, γ12).
+    let strain = |i: usize| {
+        let (x, y) = (g.dx[i / 2], g.dy[i / 2]);
+        if i.is_multiple_of(2) {
+            [x, 0.0, y]
+        } else {
+            [0.0, y, x]
+        }
+    };
+    let mut k = [[[0.0; 6]; 6]; 6];
+    for (i, row) in k.iter_mut().enumerate() {
+        let si = strain(i);
+        for (j, entry) in row.iter_mut().enumerate() {
+            let sj = strain(j);
+            *entry = ENTRIES.map(|(p, q)| {
+                let v = if p == q {
+                    si[p] * sj[p]
+                } else {
+                    si[p] * sj[q] + si[q] * sj[p]
+                };
+                g.area * v
+            });
         }
     }
     k
@@ -467,13 +489,13 @@ fn element_matrices(g: &TriangleGradients) -> [[[f64; 2]; 6]; 6] {
 
 /// K_loc = Tᵀ K T with T = blockdiag(R_a), R_a = [e0 e1] the local basis of node a:
 /// (K_loc)_ij = e_i(a)ᵀ K_ab e_j(b) for local DOF i of node a and j of node b.
-fn rotate(k: &mut [[[f64; 2]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
+fn rotate(k: &mut [[[f64; 6]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
     let global = *k;
     for (i, row) in k.iter_mut().enumerate() {
         for (j, entry) in row.iter_mut().enumerate() {
             let (a, b) = (i / 2, j / 2);
             let (ea, eb) = (bases[a][i % 2], bases[b][j % 2]);
-            *entry = [0, 1].map(|c| {
+            *entry = std::array::from_fn(|c| {
                 (0..2)
                     .flat_map(|p| (0..2).map(move |q| (p, q)))
                     .map(|(p, q)| ea[p] * global[2 * a + p][2 * b + q][c] * eb[q])
@@ -487,9 +509,9 @@ fn build_operator(
     mesh: &Mesh,
     dofs: &DofMap,
     gradients: &[TriangleGradients],
-) -> Result<ZonedOperator<2>, FemError> {
+) -> Result<ZonedOperator<6>, FemError> {
     let identity = [[1.0, 0.0], [0.0, 1.0]];
-    let mut builder = OperatorBuilder::<2>::new(dofs.n_free(), dofs.n_fixed(), mesh.zones.len());
+    let mut builder = OperatorBuilder::<6>::new(dofs.n_free(), dofs.n_fixed(), mesh.zones.len());
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let mut k = element_matrices(&gradients[t]);
         let bases = tri.map(|n| dofs.basis(n));

@@ -35,16 +35,6 @@ impl TriangleGradients {
         TriangleGradients { area, dx, dy }
     }
 
-    /// Divergence row d = mᵀB with m = (1, 1, 0): tr e(v) = d·v for v = (v1x, v1y, v2x, ...).
-    pub fn divergence_row(&self) -> [f64; 6] {
-        let mut d = [0.0; 6];
-        for i in 0..3 {
-            d[2 * i] = self.dx[i];
-            d[2 * i + 1] = self.dy[i];
-        }
-        d
-    }
-
     /// Strain (e11, e22, γ12 = 2 e12) of the element displacement v = (v1x, v1y, v2x, ...).
     pub fn strain(&self, v: &[f64; 6]) -> [f64; 3] {
         let mut e = [0.0; 3];

@@ -1,7 +1,9 @@
-//! Stationary heat (FGCS problem P1, design §2.1 thermal, §3.3): −div(κ_z ∇T) = W_z in each zone,
-//! T = T1 on `Temperature` segments, inward flux κ ∂T/∂n = q on `HeatFlux` segments, zero flux
-//! elsewhere, perfect thermal contact across every contact zone (T continuous). Weak form:
-//! Σ_z ∫ κ_z ∇T·∇w = Σ_z ∫ W_z w + ∫ q w ds, P1, with the zoned operator of `operator`.
+//! Stationary heat (FGCS problem P1, design §2.1 thermal, §3.3): −div(κ_z ∇T) = W_z in each zone
+//! with κ_z a symmetric positive definite 2×2 conductivity (FGCS 4.7), T = T1 on `Temperature`
+//! segments, inward flux κ∇T·n = q on `HeatFlux` segments, zero flux elsewhere, perfect thermal
+//! contact across every contact zone (T continuous). Weak form: Σ_z ∫ ∇wᵀ κ_z ∇T = Σ_z ∫ W_z w +
+//! ∫ q w ds, P1, with the zoned operator of `operator` and the three coefficients (κ11, κ12, κ22)
+//! per zone.
 //!
 //! Perfect contact: the two nodes of each contact pair are ONE thermal unknown (union-find).
 //! Every connected thermal component needs a prescribed temperature, otherwise the problem is
@@ -14,7 +16,8 @@ use crate::scene::{BoundaryValue, Data, Scene};
 
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
-use super::{boundary_segment, expect_len, material_of, FemError};
+use super::{boundary_segment, expect_len, material_of, FemError, HeatCoefficients};
+use crate::scene::law::symmetric_eigenvalues;
 
 /// Union-find with path halving.
 #[derive(Debug, Clone)]
@@ -55,7 +58,7 @@ pub struct HeatProblem {
     slots: Vec<Slot>,
     /// Per fixed unknown: a node of it and the `Temperature` conditions prescribing it.
     fixed_sources: Vec<(usize, Vec<usize>)>,
-    operator: ZonedOperator<1>,
+    operator: ZonedOperator<3>,
     /// Load weights per zone and per boundary condition.
     unit_loads: UnitLoads,
 }
@@ -92,8 +95,8 @@ impl HeatProblem {
         &self.mesh
     }
 
-    /// The reduced operator K_ff(κ) with coefficient \[κ_z\] per zone.
-    pub fn operator(&self) -> &ZonedOperator<1> {
+    /// The reduced operator K_ff(κ) with coefficients (κ11, κ12, κ22)_z per zone.
+    pub fn operator(&self) -> &ZonedOperator<3> {
         &self.operator
     }
 
@@ -102,19 +105,23 @@ impl HeatProblem {
         self.slots[self.unknown_of[node]]
     }
 
-    /// Conductivity κ_z per zone, validated positive.
-    pub fn coefficients(&self, data: &Data) -> Result<Vec<[f64; 1]>, FemError> {
+    /// Conductivity (κ11, κ12, κ22)_z per zone, validated positive definite.
+    pub fn coefficients(&self, data: &Data) -> Result<Vec<HeatCoefficients>, FemError> {
         self.mesh
             .zones
             .iter()
             .map(|zone| {
                 let kappa = material_of(data, zone)?.conductivity;
-                if kappa > 0.0 && kappa.is_finite() {
-                    Ok([kappa])
+                let [k11, k12, k22] = kappa;
+                let least = symmetric_eigenvalues(&[[k11, k12], [k12, k22]])[0];
+                if least > 0.0 && kappa.iter().all(|k| k.is_finite()) {
+                    Ok(kappa)
                 } else {
                     Err(FemError::InvalidMaterial {
                         material: zone.material,
-                        reason: format!("conductivity κ = {kappa} must be positive"),
+                        reason: format!(
+                            "conductivity (κ11, κ12, κ22) = {kappa:?} must be positive definite"
+                        ),
                     })
                 }
             })
@@ -122,7 +129,7 @@ impl HeatProblem {
     }
 
     /// Assemble and factorise K_ff(κ) on the shared symbolic factorisation.
-    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<1>, FemError> {
+    pub fn factor(&self, data: &Data, par: Par) -> Result<OperatorFactor<3>, FemError> {
         self.operator.factor(&self.coefficients(data)?, par)
     }
 
@@ -194,7 +201,7 @@ impl HeatProblem {
     /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values.
     pub fn rhs_with(
         &self,
-        coefficients: &[[f64; 1]],
+        coefficients: &[HeatCoefficients],
         loads: &[f64],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
@@ -210,7 +217,7 @@ impl HeatProblem {
     }
 
     /// Solve for the nodal temperature with a factor of the same data.
-    pub fn solve(&self, factor: &OperatorFactor<1>, data: &Data) -> Result<Vec<f64>, FemError> {
+    pub fn solve(&self, factor: &OperatorFactor<3>, data: &Data) -> Result<Vec<f64>, FemError> {
         if factor.coefficients != self.coefficients(data)? {
             return Err(FemError::Input(
                 "the factor was computed for other conductivities".into(),
@@ -222,7 +229,7 @@ impl HeatProblem {
     /// Solve with explicit nodal loads and prescribed values.
     pub fn solve_with(
         &self,
-        factor: &OperatorFactor<1>,
+        factor: &OperatorFactor<3>,
         loads: &[f64],
         fixed: &[f64],
     ) -> Result<Vec<f64>, FemError> {
@@ -379,14 +386,18 @@ fn build_operator(
     slots: &[Slot],
     n_fixed: usize,
     gradients: &[TriangleGradients],
-) -> Result<ZonedOperator<1>, FemError> {
+) -> Result<ZonedOperator<3>, FemError> {
     let n_free = slots.len() - n_fixed;
-    let mut builder = OperatorBuilder::<1>::new(n_free, n_fixed, mesh.zones.len());
+    let mut builder = OperatorBuilder::<3>::new(n_free, n_fixed, mesh.zones.len());
     for (t, tri) in mesh.triangles.iter().enumerate() {
         let g = &gradients[t];
         let element_slots = tri.map(|n| slots[unknown_of[n]]);
         builder.add_element(mesh.triangle_zone[t], &element_slots, |i, j| {
-            [g.area * (g.dx[i] * g.dx[j] + g.dy[i] * g.dy[j])]
+            [
+                g.area * g.dx[i] * g.dx[j],
+                g.area * (g.dx[i] * g.dy[j] + g.dy[i] * g.dx[j]),
+                g.area * g.dy[i] * g.dy[j],
+            ]
         });
     }
     builder.finish()
@@ -408,7 +419,7 @@ mod tests {
             },
             specific_weight: 0.0,
             body_force: [0.0; 2],
-            conductivity: 1.0,
+            conductivity: [1.0, 0.0, 1.0],
             heat_source: 0.0,
             expansion: Expansion::Beta(0.0),
         };

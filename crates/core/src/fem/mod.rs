@@ -1,10 +1,10 @@
-//! Finite elements: P1 triangles, plane-strain isotropic elasticity with thermal stress, and
-//! stationary heat (design §2, §3.1, §3.3).
+//! Finite elements: P1 triangles, plane-strain anisotropic elasticity with thermal stress, and
+//! stationary anisotropic heat (design §2, §2.4, §3.1, §3.3).
 //!
-//! - [`ElasticProblem`]: a(u, v) = Σ_z ∫ λ_z tr e(u) tr e(v) + 2μ_z e(u):e(v) and
-//!   S(v, T) = Σ ∫ F·v + ∫_{Γτ} P·v + Σ ∫ (T − T0) β tr e(v) (FGCS 2.13', 2.16; D05 Def. 2.1, §3),
+//! - [`ElasticProblem`]: a(u, v) = Σ_z ∫ e(v)ᵀ D_z e(u) and
+//!   S(v, T) = Σ ∫ F·v + ∫_{Γτ} P·v + Σ ∫ (T − T0) β·e(v) (FGCS 2.7′, 2.13', 2.16; D05 Def. 2.1, §3),
 //!   Dirichlet components and rollers in any direction through rotated nodal DOFs ([`DofMap`]).
-//! - [`HeatProblem`]: Σ_z ∫ κ_z ∇T·∇w = Σ_z ∫ W_z w + ∫ q w ds, perfect thermal contact
+//! - [`HeatProblem`]: Σ_z ∫ ∇wᵀ κ_z ∇T = Σ_z ∫ W_z w + ∫ q w ds, perfect thermal contact
 //!   (FGCS problem P1).
 //! - Both are a [`ZonedOperator`]: per-zone matrices on one pattern, re-assembled by a linear
 //!   combination, factorised by faer Cholesky on a symbolic analysis computed once ([`Factor`]).
@@ -34,6 +34,13 @@ pub use rigid::RigidModes;
 pub use stress::{ElementStress, ZoneMaterial};
 
 pub use faer::Par;
+
+/// Zone coefficients of the elastic operator: the six independent entries (d11, d12, d13, d22,
+/// d23, d33) of the zone's plane-strain stiffness D ([`crate::scene::law::ENTRIES`]).
+pub type ElasticCoefficients = [f64; 6];
+
+/// Zone coefficients of the heat operator: the conductivity (κ11, κ12, κ22).
+pub type HeatCoefficients = [f64; 3];
 
 /// Errors of the FEM layer; each names what is wrong in the user's data.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,23 +1,23 @@
 //! Post-processing: element strain and plane-strain stress, I2², nodal internal forces.
 //!
-//! Duhamel–Neumann law (FGCS 2.7) in plane strain: τ = λ tr e I + 2μ e − β (T − T0) I in-plane,
-//! τ33 = λ tr e − β (T − T0) (design §3). I2² = τᴰ:τᴰ with τ33 included (design §4.2, FGCS 4.33).
+//! Duhamel–Neumann law in Voigt form (FGCS 2.7′) in plane strain: (τ11, τ22, τ12) = D e −
+//! (β11, β22, β12)(T − T0) and τ33 = c·e − β33 (T − T0), e = (e11, e22, γ12) (design §2.1;
+//! isotropic: τ = λ tr e I + 2μ e − β (T − T0) I, τ33 = λ tr e − β (T − T0)). I2² = τᴰ:τᴰ with τ33 included (design §4.2, FGCS 4.33).
 //! Internal forces Σ_e area Bᵀτ equal K u − f_thermal, so subtracting the mechanical loads gives
 //! the residual K u − f: the reaction forces at constrained DOFs.
 
 use crate::mesh::Mesh;
+use crate::scene::PlaneStrainLaw;
 
 use super::geometry::TriangleGradients;
 
-/// Material constants of a zone.
+/// The law of a zone: its plane-strain stiffness and thermal stress vector.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ZoneMaterial {
-    /// Lamé's first parameter λ \[Pa\].
-    pub lambda: f64,
-    /// Shear modulus μ \[Pa\].
-    pub mu: f64,
-    /// Thermal stress coefficient β.
-    pub beta: f64,
+    /// In-plane stiffness D and out-of-plane row c \[Pa\].
+    pub law: PlaneStrainLaw,
+    /// Thermal stress vector (β11, β22, β12, β33) \[Pa/K\].
+    pub beta: [f64; 4],
 }
 
 /// Strain and stress of one element (constant for P1).
@@ -52,16 +52,9 @@ pub fn i2_bilinear([a11, a22, a12, a33]: [f64; 4], [b11, b22, b12, b33]: [f64; 4
         + 2.0 * a12 * b12
 }
 
-/// Stress of a strain (e11, e22, e12) with temperature excess ΔT = T − T0.
+/// Stress (τ11, τ22, τ12, τ33) of a strain (e11, e22, e12) with temperature excess ΔT = T − T0.
 pub fn plane_strain_stress(m: &ZoneMaterial, strain: [f64; 3], delta_t: f64) -> [f64; 4] {
-    let tr = strain[0] + strain[1];
-    let iso = m.lambda * tr - m.beta * delta_t;
-    [
-        iso + 2.0 * m.mu * strain[0],
-        iso + 2.0 * m.mu * strain[1],
-        2.0 * m.mu * strain[2],
-        iso,
-    ]
+    m.law.stress(&m.beta, strain, delta_t)
 }
 
 /// The six nodal displacement components of a triangle, node-major (u₁ₓ, u₁ᵧ, u₂ₓ, …).

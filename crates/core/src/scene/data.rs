@@ -5,9 +5,10 @@
 //! between evaluations. Indices follow the scene: materials in name order (the `BTreeMap` order),
 //! boundary conditions and contacts in list order, segments in name order.
 
-use super::model::{BoundaryCondition, Material, Scene, SlipLimit};
+use super::law::{Orthotropic, PlaneStrainLaw};
+use super::model::{BoundaryCondition, Conductivity, Material, Scene, SlipLimit, ThermalStress};
 
-/// Elastic constants as the user gave them; converted to Lamé constants on use.
+/// Elastic constants as the user gave them; converted to the plane-strain law on use.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Elastic {
     /// Young's modulus E \[Pa\] and Poisson's ratio ν.
@@ -24,41 +25,61 @@ pub enum Elastic {
         /// Shear modulus μ \[Pa\].
         mu: f64,
     },
+    /// Orthotropic constants and the angle of material axis 1.
+    Orthotropic(Orthotropic),
+    /// The plane-strain law itself.
+    Matrix(PlaneStrainLaw),
 }
 
 impl Elastic {
-    /// (λ, μ) exactly: λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)).
-    pub fn lame(self) -> (f64, f64) {
+    /// The plane-strain law (FGCS 2.7′); `None` when orthotropic constants have a singular
+    /// compliance. Isotropic: λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)).
+    pub fn law(&self) -> Option<PlaneStrainLaw> {
         match self {
-            Elastic::Young { e, nu } => (
+            Elastic::Young { .. } | Elastic::Lame { .. } => {
+                let (lambda, mu) = self.lame()?;
+                Some(PlaneStrainLaw::isotropic(lambda, mu))
+            }
+            Elastic::Orthotropic(o) => o.law(),
+            Elastic::Matrix(law) => Some(*law),
+        }
+    }
+
+    /// (λ, μ) of an isotropic material, `None` otherwise.
+    fn lame(&self) -> Option<(f64, f64)> {
+        match *self {
+            Elastic::Young { e, nu } => Some((
                 e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
                 e / (2.0 * (1.0 + nu)),
-            ),
-            Elastic::Lame { lambda, mu } => (lambda, mu),
+            )),
+            Elastic::Lame { lambda, mu } => Some((lambda, mu)),
+            Elastic::Orthotropic(_) | Elastic::Matrix(_) => None,
         }
     }
 }
 
-/// Thermal expansion as given: α (β = (3λ + 2μ)α) or β directly.
+/// Thermal expansion as given: α (β = C α I), β directly, or the Voigt β.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Expansion {
-    /// Linear thermal expansion α [1/K]; β = (3λ + 2μ)α.
+    /// Linear thermal expansion α [1/K]; β = C α I (isotropic: (3λ + 2μ)α).
     Alpha(f64),
-    /// Thermal stress coefficient β [Pa/K].
+    /// Thermal stress coefficient β \[Pa/K\]: β I.
     Beta(f64),
+    /// Voigt β = (β11, β22, β12, β33) \[Pa/K\], β12 the tensor shear component.
+    Voigt([f64; 4]),
 }
 
 /// Numeric data of one material.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MaterialData {
-    /// Elastic constants, (E, ν) or (λ, μ) as given.
+    /// Elastic constants as given.
     pub elastic: Elastic,
     /// Specific weight ρg [N/m³] (acts in −y).
     pub specific_weight: f64,
     /// Additional body force [N/m³].
     pub body_force: [f64; 2],
-    /// Conductivity κ [W/(m K)].
-    pub conductivity: f64,
+    /// Conductivity (κ11, κ12, κ22) [W/(m K)] in x, y (a scalar κ is (κ, 0, κ)).
+    pub conductivity: [f64; 3],
     /// Heat source W [W/m³].
     pub heat_source: f64,
     /// Thermal expansion, α or β as given (β = 0 when neither is).
@@ -74,14 +95,22 @@ impl MaterialData {
         ]
     }
 
-    /// Thermal stress coefficient β [Pa/K] (FGCS 2.7, isotropic).
-    pub fn beta(&self) -> f64 {
+    /// The Voigt thermal stress vector (β11, β22, β12, β33) \[Pa/K\] (FGCS 2.7′); `None` for an
+    /// expansion α of a material given by its matrix (α needs the out-of-plane stiffness) or of
+    /// orthotropic constants with a singular compliance.
+    pub fn beta(&self) -> Option<[f64; 4]> {
         match self.expansion {
-            Expansion::Beta(b) => b,
-            Expansion::Alpha(a) => {
-                let (l, m) = self.elastic.lame();
-                (3.0 * l + 2.0 * m) * a
-            }
+            Expansion::Voigt(b) => Some(b),
+            Expansion::Beta(b) => Some([b, b, 0.0, b]),
+            Expansion::Alpha(a) => match &self.elastic {
+                Elastic::Orthotropic(o) => o.expansion_beta(a),
+                Elastic::Matrix(_) => None,
+                iso => {
+                    let (l, m) = iso.lame()?;
+                    let b = (3.0 * l + 2.0 * m) * a;
+                    Some([b, b, 0.0, b])
+                }
+            },
         }
     }
 }
@@ -198,23 +227,43 @@ impl Data {
     }
 }
 
+impl Data {
+    /// The numbers of one material of a validated scene.
+    pub(crate) fn material(m: &Material) -> MaterialData {
+        material_data(m)
+    }
+}
+
 fn material_data(m: &Material) -> MaterialData {
     let elastic = match (m.young, m.nu, m.lambda, m.mu) {
         (Some(e), Some(nu), _, _) => Elastic::Young { e, nu },
         (_, _, Some(lambda), Some(mu)) => Elastic::Lame { lambda, mu },
-        _ => Elastic::Lame {
-            lambda: 0.0,
-            mu: 0.0,
+        _ => match m.matrix {
+            Some(d) => Elastic::Matrix(PlaneStrainLaw {
+                d,
+                out_of_plane: m.out_of_plane.unwrap_or([0.0; 3]),
+            }),
+            None => Elastic::Orthotropic(Orthotropic {
+                young: [m.e1, m.e2, m.e3].map(|v| v.unwrap_or(0.0)),
+                poisson: [m.nu12, m.nu13, m.nu23].map(|v| v.unwrap_or(0.0)),
+                shear: m.g12.unwrap_or(0.0),
+                angle: m.angle.unwrap_or(0.0),
+            }),
         },
     };
     MaterialData {
         elastic,
         specific_weight: m.specific_weight.unwrap_or(0.0),
         body_force: m.body_force.unwrap_or([0.0, 0.0]),
-        conductivity: m.conductivity.unwrap_or(0.0),
+        conductivity: match m.conductivity {
+            Some(Conductivity::Scalar(k)) => [k, 0.0, k],
+            Some(Conductivity::Matrix(k)) => [k[0][0], k[0][1], k[1][1]],
+            None => [0.0; 3],
+        },
         heat_source: m.heat_source.unwrap_or(0.0),
         expansion: match (m.expansion, m.beta) {
-            (_, Some(b)) => Expansion::Beta(b),
+            (_, Some(ThermalStress::Scalar(b))) => Expansion::Beta(b),
+            (_, Some(ThermalStress::Voigt(b))) => Expansion::Voigt(b),
             (Some(a), None) => Expansion::Alpha(a),
             (None, None) => Expansion::Beta(0.0),
         },

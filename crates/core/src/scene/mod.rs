@@ -3,9 +3,11 @@
 //!
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
 //! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
-//! `rules` holds the sign and range rules (materials, slip limit) both of them check.
+//! `law` builds the plane-strain law of a material (FGCS 2.7′) and checks interval
+//! matrices (FGCS 4.6, 4.8), `rules` holds the sign and range rules (materials, slip limit) both of them check.
 
 mod data;
+pub mod law;
 mod model;
 pub mod params;
 mod rules;
@@ -13,10 +15,12 @@ mod validate;
 
 pub(crate) use data::piecewise_linear;
 pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
+pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
-    Body, BoundaryCondition, BoundaryPiece, Contact, ContactKind, CriteriaRegions, Criterion,
-    CriterionRegion, InitialGap, Material, MeshControls, Point, Refinement, Roller, Scene,
-    SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings, Thermal, Uncertain, Zone,
+    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, CriteriaRegions,
+    Criterion, CriterionRegion, InitialGap, Material, MeshControls, Point, Refinement, Roller,
+    Scene, SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings, Thermal, ThermalStress,
+    Uncertain, Zone,
 };
 pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};

@@ -120,7 +120,12 @@ impl Segment {
     }
 }
 
-/// Isotropic material. Give either (`E`, `nu`) or (`lambda`, `mu`).
+/// Material of a zone: an elastic law, loads and thermal constants.
+///
+/// The elastic law is exactly one of: isotropic (`E`, `nu`) or (`lambda`, `mu`); orthotropic
+/// (`E1`, `E2`, `E3`, `nu12`, `nu13`, `nu23`, `G12`, optional `angle`); or the plane-strain
+/// matrix itself (`matrix`, `out_of_plane`). Voigt order (e11, e22, γ12) with engineering shear
+/// γ12 = 2 e12 (design §2.1).
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
@@ -136,24 +141,80 @@ pub struct Material {
     /// Shear modulus μ \[Pa\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub mu: Option<f64>,
+    /// Orthotropic: Young's modulus E1 \[Pa\] along material axis 1 (in the plane, at `angle`).
+    #[serde(rename = "E1", default, skip_serializing_if = "Option::is_none")]
+    pub e1: Option<f64>,
+    /// Orthotropic: Young's modulus E2 \[Pa\] along material axis 2 (in the plane).
+    #[serde(rename = "E2", default, skip_serializing_if = "Option::is_none")]
+    pub e2: Option<f64>,
+    /// Orthotropic: Young's modulus E3 \[Pa\] out of the plane.
+    #[serde(rename = "E3", default, skip_serializing_if = "Option::is_none")]
+    pub e3: Option<f64>,
+    /// Orthotropic: Poisson's ratio ν12 [-] (−ε2/ε1 under stress along axis 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nu12: Option<f64>,
+    /// Orthotropic: Poisson's ratio ν13 [-].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nu13: Option<f64>,
+    /// Orthotropic: Poisson's ratio ν23 [-].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nu23: Option<f64>,
+    /// Orthotropic: in-plane shear modulus G12 \[Pa\].
+    #[serde(rename = "G12", default, skip_serializing_if = "Option::is_none")]
+    pub g12: Option<f64>,
+    /// Orthotropic: angle of material axis 1 from the x axis, counter-clockwise \[deg\]
+    /// (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle: Option<f64>,
+    /// The plane-strain in-plane stiffness D \[Pa\]: a symmetric positive definite 3×3 matrix
+    /// acting on (e11, e22, γ12) and giving (τ11, τ22, τ12).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matrix: Option<[[f64; 3]; 3]>,
+    /// With `matrix`: the out-of-plane row (c31, c32, c36) \[Pa\] of τ33 = c31 e11 + c32 e22 +
+    /// c36 γ12 − β33 (T − T0) (default zeros).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub out_of_plane: Option<[f64; 3]>,
     /// Specific weight ρg [N/m³]: body force (0, −specific_weight).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub specific_weight: Option<f64>,
     /// Body force [N/m³], added to the specific weight.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body_force: Option<[f64; 2]>,
-    /// Thermal conductivity κ [W/(m K)]: a scalar.
+    /// Thermal conductivity κ [W/(m K)]: a scalar, or a symmetric positive definite 2×2 matrix
+    /// `[[κ11, κ12], [κ21, κ22]]` in x, y.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub conductivity: Option<f64>,
+    pub conductivity: Option<Conductivity>,
     /// Heat source W [W/m³].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heat_source: Option<f64>,
-    /// Linear thermal expansion α [1/K]; β = (3λ + 2μ) α.
+    /// Linear thermal expansion α [1/K], the same in every direction; β = C α I (isotropic:
+    /// (3λ + 2μ) α). Not with `matrix`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub expansion: Option<f64>,
-    /// Thermal stress coefficient β [Pa/K], instead of `expansion`.
+    /// Thermal stress coefficient \[Pa/K\], instead of `expansion`: a scalar β (β I), or the
+    /// Voigt vector `[β11, β22, β12, β33]` (β12 the tensor shear component).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub beta: Option<f64>,
+    pub beta: Option<ThermalStress>,
+}
+
+/// A conductivity: a scalar or a symmetric 2×2 matrix.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Conductivity {
+    /// Isotropic κ [W/(m K)].
+    Scalar(f64),
+    /// `[[κ11, κ12], [κ21, κ22]]` [W/(m K)], symmetric positive definite.
+    Matrix([[f64; 2]; 2]),
+}
+
+/// A thermal stress coefficient: a scalar β or the Voigt vector.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum ThermalStress {
+    /// β \[Pa/K\]: the thermal stress β (T − T0) I.
+    Scalar(f64),
+    /// `[β11, β22, β12, β33]` \[Pa/K\].
+    Voigt([f64; 4]),
 }
 
 /// One boundary condition on a named segment. Exactly one of the condition fields is set.

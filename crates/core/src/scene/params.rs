@@ -1,8 +1,10 @@
 //! Uncertain parameters (design §4.1): resolve each `uncertain[i].field` path to the scene number
 //! it varies, check its interval, and write a parameter vector θ into the numeric `Data`.
 //!
-//! Supported paths: `materials.M.{E, nu, lambda, mu, specific_weight, body_force[c],
-//! conductivity, heat_source, expansion, beta}`, `boundary[i].{displacement[c], traction[c],
+//! Supported paths: `materials.M.{E, nu, lambda, mu, E1, E2, E3, nu12, nu13, nu23, G12, angle,
+//! matrix[i][j], out_of_plane[k], specific_weight, body_force[c], conductivity,
+//! conductivity[i][j], heat_source, expansion, beta, beta[k]}` (a symmetric matrix entry [i][j]
+//! varies [j][i] with it), `boundary[i].{displacement[c], traction[c],
 //! pressure, temperature, heat_flux}`, `contacts[i].slip_limit` (constant g) and
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g), and
 //! `thermal.reference_temperature`.
@@ -18,9 +20,16 @@
 //! ([`least_slip_limit`]): U is empty unless L ≤ hi ([`parameters`] refuses it), and since the
 //! balance of a floating body only gets easier as g grows, L is the one slip limit the balance
 //! check needs.
+//!
+//! Uncertain entries of a stiffness matrix or a conductivity matrix make an interval matrix
+//! (FGCS 4.5, 4.7); [`check_interval_matrices`] refuses a box whose margin λ_min(½(B̲ + B̄)) −
+//! ρ(½(B̄ − B̲)) (FGCS 4.6, 4.8) is not positive, since only then is every member positive definite.
+//! Uncertain orthotropic constants are checked the same way on the unit-diagonal normal compliance
+//! with interval entries −ν_ij √(E_j/E_i).
 
 use super::data::{BoundaryValue, Data, Elastic, Expansion};
-use super::model::{Scene, SlipLimit, Uncertain};
+use super::law::interval_margin;
+use super::model::{Conductivity, Scene, SlipLimit, ThermalStress, Uncertain};
 use super::rules::Constant;
 use super::SceneError;
 
@@ -35,18 +44,34 @@ pub enum ParamTarget {
     Lambda(usize),
     /// `materials.M.mu`.
     Mu(usize),
+    /// `materials.M.E1`, `E2`, `E3`: (material, axis 0..3).
+    OrthotropicYoung(usize, usize),
+    /// `materials.M.nu12`, `nu13`, `nu23`: (material, 0..3 in that order).
+    OrthotropicPoisson(usize, usize),
+    /// `materials.M.G12`.
+    OrthotropicShear(usize),
+    /// `materials.M.angle` \[deg\].
+    Angle(usize),
+    /// `materials.M.matrix[i][j]` with i ≤ j (and its mirror [j][i]).
+    MatrixEntry(usize, usize, usize),
+    /// `materials.M.out_of_plane[k]`.
+    OutOfPlane(usize, usize),
     /// `materials.M.specific_weight`.
     SpecificWeight(usize),
     /// `materials.M.body_force[c]`: (material, component).
     BodyForce(usize, usize),
-    /// `materials.M.conductivity`.
+    /// `materials.M.conductivity` (a scalar).
     Conductivity(usize),
+    /// `materials.M.conductivity[i][j]` with i ≤ j (and its mirror [j][i]).
+    ConductivityEntry(usize, usize, usize),
     /// `materials.M.heat_source`.
     HeatSource(usize),
     /// `materials.M.expansion` (α).
     Expansion(usize),
-    /// `materials.M.beta`.
+    /// `materials.M.beta` (a scalar).
     Beta(usize),
+    /// `materials.M.beta[k]` of a Voigt β.
+    BetaEntry(usize, usize),
     /// `boundary[b].displacement[c]`: (condition, component).
     Displacement(usize, usize),
     /// `boundary[b].traction[c]`: (condition, component).
@@ -69,7 +94,12 @@ impl ParamTarget {
     /// The sign or range rule of the varied number, if it has one.
     fn constant(self) -> Option<Constant> {
         match self {
-            ParamTarget::Young(_) => Some(Constant::Young),
+            ParamTarget::Young(_) | ParamTarget::OrthotropicYoung(..) => Some(Constant::Young),
+            ParamTarget::OrthotropicShear(_) => Some(Constant::Mu),
+            ParamTarget::OrthotropicPoisson(..) => Some(Constant::OrthotropicPoisson),
+            ParamTarget::MatrixEntry(..) | ParamTarget::OutOfPlane(..) => {
+                Some(Constant::MatrixEntry)
+            }
             ParamTarget::Poisson(_) => Some(Constant::Poisson),
             ParamTarget::Lambda(_) => Some(Constant::Lambda),
             ParamTarget::Mu(_) => Some(Constant::Mu),
@@ -176,12 +206,42 @@ fn material_target(
         [N("E" | "nu" | "lambda" | "mu")] => Err(unknown(
             "the material is given by the other pair of elastic constants",
         )),
+        [N(field @ ("E1" | "E2" | "E3"))] if mat.e1.is_some() => {
+            let axis = ["E1", "E2", "E3"].iter().position(|f| f == field);
+            Ok(ParamTarget::OrthotropicYoung(idx, axis.unwrap_or(0)))
+        }
+        [N(field @ ("nu12" | "nu13" | "nu23"))] if mat.e1.is_some() => {
+            let k = ["nu12", "nu13", "nu23"].iter().position(|f| f == field);
+            Ok(ParamTarget::OrthotropicPoisson(idx, k.unwrap_or(0)))
+        }
+        [N("G12")] if mat.e1.is_some() => Ok(ParamTarget::OrthotropicShear(idx)),
+        [N("angle")] if mat.e1.is_some() => Ok(ParamTarget::Angle(idx)),
+        [N("matrix"), I(i), I(j)] if mat.matrix.is_some() && *i < 3 && *j < 3 => {
+            Ok(ParamTarget::MatrixEntry(idx, *i.min(j), *i.max(j)))
+        }
+        [N("out_of_plane"), I(k)] if mat.matrix.is_some() && *k < 3 => {
+            Ok(ParamTarget::OutOfPlane(idx, *k))
+        }
         [N("specific_weight")] => Ok(ParamTarget::SpecificWeight(idx)),
         [N("body_force"), I(c)] if *c < 2 => Ok(ParamTarget::BodyForce(idx, *c)),
-        [N("conductivity")] => Ok(ParamTarget::Conductivity(idx)),
+        [N("conductivity")] if !matches!(mat.conductivity, Some(Conductivity::Matrix(_))) => {
+            Ok(ParamTarget::Conductivity(idx))
+        }
+        [N("conductivity"), I(i), I(j)]
+            if matches!(mat.conductivity, Some(Conductivity::Matrix(_))) && *i < 2 && *j < 2 =>
+        {
+            Ok(ParamTarget::ConductivityEntry(idx, *i.min(j), *i.max(j)))
+        }
         [N("heat_source")] => Ok(ParamTarget::HeatSource(idx)),
         [N("expansion")] if mat.beta.is_none() => Ok(ParamTarget::Expansion(idx)),
-        [N("beta")] if mat.expansion.is_none() => Ok(ParamTarget::Beta(idx)),
+        [N("beta")]
+            if mat.expansion.is_none() && !matches!(mat.beta, Some(ThermalStress::Voigt(_))) =>
+        {
+            Ok(ParamTarget::Beta(idx))
+        }
+        [N("beta"), I(k)] if matches!(mat.beta, Some(ThermalStress::Voigt(_))) && *k < 4 => {
+            Ok(ParamTarget::BetaEntry(idx, *k))
+        }
         _ => Err(unknown("not an uncertain-capable material field")),
     }
 }
@@ -277,6 +337,7 @@ pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
             ));
         }
     }
+    check_interval_matrices(scene, &params)?;
     for set in slope_sets(scene, &params) {
         let least = least_slip_limit(&set.knots, set.slope, &set.bounds);
         if let Some(k) = (0..least.len()).find(|&k| least[k] > set.bounds[k].1) {
@@ -292,6 +353,126 @@ pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
         }
     }
     Ok(params)
+}
+
+/// FGCS (4.6) and (4.8) on the box: per material with uncertain stiffness-matrix entries,
+/// conductivity-matrix entries or orthotropic E/ν, the margin λ_min(½(B̲ + B̄)) − ρ(½(B̄ − B̲))
+/// of its interval matrix must be positive; the error names the material, its zones and the
+/// margin.
+pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<(), SceneError> {
+    let bounds = |target: ParamTarget, nominal: f64| {
+        params
+            .iter()
+            .find(|p| p.target == target)
+            .map_or((nominal, nominal), |p| (p.lo, p.hi))
+    };
+    for (idx, (name, m)) in scene.materials.iter().enumerate() {
+        let uncertain = |f: &dyn Fn(ParamTarget) -> bool| params.iter().any(|p| f(p.target));
+        let zones: Vec<&str> = scene
+            .bodies
+            .iter()
+            .flat_map(|b| &b.zones)
+            .filter(|z| &z.material == name)
+            .map(|z| z.name.as_str())
+            .collect();
+        let refuse = |field: &str, what: &str, equation: &str, margin: f64| {
+            SceneError::new(
+                format!("materials.{name}{field}"),
+                format!(
+                    "the uncertain {what} of material '{name}' (zones {}) fail FGCS ({equation}): \
+                     λ_min(½(B̲ + B̄)) − ρ(½(B̄ − B̲)) = {margin:.6e} ≤ 0, so the box may hold \
+                     matrices that are not positive definite (narrow the intervals)",
+                    zones.join(", ")
+                ),
+            )
+        };
+        if let Some(d) = m.matrix {
+            if uncertain(&|t| matches!(t, ParamTarget::MatrixEntry(k, ..) if k == idx)) {
+                let entry = |i: usize, j: usize| {
+                    bounds(ParamTarget::MatrixEntry(idx, i.min(j), i.max(j)), d[i][j])
+                };
+                let lo = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).0));
+                let hi = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).1));
+                let margin = interval_margin::<3>(&lo, &hi);
+                if margin <= 0.0 {
+                    return Err(refuse(".matrix", "stiffness-matrix entries", "4.6", margin));
+                }
+            }
+        }
+        if let Some(Conductivity::Matrix(k)) = m.conductivity {
+            if uncertain(&|t| matches!(t, ParamTarget::ConductivityEntry(c, ..) if c == idx)) {
+                let entry = |i: usize, j: usize| {
+                    bounds(
+                        ParamTarget::ConductivityEntry(idx, i.min(j), i.max(j)),
+                        k[i][j],
+                    )
+                };
+                let lo = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).0));
+                let hi = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).1));
+                let margin = interval_margin::<2>(&lo, &hi);
+                if margin <= 0.0 {
+                    return Err(refuse(
+                        ".conductivity",
+                        "conductivity-matrix entries",
+                        "4.8",
+                        margin,
+                    ));
+                }
+            }
+        }
+        let orthotropic_varies = uncertain(&|t| {
+            matches!(t, ParamTarget::OrthotropicYoung(k, _) | ParamTarget::OrthotropicPoisson(k, _)
+                if k == idx)
+        });
+        if let (true, Some(e1), Some(e2), Some(e3), Some(n12), Some(n13), Some(n23)) =
+            (orthotropic_varies, m.e1, m.e2, m.e3, m.nu12, m.nu13, m.nu23)
+        {
+            let young = [e1, e2, e3]
+                .iter()
+                .enumerate()
+                .map(|(k, &e)| bounds(ParamTarget::OrthotropicYoung(idx, k), e))
+                .collect::<Vec<_>>();
+            let poisson = [n12, n13, n23]
+                .iter()
+                .enumerate()
+                .map(|(k, &n)| bounds(ParamTarget::OrthotropicPoisson(idx, k), n))
+                .collect::<Vec<_>>();
+            // −ν_ij √(E_j/E_i) over the box, by interval arithmetic.
+            let coupling = |i: usize, j: usize, (nlo, nhi): (f64, f64)| {
+                let (rlo, rhi) = (
+                    (young[j].0 / young[i].1).sqrt(),
+                    (young[j].1 / young[i].0).sqrt(),
+                );
+                let corners = [-nlo * rlo, -nlo * rhi, -nhi * rlo, -nhi * rhi];
+                (
+                    corners.iter().copied().fold(f64::INFINITY, f64::min),
+                    corners.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                )
+            };
+            let off = [
+                coupling(0, 1, poisson[0]),
+                coupling(0, 2, poisson[1]),
+                coupling(1, 2, poisson[2]),
+            ];
+            let box_of = |pick: fn((f64, f64)) -> f64| {
+                [
+                    [1.0, pick(off[0]), pick(off[1])],
+                    [pick(off[0]), 1.0, pick(off[2])],
+                    [pick(off[1]), pick(off[2]), 1.0],
+                ]
+            };
+            let margin = interval_margin::<3>(&box_of(|b| b.0), &box_of(|b| b.1));
+            if margin <= 0.0 {
+                return Err(refuse(
+                    "",
+                    "orthotropic constants (their unit-diagonal normal compliance)",
+                    "4.6",
+                    margin,
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Write θ into a copy of the nominal data, then map slope-limited slip limits onto their sets.
@@ -409,12 +590,15 @@ pub fn least_slip_limit(knots: &[f64], slope: f64, bounds: &[(f64, f64)]) -> Vec
 /// Data at the points θ + t_k e_i with weights w_k such that Σ_k w_k F(D_k) is the derivative
 /// of F(D(θ)) along θ_i (design §4.3); the sensitivities of the state problem are built on it.
 ///
-/// Along one parameter every map from θ to `Data` is affine (E, λ, μ, α and β enter the
-/// coefficients linearly), and the quantities the sensitivities combine are at most quadratic
-/// (β (T + t dT − T0)), except Poisson's ratio and the knots of a slope-limited slip limit. For
+/// Along one parameter every map from θ to `Data` is affine (E, λ, μ, G12, matrix entries, α, β
+/// and conductivities enter the coefficients linearly), and the quantities the sensitivities
+/// combine are at most quadratic (β (T + t dT − T0)), except Poisson's ratio, the orthotropic
+/// E1, E2, E3, ν12, ν13, ν23 and angle (D is rational in the former, trigonometric in the angle)
+/// and the knots of a slope-limited slip limit. For
 /// the former the stencil is exact for degree ≤ 2 with a long step (0.1 × width: rounding only,
 /// ≈ 1e-15 relative); for ν it is of order 4 with a step well inside the poles at ν = 0.5 and
-/// ν = −1 (≈ 1e-12 relative); for slope-limited knots, whose projection is piecewise linear, it
+/// ν = −1 (≈ 1e-12 relative), and for the orthotropic constants of order 4 with the step 1e-3 ×
+/// max(|θ_i|, width); for slope-limited knots, whose projection is piecewise linear, it
 /// is exact on each piece with a short step.
 #[derive(Debug, Clone)]
 pub struct Stencil {
@@ -468,6 +652,13 @@ pub fn stencil(
             CENTRAL_4,
             FORWARD_4,
         ),
+        ParamTarget::OrthotropicYoung(..)
+        | ParamTarget::OrthotropicPoisson(..)
+        | ParamTarget::Angle(_)
+            if width > 0.0 =>
+        {
+            (POISSON_STEP * scale, CENTRAL_4, FORWARD_4)
+        }
         _ if sloped_knot || width == 0.0 => (SHORT_STEP * scale, CENTRAL_2, FORWARD_2),
         _ => (AFFINE_STEP * width, CENTRAL_2, FORWARD_2),
     };
@@ -505,9 +696,39 @@ fn set(data: &mut Data, target: ParamTarget, v: f64) {
                 _ => {}
             }
         }
+        T::OrthotropicYoung(m, _)
+        | T::OrthotropicPoisson(m, _)
+        | T::OrthotropicShear(m)
+        | T::Angle(m) => {
+            if let Elastic::Orthotropic(o) = &mut data.materials[m].elastic {
+                match target {
+                    T::OrthotropicYoung(_, k) => o.young[k] = v,
+                    T::OrthotropicPoisson(_, k) => o.poisson[k] = v,
+                    T::OrthotropicShear(_) => o.shear = v,
+                    _ => o.angle = v,
+                }
+            }
+        }
+        T::MatrixEntry(m, i, j) => {
+            if let Elastic::Matrix(law) = &mut data.materials[m].elastic {
+                law.d[i][j] = v;
+                law.d[j][i] = v;
+            }
+        }
+        T::OutOfPlane(m, k) => {
+            if let Elastic::Matrix(law) = &mut data.materials[m].elastic {
+                law.out_of_plane[k] = v;
+            }
+        }
         T::SpecificWeight(m) => data.materials[m].specific_weight = v,
         T::BodyForce(m, c) => data.materials[m].body_force[c] = v,
-        T::Conductivity(m) => data.materials[m].conductivity = v,
+        T::Conductivity(m) => data.materials[m].conductivity = [v, 0.0, v],
+        T::ConductivityEntry(m, i, j) => data.materials[m].conductivity[i + j] = v,
+        T::BetaEntry(m, k) => {
+            if let Expansion::Voigt(b) = &mut data.materials[m].expansion {
+                b[k] = v;
+            }
+        }
         T::HeatSource(m) => data.materials[m].heat_source = v,
         T::Expansion(m) => data.materials[m].expansion = Expansion::Alpha(v),
         T::Beta(m) => data.materials[m].expansion = Expansion::Beta(v),

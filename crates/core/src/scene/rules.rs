@@ -19,6 +19,10 @@ pub(crate) enum Constant {
     Poisson,
     Lambda,
     Mu,
+    /// A Poisson ratio ν_ij of an orthotropic material (its range follows from the moduli).
+    OrthotropicPoisson,
+    /// An entry of a plane-strain stiffness matrix.
+    MatrixEntry,
     Conductivity,
     SlipLimit,
     /// A pressure, traction component, specific weight or body-force component.
@@ -41,6 +45,8 @@ impl Constant {
             Constant::Young | Constant::Mu => (MIN_MODULUS..=MAX_STRESS).contains(&v),
             Constant::Lambda => v == 0.0 || (MIN_MODULUS..=MAX_STRESS).contains(&v),
             Constant::Conductivity => (1e-9..=1e9).contains(&v),
+            Constant::OrthotropicPoisson => v.is_finite(),
+            Constant::MatrixEntry => v.abs() <= MAX_STRESS,
             Constant::SlipLimit => (0.0..=MAX_STRESS).contains(&v),
             Constant::Poisson => v > -1.0 && v < 0.5,
             Constant::Load => v.abs() <= MAX_STRESS,
@@ -62,6 +68,10 @@ impl Constant {
                 "the shear modulus mu must be > 0 and lie in [1e-3, 1e15] Pa (what double precision solves)"
             }
             Constant::Conductivity => "the conductivity must be > 0 and lie in [1e-9, 1e9] W/(m K)",
+            Constant::OrthotropicPoisson => "an orthotropic Poisson ratio must be a finite number",
+            Constant::MatrixEntry => {
+                "a stiffness-matrix entry must be at most 1e15 Pa in magnitude (what double precision solves)"
+            }
             Constant::SlipLimit => "the slip limit must be >= 0 and at most 1e15 Pa",
             Constant::Load => {
                 "a load (pressure, traction, specific weight, body force) must be at most 1e15 in magnitude (Pa or N/m3)"

@@ -2,8 +2,9 @@
 //! offending field and the reason. Geometric checks that need the mesh (segments on the boundary,
 //! matching contact nodes, overlapping zones) are done by the mesher with the same error type.
 
+use super::law;
 use super::model::*;
-use super::params::{resolve_uncertain, ParamTarget, Parameter};
+use super::params::{check_interval_matrices, resolve_uncertain, ParamTarget, Parameter};
 use super::rules::Constant;
 use super::SceneError;
 use std::collections::BTreeSet;
@@ -113,6 +114,7 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
         .enumerate()
         .map(|(i, u)| resolve_uncertain(scene, i, u))
         .collect::<Result<Vec<_>, _>>()?;
+    check_interval_matrices(scene, &parameters)?;
     check_stiffness_ratio(scene, &parameters)
 }
 
@@ -161,16 +163,28 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
                     )
                 };
                 let corners = [(e.0, nu.0), (e.0, nu.1), (e.1, nu.0), (e.1, nu.1)];
-                (corners.map(|(e, nu)| lame(e, nu)), "E")
+                (corners.map(|(e, nu)| lame(e, nu)).to_vec(), "E")
             }
             (_, _, Some(l), Some(mu)) => {
                 let (l, mu) = (
                     range(ParamTarget::Lambda(index), l),
                     range(ParamTarget::Mu(index), mu),
                 );
-                ([(l.0, mu.0), (l.0, mu.1), (l.1, mu.0), (l.1, mu.1)], "mu")
+                (
+                    vec![(l.0, mu.0), (l.0, mu.1), (l.1, mu.0), (l.1, mu.1)],
+                    "mu",
+                )
             }
-            _ => continue, // refused by check_materials
+            // Anisotropic laws at their nominal values: the plane-strain bulk and shear moduli
+            // play λ + μ and μ.
+            _ => match super::data::Data::material(m).elastic.law() {
+                Some(law) => {
+                    let (bulk, shear) = law.bulk_and_shear();
+                    let field = if m.matrix.is_some() { "matrix" } else { "G12" };
+                    (vec![(bulk - shear, shear)], field)
+                }
+                None => continue, // refused by check_materials
+            },
         };
         for (lambda, mu) in corners {
             if stiffest.is_none_or(|(s, _)| lambda + 2.0 * mu > s) {
@@ -189,7 +203,11 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
         return Ok(());
     }
     let (path, what) = if stiff_name == soft_name {
-        let field = if soft_field == "E" { "nu" } else { "lambda" };
+        let field = match soft_field {
+            "E" => "nu",
+            "mu" => "lambda",
+            other => other,
+        };
         (
             format!("materials.{soft_name}.{field}"),
             format!("material '{soft_name}' is nearly incompressible: its λ + 2μ reaches {stiff:.3e} Pa against μ = {soft:.3e} Pa"),
@@ -418,22 +436,7 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
     }
     for (name, m) in &scene.materials {
         let path = format!("materials.{name}");
-        match (m.young, m.nu, m.lambda, m.mu) {
-            (Some(e), Some(nu), None, None) => {
-                admissible(&format!("{path}.E"), e, Constant::Young)?;
-                admissible(&format!("{path}.nu"), nu, Constant::Poisson)?;
-            }
-            (None, None, Some(l), Some(mu)) => {
-                admissible(&format!("{path}.mu"), mu, Constant::Mu)?;
-                admissible(&format!("{path}.lambda"), l, Constant::Lambda)?;
-            }
-            _ => {
-                return Err(SceneError::new(
-                    path,
-                    "give exactly one pair of elastic constants: (E, nu) or (lambda, mu)",
-                ))
-            }
-        }
+        check_elastic(&path, m)?;
         if let Some(w) = m.specific_weight {
             admissible(&format!("{path}.specific_weight"), w, Constant::Load)?;
         }
@@ -448,17 +451,35 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
                 "give either expansion (alpha) or beta, not both",
             ));
         }
-        if let Some(k) = m.conductivity {
-            admissible(&format!("{path}.conductivity"), k, Constant::Conductivity)?;
+        match m.conductivity {
+            Some(Conductivity::Scalar(k)) => {
+                admissible(&format!("{path}.conductivity"), k, Constant::Conductivity)?;
+            }
+            Some(Conductivity::Matrix(k)) => check_conductivity_matrix(&path, &k)?,
+            None => {}
         }
-        for (field, v) in [
-            ("heat_source", m.heat_source),
-            ("expansion", m.expansion),
-            ("beta", m.beta),
-        ] {
+        for (field, v) in [("heat_source", m.heat_source), ("expansion", m.expansion)] {
             if let Some(v) = v {
                 finite(&format!("{path}.{field}"), v)?;
             }
+        }
+        match m.beta {
+            Some(ThermalStress::Scalar(b)) => {
+                finite(&format!("{path}.beta"), b)?;
+            }
+            Some(ThermalStress::Voigt(b)) => {
+                for (k, v) in b.iter().enumerate() {
+                    finite(&format!("{path}.beta[{k}]"), *v)?;
+                }
+            }
+            None => {}
+        }
+        if m.matrix.is_some() && m.expansion.is_some() {
+            return Err(SceneError::new(
+                format!("{path}.expansion"),
+                "an expansion α needs the material's full 3D stiffness; with `matrix` give `beta` \
+                 (a scalar or [β11, β22, β12, β33])",
+            ));
         }
         if scene.thermal.is_some() && m.conductivity.is_none() {
             let used = scene
@@ -475,6 +496,189 @@ fn check_materials(scene: &Scene) -> Result<(), SceneError> {
         }
     }
     Ok(())
+}
+
+/// Exactly one elastic law per material, each number admissible and the law positive definite
+/// (FGCS 2.7′ needs a symmetric positive definite A); errors name the field and the value.
+fn check_elastic(path: &str, m: &Material) -> Result<(), SceneError> {
+    let orthotropic = [m.e1, m.e2, m.e3, m.nu12, m.nu13, m.nu23, m.g12, m.angle];
+    let kinds = [
+        m.young.is_some() || m.nu.is_some(),
+        m.lambda.is_some() || m.mu.is_some(),
+        orthotropic.iter().any(Option::is_some),
+        m.matrix.is_some() || m.out_of_plane.is_some(),
+    ];
+    if kinds.iter().filter(|k| **k).count() != 1 {
+        return Err(SceneError::new(
+            path,
+            "give exactly one elastic law: (E, nu), (lambda, mu), orthotropic (E1, E2, E3, nu12, \
+             nu13, nu23, G12, optional angle) or (matrix, optional out_of_plane)",
+        ));
+    }
+    let missing = |field: &str| {
+        SceneError::new(
+            format!("{path}.{field}"),
+            "missing: the material's other constants need it",
+        )
+    };
+    match (m.young, m.nu, m.lambda, m.mu) {
+        (Some(e), Some(nu), None, None) => {
+            admissible(&format!("{path}.E"), e, Constant::Young)?;
+            return admissible(&format!("{path}.nu"), nu, Constant::Poisson);
+        }
+        (None, None, Some(l), Some(mu)) => {
+            admissible(&format!("{path}.mu"), mu, Constant::Mu)?;
+            return admissible(&format!("{path}.lambda"), l, Constant::Lambda);
+        }
+        (Some(_), None, ..) => return Err(missing("nu")),
+        (None, Some(_), ..) => return Err(missing("E")),
+        (.., Some(_), None) => return Err(missing("mu")),
+        (.., None, Some(_)) => return Err(missing("lambda")),
+        _ => {}
+    }
+    if let Some(d) = m.matrix {
+        return check_matrix(path, &d, m.out_of_plane.unwrap_or([0.0; 3]));
+    }
+    if m.out_of_plane.is_some() {
+        return Err(missing("matrix"));
+    }
+    let get = |field: &str, v: Option<f64>, rule: Constant| {
+        let v = v.ok_or_else(|| missing(field))?;
+        admissible(&format!("{path}.{field}"), v, rule).map(|()| v)
+    };
+    let young = [
+        get("E1", m.e1, Constant::Young)?,
+        get("E2", m.e2, Constant::Young)?,
+        get("E3", m.e3, Constant::Young)?,
+    ];
+    let poisson = [
+        get("nu12", m.nu12, Constant::OrthotropicPoisson)?,
+        get("nu13", m.nu13, Constant::OrthotropicPoisson)?,
+        get("nu23", m.nu23, Constant::OrthotropicPoisson)?,
+    ];
+    get("G12", m.g12, Constant::Mu)?;
+    if let Some(angle) = m.angle {
+        finite(&format!("{path}.angle"), angle)?;
+    }
+    check_orthotropic_compliance(path, young, poisson)
+}
+
+/// The orthotropic compliance must be positive definite: its normal block scaled to a unit
+/// diagonal, I − N with N_ij = ν_ij √(E_j/E_i), has a positive smallest eigenvalue. The error
+/// names the Poisson ratio of the largest coupling |N_ij|.
+fn check_orthotropic_compliance(
+    path: &str,
+    young: [f64; 3],
+    poisson: [f64; 3],
+) -> Result<(), SceneError> {
+    let scaled = scaled_compliance(young, poisson);
+    let least = law::symmetric_eigenvalues(&scaled)[0];
+    if least > 1e-12 {
+        return Ok(());
+    }
+    let couplings = [(0, 1, "nu12"), (0, 2, "nu13"), (1, 2, "nu23")];
+    let (k, &(_, _, field)) = couplings
+        .iter()
+        .enumerate()
+        .max_by(|a, b| {
+            scaled[a.1 .0][a.1 .1]
+                .abs()
+                .total_cmp(&scaled[b.1 .0][b.1 .1].abs())
+        })
+        .unwrap_or((0, &couplings[0]));
+    Err(SceneError::new(
+        format!("{path}.{field}"),
+        format!(
+            "{field} = {} makes the orthotropic compliance not positive definite (smallest \
+             eigenvalue {least:.3e} of the unit-diagonal normal compliance; need \
+             1 − ν12ν21 − ν13ν31 − ν23ν32 − 2ν21ν32ν13 > 0 and |ν_ij| < √(E_i/E_j))",
+            poisson[k]
+        ),
+    ))
+}
+
+/// The normal compliance scaled to a unit diagonal: 1 on the diagonal, −ν_ij √(E_j/E_i) off it.
+fn scaled_compliance(young: [f64; 3], poisson: [f64; 3]) -> [[f64; 3]; 3] {
+    let n = |i: usize, j: usize, nu: f64| -nu * (young[j] / young[i]).sqrt();
+    let (a, b, c) = (
+        n(0, 1, poisson[0]),
+        n(0, 2, poisson[1]),
+        n(1, 2, poisson[2]),
+    );
+    [[1.0, a, b], [a, 1.0, c], [b, c, 1.0]]
+}
+
+/// A plane-strain matrix: finite entries within the stiffness range, symmetric, positive
+/// definite.
+fn check_matrix(path: &str, d: &[[f64; 3]; 3], out: [f64; 3]) -> Result<(), SceneError> {
+    for (i, row) in d.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            admissible(
+                &format!("{path}.matrix[{i}][{j}]"),
+                *v,
+                Constant::MatrixEntry,
+            )?;
+            if (v - d[j][i]).abs() > 1e-12 * v.abs().max(d[j][i].abs()) {
+                return Err(SceneError::new(
+                    format!("{path}.matrix[{i}][{j}]"),
+                    format!(
+                        "the matrix must be symmetric: [{i}][{j}] = {v} but [{j}][{i}] = {}",
+                        d[j][i]
+                    ),
+                ));
+            }
+        }
+    }
+    for (k, v) in out.iter().enumerate() {
+        admissible(
+            &format!("{path}.out_of_plane[{k}]"),
+            *v,
+            Constant::MatrixEntry,
+        )?;
+    }
+    let least = law::symmetric_eigenvalues(d)[0];
+    if least > 0.0 {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            format!("{path}.matrix"),
+            format!(
+                "the matrix is not positive definite: its smallest eigenvalue is {least:.6e} Pa"
+            ),
+        ))
+    }
+}
+
+/// A conductivity matrix: finite, symmetric, with eigenvalues in the conductivity range.
+fn check_conductivity_matrix(path: &str, k: &[[f64; 2]; 2]) -> Result<(), SceneError> {
+    let field = format!("{path}.conductivity");
+    for (i, row) in k.iter().enumerate() {
+        for (j, v) in row.iter().enumerate() {
+            finite(&format!("{field}[{i}][{j}]"), *v)?;
+        }
+    }
+    if (k[0][1] - k[1][0]).abs() > 1e-12 * k[0][1].abs().max(k[1][0].abs()) {
+        return Err(SceneError::new(
+            format!("{field}[0][1]"),
+            format!(
+                "the conductivity matrix must be symmetric: [0][1] = {} but [1][0] = {}",
+                k[0][1], k[1][0]
+            ),
+        ));
+    }
+    let [least, largest] = law::symmetric_eigenvalues(k);
+    if Constant::Conductivity.admits(least) && Constant::Conductivity.admits(largest) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            field,
+            format!(
+                "the conductivity matrix has the eigenvalues {least:.6e} and {largest:.6e}; {} \
+                 (positive definite)",
+                Constant::Conductivity.rule()
+            ),
+        ))
+    }
 }
 
 fn check_segments(scene: &Scene) -> Result<(), SceneError> {

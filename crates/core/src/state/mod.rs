@@ -32,7 +32,7 @@ use crate::contact::qp::WarmStart;
 use crate::dd::DirectAnswer;
 use crate::error::WsmError;
 use crate::fem::OperatorFactor;
-use crate::fem::{ElasticProblem, HeatProblem, Par};
+use crate::fem::{ElasticCoefficients, ElasticProblem, HeatProblem, Par};
 use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
@@ -124,7 +124,7 @@ pub struct StateProblem {
     body_factors: Vec<Memo<Arc<BodyFactor>>>,
     temperatures: Memo<Arc<Vec<f64>>>,
     /// Heat factors keyed by the conductivities.
-    heat_factors: Memo<Arc<OperatorFactor<1>>>,
+    heat_factors: Memo<Arc<OperatorFactor<3>>>,
     /// The DD partition, built on the first DD solve from the nominal data (it depends only on
     /// the mesh and the contact pairs).
     dd_partition: OnceLock<Result<crate::dd::Partition, crate::dd::DdError>>,
@@ -408,7 +408,7 @@ impl StateProblem {
     /// their factor (keyed by the exact bits, so a reused factor equals a fresh one).
     fn stiffness_factor(
         &self,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         par: Par,
     ) -> Result<(Arc<StiffnessFactor>, bool), WsmError> {
         let key = memo::key(coefficients.iter().flatten().copied());
@@ -437,7 +437,7 @@ impl StateProblem {
     fn solve_dd(
         &self,
         data: &Data,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         rhs: &[f64],
         fixed: &[f64],
         options: &SolveOptions,
@@ -528,7 +528,7 @@ impl StateProblem {
         &self,
         reason: &str,
         data: &Data,
-        coefficients: &[[f64; 2]],
+        coefficients: &[ElasticCoefficients],
         rhs: &[f64],
         fixed: &[f64],
         options: &SolveOptions,
@@ -570,7 +570,7 @@ impl StateProblem {
     }
 
     /// The factor of the heat operator for the conductivities of `data` (memoised).
-    fn heat_factor(&self, data: &Data, par: Par) -> Result<Arc<OperatorFactor<1>>, WsmError> {
+    fn heat_factor(&self, data: &Data, par: Par) -> Result<Arc<OperatorFactor<3>>, WsmError> {
         let heat = self.heat_problem()?;
         let coefficients = heat.coefficients(data)?;
         let key = memo::key(coefficients.iter().flatten().copied());
@@ -583,7 +583,7 @@ impl StateProblem {
 
 /// The elastic part of a solve that its sensitivities need.
 struct ElasticParts {
-    coefficients: Vec<[f64; 2]>,
+    coefficients: Vec<ElasticCoefficients>,
     /// The direct solver's factor (None after a DD solve).
     factor: Option<Arc<StiffnessFactor>>,
     contact: ContactSolution,
@@ -594,7 +594,7 @@ fn thermal_key(data: &Data) -> Vec<u64> {
     let thermal_numbers = data
         .materials
         .iter()
-        .flat_map(|m| [m.conductivity, m.heat_source])
+        .flat_map(|m| m.conductivity.into_iter().chain([m.heat_source]))
         .chain(data.boundary.iter().filter_map(|b| match b.value {
             BoundaryValue::Temperature(v) | BoundaryValue::HeatFlux(v) => Some(v),
             _ => None,
@@ -609,13 +609,16 @@ const BODY_CACHE_BYTES: usize = 1 << 28;
 /// the DD tolerance when that is larger); above it the direct solver answers (with a warning).
 const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
 
-/// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49.
-pub fn locking_warnings(coefficients: &[[f64; 2]], mesh: &Mesh) -> Vec<String> {
+/// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49, with ν = (K − G)/(2K)
+/// from the plane-strain bulk and shear moduli of D ([`crate::scene::law::bulk_and_shear`];
+/// isotropic: λ/(2(λ + μ)), Poisson's ratio).
+pub fn locking_warnings(coefficients: &[ElasticCoefficients], mesh: &Mesh) -> Vec<String> {
     coefficients
         .iter()
         .zip(&mesh.zones)
-        .filter_map(|([lambda, mu], zone)| {
-            let nu = lambda / (2.0 * (lambda + mu));
+        .filter_map(|(c, zone)| {
+            let (bulk, shear) = crate::scene::law::bulk_and_shear(c);
+            let nu = (bulk - shear) / (2.0 * bulk);
             (nu >= 0.49).then(|| {
                 format!(
                     "zone '{}': Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)",

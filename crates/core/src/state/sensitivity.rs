@@ -24,7 +24,7 @@ use crate::contact::direct::{
     AdjointForms, ContactPoint, ContactSolution, DataDerivative, StiffnessFactor,
 };
 use crate::error::WsmError;
-use crate::fem::ElementStress;
+use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients};
 use crate::scene::params::Stencil;
 use crate::scene::Data;
 pub use wsm_search::OneSided;
@@ -56,7 +56,7 @@ pub(super) struct SolvedState<'a> {
 
 /// The elastic part of a solved state.
 pub(super) struct ElasticState<'a> {
-    pub coefficients: &'a [[f64; 2]],
+    pub coefficients: &'a [ElasticCoefficients],
     pub factor: &'a StiffnessFactor,
     pub contact: &'a ContactSolution,
     pub displacement: &'a [[f64; 2]],
@@ -387,7 +387,7 @@ impl StateProblem {
             stress_part: None,
         };
         let materials = elastic.zone_materials(state.data)?;
-        let coefficients: Vec<Vec<[f64; 2]>> = stencil
+        let coefficients: Vec<Vec<ElasticCoefficients>> = stencil
             .points
             .iter()
             .map(|(_, _, d)| elastic.coefficients(d))
@@ -454,7 +454,7 @@ impl StateProblem {
         let t_free = heat.free_values(temperature);
         let mut residual = vec![0.0; t_free.len()];
         let mut fixed = vec![0.0; heat.operator().n_fixed()];
-        let coefficients: Vec<Vec<[f64; 1]>> = stencil
+        let coefficients: Vec<Vec<HeatCoefficients>> = stencil
             .points
             .iter()
             .map(|(_, _, d)| heat.coefficients(d))

@@ -32,6 +32,8 @@ use crate::fem::rigid::remove_components;
 const AT_BOUND_TOL: f64 = 1e-10;
 /// Relative size of a gap or slip below which an active row is weakly active.
 const WEAK_TOL: f64 = 1e-9;
+/// Relative size of the load on a rigid mode below which it is rounding.
+const ROUNDING_TOL: f64 = 1e-12;
 
 /// How a multiplier may move in the tangent problem.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -201,7 +203,19 @@ impl DirectContact {
                 }
             })
             .unzip();
-        let (g, e) = self.equilibrium(b);
+        let (g, mut e) = self.equilibrium(b);
+        // Rᵀb of a balanced load derivative is zero up to rounding: measured against ‖R_j‖ ‖b‖,
+        // not against itself (the box QP's feasibility test is relative to e).
+        let b_norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for (j, ej) in e.iter_mut().enumerate() {
+            let mode_norm = (0..b.len())
+                .map(|i| self.kernel.modes[(i, j)].powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if ej.abs() <= ROUNDING_TOL * mode_norm * b_norm {
+                *ej = 0.0;
+            }
+        }
         let start = WarmStart {
             x: lo
                 .iter()
