@@ -142,16 +142,27 @@ impl StateProblem {
             .zip(&d_temperatures)
             .map(|(stencil, dt)| self.elastic_derivative(state, el, stencil, dt.as_deref()))
             .collect::<Result<_, _>>()?;
-        let (lo, hi) = self.contact.geometry.bounds(state.data);
+        let (lo, hi) = self
+            .contact
+            .geometry
+            .bounds(state.data, Some(&el.contact.multipliers));
         let displacement_scale = el
             .displacement
             .iter()
             .fold(0.0_f64, |a, v| a.max(v[0].abs()).max(v[1].abs()));
+        let friction: Vec<Option<f64>> = self
+            .contact
+            .geometry
+            .pairs
+            .iter()
+            .map(|p| state.data.friction[p.zone].filter(|_| !p.bilateral))
+            .collect();
         let point = ContactPoint {
             multipliers: &el.contact.multipliers,
             gaps: &el.contact.gaps,
             lower: &lo,
             upper: &hi,
+            friction: &friction,
             displacement_scale,
         };
         let derivatives: Vec<DataDerivative> = parts
@@ -243,7 +254,9 @@ impl StateProblem {
             let rhs = elastic.rhs_with(coefficients, &loads, &fixed_k)?;
             add_scaled(&mut part.residual, *w, &rhs);
             add_scaled(&mut part.fixed, *w, &fixed_k);
-            let (lo, hi) = geometry.bounds(d);
+            // On Coulomb zones F_k λ_n at the state's normal forces: the part dF λ_n of the
+            // bound's derivative (the part F dλ_n is the tangent problem's coupling).
+            let (lo, hi) = geometry.bounds(d, Some(&el.contact.multipliers));
             add_scaled(&mut part.lower, *w, &finite_or_zero(&lo));
             add_scaled(&mut part.upper, *w, &finite_or_zero(&hi));
             if law_varies {
