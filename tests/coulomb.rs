@@ -6,7 +6,8 @@
 
 use serde_json::{json, Value};
 use wsm_core::error::WsmError;
-use wsm_core::scene::parse;
+use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
+use wsm_core::scene::{parse, SolverKind};
 use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
 
 fn options(problem: &StateProblem) -> SolveOptions {
@@ -56,7 +57,11 @@ fn block_on_base(q: f64, friction: Value) -> Value {
             {"segment": "push", "traction": [q / 0.5, 0]}
         ],
         "contacts": [contact],
-        "mesh": {"max_size": 0.1, "refine": [{"segments": ["block_contact"], "max_size": 0.05}]}
+        "mesh": {"max_size": 0.1, "refine": [{"segments": ["block_contact"], "max_size": 0.05}]},
+        "criteria": {
+            "regions": [{"name": "G1", "polygon": [[0.9,0.5],[1.1,0.5],[1.1,0.6],[0.9,0.6]], "normal_at": [1.0,0.5]}],
+            "boundary_pieces": [{"name": "G1'", "segment": "top", "from": [1.1,1.0], "to": [0.9,1.0]}]
+        }
     })
 }
 
@@ -309,4 +314,275 @@ fn friction_coefficient_is_validated_by_path() {
         wsm_core::scene::params::parameters(&scene).unwrap().len(),
         1
     );
+}
+
+/// DD solves the same fixed point (each step a DD solve of the Tresca problem with the current
+/// bounds) and agrees with the direct solver to 1e-8.
+#[test]
+fn dd_equals_direct_with_coulomb_friction() {
+    let f = 0.4;
+    let value = block_on_base(0.8 * f * N, json!({"friction_coefficient": f}));
+    let solve = |kind: SolverKind| {
+        let mut scene = parse(&value.to_string()).unwrap();
+        scene.solver.kind = kind;
+        scene.solver.tolerance = 1e-12;
+        let problem = StateProblem::new(scene).unwrap();
+        problem.solve(&problem.nominal, &options(&problem)).unwrap()
+    };
+    let direct = solve(SolverKind::Direct);
+    let dd = solve(SolverKind::Dd);
+    assert_eq!(dd.report.solver, "dd", "{:?}", dd.report.warnings);
+    let rel = relative_difference(&direct, &dd);
+    let (cd, cdd) = (direct.report.coulomb.unwrap(), dd.report.coulomb.unwrap());
+    println!(
+        "‖u_dd − u_direct‖/‖u‖ = {rel:.2e}; Coulomb steps direct {} dd {}; KKT dd {:.1e}",
+        cd.iterations,
+        cdd.iterations,
+        dd.report.kkt.max()
+    );
+    assert!(rel <= 1e-8, "{rel}");
+    for (a, b) in direct.contact.iter().zip(&dd.contact) {
+        assert_eq!(a.state, b.state, "contact state at {:?}", a.position);
+    }
+}
+
+/// Criteria at θ (a whole solve).
+fn criteria_at(problem: &StateProblem, params: &[Parameter], theta: &[f64]) -> [Option<f64>; 6] {
+    let data = apply(&problem.scene, &problem.nominal, params, theta);
+    problem.solve(&data, &options(problem)).unwrap().criteria
+}
+
+/// The exact sensitivities of a Coulomb state (the tangent system with the slipping rows
+/// following F λ_n) match central finite differences, for F itself and for the other data
+/// (whose derivatives the coupling changes as well), at a state with stick and slip.
+#[test]
+fn sensitivities_match_finite_differences() {
+    let f = 0.4;
+    let mut value = block_on_base(0.8 * f * N, json!({"friction_coefficient": f}));
+    value["uncertain"] = json!([
+        {"field": "contacts[0].friction_coefficient", "interval": [0.35, 0.45]},
+        {"field": "materials.rock.E", "interval": [0.8e10, 1.2e10]},
+        {"field": "boundary[2].traction[0]", "interval": [2.4e5, 2.6e5]},
+        {"field": "boundary[1].pressure", "interval": [0.9e6, 1.1e6]}
+    ]);
+    let problem = build(&value);
+    let params = parameters(&problem.scene).unwrap();
+    let theta: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
+    let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+    let stencils: Vec<_> = (0..params.len())
+        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+        .collect();
+    let sol = problem
+        .solve_with_sensitivities(&data, &options(&problem), &stencils)
+        .unwrap();
+    assert_eq!(
+        sol.sensitivities.len(),
+        params.len(),
+        "{:?}",
+        sol.report.warnings
+    );
+    let mut worst = 0.0_f64;
+    let mut checked = 0;
+    for (j, p) in params.iter().enumerate() {
+        let fd = |h: f64| {
+            let (mut plus, mut minus) = (theta.clone(), theta.clone());
+            plus[j] += h;
+            minus[j] -= h;
+            let (a, b) = (
+                criteria_at(&problem, &params, &plus),
+                criteria_at(&problem, &params, &minus),
+            );
+            (0..6)
+                .map(|i| a[i].zip(b[i]).map(|(a, b)| (a - b) / (2.0 * h)))
+                .collect::<Vec<_>>()
+        };
+        let h = 1e-4 * (p.hi - p.lo);
+        let (coarse, fine) = (fd(h), fd(0.5 * h));
+        for i in 0..6 {
+            let (Some(exact), Some(c), Some(d)) = (sol.sensitivities[j][i], coarse[i], fine[i])
+            else {
+                continue;
+            };
+            assert_eq!(exact.left, exact.right, "smooth state: one derivative");
+            let scale = sol.criteria[i].unwrap().abs().max(1e-300) / (p.hi - p.lo);
+            let error = (exact.right - d).abs() / d.abs().max(1e-3 * scale);
+            println!(
+                "{} phi{}: exact {:.6e}, FD {:.6e} (h/2 {:.6e}), rel {error:.1e}",
+                p.name,
+                i + 1,
+                exact.right,
+                c,
+                d
+            );
+            assert!(
+                (c - d).abs() <= 1e-5 * d.abs().max(1e-3 * scale),
+                "FD straddles a kink"
+            );
+            worst = worst.max(error);
+            checked += 1;
+        }
+    }
+    println!("{checked} derivatives, worst relative error {worst:.1e}");
+    assert!(checked >= 8);
+    assert!(worst <= 1e-5, "{worst}");
+}
+
+/// A cylinder of radius R = 0.5 m on a flat of the same material in plane strain (the Hertz
+/// setting by the parabolic initial gap): the cylinder body [−1, 1] × [0, 1] pressed down by
+/// 1.2e-2 m and shifted tangentially by δ at its top (both components prescribed, so that the
+/// body cannot tilt about its top), the flat [−1, 1] × [−1, 0] clamped at its bottom.
+fn cylinder_on_flat(shift: f64, f: f64, h: f64) -> Value {
+    json!({
+        "version": 1, "name": "Cattaneo-Mindlin",
+        "bodies": [
+            {"name": "flat", "zones": [{"name": "flat", "material": "steel", "polygon": [[-1,-1],[1,-1],[1,0],[0.1,0],[-0.1,0],[-1,0]]}]},
+            {"name": "cylinder", "zones": [{"name": "cylinder", "material": "steel", "polygon": [[-1,0],[-0.1,0],[0.1,0],[1,0],[1,1],[-1,1]]}]}
+        ],
+        "segments": {
+            "flat_bottom": {"body": "flat", "from": [-1,-1], "to": [1,-1]},
+            "flat_contact": {"body": "flat", "from": [-0.1,0], "to": [0.1,0]},
+            "cylinder_contact": {"body": "cylinder", "from": [-0.1,0], "to": [0.1,0]},
+            "cylinder_top": {"body": "cylinder", "from": [1,1], "to": [-1,1]}
+        },
+        "materials": {"steel": {"E": 2.0e11, "nu": 0.3}},
+        "boundary": [
+            {"segment": "flat_bottom", "displacement": [0, 0]},
+            {"segment": "cylinder_top", "displacement": [shift, -1.2e-2]}
+        ],
+        "contacts": [{"name": "mindlin", "between": ["cylinder_contact", "flat_contact"],
+                      "friction_coefficient": f,
+                      "initial_gap": {"parabola": {"radius": 0.5, "touch_at": [0, 0]}}}],
+        "mesh": {"max_size": 0.1, "refine": [{"polygon": [[-0.1,-0.03],[0.1,-0.03],[0.1,0.03],[-0.1,0.03]], "max_size": h}]}
+    })
+}
+
+/// Cattaneo–Mindlin partial slip: for two bodies of the same material the normal and tangential
+/// problems decouple (Goodman), the pressure stays Hertzian and the tangential load Q < F P
+/// leaves a central stick zone of half-width c = a √(1 − Q/(F P)). The measured c (midway between
+/// the outermost sticking and the innermost slipping node) is compared with the formula for the
+/// measured P = Σ λ_n, Q = |Σ λ_t| and the contact half-width a from the pressure's second moment
+/// (as in the Hertz test) and from Hertz's formula a = 2 √(P R / (π E*)), for two values of
+/// Q/(F P).
+#[test]
+fn cattaneo_mindlin_stick_zone() {
+    let (f, h) = (0.3, 0.002);
+    let mut ratios = Vec::new();
+    for shift in [1.6e-3, 3.2e-3] {
+        let (problem, sol) = solve_value(&cylinder_on_flat(shift, f, h)).unwrap();
+        assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+        let pairs = &problem.contact.geometry.pairs;
+        let forces: Vec<(f64, f64, f64)> = sol
+            .contact
+            .iter()
+            .zip(pairs)
+            .map(|(c, p)| (c.position[0], c.pressure * p.weight, c.shear * p.weight))
+            .collect();
+        let load: f64 = forces.iter().map(|x| x.1).sum();
+        let q: f64 = forces.iter().map(|x| x.2).sum::<f64>().abs();
+        let m2: f64 = forces.iter().map(|x| x.0 * x.0 * x.1).sum();
+        let a = (4.0 * m2 / load).sqrt();
+        // Stick half-width per side: midway between the outermost sticking pair and the next
+        // pair outwards (which slips).
+        let mut sides = Vec::new();
+        for side in [1.0, -1.0] {
+            let mut xs: Vec<(f64, ContactState)> = sol
+                .contact
+                .iter()
+                .filter(|c| side * c.position[0] >= 0.0)
+                .map(|c| (side * c.position[0], c.state))
+                .collect();
+            xs.sort_by(|u, v| u.0.total_cmp(&v.0));
+            let last_stick = xs
+                .iter()
+                .rposition(|x| x.1 == ContactState::Stick)
+                .expect("a stick zone");
+            assert!(
+                xs[..last_stick].iter().all(|x| x.1 == ContactState::Stick),
+                "one central stick zone: {xs:?}"
+            );
+            sides.push(0.5 * (xs[last_stick].0 + xs[last_stick + 1].0));
+        }
+        let c = 0.5 * (sides[0] + sides[1]);
+        let ratio = q / (f * load);
+        let exact = a * (1.0 - ratio).sqrt();
+        let error = (c - exact).abs() / exact;
+        let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
+        let hertz = 2.0 * (load * 0.5 / (std::f64::consts::PI * e_star)).sqrt();
+        let hertz_error = (c - hertz * (1.0 - ratio).sqrt()).abs() / (hertz * (1.0 - ratio).sqrt());
+        let coulomb = sol.report.coulomb.unwrap();
+        println!(
+            "δ = {shift:e}: P = {load:.4e}, Q/(FP) = {ratio:.3}, a = {a:.5} (Hertz {hertz:.5}), c = {c:.5} (sides {:.5}, {:.5}), Mindlin c = {exact:.5}, error {:.1}% ({:.1}% with Hertz's a), {} Coulomb steps (contraction {:.2})",
+            sides[0],
+            sides[1],
+            100.0 * error,
+            100.0 * hertz_error,
+            coulomb.iterations,
+            coulomb.contraction
+        );
+        assert!(
+            ratio > 0.1 && ratio < 0.95,
+            "partial slip: Q/(FP) = {ratio}"
+        );
+        assert!(error <= 0.03 && hertz_error <= 0.03, "c = {c} vs {exact}");
+        ratios.push(ratio);
+    }
+    assert!(
+        ratios[1] > ratios[0] + 0.1,
+        "two distinct Q/(FP): {ratios:?}"
+    );
+}
+
+/// Non-convergence is detected and reported within bounded steps, never returned as a state: a
+/// compliant compressible block (E = 1e8 Pa, ν = 0) on a stiff base (E = 1e11 Pa) couples the
+/// normal and tangential responses strongly (Dundurs' β ≈ 0.5); with F = 5 and a body-force
+/// tangential load 0.9 F N the successive Tresca problems oscillate with relative changes of
+/// order 0.1–1 and an observed contraction factor near or above 1 (beyond the small-F regime
+/// where the Coulomb problem is known to have a unique solution). The same block with F = 0.5
+/// converges.
+#[test]
+fn non_convergence_is_reported() {
+    let block = |f: f64| {
+        let (p, height) = (1.0e6, 0.1);
+        let q = 0.9 * f * p;
+        json!({
+            "version": 1, "name": "compliant block",
+            "bodies": [
+                {"name": "base", "zones": [{"name": "base", "material": "base", "polygon": [[0,0],[2,0],[2,0.5],[0,0.5]]}]},
+                {"name": "block", "zones": [{"name": "block", "material": "block", "polygon": [[0.5,0.5],[1.5,0.5],[1.5,0.6],[0.5,0.6]]}]}
+            ],
+            "segments": {
+                "bottom": {"body": "base", "from": [0,0], "to": [2,0]},
+                "top": {"body": "block", "from": [1.5,0.6], "to": [0.5,0.6]},
+                "base_contact": {"body": "base", "from": [0.5,0.5], "to": [1.5,0.5]},
+                "block_contact": {"body": "block", "from": [0.5,0.5], "to": [1.5,0.5]}
+            },
+            "materials": {
+                "base": {"E": 1.0e11, "nu": 0.3},
+                "block": {"E": 1.0e8, "nu": 0.0, "body_force": [q / height, 0.0]}
+            },
+            "boundary": [
+                {"segment": "bottom", "displacement": [0, 0]},
+                {"segment": "top", "pressure": p}
+            ],
+            "contacts": [{"name": "joint", "between": ["block_contact", "base_contact"], "friction_coefficient": f}],
+            "mesh": {"max_size": 0.05, "refine": [{"segments": ["block_contact"], "max_size": 0.025}]}
+        })
+    };
+    let (_, sol) = solve_value(&block(0.5)).unwrap();
+    let report = sol.report.coulomb.unwrap();
+    println!("F = 0.5: {report:?}");
+    assert!(report.residual <= 1e-12);
+    let start = std::time::Instant::now();
+    match solve_value(&block(5.0)) {
+        Err(WsmError::Solver { reason, .. }) => {
+            println!("F = 5 ({:.2} s): {reason}", start.elapsed().as_secs_f64());
+            assert!(reason.contains("Coulomb friction"), "{reason}");
+            assert!(reason.contains("do not converge"), "{reason}");
+            assert!(reason.contains("contacts[0]"), "{reason}");
+        }
+        other => panic!(
+            "F = 5 must not converge: {:?}",
+            other.map(|(_, s)| s.report)
+        ),
+    }
 }

@@ -484,7 +484,7 @@ impl DirectContact {
             data,
             tresca,
             |s| s.multipliers.as_slice(),
-            |reason| WsmError::contact(reason),
+            WsmError::contact,
         )?;
         sol.coulomb = report;
         sol.qp_seconds = qp_seconds;
