@@ -586,3 +586,30 @@ fn non_convergence_is_reported() {
         ),
     }
 }
+
+/// The bundled knee (tibia, UHMWPE insert, femur held only by contact on two condyles) with
+/// Coulomb friction on the condyles, as in the MCS 2007 knee (which does not give its F_c; 0.05
+/// here is a placeholder, not a paper value): the fixed point converges, the Coulomb KKT
+/// residuals are small, and friction now determines the femur's horizontal sliding that the
+/// frictionless bundled knee leaves undetermined.
+#[test]
+fn knee_with_coulomb_condyles_solves() {
+    let mut scene: Value =
+        serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    for contact in scene["contacts"].as_array_mut().unwrap() {
+        if contact["kind"] == "unilateral" {
+            contact.as_object_mut().unwrap().remove("slip_limit");
+            contact["friction_coefficient"] = json!(0.05);
+        }
+    }
+    let (_, sol) = solve_value(&scene).unwrap();
+    let coulomb = sol.report.coulomb.expect("a Coulomb report");
+    println!(
+        "knee, F = 0.05: {coulomb:?}, KKT {:.1e}, undetermined modes {}",
+        sol.report.kkt.max(),
+        sol.report.undetermined_modes
+    );
+    assert!(coulomb.residual <= 1e-12);
+    assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+    assert_eq!(sol.report.undetermined_modes, 0);
+}
