@@ -613,3 +613,61 @@ fn knee_with_coulomb_condyles_solves() {
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
     assert_eq!(sol.report.undetermined_modes, 0);
 }
+
+/// The worst scenario over the friction coefficient (with the tangential load): the search's
+/// extrema of Φ3 and Φ6 are at least as extreme as those of an 11 × 11 grid and certified by the
+/// exact sensitivities (measured: both at vertices, 3 evaluations).
+#[test]
+fn worst_scenario_over_the_friction_coefficient() {
+    use wsm_core::run::{worst, RunControl, WorstRequest};
+    use wsm_core::scene::Criterion;
+    let mut value = block_on_base(0.25 * N, json!({"friction_coefficient": 0.4}));
+    value["uncertain"] = json!([
+        {"field": "contacts[0].friction_coefficient", "interval": [0.3, 0.5]},
+        {"field": "boundary[2].traction[0]", "interval": [4.0e5, 5.0e5]}
+    ]);
+    let scene = parse(&value.to_string()).unwrap();
+    let params = parameters(&scene).unwrap();
+    let problem = StateProblem::new(scene.clone()).unwrap();
+    let criteria = [Criterion::Phi3, Criterion::Phi6];
+    let evaluator =
+        wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)
+            .unwrap();
+    let mut grid = [(f64::NEG_INFINITY, f64::INFINITY); 2];
+    for i in 0..=10 {
+        for j in 0..=10 {
+            let theta = [0.3 + 0.02 * i as f64, 4.0e5 + 1.0e4 * j as f64];
+            let values = evaluator.evaluate_one(&theta).values.unwrap();
+            for k in 0..2 {
+                grid[k] = (grid[k].0.max(values[k]), grid[k].1.min(values[k]));
+            }
+        }
+    }
+    let request = WorstRequest {
+        criteria: Some(criteria.to_vec()),
+        budget: Some(40),
+        seed: Some(1),
+        derivatives: Some(true),
+        ..WorstRequest::default()
+    };
+    let r = worst(scene, &request, &RunControl::new()).unwrap();
+    for (k, c) in r.criteria.iter().enumerate() {
+        let (hi, lo) = (c.worst.best_value.unwrap(), c.best.best_value.unwrap());
+        println!(
+            "{:?}: worst {hi:.6e} at {:?} ({:?}), best {lo:.6e} at {:?} ({:?}); grid [{:.6e}, {:.6e}]",
+            c.criterion,
+            c.worst.best_point,
+            c.worst.status,
+            c.best.best_point,
+            c.best.status,
+            grid[k].1,
+            grid[k].0
+        );
+        let tol = 1e-6 * grid[k].0.abs().max(grid[k].1.abs());
+        assert!(hi >= grid[k].0 - tol, "worst {hi} vs grid {}", grid[k].0);
+        assert!(lo <= grid[k].1 + tol, "best {lo} vs grid {}", grid[k].1);
+    }
+    println!("{} evaluations, status {:?}", r.evaluations, r.status);
+    assert!(r.evaluations <= 40);
+    assert_eq!(r.status, wsm_core::run::Status::Certified);
+}
