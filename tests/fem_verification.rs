@@ -41,6 +41,7 @@ fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
         materials,
         boundary,
         slip: Vec::new(),
+        friction: Vec::new(),
         reference_temperature: 0.0,
     }
 }

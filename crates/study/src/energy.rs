@@ -68,7 +68,9 @@ pub fn energy(
         .zip(u)
         .map(|(f, v)| f[0] * v[0] + f[1] * v[1])
         .sum();
-    let (_, upper) = problem.contact.geometry.bounds(data);
+    // The friction bound of each pair: g w, or F λ_n at the solution's multipliers (Coulomb).
+    let multipliers = solution.warm_start.as_ref().map(|w| w.x.as_slice());
+    let (_, upper) = problem.contact.geometry.bounds(data, multipliers);
     let friction = solution
         .contact
         .iter()

@@ -37,6 +37,7 @@ use faer::{Mat, Par};
 use rayon::prelude::*;
 
 use super::bodies::{body_blocks, BodyBlock, BodyFactor};
+use super::coulomb::{self, CoulombReport};
 use super::feasibility::Feasibility;
 use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
@@ -202,6 +203,8 @@ pub struct ContactSolution {
     pub qp_seconds: f64,
     /// Refinements of the condensed problem (each one more QP and one more solve with K).
     pub refinements: usize,
+    /// The Coulomb fixed point (None without a Coulomb zone).
+    pub coulomb: Option<CoulombReport>,
 }
 
 impl DirectContact {
@@ -296,8 +299,9 @@ impl DirectContact {
         &self,
         u_free: &mut [f64],
         data: &Data,
+        multipliers: &[f64],
     ) -> Result<usize, WsmError> {
-        let (lower, upper) = self.geometry.bounds(data);
+        let (lower, upper) = self.geometry.bounds(data, Some(multipliers));
         let z = self.kernel.free_motions(&self.geometry, &lower, &upper)?;
         remove_components(z.as_ref(), u_free);
         Ok(z.ncols())
@@ -454,7 +458,9 @@ impl DirectContact {
     }
 
     /// Solve the contact problem for the reduced right-hand side `rhs` (loads and lifting) and
-    /// prescribed values `fixed`.
+    /// prescribed values `fixed`: one Tresca problem, or on Coulomb zones the fixed point of
+    /// Tresca problems ([`coulomb::solve`]) on the same factor and C, each step warm-started from
+    /// the previous one.
     pub fn solve(
         &self,
         factor: &StiffnessFactor,
@@ -462,6 +468,41 @@ impl DirectContact {
         rhs: &[f64],
         fixed: &[f64],
         data: &Data,
+        warm: Option<&WarmStart>,
+    ) -> Result<ContactSolution, WsmError> {
+        let mut qp_seconds = 0.0;
+        let tresca = |lower: &[f64], upper: &[f64], previous: Option<&ContactSolution>| {
+            let start = previous.map(|p| WarmStart {
+                x: p.multipliers.clone(),
+                alpha: p.rigid.clone(),
+            });
+            let start = start.as_ref().or(warm);
+            let sol = self.solve_tresca(factor, elastic, rhs, fixed, lower, upper, start)?;
+            qp_seconds += sol.qp_seconds;
+            Ok(sol)
+        };
+        let (mut sol, report) = coulomb::solve(
+            &self.geometry,
+            data,
+            tresca,
+            |s| s.multipliers.as_slice(),
+            WsmError::contact,
+        )?;
+        sol.coulomb = report;
+        sol.qp_seconds = qp_seconds;
+        Ok(sol)
+    }
+
+    /// Solve the contact problem with the multiplier bounds `lower`, `upper` (a Tresca problem).
+    #[allow(clippy::too_many_arguments)]
+    fn solve_tresca(
+        &self,
+        factor: &StiffnessFactor,
+        elastic: &ElasticProblem,
+        rhs: &[f64],
+        fixed: &[f64],
+        lower: &[f64],
+        upper: &[f64],
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
         let geometry = &self.geometry;
@@ -473,15 +514,15 @@ impl DirectContact {
         let mut start = warm.cloned();
         let mut refinements = 0;
         let mut qp_seconds = 0.0;
-        let (lower, upper) = geometry.bounds(data);
-        let free_motions = self.kernel.free_motions(geometry, &lower, &upper)?;
+        let free_motions = self.kernel.free_motions(geometry, lower, upper)?;
         let (qp, multipliers, rigid, u_free, gaps) = loop {
             let (qp, multipliers, rigid) = if m == 0 && self.kernel_dim() == 0 {
                 (None, Vec::new(), Vec::new())
             } else {
                 let (g, e) = self.equilibrium(rhs);
-                let problem = BoxQp::new(factor.c.clone(), d.clone(), lower.clone(), upper.clone())
-                    .with_equalities(g, e);
+                let problem =
+                    BoxQp::new(factor.c.clone(), d.clone(), lower.to_vec(), upper.to_vec())
+                        .with_equalities(g, e);
                 let options = QpOptions {
                     parallel: false,
                     ..QpOptions::default()
@@ -530,6 +571,7 @@ impl DirectContact {
             free_motions: free_motions.ncols(),
             qp_seconds,
             refinements,
+            coulomb: None,
         })
     }
 

@@ -1,5 +1,5 @@
-//! Contact (design §2.1–2.4, §3.1): unilateral contact with Tresca friction and bilateral contact
-//! between bodies on matching node pairs, solved exactly.
+//! Contact (design §2.1–2.4, §3.1, §3.4): unilateral contact with Tresca or Coulomb friction and
+//! bilateral contact between bodies on matching node pairs, solved exactly.
 //!
 //! - `pairs`: discrete contact geometry — normals, tangents, nodal contact lengths, initial
 //!   gaps, the contact operator B on the reduced DOFs, and the multiplier bounds.
@@ -9,8 +9,10 @@
 //! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
+//! - `coulomb`: Coulomb friction as the fixed point of Tresca problems with g = F |λ_n|.
 
 pub(crate) mod bodies;
+pub mod coulomb;
 pub(crate) mod direct;
 pub(crate) mod feasibility;
 pub(crate) mod pairs;

@@ -3,6 +3,7 @@
 //! nodal share w_m of the contact length (friction lumped at nodes: j_h(v) = Σ g(s_m) w_m
 //! |t_m·(v^k_m − v^l_m)|), the initial gap g0_m, and the rows of the contact operator B on the
 //! reduced (free, rotated) DOFs: (B u)_{2m} = n_m·(u^k_m − u^l_m), (B u)_{2m+1} = t_m·(u^k_m − u^l_m).
+//! On a Coulomb zone the nodal friction bound is F λ_n,m instead of g(s_m) w_m (design §3.4).
 
 use std::collections::HashMap;
 
@@ -103,20 +104,28 @@ impl ContactGeometry {
     }
 
     /// Box bounds of the multipliers for the data: normal [0, ∞) (bilateral: free), tangential
-    /// [−g w, g w] (bilateral: 0).
-    pub fn bounds(&self, data: &Data) -> (Vec<f64>, Vec<f64>) {
+    /// [−g w, g w] (bilateral: 0). On a Coulomb zone the tangential bound F λ_n depends on the
+    /// state: with the multipliers `state` of one it is F max(λ_n, 0); without, unbounded (the
+    /// bonded tangential problem, which relaxes every friction bound).
+    pub fn bounds(&self, data: &Data, state: Option<&[f64]>) -> (Vec<f64>, Vec<f64>) {
         let mut lower = Vec::with_capacity(self.dim());
         let mut upper = Vec::with_capacity(self.dim());
-        for p in &self.pairs {
+        for (m, p) in self.pairs.iter().enumerate() {
             if p.bilateral {
                 lower.extend([f64::NEG_INFINITY, 0.0]);
                 upper.extend([f64::INFINITY, 0.0]);
-            } else {
-                let slip = &data.slip[p.zone];
-                let g = piecewise_linear(&slip.knots, &slip.values, p.fraction).max(0.0) * p.weight;
-                lower.extend([0.0, -g]);
-                upper.extend([f64::INFINITY, g]);
+                continue;
             }
+            let bound = match (data.friction.get(p.zone).copied().flatten(), state) {
+                (Some(f), Some(lambda)) => f * lambda[2 * m].max(0.0),
+                (Some(_), None) => f64::INFINITY,
+                (None, _) => {
+                    let slip = &data.slip[p.zone];
+                    piecewise_linear(&slip.knots, &slip.values, p.fraction).max(0.0) * p.weight
+                }
+            };
+            lower.extend([0.0, -bound]);
+            upper.extend([f64::INFINITY, bound]);
         }
         (lower, upper)
     }

@@ -55,6 +55,7 @@ pub fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> Result<DdProble
             knots: vec![0.0, 1.0],
             values: vec![g, g],
         }],
+        friction: vec![None],
         reference_temperature: 0.0,
     };
     let elastic = ElasticProblem::new(&mesh, &data)?;

@@ -15,6 +15,7 @@ use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdSolution, Fallback};
 use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
+use crate::contact::coulomb;
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::ContactGeometry;
 use crate::fem::{ElasticCoefficients, ElasticProblem};
@@ -88,10 +89,14 @@ pub fn explicit_partition(polygons: &[Vec<[f64; 2]>], mesh: &Mesh) -> Vec<usize>
 }
 
 /// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
-/// bounds, so that DD and direct solve the same discrete problem): normal rows
-/// B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
-pub fn contact_pairs(geometry: &ContactGeometry, data: &Data, fixed: &[f64]) -> Vec<DdContactPair> {
-    let (lower, upper) = geometry.bounds(data);
+/// multiplier bounds `lower`, `upper`, so that DD and direct solve the same discrete problem):
+/// normal rows B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
+pub fn contact_pairs(
+    geometry: &ContactGeometry,
+    lower: &[f64],
+    upper: &[f64],
+    fixed: &[f64],
+) -> Vec<DdContactPair> {
     geometry
         .pairs
         .iter()
@@ -122,7 +127,8 @@ pub fn partition(
 ) -> Result<Partition, DdError> {
     let coefficients = elastic.coefficients(data)?;
     let fixed = elastic.fixed_values(data)?;
-    let pairs = contact_pairs(&direct.geometry, data, &fixed);
+    let (lower, upper) = direct.geometry.bounds(data, None);
+    let pairs = contact_pairs(&direct.geometry, &lower, &upper, &fixed);
     let rhs = vec![0.0; elastic.dofs().n_free()];
     let problem = DdProblem::from_elastic(elastic, &coefficients, rhs, pairs)?;
     Partition::new(&problem, &options.partition)
@@ -131,6 +137,9 @@ pub fn partition(
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
 /// values) by DD on the contact rows of `direct`; `fallback` is the direct solver, used only when
 /// DD fails (and reported). Undetermined rigid motions get the direct solver's normal form.
+/// On Coulomb zones the DD solves the successive Tresca problems of [`coulomb::solve`], each
+/// from the subdomain operators of the first; there the fallback (a whole Coulomb solve) is not
+/// a Tresca step, so a failing step ends the DD solve and the caller answers directly.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_elastic(
     elastic: &ElasticProblem,
@@ -143,13 +152,25 @@ pub fn solve_elastic(
     fallback: Option<Fallback>,
 ) -> Result<(ContactSolution, DdSolution), DdError> {
     let geometry = &direct.geometry;
-    let pairs = contact_pairs(geometry, data, fixed);
-    let problem = DdProblem::from_elastic(elastic, coefficients, rhs.to_vec(), pairs)?;
-    let mut sol = solve(&problem, options, fallback)?;
+    let fallback = if data.has_coulomb() { None } else { fallback };
+    // Each step's solution with its multipliers flattened as the direct solver's.
+    let tresca = |lower: &[f64], upper: &[f64], _: Option<&(DdSolution, Vec<f64>)>| {
+        let pairs = contact_pairs(geometry, lower, upper, fixed);
+        let problem = DdProblem::from_elastic(elastic, coefficients, rhs.to_vec(), pairs)?;
+        let sol = solve(&problem, options, fallback)?;
+        let flat = sol.multipliers.iter().flatten().copied().collect();
+        Ok((sol, flat))
+    };
+    let ((mut sol, multipliers), coulomb_report) = coulomb::solve(
+        geometry,
+        data,
+        tresca,
+        |s| s.1.as_slice(),
+        |reason| DdError::Diverged { reason },
+    )?;
     let free_motions = direct
-        .normalise_free_motions(&mut sol.u, data)
+        .normalise_free_motions(&mut sol.u, data, &multipliers)
         .map_err(|e| DdError::Input(e.to_string()))?;
-    let multipliers: Vec<f64> = sol.multipliers.iter().flatten().copied().collect();
     let values = elastic.operator().assemble(coefficients)?;
     let equilibrium_residual =
         direct.equilibrium_residual(elastic, &values, &sol.u, &multipliers, rhs);
@@ -163,6 +184,7 @@ pub fn solve_elastic(
         free_motions,
         qp_seconds: 0.0,
         refinements: 0,
+        coulomb: coulomb_report,
     };
     Ok((contact, sol))
 }

@@ -430,6 +430,7 @@ mod tests {
                 value: BoundaryValue::Temperature(1.0),
             }],
             slip: Vec::new(),
+            friction: Vec::new(),
             reference_temperature: 0.0,
         };
         let problem = HeatProblem::new(&mesh, &data).unwrap();

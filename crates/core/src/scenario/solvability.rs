@@ -11,7 +11,9 @@
 //! it holds on the whole box exactly when it holds at every vertex of the force and slip-limit
 //! parameters. Up to 2^12 vertices are checked exhaustively; beyond, a deterministic sample. A
 //! slope-limited slip limit is not a box: the check takes it at the least element of its set,
-//! since a larger g only makes balance easier.
+//! since a larger g only makes balance easier. On a Coulomb zone the bound F λ_n depends on the
+//! state; the check leaves its tangential forces unbounded (a necessary condition only: a body
+//! that Coulomb friction cannot hold is refused by its solve, naming the motion).
 
 use faer::Mat;
 
@@ -139,7 +141,7 @@ fn balance(problem: &StateProblem, data: &crate::scene::Data) -> Result<(), WsmE
     let elastic = &problem.elastic;
     let loads = elastic.loads(data, None)?;
     let (f, _) = elastic.dofs().restrict(&loads);
-    let (lower, upper) = problem.contact.geometry.bounds(data);
+    let (lower, upper) = problem.contact.geometry.bounds(data, None);
     let m = lower.len();
     let (g, e) = problem.contact.equilibrium(&f);
     let qp = BoxQp::new(Mat::identity(m, m), vec![0.0; m], lower, upper).with_equalities(g, e);

@@ -185,13 +185,21 @@ pub struct Data {
     pub materials: Vec<MaterialData>,
     /// Each boundary condition with its segment index, in list order.
     pub boundary: Vec<BoundaryData>,
-    /// Slip limit per contact zone, in list order.
+    /// Slip limit per contact zone, in list order (zero on a Coulomb zone).
     pub slip: Vec<SlipData>,
+    /// Coulomb friction coefficient F [-] per contact zone, in list order; `None` on a zone with
+    /// a given (Tresca) slip limit.
+    pub friction: Vec<Option<f64>>,
     /// Reference temperature T0 \[K\] of the stress-free state (0 without a thermal part).
     pub reference_temperature: f64,
 }
 
 impl Data {
+    /// Whether some contact zone has Coulomb friction (its slip bound depends on the state).
+    pub fn has_coulomb(&self) -> bool {
+        self.friction.iter().any(Option::is_some)
+    }
+
     /// Resolve the numbers of a scene that `validate` accepted (missing values read as zero).
     pub fn from_scene(scene: &Scene) -> Data {
         let segment_index = |name: &str| scene.segments.keys().position(|k| k == name).unwrap_or(0);
@@ -218,6 +226,11 @@ impl Data {
                         values: values.clone(),
                     },
                 })
+                .collect(),
+            friction: scene
+                .contacts
+                .iter()
+                .map(|c| c.friction_coefficient)
                 .collect(),
             reference_temperature: scene
                 .thermal

@@ -275,9 +275,14 @@ pub struct Contact {
     /// `unilateral` (default) or `bilateral`.
     #[serde(default)]
     pub kind: ContactKind,
-    /// Tresca slip limit g \[Pa\]; 0 means frictionless.
+    /// Tresca slip limit g \[Pa\]; 0 means frictionless. Left at 0 when the zone has a
+    /// `friction_coefficient`.
     #[serde(default)]
     pub slip_limit: SlipLimit,
+    /// Coulomb friction coefficient F [-] (≥ 0): |τ_t| ≤ F |τ_n| on the zone instead of a
+    /// given slip limit (design §3.4). Exclusive with a non-zero `slip_limit`; unilateral only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction_coefficient: Option<f64>,
     /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
     /// flat contact line model curved surfaces, e.g. the 2D Hertz setting.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -428,7 +433,8 @@ pub struct BoundaryPiece {
 #[serde(deny_unknown_fields)]
 pub struct Uncertain {
     /// Path of a scene number, e.g. `materials.rock.E`, `boundary[2].traction[0]`,
-    /// `contacts[0].slip_limit`, `contacts[0].slip_limit.values[1]`.
+    /// `contacts[0].slip_limit`, `contacts[0].slip_limit.values[1]`,
+    /// `contacts[0].friction_coefficient`.
     pub field: String,
     /// `[lo, hi]` in the field's unit: finite, lo ≤ hi and within the field's sign and range rules;
     /// lo = hi keeps the number fixed.

@@ -6,7 +6,9 @@
 //! conductivity[i][j], heat_source, expansion, beta, beta[k]}` (a symmetric matrix entry [i][j]
 //! varies [j][i] with it), `boundary[i].{displacement[c], traction[c],
 //! pressure, temperature, heat_flux}`, `contacts[i].slip_limit` (constant g) and
-//! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g), and
+//! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g),
+//! `contacts[i].friction_coefficient` (Coulomb's F; it scales the state-dependent slip bound
+//! F |λ_n|, so the data map is affine in it like every other datum), and
 //! `thermal.reference_temperature`.
 //!
 //! A piecewise linear slip limit with `max_slope` C \[Pa/m\] lives in the set U = {lo_k ≤ g_k ≤
@@ -86,6 +88,8 @@ pub enum ParamTarget {
     SlipConstant(usize),
     /// `contacts[c].slip_limit.values[k]`: (contact, knot).
     SlipKnot(usize, usize),
+    /// `contacts[c].friction_coefficient`.
+    FrictionCoefficient(usize),
     /// `thermal.reference_temperature`.
     ReferenceTemperature,
 }
@@ -105,6 +109,7 @@ impl ParamTarget {
             ParamTarget::Mu(_) => Some(Constant::Mu),
             ParamTarget::Conductivity(_) => Some(Constant::Conductivity),
             ParamTarget::SlipConstant(_) | ParamTarget::SlipKnot(..) => Some(Constant::SlipLimit),
+            ParamTarget::FrictionCoefficient(_) => Some(Constant::FrictionCoefficient),
             ParamTarget::SpecificWeight(_)
             | ParamTarget::BodyForce(..)
             | ParamTarget::Traction(..)
@@ -169,6 +174,15 @@ pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Param
         [N("contacts"), I(c), N("slip_limit"), rest @ ..] => {
             slip_limit_target(scene, *c, rest, &unknown)?
         }
+        [N("contacts"), I(c), N("friction_coefficient")] => match scene.contacts.get(*c) {
+            None => return Err(unknown("no such contact zone")),
+            Some(contact) if contact.friction_coefficient.is_none() => {
+                return Err(unknown(
+                    "the contact zone has a Tresca slip limit, not a friction coefficient",
+                ))
+            }
+            Some(_) => ParamTarget::FrictionCoefficient(*c),
+        },
         [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
             ParamTarget::ReferenceTemperature
         }
@@ -288,6 +302,11 @@ fn slip_limit_target(
         .contacts
         .get(c)
         .ok_or_else(|| unknown("no such contact zone"))?;
+    if contact.friction_coefficient.is_some() {
+        return Err(unknown(
+            "the contact zone has Coulomb friction: make friction_coefficient uncertain",
+        ));
+    }
     match (rest, &contact.slip_limit) {
         ([], SlipLimit::Constant(_)) => Ok(ParamTarget::SlipConstant(c)),
         ([N("values"), I(k)], SlipLimit::PiecewiseLinear { values, .. }) if *k < values.len() => {
@@ -747,6 +766,7 @@ fn set(data: &mut Data, target: ParamTarget, v: f64) {
         T::HeatFlux(b) => data.boundary[b].value = BoundaryValue::HeatFlux(v),
         T::SlipConstant(c) => data.slip[c].values = vec![v],
         T::SlipKnot(c, k) => data.slip[c].values[k] = v,
+        T::FrictionCoefficient(c) => data.friction[c] = Some(v),
         T::ReferenceTemperature => data.reference_temperature = v,
     }
 }

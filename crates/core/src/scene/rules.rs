@@ -1,7 +1,7 @@
 //! Admissible values of the scene numbers with a sign or range rule (design §5.2, §4.1): the
 //! single source of the material rules — E > 0, ν ∈ (−1, ½), λ ≥ 0, μ > 0 (positive definite
-//! plane elasticity) and κ > 0 (heat conduction) — and of the slip limit g ≥ 0 (Tresca, FGCS
-//! 4.15). Used by the validation of the nominal scene ([`super::validate`]) and by the
+//! plane elasticity) and κ > 0 (heat conduction) — of the slip limit g ≥ 0 (Tresca, FGCS
+//! 4.15) and of the friction coefficient F ∈ [0, 100] (Coulomb, design §3.4). Used by the validation of the nominal scene ([`super::validate`]) and by the
 //! uncertain intervals ([`super::params`]), with the same wording.
 //!
 //! The rules also bound the magnitudes to what double precision can solve (design §5.2): the
@@ -25,6 +25,8 @@ pub(crate) enum Constant {
     MatrixEntry,
     Conductivity,
     SlipLimit,
+    /// The Coulomb friction coefficient F [-].
+    FrictionCoefficient,
     /// A pressure, traction component, specific weight or body-force component.
     Load,
     /// A prescribed displacement component.
@@ -37,6 +39,9 @@ const MAX_STRESS: f64 = 1e15;
 const MIN_MODULUS: f64 = 1e-3;
 /// Largest prescribed displacement \[m\].
 const MAX_DISPLACEMENT: f64 = 1e3;
+/// Largest friction coefficient [-] (measured coefficients are below 2; far beyond that the
+/// Coulomb problem has no unique solution and the fixed point cannot converge).
+const MAX_FRICTION: f64 = 100.0;
 
 impl Constant {
     /// Whether `v` is admissible (false for NaN).
@@ -48,6 +53,7 @@ impl Constant {
             Constant::OrthotropicPoisson => v.is_finite(),
             Constant::MatrixEntry => v.abs() <= MAX_STRESS,
             Constant::SlipLimit => (0.0..=MAX_STRESS).contains(&v),
+            Constant::FrictionCoefficient => (0.0..=MAX_FRICTION).contains(&v),
             Constant::Poisson => v > -1.0 && v < 0.5,
             Constant::Load => v.abs() <= MAX_STRESS,
             Constant::Displacement => v.abs() <= MAX_DISPLACEMENT,
@@ -73,6 +79,9 @@ impl Constant {
                 "a stiffness-matrix entry must be at most 1e15 Pa in magnitude (what double precision solves)"
             }
             Constant::SlipLimit => "the slip limit must be >= 0 and at most 1e15 Pa",
+            Constant::FrictionCoefficient => {
+                "the friction coefficient must be >= 0 and at most 100 (dimensionless)"
+            }
             Constant::Load => {
                 "a load (pressure, traction, specific weight, body force) must be at most 1e15 in magnitude (Pa or N/m3)"
             }
@@ -112,6 +121,9 @@ mod tests {
         assert!(Constant::Poisson.check_interval(-0.5, 0.49).is_ok());
         assert!(Constant::Poisson.check_interval(0.2, 0.5).is_err());
         assert!(Constant::Mu.check(f64::NAN).is_err());
+        assert!(Constant::FrictionCoefficient.check(0.0).is_ok());
+        assert!(Constant::FrictionCoefficient.check(-0.1).is_err());
+        assert!(Constant::FrictionCoefficient.check(f64::NAN).is_err());
         assert_eq!(
             Constant::SlipLimit.check_interval(-1.0, 1.0).unwrap_err(),
             "the slip limit must be >= 0 and at most 1e15 Pa on the whole interval"

@@ -864,6 +864,22 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                 "a bilateral contact zone is frictionless: omit slip_limit",
             ));
         }
+        if let Some(f) = c.friction_coefficient {
+            let friction_path = format!("{path}.friction_coefficient");
+            admissible(&friction_path, f, Constant::FrictionCoefficient)?;
+            if c.kind == ContactKind::Bilateral {
+                return Err(SceneError::new(
+                    friction_path,
+                    "a bilateral contact zone is frictionless: omit friction_coefficient",
+                ));
+            }
+            if !matches!(c.slip_limit, SlipLimit::Constant(g) if g == 0.0) {
+                return Err(SceneError::new(
+                    slip_path,
+                    "give either a Tresca slip_limit or a Coulomb friction_coefficient, not both",
+                ));
+            }
+        }
     }
     Ok(())
 }

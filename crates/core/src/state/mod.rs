@@ -375,6 +375,7 @@ impl StateProblem {
             u_scale,
         );
         report.kkt = kkt;
+        report.coulomb = sol.coulomb;
         if let Some(qp) = &sol.qp {
             report.qp_iterations = qp.iterations;
             report.qp_fallback_iterations = qp.fallback_iterations;

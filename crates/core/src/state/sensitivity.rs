@@ -204,8 +204,18 @@ impl StateProblem {
                         self.elastic_derivative(state, el, stencil, dt.as_deref(), &elements)
                     })
                     .collect::<Result<_, _>>()?;
-                let (lo, hi) = self.contact.geometry.bounds(state.data);
-                let point = contact_point(el, &lo, &hi);
+                let (lo, hi) = self
+                    .contact
+                    .geometry
+                    .bounds(state.data, Some(&el.contact.multipliers));
+                let friction: Vec<Option<f64>> = self
+                    .contact
+                    .geometry
+                    .pairs
+                    .iter()
+                    .map(|p| state.data.friction[p.zone].filter(|_| !p.bilateral))
+                    .collect();
+                let point = contact_point(el, &lo, &hi, &friction);
                 if route == DerivativeRoute::Adjoint {
                     if let Some(adjoint) =
                         self.adjoint_criteria(state, el, &point, &forms, &tied)?
@@ -410,7 +420,9 @@ impl StateProblem {
             let rhs = elastic.rhs_with(coefficients, &loads, &fixed_k)?;
             add_scaled(&mut part.residual, *w, &rhs);
             add_scaled(&mut part.fixed, *w, &fixed_k);
-            let (lo, hi) = geometry.bounds(d);
+            // On Coulomb zones F_k λ_n at the state's normal forces: the part dF λ_n of the
+            // bound's derivative (the part F dλ_n is the tangent problem's coupling).
+            let (lo, hi) = geometry.bounds(d, Some(&el.contact.multipliers));
             add_scaled(&mut part.lower, *w, &finite_or_zero(&lo));
             add_scaled(&mut part.upper, *w, &finite_or_zero(&hi));
             if law_varies {
@@ -510,13 +522,20 @@ fn finite_or_zero(v: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The contact state of an elastic state with its multiplier bounds.
-fn contact_point<'a>(el: &'a ElasticState, lower: &'a [f64], upper: &'a [f64]) -> ContactPoint<'a> {
+/// The contact state of an elastic state with its multiplier bounds and the friction
+/// coefficients of its pairs.
+fn contact_point<'a>(
+    el: &'a ElasticState,
+    lower: &'a [f64],
+    upper: &'a [f64],
+    friction: &'a [Option<f64>],
+) -> ContactPoint<'a> {
     ContactPoint {
         multipliers: &el.contact.multipliers,
         gaps: &el.contact.gaps,
         lower,
         upper,
+        friction,
         displacement_scale: el
             .displacement
             .iter()

@@ -3,11 +3,12 @@
 
 use serde::Serialize;
 
+use crate::contact::coulomb::CoulombReport;
 use crate::contact::direct::ContactSolution;
 use crate::contact::pairs::ContactGeometry;
 use crate::contact::qp::WarmStart;
 use crate::fem::ElementStress;
-use crate::scene::{piecewise_linear, Data};
+use crate::scene::Data;
 
 /// Contact status of a node pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, utoipa::ToSchema)]
@@ -15,8 +16,8 @@ use crate::scene::{piecewise_linear, Data};
 pub enum ContactState {
     /// No normal force: the pair is separated or just touching (JSON `"open"`).
     Open,
-    /// In contact with |tangential force| below the slip bound g w: no relative slip
-    /// (JSON `"stick"`).
+    /// In contact with |tangential force| below the slip bound g w (Coulomb: F × normal force):
+    /// no relative slip (JSON `"stick"`).
     Stick,
     /// In contact at the slip limit, or without friction (g = 0, and every bilateral pair): the
     /// pair may slip (JSON `"slip"`).
@@ -51,12 +52,12 @@ pub struct ContactKkt {
     pub penetration: f64,
     /// Largest negative normal force of a unilateral pair.
     pub negative_pressure: f64,
-    /// Largest excess of |λ_t| over the slip bound g w.
+    /// Largest excess of |λ_t| over the slip bound g w (Tresca) or F λ_n (Coulomb).
     pub friction_excess: f64,
     /// Largest product |λ_n| · |(B u)_n − g0| of a unilateral pair (Signorini complementarity).
     pub complementarity: f64,
-    /// Tresca consistency: the largest slip of a sticking pair, or slip along its tangential
-    /// force of a pair at the limit.
+    /// Stick/slip consistency (Tresca and Coulomb): the largest slip of a sticking pair, or slip
+    /// along its tangential force of a pair at the limit.
     pub stick_slip: f64,
     /// ‖K u − f + Bᵀλ‖ / ‖f‖.
     pub equilibrium: f64,
@@ -158,6 +159,10 @@ pub struct SolveReport {
     pub active_set_changes: usize,
     /// KKT residuals of the contact solution (all zero without contact).
     pub kkt: ContactKkt,
+    /// The Coulomb fixed point: steps, last relative change and contraction estimate (only
+    /// with a Coulomb zone).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coulomb: Option<CoulombReport>,
     /// The stiffness factorisation was reused from an earlier solve with the same λ, μ.
     pub reused_factorisation: bool,
     /// Data directions whose derivatives the adjoint gave (design §4.3); the others were taken
@@ -218,15 +223,12 @@ pub(crate) fn contact_results(
         ..ContactKkt::default()
     };
     let mut nodes = Vec::with_capacity(geometry.pairs.len());
+    // The friction bounds g w (Tresca) or F λ_n (Coulomb, at the solution's normal forces).
+    let (_, upper) = geometry.bounds(data, Some(lam));
     for (m, p) in geometry.pairs.iter().enumerate() {
         let (ln, lt) = (lam[2 * m], lam[2 * m + 1]);
         let (wn, wt) = (sol.gaps[2 * m], sol.gaps[2 * m + 1]);
-        let slip_data = &data.slip[p.zone];
-        let bound = if p.bilateral {
-            0.0
-        } else {
-            piecewise_linear(&slip_data.knots, &slip_data.values, p.fraction).max(0.0) * p.weight
-        };
+        let bound = upper[2 * m + 1];
         let sticking = lt.abs() < bound * (1.0 - 1e-9);
         if !p.bilateral {
             kkt.penetration = kkt.penetration.max(wn.max(0.0) / u_scale);
@@ -242,6 +244,7 @@ pub(crate) fn contact_results(
             .max((lt.abs() - bound).max(0.0) / force_scale);
         // Tresca: a pair below its slip limit does not slip; at the limit it slips along its
         // multiplier (open pairs included: g acts regardless of the normal force). g = 0 is free.
+        // Coulomb: the same with the bound F λ_n (an open pair is free).
         let stick_slip = if bound == 0.0 {
             0.0
         } else if sticking {

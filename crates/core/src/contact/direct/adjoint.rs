@@ -22,7 +22,8 @@
 //!
 //! z and w of all forms are one multi-right-hand-side solve each. Where the state is only
 //! one-sided differentiable (weakly active rows, or pinched rows whose bounds move apart along a
-//! direction) the forward tangent is used instead; M is solved with full pivoting after a
+//! direction), and on Coulomb zones (slip rows coupled to the normal ones), the forward tangent
+//! is used instead; M is solved with full pivoting after a
 //! diagonal scaling and refused when numerically singular (then the forward tangent, with its
 //! QP, decides).
 
@@ -101,9 +102,13 @@ impl DirectContact {
                 }
             })
             .collect();
-        if motions
-            .iter()
-            .any(|m| matches!(m, RowMotion::WeakLower | RowMotion::WeakUpper))
+        // Coulomb's slip rows follow ±F λ_n, a coupling to the normal rows this adjoint does not
+        // carry (design §3.4): the forward tangent takes them.
+        let coulomb = state.friction.iter().any(Option::is_some);
+        if coulomb
+            || motions
+                .iter()
+                .any(|m| matches!(m, RowMotion::WeakLower | RowMotion::WeakUpper))
         {
             return Ok(None);
         }

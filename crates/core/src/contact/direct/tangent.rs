@@ -22,11 +22,23 @@
 //! C and the factors of K are those of the state solve: a derivative costs one projected solve
 //! with K, one with K for the recovery, and one QP on the (mostly fixed) active set; the solves
 //! of all directions are made together, as one multi-right-hand-side solve each.
+//!
+//! Coulomb zones (design §3.4): the converged state is the fixed point λ = S(D, F λ_n) of the
+//! Tresca solution map, so the bound of a slipping pair moves with the state, dλ_t = ±(dF λ_n +
+//! F dλ_n). The tangent problem is then no longer a box QP but, on a strict active set, the
+//! linear system of its optimality conditions: (C dλ − Gᵀ dα)_r = d'_r on free rows, dλ_r =
+//! d(bound) on strictly active Tresca rows, dλ_t ∓ F dλ_n = ±dF λ_n on slipping Coulomb rows
+//! (dF λ_n is the bound derivative the data give at fixed λ), dλ_t = 0 on open pairs, and
+//! G dλ = Rᵀ b; solved by a pseudo-inverse (rigid motions no row sees are undetermined and
+//! removed afterwards, as for the state). A Coulomb state with a weakly active row (a grazing
+//! pair, or a pair at the stick/slip transition) is not differentiable and no derivative is
+//! given for it.
 
 use super::{DirectContact, StiffnessFactor};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
 use crate::error::WsmError;
 use crate::fem::rigid::remove_components;
+use faer::Mat;
 
 /// Relative distance of a multiplier to its bound below which it is on the bound.
 const AT_BOUND_TOL: f64 = 1e-10;
@@ -60,8 +72,10 @@ pub struct ContactPoint<'a> {
     pub gaps: &'a [f64],
     /// Lower multiplier bounds of the data.
     pub lower: &'a [f64],
-    /// Upper multiplier bounds of the data.
+    /// Upper multiplier bounds of the data (on Coulomb pairs ±F λ_n at the state).
     pub upper: &'a [f64],
+    /// Per pair, the Coulomb friction coefficient F of its zone (`None`: Tresca or bilateral).
+    pub friction: &'a [Option<f64>],
     /// Largest displacement component (the scale of gaps and slips).
     pub displacement_scale: f64,
 }
@@ -103,6 +117,10 @@ impl DirectContact {
         };
         let n = first.residual.len();
         let motions = classify(state);
+        let coulomb = state.friction.iter().any(Option::is_some);
+        if coulomb {
+            check_differentiable(&motions, directions)?;
+        }
         let free_motions = self
             .kernel
             .free_motions(&self.geometry, state.lower, state.upper)?;
@@ -120,15 +138,13 @@ impl DirectContact {
         let multipliers = |j: usize, sign: f64| -> Result<[Vec<f64>; 3], WsmError> {
             let dd = &directions[j];
             let b = signed(dd.residual, sign);
-            let (dlambda, dalpha) = self.tangent_multipliers(
-                factor,
-                &motions,
-                &signed(x0.get(j).copied().unwrap_or(&[]), sign),
-                &b,
-                &signed(dd.fixed, sign),
-                sign,
-                dd,
-            )?;
+            let x0 = signed(x0.get(j).copied().unwrap_or(&[]), sign);
+            let fixed = signed(dd.fixed, sign);
+            let (dlambda, dalpha) = if coulomb {
+                self.coulomb_tangent(factor, &motions, state, &x0, &b, &fixed, sign, dd)?
+            } else {
+                self.tangent_multipliers(factor, &motions, &x0, &b, &fixed, sign, dd)?
+            };
             Ok([b, dlambda, dalpha])
         };
         let recover = |states: &[[Vec<f64>; 3]]| -> Vec<Vec<f64>> {
@@ -228,6 +244,115 @@ impl DirectContact {
         let sol = solve_box_qp(&problem, Some(&start), &QpOptions::default())
             .map_err(|err| WsmError::contact(format!("sensitivity of the contact state: {err}")))?;
         Ok((sol.x, sol.alpha))
+    }
+}
+
+/// A Coulomb state is differentiable only on a strict active set: no weakly active row, no
+/// pinched row whose bounds move apart.
+fn check_differentiable(
+    motions: &[RowMotion],
+    directions: &[DataDerivative],
+) -> Result<(), WsmError> {
+    for (r, motion) in motions.iter().enumerate() {
+        let weak = match motion {
+            RowMotion::WeakLower | RowMotion::WeakUpper => true,
+            RowMotion::Pinched => directions.iter().any(|dd| dd.lower[r] != dd.upper[r]),
+            _ => false,
+        };
+        if weak {
+            return Err(WsmError::contact(format!(
+                "the Coulomb contact state is not differentiable: contact pair {} is at a \
+                 transition (grazing, or between stick and slip), so no derivative is given",
+                r / 2
+            )));
+        }
+    }
+    Ok(())
+}
+
+impl DirectContact {
+    /// (dλ, dα) of a Coulomb state on its strict active set: the linear system of the module
+    /// doc, solved by a pseudo-inverse of the row-equilibrated matrix.
+    #[allow(clippy::too_many_arguments)]
+    fn coulomb_tangent(
+        &self,
+        factor: &StiffnessFactor,
+        motions: &[RowMotion],
+        state: &ContactPoint,
+        x0: &[f64],
+        b: &[f64],
+        fixed: &[f64],
+        sign: f64,
+        dd: &DataDerivative,
+    ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
+        let m = self.geometry.dim();
+        let (g, e) = self.equilibrium(b);
+        let k = e.len();
+        let n = m + k;
+        let mut a = Mat::<f64>::zeros(n, n);
+        let mut rhs = vec![0.0; n];
+        for (r, motion) in motions.iter().enumerate() {
+            let (dl, du) = (sign * dd.lower[r], sign * dd.upper[r]);
+            let bound = match motion {
+                RowMotion::Free => {
+                    for j in 0..m {
+                        a[(r, j)] = factor.c[(r, j)];
+                    }
+                    for i in 0..k {
+                        a[(r, m + i)] = -g[(i, r)];
+                    }
+                    let row = &self.geometry.rows[r];
+                    rhs[r] = row.dot(x0) + row.dot_fixed(fixed);
+                    continue;
+                }
+                RowMotion::Lower | RowMotion::Pinched => (dl, -1.0),
+                RowMotion::Upper => (du, 1.0),
+                // Refused by `check_differentiable`.
+                RowMotion::WeakLower | RowMotion::WeakUpper => (0.0, 0.0),
+            };
+            a[(r, r)] = 1.0;
+            rhs[r] = bound.0;
+            // A slipping Coulomb row follows F λ_n: dλ_t − (±F) dλ_n = ±dF λ_n.
+            let tangential = r % 2 == 1;
+            if let (true, Some(f), RowMotion::Lower | RowMotion::Upper) =
+                (tangential, state.friction[r / 2], motion)
+            {
+                a[(r, r - 1)] = -bound.1 * f;
+            }
+        }
+        for i in 0..k {
+            for j in 0..m {
+                a[(m + i, j)] = g[(i, j)];
+            }
+            rhs[m + i] = e[i];
+        }
+        // Row equilibration, then x = A⁺ rhs with singular values below 1e-12 σ_max dropped.
+        for r in 0..n {
+            let scale = (0..n).fold(0.0_f64, |s, j| s.max(a[(r, j)].abs()));
+            if scale > 0.0 {
+                for j in 0..n {
+                    a[(r, j)] /= scale;
+                }
+                rhs[r] /= scale;
+            }
+        }
+        let svd = a
+            .thin_svd()
+            .map_err(|e| WsmError::contact(format!("sensitivity of the Coulomb state: {e:?}")))?;
+        let (u, sigma, v) = (svd.U(), svd.S().column_vector(), svd.V());
+        let cutoff = 1e-12 * (0..n).fold(0.0_f64, |s, i| s.max(sigma[i]));
+        let mut x = vec![0.0; n];
+        for c in 0..n {
+            if sigma[c] <= cutoff {
+                continue;
+            }
+            let coefficient = (0..n).map(|r| u[(r, c)] * rhs[r]).sum::<f64>() / sigma[c];
+            for (j, xj) in x.iter_mut().enumerate() {
+                *xj += v[(j, c)] * coefficient;
+            }
+        }
+        let alpha = x.split_off(m);
+        Ok((x, alpha))
     }
 }
 
