@@ -1,5 +1,8 @@
-//! Exact sensitivities of the criteria (design §4.3): dΦ_i/dθ_j of a solved state, by the
-//! tangent (forward) method on the converged state with the factors of the solve.
+//! Exact sensitivities of the criteria (design §4.4): dΦ_i/dθ_j of a solved state, on the
+//! converged state with the factors of the solve — by the adjoint where the contact state is
+//! differentiable ([`crate::contact::direct::AdjointForms`]: two solves per criterion region,
+//! whatever the number of data), by the forward tangent elsewhere (per direction, one-sided where
+//! the active set is weakly active) and on request ([`DerivativeRoute::Forward`], the check).
 //!
 //! Per parameter θ_j, the data derivative comes from a [`Stencil`] of data sets (exact up to
 //! rounding for the affine data maps, ≈ 1e-12 relative for ν). Then, reusing the state's factors:
@@ -7,11 +10,11 @@
 //!    the derivative of the prescribed temperatures;
 //! 2. elasticity with contact (FGCS 2.7–2.11, the discrete contact problem): the residual
 //!    derivative b = Σ_k w_k (f(D_k, T + t_k dT) − K(D_k) u) drives the tangent contact problem
-//!    ([`crate::contact::direct::DataDerivative`]), one-sided where the active set is weakly
-//!    active;
+//!    ([`crate::contact::direct::DataDerivative`]);
 //! 3. stresses: dτ = A e(du) − β dT + Σ_k w_k τ(D_k; u, T);
-//! 4. criteria (FGCS 4.29–4.34): Φ1–Φ4 and Φ6 are linear in the fields, so the derivative of a
-//!    region value is the region value of the tangent field; Φ5 = mean I2² has 2 mean B(τ, dτ).
+//! 4. criteria (FGCS 4.29–4.34): the derivative of a region value is a linear form of the
+//!    tangent fields (the region value itself for Φ1–Φ4 and Φ6, 2 mean B(τ, dτ) for Φ5); the
+//!    adjoint turns it into a form of the data derivative.
 //!    Where regions tie in the maximum over r, the right derivative is the largest right
 //!    derivative of the tied regions and the left one the smallest left derivative.
 //!
@@ -35,7 +38,7 @@ const TIE_TOL: f64 = 1e-12;
 /// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
 pub type Sensitivities = Vec<[Option<OneSided>; 6]>;
 
-/// How the derivatives of the criteria are taken (design §4.3).
+/// How the derivatives of the criteria are taken (design §4.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DerivativeRoute {
     /// The adjoint where the state is differentiable, the forward tangent elsewhere.
@@ -89,7 +92,7 @@ impl ElasticDerivative {
     }
 }
 
-/// The adjoint forms of the tied region values (design §4.3): per form, the contact adjoint of
+/// The adjoint forms of the tied region values (design §4.4): per form, the contact adjoint of
 /// its displacement part, its coefficients on du_d and on dT, and its stress part (which also
 /// reads the change of the law along the parameter).
 struct AdjointCriteria {
@@ -261,7 +264,7 @@ impl StateProblem {
         Ok((sensitivities, adjoint_directions))
     }
 
-    /// The adjoint of every tied region form of the criteria (design §4.3): the contact adjoint
+    /// The adjoint of every tied region form of the criteria (design §4.4): the contact adjoint
     /// of their displacement parts and the coefficients of du_d and dT; `None` where the contact
     /// state is only one-sided differentiable.
     fn adjoint_criteria(

@@ -1,4 +1,4 @@
-//! The adjoint of the tangent contact problem (design §4.3): linear forms of the displacement
+//! The adjoint of the tangent contact problem (design §4.4): linear forms of the displacement
 //! derivative du turned into linear forms of the data derivative, so that the derivatives of a
 //! few criteria along many data directions cost two solves with K per criterion instead of two
 //! per direction and no tangent QP at all.

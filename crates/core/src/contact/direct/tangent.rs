@@ -1,4 +1,4 @@
-//! Directional derivatives of the contact state (design §4.3): the derivative of the solution of
+//! Directional derivatives of the contact state (design §4.4): the derivative of the solution of
 //! the condensed contact problem along a data direction, on the converged active set.
 //!
 //! At the solution λ of min ½λᵀCλ − λᵀd over the box l ≤ λ ≤ u with Gλ = e, and with
