@@ -219,19 +219,7 @@ impl DirectContact {
                 }
             })
             .unzip();
-        let (g, mut e) = self.equilibrium(b);
-        // Rᵀb of a balanced load derivative is zero up to rounding: measured against ‖R_j‖ ‖b‖,
-        // not against itself (the box QP's feasibility test is relative to e).
-        let b_norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
-        for (j, ej) in e.iter_mut().enumerate() {
-            let mode_norm = (0..b.len())
-                .map(|i| self.kernel.modes[(i, j)].powi(2))
-                .sum::<f64>()
-                .sqrt();
-            if ej.abs() <= ROUNDING_TOL * mode_norm * b_norm {
-                *ej = 0.0;
-            }
-        }
+        let (g, e) = self.tangent_equilibrium(b);
         let start = WarmStart {
             x: lo
                 .iter()
@@ -271,6 +259,24 @@ fn check_differentiable(
 }
 
 impl DirectContact {
+    /// G and e = Rᵀb of the tangent problem. Rᵀb of a balanced load derivative is zero up to
+    /// rounding: it is measured against ‖R_j‖ ‖b‖, not against itself (the box QP's feasibility
+    /// test is relative to e).
+    fn tangent_equilibrium(&self, b: &[f64]) -> (faer::Mat<f64>, Vec<f64>) {
+        let (g, mut e) = self.equilibrium(b);
+        let b_norm = b.iter().map(|x| x * x).sum::<f64>().sqrt();
+        for (j, ej) in e.iter_mut().enumerate() {
+            let mode_norm = (0..b.len())
+                .map(|i| self.kernel.modes[(i, j)].powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if ej.abs() <= ROUNDING_TOL * mode_norm * b_norm {
+                *ej = 0.0;
+            }
+        }
+        (g, e)
+    }
+
     /// (dλ, dα) of a Coulomb state on its strict active set: the linear system of the module
     /// doc, solved by a pseudo-inverse of the row-equilibrated matrix.
     #[allow(clippy::too_many_arguments)]
@@ -286,7 +292,7 @@ impl DirectContact {
         dd: &DataDerivative,
     ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
         let m = self.geometry.dim();
-        let (g, e) = self.equilibrium(b);
+        let (g, e) = self.tangent_equilibrium(b);
         let k = e.len();
         let n = m + k;
         let mut a = Mat::<f64>::zeros(n, n);
