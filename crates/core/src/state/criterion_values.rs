@@ -162,7 +162,15 @@ pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6
 /// The region values behind each Φ_i (the maximum over them is Φ_i): the linear criteria are
 /// their forms applied to the fields, Φ5 the mean of I2².
 pub fn per_region(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<f64>; 6] {
-    let forms = region_forms(geometry, fields);
+    per_region_with(geometry, fields, &region_forms(geometry, fields))
+}
+
+/// [`per_region`] with the forms of `region_forms(geometry, fields)` already at hand.
+pub fn per_region_with(
+    geometry: &CriteriaGeometry,
+    fields: &Fields,
+    forms: &[Vec<LinearForm>; 6],
+) -> [Vec<f64>; 6] {
     std::array::from_fn(|i| match (i, fields.stresses) {
         (4, Some(s)) => geometry
             .regions

@@ -21,7 +21,7 @@
 //! The DD solver's state is differentiated with the direct solver's factor and C (the same
 //! formulas on the DD multipliers), which costs one direct factorisation per stiffness.
 
-use super::criterion_values::{per_region, region_forms, Fields, LinearForm};
+use super::criterion_values::{per_region_with, region_forms, Fields, LinearForm};
 use super::{thermal_key, StateProblem};
 use crate::contact::direct::{
     AdjointForms, ContactPoint, ContactSolution, DataDerivative, StiffnessFactor,
@@ -165,8 +165,8 @@ impl StateProblem {
             displacement: state.elastic.as_ref().map(|e| e.displacement),
             stresses: state.elastic.as_ref().map(|e| e.stresses),
         };
-        let values = per_region(&self.criteria, &fields);
         let forms = region_forms(&self.criteria, &fields);
+        let values = per_region_with(&self.criteria, &fields, &forms);
         let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
         let d_temperatures: Vec<Option<Vec<f64>>> = stencils
             .iter()
