@@ -495,6 +495,45 @@ conformance!(
     the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers
 );
 
+async fn an_idle_worker_finds_the_newest_job_coordinated_elsewhere(store: Arc<dyn JobStore>) {
+    assert_eq!(store.coordinated_elsewhere("w").await.unwrap(), None);
+    assert!(store.insert(job("p"), usize::MAX).await.unwrap());
+    assert_eq!(
+        store.coordinated_elsewhere("w").await.unwrap(),
+        None,
+        "a queued job has no coordinator yet"
+    );
+    store.lease("coord", 30.0).await.unwrap().unwrap();
+    assert_eq!(
+        store.coordinated_elsewhere("w").await.unwrap(),
+        Some(("p".to_string(), "hash-p".to_string()))
+    );
+    assert_eq!(
+        store.coordinated_elsewhere("coord").await.unwrap(),
+        None,
+        "a coordinator does not prepare its own job twice"
+    );
+    // A coordinator whose lease expired is gone: nothing to prepare for until a new lease.
+    store.renew("p", "coord", -1.0).await.unwrap();
+    assert_eq!(store.coordinated_elsewhere("w").await.unwrap(), None);
+    store
+        .finish(
+            "p",
+            "coord",
+            JobEnd::Failed {
+                kind: "x".into(),
+                error: "y".into(),
+            },
+        )
+        .await
+        .unwrap();
+    assert_eq!(store.coordinated_elsewhere("w").await.unwrap(), None);
+}
+conformance!(
+    an_idle_worker_finds_the_newest_job_coordinated_elsewhere_on_every_backend,
+    an_idle_worker_finds_the_newest_job_coordinated_elsewhere
+);
+
 async fn the_active_job_limit_holds_under_concurrent_submissions(store: Arc<dyn JobStore>) {
     let submitters: Vec<_> = (0..30)
         .map(|i| {

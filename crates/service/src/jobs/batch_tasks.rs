@@ -26,7 +26,7 @@ use wsm_core::run::{BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate};
 use wsm_core::scene::Scene;
 
 /// Solve time of one chunk per live thread \[s\].
-const CHUNK_SECONDS: f64 = 0.5;
+const CHUNK_SECONDS: f64 = 1.5;
 /// Points per live thread in a chunk, before any solve time is known and at the least.
 const MIN_POINTS_PER_THREAD: usize = 2;
 /// Points per live thread in a chunk at the most.

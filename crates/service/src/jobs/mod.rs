@@ -238,6 +238,10 @@ pub trait JobStore: Send + Sync + 'static {
         batch: u64,
         parts: &[Vec<Vec<f64>>],
     ) -> StoreResult<()>;
+    /// The newest running job whose live lease another process holds, as (id, run hash): its
+    /// coordinator may fan batches out to this process soon, so an idle worker prepares its
+    /// model ahead of the first task.
+    async fn coordinated_elsewhere(&self, owner: &str) -> StoreResult<Option<(String, String)>>;
     /// Lease the oldest queued task in `scope`, or a running one whose lease expired.
     async fn lease_task(
         &self,

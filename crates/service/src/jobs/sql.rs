@@ -585,6 +585,8 @@ impl JobStore for SqlStore {
             .await
             .map_err(&lease)?;
         tx.commit().await.map_err(&lease)?;
+        // Idle workers prepare the job's model ahead of its first fanned-out batch.
+        self.announce(WORK_CHANNEL).await;
         Self::record(&row).map(Some)
     }
 
@@ -816,6 +818,28 @@ impl JobStore for SqlStore {
         tx.commit().await.map_err(&post)?;
         self.announce(WORK_CHANNEL).await;
         Ok(())
+    }
+
+    async fn coordinated_elsewhere(&self, owner: &str) -> StoreResult<Option<(String, String)>> {
+        let row = sqlx::query(sql(format!(
+            "SELECT id, run_hash FROM jobs
+             WHERE state = 'running' AND COALESCE(lease_owner, '') <> $1
+               AND lease_expires_at >= {}
+             ORDER BY started_at DESC, id LIMIT 1",
+            self.backend.now()
+        )))
+        .bind(owner)
+        .fetch_optional(&self.pool)
+        .await
+        .map_err(db("looking for running jobs"))?;
+        let read = db("reading a running job");
+        row.map(|row| {
+            Ok((
+                row.try_get("id").map_err(&read)?,
+                row.try_get("run_hash").map_err(&read)?,
+            ))
+        })
+        .transpose()
     }
 
     async fn lease_task(

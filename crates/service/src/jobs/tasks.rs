@@ -102,6 +102,8 @@ impl Model {
 struct Models {
     kept: VecDeque<Arc<Model>>,
     pool: Arc<rayon::ThreadPool>,
+    /// Run hashes whose model failed to prepare ahead of a task.
+    failed_ahead: Vec<String>,
 }
 
 impl Models {
@@ -132,6 +134,7 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
     let mut models = Models {
         kept: VecDeque::new(),
         pool,
+        failed_ahead: Vec::new(),
     };
     let mut work = store.work_signal();
     while !config.stopping.load(Ordering::SeqCst) {
@@ -148,13 +151,17 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
                     if let Err(e) = store.release_task(&task.key, &config.owner).await {
                         eprintln!("wsm: job {}: {e}", task.key.job_id);
                     }
-                    if let Err(e) = prepare(&store, &mut models, &task).await {
-                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                    let job = &task.key.job_id;
+                    if let Err(e) = prepare(&store, &mut models, job, true).await {
+                        eprintln!("wsm: job {job}: {e}");
                         tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
                     }
                 }
             },
-            Ok(None) => wait(&mut work, Duration::from_millis(500)).await,
+            Ok(None) => {
+                prepare_ahead(&store, &config, &mut models).await;
+                wait(&mut work, Duration::from_millis(500)).await
+            }
             Err(e) => {
                 eprintln!("wsm: {e}");
                 tokio::time::sleep(Duration::from_secs(1)).await;
@@ -209,18 +216,39 @@ async fn run_task(
     }
 }
 
-/// Prepare and keep the model of `task`'s job.
+/// An idle worker prepares the model of the newest job another process coordinates, before
+/// its first task arrives: its meshing and nominal solve then overlap the coordinator's own
+/// instead of holding up the first fanned-out batch. A job whose model failed to prepare here
+/// is not tried again ahead of a task.
+async fn prepare_ahead(store: &Arc<dyn JobStore>, config: &TaskConfig, models: &mut Models) {
+    let Ok(Some((job, run_hash))) = store.coordinated_elsewhere(&config.owner).await else {
+        return;
+    };
+    if models.get(&run_hash).is_some() || models.failed_ahead.contains(&run_hash) {
+        return;
+    }
+    if prepare(store, models, &job, false).await.is_err() {
+        models.failed_ahead.push(run_hash);
+    }
+}
+
+/// Prepare and keep the model of `job`. Ahead of a task (`!for_task`), a job with a target
+/// error is prepared only once its coordinator has recorded the mesh it chose (choosing again
+/// here would repeat the coordinator's mesh study).
 async fn prepare(
     store: &Arc<dyn JobStore>,
     models: &mut Models,
-    task: &TaskRecord,
+    job: &str,
+    for_task: bool,
 ) -> Result<(), WsmError> {
-    let job = &task.key.job_id;
     let input = store
         .job_input(job)
         .await
         .map_err(|e| WsmError::io(format!("job {job}"), e))?
         .ok_or_else(|| WsmError::io(format!("job {job}"), "the job is gone"))?;
+    if !for_task && input.settings.target_error.is_some() && input.chosen_scene.is_none() {
+        return Ok(());
+    }
     let pool = models.pool.clone();
     let model = tokio::task::spawn_blocking(move || Model::prepare(&input, pool))
         .await
