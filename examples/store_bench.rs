@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use wsm_core::run::{Evaluation, WorstRequest};
 use wsm_service::jobs::sql::{Backend, SqlStore};
-use wsm_service::jobs::{wait, JobStore, NewJob, TaskScope};
+use wsm_service::jobs::{wait, JobStore, NewJob, TaskKind, TaskScope};
 
 fn evaluation(point: &[f64]) -> Evaluation {
     Evaluation {
@@ -86,7 +86,14 @@ async fn bench(db: &str, batches: usize) {
             let mut done = store.results_signal();
             done.borrow_and_update();
             store
-                .post_tasks(&id, "coordinator", job.attempts, batch, &tasks)
+                .post_tasks(
+                    &id,
+                    "coordinator",
+                    job.attempts,
+                    batch,
+                    TaskKind::Evaluate,
+                    &tasks,
+                )
                 .await
                 .unwrap();
             while store

@@ -2,7 +2,8 @@
 //! three `wsm worker` processes on one database. A job's evaluations are spread over the workers
 //! (each evaluation records who computed it); SIGKILL of a worker holding a task, or of the
 //! process coordinating the job, loses nothing: the job finishes with the result of a
-//! single-process `wsm worst`, bit for bit, with every evaluation stored exactly once.
+//! single-process `wsm worst`, bit for bit (its accuracy statement too, whose refined solves
+//! are dealt out as well), with every evaluation stored exactly once.
 //!
 //! Needs `WSM_TEST_POSTGRES_URL` (set by `.ci/run`); without it the test says so and passes.
 
@@ -206,10 +207,17 @@ fn check_finished(addr: &str, db: &Db, id: &str, seed: u64) -> Value {
     let status = wait_finished(addr, id, Duration::from_secs(300));
     assert_eq!(status["state"], "succeeded", "{status}");
     let result = get(addr, &format!("/v1/jobs/{id}/result")).json();
+    let alone = cli_worst_with(EXAMPLE, CRITERIA, BUDGET, seed, PLAIN);
     assert_eq!(
         extrema(&result),
-        extrema(&cli_worst_with(EXAMPLE, CRITERIA, BUDGET, seed, PLAIN)),
+        extrema(&alone),
         "same worst and best values and data as one process"
+    );
+    // The accuracy statement's refined solves were dealt out to the workers too.
+    assert!(result["accuracy"]["points"].as_u64().unwrap() >= 2);
+    assert_eq!(
+        result["accuracy"]["criteria"], alone["accuracy"]["criteria"],
+        "the same accuracy statement as one process, bit for bit"
     );
     let stored = get(addr, &format!("/v1/jobs/{id}/evaluations")).json();
     let stored = stored.as_array().unwrap();

@@ -11,9 +11,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use common::{postgres_url, PgSchema};
-use wsm_core::run::{Evaluation, OneSided, WorstRequest};
+use wsm_core::run::{Evaluation, OneSided, RefinedValues, WorstRequest};
 use wsm_service::jobs::sql::SqlStore;
-use wsm_service::jobs::{JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskScope};
+use wsm_service::jobs::{
+    JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskKind, TaskScope,
+};
 
 /// A fresh SQLite file.
 async fn sqlite() -> Arc<dyn JobStore> {
@@ -250,11 +252,25 @@ async fn batch_tasks_are_leased_once_and_return_in_part_order(store: Arc<dyn Job
         .map(|p| vec![vec![p as f64, 0.5], vec![p as f64, 0.25]])
         .collect();
     assert!(store
-        .post_tasks("t", "someone-else", coordinator.attempts, 0, &parts)
+        .post_tasks(
+            "t",
+            "someone-else",
+            coordinator.attempts,
+            0,
+            TaskKind::Evaluate,
+            &parts
+        )
         .await
         .is_err());
     store
-        .post_tasks("t", "coord", coordinator.attempts, 0, &parts)
+        .post_tasks(
+            "t",
+            "coord",
+            coordinator.attempts,
+            0,
+            TaskKind::Evaluate,
+            &parts,
+        )
         .await
         .unwrap();
     assert!(store
@@ -317,6 +333,94 @@ conformance!(
     batch_tasks_are_leased_once_and_return_in_part_order
 );
 
+async fn refined_tasks_return_their_values_and_add_no_evaluations(store: Arc<dyn JobStore>) {
+    assert!(store.insert(job("r"), usize::MAX).await.unwrap());
+    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let attempt = coordinator.attempts;
+    store
+        .post_tasks(
+            "r",
+            "coord",
+            attempt,
+            0,
+            TaskKind::Evaluate,
+            &[vec![vec![1.0]]],
+        )
+        .await
+        .unwrap();
+    let parts = vec![vec![vec![0.1], vec![0.2]], vec![vec![0.3]]];
+    store
+        .post_tasks("r", "coord", attempt, 1, TaskKind::Refined(2), &parts)
+        .await
+        .unwrap();
+    let first = store
+        .lease_task("w", 30.0, TaskScope::Others)
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!((first.kind, first.key.batch), (TaskKind::Evaluate, 0));
+    assert!(store
+        .complete_task(&first.key, "w", &[evaluation(1.0)])
+        .await
+        .unwrap());
+    let mut values: Vec<(u32, Vec<RefinedValues>)> = Vec::new();
+    while let Some(task) = store
+        .lease_task("w", 30.0, TaskScope::Others)
+        .await
+        .unwrap()
+    {
+        assert_eq!(
+            task.kind,
+            TaskKind::Refined(2),
+            "the level travels with the task"
+        );
+        let solved: Vec<RefinedValues> = task
+            .points
+            .iter()
+            .map(|p| {
+                if p[0] == 0.2 {
+                    Err("solver failed".into())
+                } else {
+                    Ok(vec![Some(p[0] * 3.0), None])
+                }
+            })
+            .collect();
+        assert!(!store
+            .complete_refined_task(&task.key, "intruder", &solved)
+            .await
+            .unwrap());
+        assert!(store
+            .complete_refined_task(&task.key, "w", &solved)
+            .await
+            .unwrap());
+        values.push((task.key.part, solved));
+    }
+    assert_eq!(values.len(), 2);
+    let results = store
+        .refined_results("r", attempt, 1)
+        .await
+        .unwrap()
+        .expect("both parts done");
+    assert_eq!(
+        results,
+        vec![
+            Ok(vec![Some(0.1 * 3.0), None]),
+            Err("solver failed".to_string()),
+            Ok(vec![Some(0.3 * 3.0), None]),
+        ],
+        "part order, point order, failures kept"
+    );
+    assert_eq!(
+        store.evaluations("r", None).await.unwrap().len(),
+        1,
+        "refined solves are not search evaluations"
+    );
+}
+conformance!(
+    refined_tasks_return_their_values_and_add_no_evaluations_on_every_backend,
+    refined_tasks_return_their_values_and_add_no_evaluations
+);
+
 async fn a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_again(
     store: Arc<dyn JobStore>,
 ) {
@@ -325,7 +429,7 @@ async fn a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_ag
     let attempt = coordinator.attempts;
     let parts = [vec![vec![1.0]], vec![vec![2.0]]];
     store
-        .post_tasks("s", "coord", attempt, 0, &parts)
+        .post_tasks("s", "coord", attempt, 0, TaskKind::Evaluate, &parts)
         .await
         .unwrap();
     // A worker's task loop never takes the tasks of a job its own process coordinates.
@@ -390,7 +494,14 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
     assert!(store.insert(job("d"), usize::MAX).await.unwrap());
     let first = store.lease("coord1", 0.3).await.unwrap().unwrap();
     store
-        .post_tasks("d", "coord1", first.attempts, 0, &[vec![vec![1.0]]])
+        .post_tasks(
+            "d",
+            "coord1",
+            first.attempts,
+            0,
+            TaskKind::Evaluate,
+            &[vec![vec![1.0]]],
+        )
         .await
         .unwrap();
     let task = store

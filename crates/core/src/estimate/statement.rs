@@ -7,10 +7,14 @@
 //! maximiser.
 //!
 //! The refined solves are cold (no warm start) direct solves, sequential inside and parallel
-//! over the points, so the statement is bit-identical on any thread count and after a resume.
-//! Between points and levels `stop` is polled (cancel, time limit); a statement cut short says
-//! so in `complete`.
+//! over the points, so the statement is bit-identical on any thread count, after a resume and
+//! whichever process solves a point: with a [`BatchDispatch`] (worker processes sharing a job
+//! store) each level's points are dealt to the live workers, which build the refined level
+//! themselves, while this process builds it and solves its own share. Between points and levels
+//! `stop` is polled (cancel, time limit); a statement cut short says so in `complete`.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use rayon::prelude::*;
@@ -19,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use super::ladder::DirectLevel;
 use super::richardson::extrapolate;
 use crate::error::WsmError;
+use crate::run::BatchDispatch;
 use crate::scene::params::{apply, Parameter};
 use crate::scene::Criterion;
 use crate::state::StateProblem;
@@ -105,8 +110,87 @@ pub fn default_refinements(unknowns: usize) -> usize {
 /// The extremum values of a run, per criterion (worst, best): (value, point).
 pub type Extrema = Vec<[Option<(f64, Vec<f64>)>; 2]>;
 
+/// The criteria of one refined solve (in the run's criterion order; `None` where a criterion is
+/// not defined), or why the solve failed.
+pub type RefinedValues = Result<Vec<Option<f64>>, String>;
+
+/// Solves points (physical parameter values) on one refined level, in input order.
+pub type RefinedSolve<'a> = dyn Fn(&[Vec<f64>]) -> Vec<RefinedValues> + Sync + 'a;
+
+/// The mesh size factor of refinement `level` (sizes halved `level` times).
+pub fn refinement_factor(level: u32) -> f64 {
+    0.5_f64.powi(level as i32)
+}
+
+/// The refined level of `scene` and the solves on it: what the accuracy statement runs in this
+/// process and what a worker process runs for a dispatched share. The level is built on the
+/// first solve, so a coordinator builds its own while the workers build theirs.
+pub struct RefinedLevel<'a> {
+    scene: &'a crate::scene::Scene,
+    params: &'a [Parameter],
+    criteria: &'a [Criterion],
+    level: u32,
+    built: OnceLock<Result<DirectLevel, WsmError>>,
+}
+
+impl<'a> RefinedLevel<'a> {
+    /// Refinement `level` of `scene`, for `criteria` at points of `params`.
+    pub fn new(
+        scene: &'a crate::scene::Scene,
+        params: &'a [Parameter],
+        criteria: &'a [Criterion],
+        level: u32,
+    ) -> RefinedLevel<'a> {
+        RefinedLevel {
+            scene,
+            params,
+            criteria,
+            level,
+            built: OnceLock::new(),
+        }
+    }
+
+    /// The refinement level (mesh sizes halved this many times).
+    pub fn level(&self) -> u32 {
+        self.level
+    }
+
+    /// The level's problem, built on first use (or why meshing or set-up failed).
+    pub fn get(&self) -> Result<&DirectLevel, WsmError> {
+        self.built
+            .get_or_init(|| {
+                DirectLevel::new(self.scene, refinement_factor(self.level), self.criteria)
+            })
+            .as_ref()
+            .map_err(Clone::clone)
+    }
+
+    /// The criteria at `points`, solved in parallel over the current pool's threads; a point
+    /// for which `stop` answers true is not solved (`None`).
+    pub fn solve(
+        &self,
+        points: &[Vec<f64>],
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> Vec<Option<RefinedValues>> {
+        let level = match self.get() {
+            Ok(level) => level,
+            Err(e) => return points.iter().map(|_| Some(Err(e.to_string()))).collect(),
+        };
+        let problem = &level.problem;
+        points
+            .par_iter()
+            .map(|p| {
+                (!stop()).then(|| {
+                    level.criteria_at(&apply(&problem.scene, &problem.nominal, self.params, p))
+                })
+            })
+            .collect()
+    }
+}
+
 /// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
-/// refined meshes. `stop` is polled between meshes and points.
+/// refined meshes, their solves dealt out through `dispatch` when there is one. `stop` is polled
+/// between meshes and points.
 pub fn statement(
     problem: &StateProblem,
     params: &[Parameter],
@@ -114,13 +198,14 @@ pub fn statement(
     extrema: &Extrema,
     refinements: usize,
     stop: &(dyn Fn() -> bool + Sync),
+    dispatch: Option<&dyn BatchDispatch>,
 ) -> Result<AccuracyStatement, WsmError> {
     let start = Instant::now();
-    let mut points: Vec<&Vec<f64>> = Vec::new();
+    let mut points: Vec<Vec<f64>> = Vec::new();
     for pair in extrema {
         for (_, p) in pair.iter().flatten() {
-            if !points.contains(&p) {
-                points.push(p);
+            if !points.contains(p) {
+                points.push(p.clone());
             }
         }
     }
@@ -132,7 +217,7 @@ pub fn statement(
     };
     let mut meshes = vec![base];
     // values[level][point][criterion]
-    let mut values: Vec<Vec<Result<Vec<Option<f64>>, String>>> = Vec::new();
+    let mut values: Vec<Vec<RefinedValues>> = Vec::new();
     let mut complete = true;
     for level in 1..=refinements {
         if stop() {
@@ -140,27 +225,35 @@ pub fn statement(
             break;
         }
         let t0 = Instant::now();
-        let factor = 0.5_f64.powi(level as i32);
-        let refined = DirectLevel::new(&problem.scene, factor, criteria)?;
-        let solved: Vec<Option<Result<Vec<Option<f64>>, String>>> = points
-            .par_iter()
-            .map(|p| {
-                if stop() {
-                    return None;
-                }
-                let level = &refined.problem;
-                Some(refined.criteria_at(&apply(&level.scene, &level.nominal, params, p)))
-            })
-            .collect();
-        if solved.iter().any(Option::is_none) {
+        let refined = RefinedLevel::new(&problem.scene, params, criteria, level as u32);
+        let stopped = AtomicBool::new(false);
+        let local = |points: &[Vec<f64>]| -> Vec<RefinedValues> {
+            refined
+                .solve(points, stop)
+                .into_iter()
+                .map(|v| {
+                    v.unwrap_or_else(|| {
+                        stopped.store(true, Ordering::SeqCst);
+                        Err("stopped".into())
+                    })
+                })
+                .collect()
+        };
+        let dispatched = match dispatch {
+            Some(d) => d.refined(level as u32, &points, &local)?,
+            None => None,
+        };
+        let solved = dispatched.unwrap_or_else(|| local(&points));
+        if stopped.load(Ordering::SeqCst) {
             complete = false;
             break;
         }
-        values.push(solved.into_iter().flatten().collect());
+        let built = refined.get()?;
+        values.push(solved);
         meshes.push(StatementMesh {
-            size_factor: factor,
-            unknowns: refined.unknowns(),
-            triangles: refined.triangles(),
+            size_factor: refinement_factor(level as u32),
+            unknowns: built.unknowns(),
+            triangles: built.triangles(),
             seconds: t0.elapsed().as_secs_f64(),
         });
     }
@@ -173,7 +266,7 @@ pub fn statement(
         .collect();
     let accuracy = |k: usize, extremum: &Option<(f64, Vec<f64>)>| {
         let (value, point) = extremum.as_ref()?;
-        let index = points.iter().position(|q| *q == point)?;
+        let index = points.iter().position(|q| q == point)?;
         let mut failure = None;
         let refined: Vec<Option<f64>> = values
             .iter()

@@ -27,7 +27,9 @@ pub use request::{SolveRequest, WorstRequest};
 pub use table::{columns as table_columns, write_csv};
 
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
-pub use crate::estimate::statement::{CriterionAccuracy, ExtremumAccuracy, StatementMesh};
+pub use crate::estimate::statement::{
+    CriterionAccuracy, ExtremumAccuracy, RefinedLevel, RefinedSolve, RefinedValues, StatementMesh,
+};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
@@ -438,6 +440,7 @@ impl Run<'_> {
             &outcome.extrema(),
             refinements,
             &stop,
+            self.control.dispatch.as_deref(),
         )
         .map(Some)
     }

@@ -7,6 +7,7 @@
 use super::request::WorstRequest;
 use super::run_scene;
 use crate::error::WsmError;
+use crate::estimate::statement::RefinedLevel;
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
 use crate::scenario::worst::ParameterInfo;
@@ -83,6 +84,12 @@ impl PreparedModel {
     /// The state problem (mesh, operators, nominal data).
     pub fn problem(&self) -> &StateProblem {
         &self.problem
+    }
+
+    /// Refinement `level` of this model's mesh for the accuracy statement's solves (built on
+    /// its first solve): what a worker runs for a dispatched share of the statement.
+    pub fn refined_level(&self, level: u32) -> RefinedLevel<'_> {
+        RefinedLevel::new(&self.problem.scene, &self.params, &self.criteria, level)
     }
 
     /// The evaluator of this model: solves the nominal state once (its contact state

@@ -8,6 +8,10 @@
 //! returns them in input order. Alone (no other live worker), a batch is declined and evaluated
 //! in-process as usual.
 //!
+//! The accuracy statement's refined solves go out the same way, as tasks of their own kind: each
+//! process solves its share on the refined level it builds itself, and the values come back in
+//! input order without entering the job's evaluations.
+//!
 //! Chunks hold about `CHUNK_SECONDS` of solves per live thread, so the store's round trips stay
 //! a small share and a cancel is seen soon. Called from the search's blocking thread; talks to the
 //! store through the runtime's handle.
@@ -20,9 +24,11 @@ use std::time::{Duration, Instant};
 
 use tokio::task::JoinHandle;
 
-use super::{wait, JobStore, StoreResult, TaskScope};
+use super::{wait, JobStore, StoreResult, TaskKey, TaskKind, TaskScope};
 use wsm_core::error::WsmError;
-use wsm_core::run::{BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate};
+use wsm_core::run::{
+    BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedSolve, RefinedValues,
+};
 use wsm_core::scene::Scene;
 
 /// Solve time of one chunk per live thread \[s\].
@@ -31,6 +37,12 @@ const CHUNK_SECONDS: f64 = 1.5;
 const MIN_POINTS_PER_THREAD: usize = 2;
 /// Points per live thread in a chunk at the most.
 const MAX_POINTS_PER_THREAD: usize = 64;
+
+/// Stores a task's results; false when the task is no longer this process's.
+type Complete<'a, T> = dyn Fn(&TaskKey, &[T]) -> Result<bool, WsmError> + 'a;
+/// A batch's results in input order, with whether another process computed each (`None`: not
+/// dispatched).
+type Fanned<T> = Option<(Vec<T>, Vec<bool>)>;
 
 /// The batches of one job (one lease attempt) as tasks.
 pub struct StoreDispatch {
@@ -136,9 +148,14 @@ impl StoreDispatch {
             .map_err(|e| self.io(e))
     }
 
-    /// Take over the batch's tasks nobody has started (or whose worker died), evaluate and
-    /// store them; the parts taken.
-    fn take_over(&self, batch: u64, local: &LocalEvaluate<'_>) -> Result<Vec<u32>, WsmError> {
+    /// Take over the batch's tasks nobody has started (or whose worker died), solve them with
+    /// `local` and store them with `complete`; the parts taken.
+    fn take_over<T>(
+        &self,
+        batch: u64,
+        local: &dyn Fn(&[Vec<f64>]) -> Vec<T>,
+        complete: &Complete<'_, T>,
+    ) -> Result<Vec<u32>, WsmError> {
         let mut taken = Vec::new();
         let scope = TaskScope::Batch {
             job: &self.job,
@@ -150,35 +167,30 @@ impl StoreDispatch {
             self.lease_seconds,
             scope,
         ))? {
-            let evaluations = local(&task.points);
-            let stored = self.call(self.store.complete_task(
-                &task.key,
-                &self.owner,
-                &evaluations,
-            ))?;
-            if stored {
+            if complete(&task.key, &local(&task.points))? {
                 taken.push(task.key.part);
             }
         }
         Ok(taken)
     }
-}
 
-impl BatchDispatch for StoreDispatch {
-    fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize {
-        let per_thread = match seconds_per_point {
-            Some(s) if s > 0.0 => ((CHUNK_SECONDS / s).ceil() as usize)
-                .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD),
-            _ => MIN_POINTS_PER_THREAD,
-        };
-        per_thread * self.live_threads().max(self.own_threads)
-    }
-
-    fn evaluate(
+    /// Deal `points` to the live threads as tasks of `kind` and return their results in input
+    /// order, with whether another process computed each: this process's share is solved with
+    /// `local` (then handed to `keep_own`), the others' tasks are read back with `results`
+    /// once done, and any task nobody has started is taken over and stored with `complete`.
+    /// `None`: no other live worker, or fewer than two points (not dispatched).
+    fn fan_out<T>(
         &self,
+        kind: TaskKind,
         points: &[Vec<f64>],
-        local: &LocalEvaluate<'_>,
-    ) -> Result<Option<DispatchedBatch>, WsmError> {
+        local: &dyn Fn(&[Vec<f64>]) -> Vec<T>,
+        keep_own: &dyn Fn(Vec<T>) -> Result<(), WsmError>,
+        complete: &Complete<'_, T>,
+        results: &dyn Fn(u64) -> Result<Option<Vec<T>>, WsmError>,
+    ) -> Result<Fanned<T>, WsmError>
+    where
+        T: Clone,
+    {
         let live = self.live_threads();
         if live <= self.own_threads || points.len() < 2 {
             return Ok(None);
@@ -208,25 +220,25 @@ impl BatchDispatch for StoreDispatch {
                 self.owner.clone(),
                 self.attempt,
             );
-            self.runtime
-                .spawn(async move { store.post_tasks(&job, &owner, attempt, batch, &parts).await })
+            self.runtime.spawn(async move {
+                store
+                    .post_tasks(&job, &owner, attempt, batch, kind, &parts)
+                    .await
+            })
         };
         let mine_indices: Vec<usize> = by_slot[..own].concat();
-        let mine = gather(&mine_indices);
-        let own_evaluations = local(&mine);
+        let own_results = local(&gather(&mine_indices));
         self.join(post)?;
-        self.store_share(own_evaluations.clone())?;
+        keep_own(own_results.clone())?;
         let mut taken: HashSet<u32> = HashSet::new();
-        let remote_evaluations = loop {
+        let remote_results = loop {
             if self.lost.load(Ordering::SeqCst) {
                 return Err(self.io("the job's lease was taken over"));
             }
-            if let Some(evaluations) =
-                self.call(self.store.batch_results(&self.job, self.attempt, batch))?
-            {
-                break evaluations;
+            if let Some(values) = results(batch)? {
+                break values;
             }
-            let newly = self.take_over(batch, local)?;
+            let newly = self.take_over(batch, local, complete)?;
             if newly.is_empty() {
                 self.runtime
                     .block_on(wait(&mut done, Duration::from_millis(200)));
@@ -234,22 +246,76 @@ impl BatchDispatch for StoreDispatch {
             taken.extend(newly);
         };
         // Back to input order, with who computed each.
-        let mut placed: Vec<Option<(Evaluation, bool)>> = (0..n).map(|_| None).collect();
-        for (&i, e) in mine_indices.iter().zip(own_evaluations) {
-            placed[i] = Some((e, false));
+        let mut placed: Vec<Option<(T, bool)>> = (0..n).map(|_| None).collect();
+        for (&i, v) in mine_indices.iter().zip(own_results) {
+            placed[i] = Some((v, false));
         }
-        let mut remote_evaluations = remote_evaluations.into_iter();
+        let mut remote_results = remote_results.into_iter();
         for (part, indices) in by_slot[own..].iter().enumerate() {
             let remote = !taken.contains(&(part as u32));
-            for (&i, e) in indices.iter().zip(remote_evaluations.by_ref()) {
-                placed[i] = Some((e, remote));
+            for (&i, v) in indices.iter().zip(remote_results.by_ref()) {
+                placed[i] = Some((v, remote));
             }
         }
-        let (evaluations, remote) = placed.into_iter().flatten().unzip();
-        Ok(Some(DispatchedBatch {
+        Ok(Some(placed.into_iter().flatten().unzip()))
+    }
+}
+
+impl BatchDispatch for StoreDispatch {
+    fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize {
+        let per_thread = match seconds_per_point {
+            Some(s) if s > 0.0 => ((CHUNK_SECONDS / s).ceil() as usize)
+                .clamp(MIN_POINTS_PER_THREAD, MAX_POINTS_PER_THREAD),
+            _ => MIN_POINTS_PER_THREAD,
+        };
+        per_thread * self.live_threads().max(self.own_threads)
+    }
+
+    fn evaluate(
+        &self,
+        points: &[Vec<f64>],
+        local: &LocalEvaluate<'_>,
+    ) -> Result<Option<DispatchedBatch>, WsmError> {
+        let complete = |key: &TaskKey, evaluations: &[Evaluation]| {
+            self.call(self.store.complete_task(key, &self.owner, evaluations))
+        };
+        let results =
+            |batch: u64| self.call(self.store.batch_results(&self.job, self.attempt, batch));
+        let fanned = self.fan_out(
+            TaskKind::Evaluate,
+            points,
+            local,
+            &|own| self.store_share(own),
+            &complete,
+            &results,
+        )?;
+        Ok(fanned.map(|(evaluations, remote)| DispatchedBatch {
             evaluations,
             remote,
         }))
+    }
+
+    fn refined(
+        &self,
+        level: u32,
+        points: &[Vec<f64>],
+        local: &RefinedSolve<'_>,
+    ) -> Result<Option<Vec<RefinedValues>>, WsmError> {
+        let complete = |key: &TaskKey, values: &[RefinedValues]| {
+            self.call(self.store.complete_refined_task(key, &self.owner, values))
+        };
+        let results =
+            |batch: u64| self.call(self.store.refined_results(&self.job, self.attempt, batch));
+        // The refined solves are not search points: nothing of them goes to the evaluations.
+        let fanned = self.fan_out(
+            TaskKind::Refined(level),
+            points,
+            local,
+            &|_| Ok(()),
+            &complete,
+            &results,
+        )?;
+        Ok(fanned.map(|(values, _)| values))
     }
 
     fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {

@@ -23,7 +23,7 @@ pub mod tasks;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use wsm_core::run::{Evaluation, ProgressEvent, WorstOutcome, WorstRequest};
+use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues, WorstOutcome, WorstRequest};
 
 /// The state of a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -161,10 +161,38 @@ pub enum TaskScope<'a> {
     },
 }
 
+/// What a task asks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TaskKind {
+    /// Evaluations of search points on the run's mesh (stored in the job's evaluations).
+    Evaluate,
+    /// The accuracy statement's solves on the run's mesh refined this many times (≥ 1).
+    Refined(u32),
+}
+
+impl TaskKind {
+    /// The stored `refinement` column: 0 for evaluations.
+    pub fn refinement(self) -> u32 {
+        match self {
+            TaskKind::Evaluate => 0,
+            TaskKind::Refined(level) => level,
+        }
+    }
+
+    /// The kind of a stored `refinement` column.
+    pub fn of_refinement(refinement: u32) -> TaskKind {
+        match refinement {
+            0 => TaskKind::Evaluate,
+            level => TaskKind::Refined(level),
+        }
+    }
+}
+
 /// A leased task.
 #[derive(Debug, Clone)]
 pub struct TaskRecord {
     pub key: TaskKey,
+    pub kind: TaskKind,
     /// Physical parameter points, in the order their evaluations must be returned.
     pub points: Vec<Vec<f64>>,
     pub run_hash: String,
@@ -228,14 +256,15 @@ pub trait JobStore: Send + Sync + 'static {
     /// Record the scene the coordinator chose for the job's target error (JSON), for the
     /// workers; false when `owner` no longer holds the job's lease.
     async fn record_chosen_scene(&self, id: &str, owner: &str, scene: &str) -> StoreResult<bool>;
-    /// Post one batch of job `id` (whose lease `owner` holds) as tasks, one per part; tasks of
-    /// the job's earlier attempts are dropped (their coordinator is gone).
+    /// Post one batch of job `id` (whose lease `owner` holds) as tasks of `kind`, one per part;
+    /// tasks of the job's earlier attempts are dropped (their coordinator is gone).
     async fn post_tasks(
         &self,
         id: &str,
         owner: &str,
         attempt: u32,
         batch: u64,
+        kind: TaskKind,
         parts: &[Vec<Vec<f64>>],
     ) -> StoreResult<()>;
     /// The newest running job whose live lease another process holds, as (id, run hash): its
@@ -270,6 +299,22 @@ pub trait JobStore: Send + Sync + 'static {
         attempt: u32,
         batch: u64,
     ) -> StoreResult<Option<Vec<Evaluation>>>;
+    /// Store the refined solves of a [`TaskKind::Refined`] task and mark it done (not in the
+    /// job's evaluations: they are not search points); false (and nothing stored) when the task
+    /// is no longer `owner`'s.
+    async fn complete_refined_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        values: &[RefinedValues],
+    ) -> StoreResult<bool>;
+    /// The refined solves of a batch in part order once every part is done (`None` before).
+    async fn refined_results(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<RefinedValues>>>;
     /// Announce a worker process with its evaluation threads (a heartbeat).
     async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()>;
     /// Evaluation threads of the workers seen within the last `seconds`.

@@ -21,9 +21,9 @@ use tokio::sync::watch;
 
 use super::{
     JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, Signal, StoreError,
-    StoreResult, TaskKey, TaskRecord, TaskScope,
+    StoreResult, TaskKey, TaskKind, TaskRecord, TaskScope,
 };
-use wsm_core::run::{Evaluation, ProgressEvent};
+use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues};
 
 /// The database behind the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -369,6 +369,43 @@ impl SqlStore {
         })
     }
 
+    /// The results of a batch's tasks, concatenated in part order, once every part is done
+    /// (`None` before).
+    async fn done_parts<T: serde::de::DeserializeOwned>(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<T>>> {
+        let rows = sqlx::query(
+            "SELECT state, results FROM tasks
+             WHERE job_id = $1 AND attempt = $2 AND batch = $3 ORDER BY part",
+        )
+        .bind(id)
+        .bind(attempt as i64)
+        .bind(batch as i64)
+        .fetch_all(&self.pool)
+        .await
+        .map_err(db("reading a batch"))?;
+        if rows.is_empty() {
+            return Err(StoreError(format!(
+                "reading a batch: the tasks of job {id} batch {batch} are gone"
+            )));
+        }
+        let read = db("reading a batch");
+        let mut results = Vec::new();
+        for row in &rows {
+            let text: Option<String> = row.try_get("results").map_err(&read)?;
+            match text {
+                Some(text) if row.try_get::<String, _>("state").map_err(&read)? == "done" => {
+                    results.extend(parse::<Vec<T>>(&text, "task results")?)
+                }
+                _ => return Ok(None),
+            }
+        }
+        Ok(Some(results))
+    }
+
     /// Append evaluations to a job's log inside `tx` (sequence numbers continue the job's).
     async fn append_in(
         tx: &mut sqlx::AnyConnection,
@@ -427,6 +464,26 @@ fn bind_task_key<'q>(
         .bind(key.batch as i64)
         .bind(key.part as i64)
         .bind(owner)
+}
+
+/// Mark a task `owner` still holds done with its `results` (JSON), in a transaction or alone.
+fn finish_task<'q>(
+    backend: Backend,
+    key: &'q TaskKey,
+    owner: &'q str,
+    results: String,
+) -> sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments> {
+    bind_task_key(
+        sqlx::query(sql(format!(
+            "UPDATE tasks SET state = 'done', results = $6, finished_at = {},
+                 lease_expires_at = NULL
+             WHERE {HELD_TASK}",
+            backend.now()
+        ))),
+        key,
+        owner,
+    )
+    .bind(results)
 }
 
 #[async_trait::async_trait]
@@ -773,6 +830,7 @@ impl JobStore for SqlStore {
         owner: &str,
         attempt: u32,
         batch: u64,
+        kind: TaskKind,
         parts: &[Vec<Vec<f64>>],
     ) -> StoreResult<()> {
         let post = db("posting tasks");
@@ -796,20 +854,22 @@ impl JobStore for SqlStore {
             let rows: Vec<String> = (0..parts.len())
                 .map(|i| {
                     format!(
-                        "($1, $2, $3, ${}, ${}, 'queued', {now})",
-                        4 + 2 * i,
-                        5 + 2 * i
+                        "($1, $2, $3, $4, ${}, ${}, 'queued', {now})",
+                        5 + 2 * i,
+                        6 + 2 * i
                     )
                 })
                 .collect();
             let statement = format!(
-                "INSERT INTO tasks (job_id, attempt, batch, part, points, state, created_at) VALUES {}",
+                "INSERT INTO tasks (job_id, attempt, batch, refinement, part, points, state, created_at)
+                 VALUES {}",
                 rows.join(", ")
             );
             let mut insert = sqlx::query(sql(statement))
                 .bind(id)
                 .bind(attempt as i64)
-                .bind(batch as i64);
+                .bind(batch as i64)
+                .bind(kind.refinement() as i64);
             for (part, points) in parts.iter().enumerate() {
                 insert = insert.bind(part as i64).bind(json(points)?);
             }
@@ -864,7 +924,7 @@ impl JobStore for SqlStore {
                  WHERE (t.state = 'queued' OR (t.state = 'running' AND t.lease_expires_at < {now}))
                    AND {filter}
                  ORDER BY t.created_at, t.job_id, t.batch, t.part LIMIT 1{})
-             RETURNING job_id, attempt, batch, part, points,
+             RETURNING job_id, attempt, batch, part, refinement, points,
                  (SELECT run_hash FROM jobs WHERE jobs.id = tasks.job_id) AS run_hash",
             match self.backend {
                 Backend::Sqlite => "",
@@ -895,8 +955,10 @@ impl JobStore for SqlStore {
             &row.try_get::<String, _>("points").map_err(&lease)?,
             "points",
         )?;
+        let refinement = row.try_get::<i64, _>("refinement").map_err(&lease)?;
         Ok(Some(TaskRecord {
             key,
+            kind: TaskKind::of_refinement(refinement.clamp(0, u32::MAX as i64) as u32),
             points,
             run_hash: row.try_get("run_hash").map_err(&lease)?,
         }))
@@ -961,20 +1023,11 @@ impl JobStore for SqlStore {
         .fetch_optional(&mut *tx)
         .await
         .map_err(&complete)?;
-        let claimed = bind_task_key(
-            sqlx::query(sql(format!(
-                "UPDATE tasks SET state = 'done', results = $6, finished_at = {now},
-                     lease_expires_at = NULL
-                 WHERE {HELD_TASK}"
-            ))),
-            key,
-            owner,
-        )
-        .bind(json(&evaluations)?)
-        .execute(&mut *tx)
-        .await
-        .map_err(&complete)?
-        .rows_affected()
+        let claimed = finish_task(self.backend, key, owner, json(&evaluations)?)
+            .execute(&mut *tx)
+            .await
+            .map_err(&complete)?
+            .rows_affected()
             == 1;
         if !claimed {
             tx.rollback().await.map_err(&complete)?;
@@ -992,33 +1045,35 @@ impl JobStore for SqlStore {
         attempt: u32,
         batch: u64,
     ) -> StoreResult<Option<Vec<Evaluation>>> {
-        let rows = sqlx::query(
-            "SELECT state, results FROM tasks
-             WHERE job_id = $1 AND attempt = $2 AND batch = $3 ORDER BY part",
-        )
-        .bind(id)
-        .bind(attempt as i64)
-        .bind(batch as i64)
-        .fetch_all(&self.pool)
-        .await
-        .map_err(db("reading a batch"))?;
-        if rows.is_empty() {
-            return Err(StoreError(format!(
-                "reading a batch: the tasks of job {id} batch {batch} are gone"
-            )));
+        self.done_parts(id, attempt, batch).await
+    }
+
+    async fn complete_refined_task(
+        &self,
+        key: &TaskKey,
+        owner: &str,
+        values: &[RefinedValues],
+    ) -> StoreResult<bool> {
+        let complete = db("completing a task");
+        let claimed = finish_task(self.backend, key, owner, json(&values)?)
+            .execute(&self.pool)
+            .await
+            .map_err(&complete)?
+            .rows_affected()
+            == 1;
+        if claimed {
+            self.announce(RESULTS_CHANNEL).await;
         }
-        let read = db("reading a batch");
-        let mut evaluations = Vec::new();
-        for row in &rows {
-            let results: Option<String> = row.try_get("results").map_err(&read)?;
-            match results {
-                Some(text) if row.try_get::<String, _>("state").map_err(&read)? == "done" => {
-                    evaluations.extend(parse::<Vec<Evaluation>>(&text, "task results")?)
-                }
-                _ => return Ok(None),
-            }
-        }
-        Ok(Some(evaluations))
+        Ok(claimed)
+    }
+
+    async fn refined_results(
+        &self,
+        id: &str,
+        attempt: u32,
+        batch: u64,
+    ) -> StoreResult<Option<Vec<RefinedValues>>> {
+        self.done_parts(id, attempt, batch).await
     }
 
     async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()> {

@@ -6,7 +6,9 @@
 //! loses at most the task it held.
 //!
 //! A prepared model (mesh, per-zone operators, symbolic factorisations, the nominal solve that
-//! warm-starts every contact solve) is kept per run hash, so a task costs only its solves. Each
+//! warm-starts every contact solve) is kept per run hash, so a task costs only its solves. A
+//! task of the accuracy statement (`TaskKind::Refined`) is solved on the model's refined
+//! level, built on the first such task and kept for the next. Each
 //! model lives on a thread of its own that owns the state problem and its evaluator; tasks reach
 //! it through a channel and are solved in the worker's thread pool.
 
@@ -15,9 +17,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
-use super::{wait, JobInput, JobStore, TaskRecord, TaskScope};
+use super::{wait, JobInput, JobStore, TaskKind, TaskRecord, TaskScope};
 use wsm_core::error::WsmError;
-use wsm_core::run::{Evaluation, PreparedModel, WorstRequest};
+use wsm_core::run::{Evaluation, PreparedModel, RefinedLevel, RefinedValues, WorstRequest};
 
 /// Prepared models kept per worker process.
 const MODELS_KEPT: usize = 2;
@@ -35,19 +37,25 @@ pub struct TaskConfig {
     pub stopping: Arc<AtomicBool>,
 }
 
-type Reply = mpsc::Sender<Result<Vec<Evaluation>, WsmError>>;
+/// What a task's points came back with.
+enum Solved {
+    Evaluations(Vec<Evaluation>),
+    Refined(Vec<RefinedValues>),
+}
+
+type Reply = mpsc::Sender<Result<Solved, WsmError>>;
 
 /// A job's prepared model on its own thread.
 struct Model {
     run_hash: String,
-    requests: mpsc::Sender<(Vec<Vec<f64>>, Reply)>,
+    requests: mpsc::Sender<(TaskKind, Vec<Vec<f64>>, Reply)>,
 }
 
 impl Model {
     /// Mesh the scene, build the operators and solve the nominal state on a new thread that
     /// then serves evaluation requests until the model is dropped.
     fn prepare(input: &JobInput, pool: Arc<rayon::ThreadPool>) -> Result<Model, WsmError> {
-        let (requests, inbox) = mpsc::channel::<(Vec<Vec<f64>>, Reply)>();
+        let (requests, inbox) = mpsc::channel::<(TaskKind, Vec<Vec<f64>>, Reply)>();
         let (ready_tx, ready_rx) = mpsc::channel::<Result<(), WsmError>>();
         let scene_text = input.scene.clone();
         let chosen_scene = input.chosen_scene.clone();
@@ -72,9 +80,25 @@ impl Model {
                     }
                 };
                 let _ = ready_tx.send(Ok(()));
-                for (points, reply) in inbox {
-                    let evaluations = pool.install(|| evaluator.evaluate_batch(&points));
-                    let _ = reply.send(Ok(evaluations));
+                // The accuracy statement's refined level, built on its first task and kept
+                // for the job's later ones.
+                let mut refined: Option<RefinedLevel<'_>> = None;
+                for (kind, points, reply) in inbox {
+                    let solved = match kind {
+                        TaskKind::Evaluate => {
+                            Solved::Evaluations(pool.install(|| evaluator.evaluate_batch(&points)))
+                        }
+                        TaskKind::Refined(level) => {
+                            let level = match refined.take() {
+                                Some(kept) if kept.level() == level => kept,
+                                _ => model.refined_level(level),
+                            };
+                            let values = pool.install(|| level.solve(&points, &|| false));
+                            refined = Some(level);
+                            Solved::Refined(values.into_iter().flatten().collect())
+                        }
+                    };
+                    let _ = reply.send(Ok(solved));
                 }
             })
             .map_err(|e| WsmError::io("model thread", e))?;
@@ -87,10 +111,10 @@ impl Model {
         })
     }
 
-    fn evaluate(&self, points: Vec<Vec<f64>>) -> Result<Vec<Evaluation>, WsmError> {
+    fn solve(&self, kind: TaskKind, points: Vec<Vec<f64>>) -> Result<Solved, WsmError> {
         let (reply, answer) = mpsc::channel();
         self.requests
-            .send((points, reply))
+            .send((kind, points, reply))
             .map_err(|_| WsmError::io("model thread", "the model thread ended"))?;
         answer
             .recv()
@@ -192,18 +216,27 @@ async fn run_task(
             }
         })
     };
-    let points = task.points.clone();
-    let evaluations = tokio::task::spawn_blocking(move || model.evaluate(points))
+    let (kind, points) = (task.kind, task.points.clone());
+    let solved = tokio::task::spawn_blocking(move || model.solve(kind, points))
         .await
         .map_err(|e| WsmError::io("model thread", e))
         .and_then(|r| r);
     heartbeat.abort();
-    match evaluations {
-        Ok(evaluations) => {
-            if let Err(e) = store
-                .complete_task(&task.key, &config.owner, &evaluations)
-                .await
-            {
+    match solved {
+        Ok(solved) => {
+            let stored = match &solved {
+                Solved::Evaluations(evaluations) => {
+                    store
+                        .complete_task(&task.key, &config.owner, evaluations)
+                        .await
+                }
+                Solved::Refined(values) => {
+                    store
+                        .complete_refined_task(&task.key, &config.owner, values)
+                        .await
+                }
+            };
+            if let Err(e) = stored {
                 eprintln!("wsm: job {}: {e}", task.key.job_id);
             }
         }
