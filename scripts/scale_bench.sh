@@ -9,6 +9,9 @@
 # postgres://postgres@127.0.0.1:5432/test), BUDGET (default 400), SCALE (default 1), RUNS
 # (default 3; the median is printed), CRITERIA (default phi3,phi5), DERIVATIVES (default true;
 # false searches without exact derivatives). Every run gets a fresh schema, dropped afterwards.
+# Besides the search's own evaluations/s, the table gives the whole job's time (median): from the
+# command's start (one process) or the job's submission (workers) to its result, which includes
+# meshing, the nominal solve and the accuracy statement (its seconds in the last column).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${WSM_BIN:-target/release/wsm}
@@ -39,26 +42,32 @@ json.dump({'scene': s, 'settings': {'criteria': '$criteria'.split(','), 'budget'
           open('$work/job.json', 'w'))
 "
 
+now() { date +%s.%N; }
+elapsed() { python3 -c "import sys; print(float(sys.argv[2]) - float(sys.argv[1]))" "$@"; }
 median() { python3 -c "import statistics, sys; print(f'{statistics.median(float(x) for x in sys.argv[1:]):.2f}')" "$@"; }
 field() { python3 -c "import json, sys; d = json.load(open(sys.argv[1])); print(eval(sys.argv[2], {}, {'d': d}))" "$@"; }
 
 echo "load: $(uptime | sed 's/.*load average/load average/')"
 echo "tunnel x$scale, criteria $criteria, derivatives $derivatives, budget $budget, median of $runs runs"
 echo
-echo "| setting | evaluations | wall [s] | evaluations/s | solver share |"
-echo "|---|---|---|---|---|"
+echo "| setting | evaluations | search wall [s] | evaluations/s | solver share | job [s] | statement [s] |"
+echo "|---|---|---|---|---|---|---|"
 for threads in 1 2; do
   rates=()
+  jobs=()
   for _ in $(seq "$runs"); do
+    start=$(now)
     "$bin" worst "$work/scene.json" --criteria "$criteria" --budget "$budget" --seed 1 \
       --threads "$threads" "${local_flags[@]}" --out "$work/local.json" > /dev/null 2>&1
+    jobs+=("$(elapsed "$start" "$(now)")")
     rates+=("$(field "$work/local.json" "d['evaluations_per_second']")")
   done
-  echo "| one process, $threads thread(s), no store | $(field "$work/local.json" "d['new_evaluations']") | $(field "$work/local.json" "round(d['wall_seconds'], 2)") | $(median "${rates[@]}") | $(field "$work/local.json" "round(d['inner_time_share'], 2)") |"
+  echo "| one process, $threads thread(s), no store | $(field "$work/local.json" "d['new_evaluations']") | $(field "$work/local.json" "round(d['wall_seconds'], 2)") | $(median "${rates[@]}") | $(field "$work/local.json" "round(d['inner_time_share'], 2)") | $(median "${jobs[@]}") | $(field "$work/local.json" "round((d.get('accuracy') or {}).get('seconds', 0), 2)") |"
 done
 
 for n in $counts; do
   rates=()
+  jobs=()
   for _ in $(seq "$runs"); do
     schema="wsm_bench_$(python3 -c 'import uuid; print(uuid.uuid4().hex)')"
     PGOPTIONS=--client-min-messages=warning psql -q "$url" -c "CREATE SCHEMA $schema"
@@ -72,9 +81,11 @@ for n in $counts; do
       pids+=($!)
     done
     sleep 1
+    start=$(now)
     id=$(curl -fsS -H 'Content-Type: application/json' --data @"$work/job.json" "$base/v1/jobs" |
       python3 -c "import json, sys; print(json.load(sys.stdin)['id'])")
-    until curl -fsS "$base/v1/jobs/$id" | grep -Eq '"state":"(succeeded|failed|cancelled)"'; do sleep 0.2; done
+    until curl -fsS "$base/v1/jobs/$id" | grep -Eq '"state":"(succeeded|failed|cancelled)"'; do sleep 0.1; done
+    jobs+=("$(elapsed "$start" "$(now)")")
     curl -fsS "$base/v1/jobs/$id/result" > "$work/remote.json"
     rates+=("$(field "$work/remote.json" "d['evaluations_per_second']")")
     cleanup
@@ -82,5 +93,5 @@ for n in $counts; do
     wait 2>/dev/null || true
     PGOPTIONS=--client-min-messages=warning psql -q "$url" -c "DROP SCHEMA $schema CASCADE"
   done
-  echo "| $n worker process(es) x 1 thread, PostgreSQL | $(field "$work/remote.json" "d['new_evaluations']") | $(field "$work/remote.json" "round(d['wall_seconds'], 2)") | $(median "${rates[@]}") | $(field "$work/remote.json" "round(d['inner']['solver_seconds'] / d['wall_seconds'] / $n, 2)") |"
+  echo "| $n worker process(es) x 1 thread, PostgreSQL | $(field "$work/remote.json" "d['new_evaluations']") | $(field "$work/remote.json" "round(d['wall_seconds'], 2)") | $(median "${rates[@]}") | $(field "$work/remote.json" "round(d['inner']['solver_seconds'] / d['wall_seconds'] / $n, 2)") | $(median "${jobs[@]}") | $(field "$work/remote.json" "round((d.get('accuracy') or {}).get('seconds', 0), 2)") |"
 done
