@@ -116,6 +116,17 @@ fn anisotropic_examples_dd_equal_direct() {
     }
 }
 
+/// The papers' knees (issue #26): each condyle sits in a groove of two contact zones that
+/// share the groove's bottom node, so the tied auxiliary problem has two rows on one node pair
+/// (eliminated one after the other).
+#[test]
+fn papers_knees_dd_equal_direct() {
+    for name in ["knee-d05", "knee-cut-7"] {
+        let scene: Value = serde_json::from_str(wsm_core::bundled::example(name).unwrap()).unwrap();
+        compare(name, scene);
+    }
+}
+
 #[test]
 fn knee_dd_equals_direct() {
     // Three bodies, one cluster holding the insert and the whole floating femur; the femur's

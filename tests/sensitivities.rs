@@ -223,8 +223,10 @@ fn adjoint_equals_forward_on_every_example() {
             }
         }
         eprintln!("{name}: the adjoint gave {adjoint} of {directions} directions");
+        // A Coulomb state's tangent couples the slip bounds to the normal forces; it is solved
+        // forward (design §3.4), so only the agreement above is asserted there.
         assert!(
-            2 * adjoint >= directions,
+            problem.nominal.has_coulomb() || 2 * adjoint >= directions,
             "{name}: the adjoint gave only {adjoint} of {directions} directions"
         );
     }
@@ -259,6 +261,13 @@ fn hertz_matches_finite_differences() {
 #[test]
 fn knee_matches_finite_differences() {
     example("knee", 1.5, 2);
+}
+
+#[test]
+fn papers_knees_match_finite_differences() {
+    for name in ["knee-d05", "knee-cut-5", "knee-mcs2007-coulomb"] {
+        example(name, 1.5, 2);
+    }
 }
 
 #[test]

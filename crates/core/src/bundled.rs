@@ -14,6 +14,23 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("hertz", include_str!("../../../scenes/hertz.json")),
     ("knee", include_str!("../../../scenes/knee.json")),
     (
+        "knee-cut-3",
+        include_str!("../../../scenes/knee-cut-3.json"),
+    ),
+    (
+        "knee-cut-5",
+        include_str!("../../../scenes/knee-cut-5.json"),
+    ),
+    (
+        "knee-cut-7",
+        include_str!("../../../scenes/knee-cut-7.json"),
+    ),
+    ("knee-d05", include_str!("../../../scenes/knee-d05.json")),
+    (
+        "knee-mcs2007-coulomb",
+        include_str!("../../../scenes/knee-mcs2007-coulomb.json"),
+    ),
+    (
         "knee-orthotropic-bone",
         include_str!("../../../scenes/knee-orthotropic-bone.json"),
     ),

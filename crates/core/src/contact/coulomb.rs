@@ -18,7 +18,8 @@
 //! have several solutions and the iteration need not converge. Each step is one box QP on the
 //! already factored K and C, warm-started from the previous multipliers.
 //!
-//! Convergence: ‖λᵏ⁺¹ − λᵏ‖∞ ≤ [`TOLERANCE`] ‖λᵏ⁺¹‖∞. Non-convergence is reported, never
+//! Convergence: ‖λᵏ⁺¹ − λᵏ‖∞ ≤ [`TOLERANCE`] ‖λᵏ⁺¹‖∞; with inexact (DD) steps also a change
+//! within their accuracy that has stopped shrinking. Non-convergence is reported, never
 //! returned as a state: after [`MAX_ITERATIONS`] steps, or as soon as the change has failed to
 //! shrink over [`STALL_WINDOW`] consecutive steps (an observed contraction factor ≥ 1).
 
@@ -27,7 +28,8 @@ use serde::Serialize;
 use super::pairs::ContactGeometry;
 use crate::scene::Data;
 
-/// Relative change of the multipliers at which the fixed point has converged.
+/// Relative change of the multipliers at which the fixed point of exact Tresca steps has
+/// converged.
 pub const TOLERANCE: f64 = 1e-12;
 /// Fixed-point steps at most.
 pub const MAX_ITERATIONS: usize = 200;
@@ -36,6 +38,9 @@ pub const STALL_WINDOW: usize = 5;
 /// Changes at or below this multiple of the tolerance do not count as a stall (rounding of the
 /// QP near the fixed point).
 const STALL_FLOOR: f64 = 1e3;
+/// With inexact steps, a change within the steps' accuracy that is more than this fraction of
+/// the previous one (the iteration no longer contracts) ends the fixed point.
+const NOISE_CONTRACTION: f64 = 0.5;
 
 /// How the Coulomb fixed point converged.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
@@ -51,11 +56,14 @@ pub struct CoulombReport {
 /// Solve the contact problem of `data` with `tresca`, a solver of the box-constrained problem
 /// for given multiplier bounds (lower, upper) that may warm-start from a previous solution;
 /// `multipliers` reads λ off a solution, `fail` makes the solver's error from the account of a
-/// fixed point that does not converge. Without a Coulomb zone this is one Tresca solve (and no
-/// report); otherwise the fixed point above.
+/// fixed point that does not converge; `tolerance` is the relative accuracy of the steps'
+/// multipliers ([`TOLERANCE`] for exact steps), below which a change that no longer shrinks
+/// ends the iteration. Without a
+/// Coulomb zone this is one Tresca solve (and no report); otherwise the fixed point above.
 pub fn solve<S, E>(
     geometry: &ContactGeometry,
     data: &Data,
+    tolerance: f64,
     mut tresca: impl FnMut(&[f64], &[f64], Option<&S>) -> Result<S, E>,
     multipliers: impl Fn(&S) -> &[f64],
     fail: impl Fn(String) -> E,
@@ -101,10 +109,12 @@ pub fn solve<S, E>(
             report.contraction = change / previous_change;
         }
         state = next;
-        if change <= TOLERANCE {
+        // Inexact steps: at their accuracy, a change that no longer shrinks is their noise.
+        let at_noise = change <= tolerance && change > NOISE_CONTRACTION * previous_change;
+        if change <= TOLERANCE || at_noise {
             return Ok((state, Some(report)));
         }
-        if change >= previous_change && change > STALL_FLOOR * TOLERANCE {
+        if change >= previous_change && change > tolerance.max(STALL_FLOOR * TOLERANCE) {
             stalled += 1;
         } else {
             stalled = 0;

@@ -484,6 +484,7 @@ impl DirectContact {
         let (mut sol, report) = coulomb::solve(
             &self.geometry,
             data,
+            coulomb::TOLERANCE,
             tresca,
             |s| s.multipliers.as_slice(),
             WsmError::contact,

@@ -289,6 +289,85 @@ impl ContactCluster {
         self.tied_with_load(tie, &self.f_interior, rho, candidates)
     }
 
+    /// Master/slave elimination of the tied rows B_r u = e_r, in row order: each row, with the
+    /// slaves chosen so far substituted, gets as slave its interior DOF of largest coefficient,
+    /// u_p = t0_p + Σ a_j u_j over master DOFs, and that expression is substituted into the
+    /// earlier slaves' ones. A DOF shared by several rows (a node where two contact zones meet,
+    /// with one pair per zone) is thus handled like any other. A row implied by the earlier ones
+    /// is skipped; one that contradicts them (or leaves no interior DOF) is refused.
+    #[allow(clippy::type_complexity)]
+    fn eliminate(
+        &self,
+        tied: &[usize],
+    ) -> Result<(Vec<Option<Vec<(usize, f64)>>>, Vec<f64>), String> {
+        let n = self.k.dim();
+        let mut slave: Vec<Option<Vec<(usize, f64)>>> = vec![None; n];
+        let mut t0 = vec![0.0; n];
+        let mut slaves: Vec<usize> = Vec::new();
+        for &r in tied {
+            let row = &self.rows[r];
+            let scale = row.entries.iter().fold(0.0f64, |m, e| m.max(e.1.abs()));
+            let mut coefficients: std::collections::BTreeMap<usize, f64> = Default::default();
+            let mut value = row.value;
+            let mut magnitude = row.value.abs();
+            for &(p, a) in &row.entries {
+                match &slave[p] {
+                    None => *coefficients.entry(p).or_default() += a,
+                    Some(expr) => {
+                        value -= a * t0[p];
+                        magnitude += (a * t0[p]).abs();
+                        for &(j, b) in expr {
+                            *coefficients.entry(j).or_default() += a * b;
+                        }
+                    }
+                }
+            }
+            coefficients.retain(|_, c| c.abs() > 1e-12 * scale);
+            if coefficients.is_empty() && value.abs() <= 1e-10 * magnitude {
+                // Implied by the earlier rows (e.g. both tangential rows at a node shared by
+                // two tied zones whose normal rows already fix the relative displacement).
+                continue;
+            }
+            let pivot = coefficients
+                .iter()
+                .filter(|(&p, _)| p < self.n_interior)
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()).then(b.0.cmp(a.0)))
+                .map(|(&p, &c)| (p, c));
+            let Some((p, c_p)) = pivot else {
+                return Err(format!(
+                    "tied row {r} contradicts the other tied rows; cannot eliminate"
+                ));
+            };
+            let expr: Vec<(usize, f64)> = coefficients
+                .iter()
+                .filter(|(&j, _)| j != p)
+                .map(|(&j, &c)| (j, -c / c_p))
+                .collect();
+            let constant = value / c_p;
+            for &q in &slaves {
+                let Some(old) = slave[q].take() else {
+                    continue;
+                };
+                let w: f64 = old.iter().filter(|e| e.0 == p).map(|e| e.1).sum();
+                if w == 0.0 {
+                    slave[q] = Some(old);
+                    continue;
+                }
+                let mut merged: std::collections::BTreeMap<usize, f64> =
+                    old.into_iter().filter(|e| e.0 != p).collect();
+                for &(j, a) in &expr {
+                    *merged.entry(j).or_default() += w * a;
+                }
+                t0[q] += w * constant;
+                slave[q] = Some(merged.into_iter().filter(|e| e.1 != 0.0).collect());
+            }
+            slave[p] = Some(expr);
+            t0[p] = constant;
+            slaves.push(p);
+        }
+        Ok((slave, t0))
+    }
+
     fn tied_with_load(
         &self,
         tie: impl Fn(usize) -> bool,
@@ -301,29 +380,7 @@ impl ContactCluster {
         let tied: Vec<usize> = (0..self.rows.len())
             .filter(|&r| tie(r) && self.rows[r].entries.iter().any(|e| e.1 != 0.0))
             .collect();
-        let mut uses = vec![0usize; n];
-        for &r in &tied {
-            for &(p, a) in &self.rows[r].entries {
-                if a != 0.0 {
-                    uses[p] += 1;
-                }
-            }
-        }
-        // slave[p] = Some(row) when DOF p is eliminated by that row.
-        let mut slave: Vec<Option<usize>> = vec![None; n];
-        for &r in &tied {
-            let best = self.rows[r]
-                .entries
-                .iter()
-                .filter(|&&(p, a)| a != 0.0 && uses[p] == 1)
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()).then(b.0.cmp(&a.0)));
-            let Some(&(p, _)) = best else {
-                return Err(format!(
-                    "tied row {r} shares all its DOFs with other rows; cannot eliminate"
-                ));
-            };
-            slave[p] = Some(r);
-        }
+        let (slave, t0) = self.eliminate(&tied)?;
         let mut new = vec![usize::MAX; n];
         let mut next = 0;
         for (p, s) in slave.iter().enumerate() {
@@ -335,30 +392,11 @@ impl ContactCluster {
         let n_interior = (0..self.n_interior).filter(|&p| slave[p].is_none()).count();
         // u = T ũ + t0.
         let expand = |p: usize| -> Vec<(usize, f64)> {
-            match slave[p] {
+            match &slave[p] {
                 None => vec![(new[p], 1.0)],
-                Some(r) => {
-                    let row = &self.rows[r].entries;
-                    let a_s: f64 = row.iter().filter(|e| e.0 == p).map(|e| e.1).sum();
-                    row.iter()
-                        .filter(|e| e.0 != p && e.1 != 0.0)
-                        .map(|&(j, a)| (new[j], -a / a_s))
-                        .collect()
-                }
+                Some(expr) => expr.iter().map(|&(j, a)| (new[j], a)).collect(),
             }
         };
-        let mut t0 = vec![0.0; n];
-        for (p, s) in slave.iter().enumerate() {
-            if let Some(r) = *s {
-                let a_s: f64 = self.rows[r]
-                    .entries
-                    .iter()
-                    .filter(|e| e.0 == p)
-                    .map(|e| e.1)
-                    .sum();
-                t0[p] = self.rows[r].value / a_s;
-            }
-        }
         let mut h = vec![0.0; n];
         h[..self.n_interior].copy_from_slice(f_interior);
         let mt0: Vec<f64> = t0.iter().map(|v| -v).collect();

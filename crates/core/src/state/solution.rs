@@ -225,11 +225,15 @@ pub(crate) fn contact_results(
     let mut nodes = Vec::with_capacity(geometry.pairs.len());
     // The friction bounds g w (Tresca) or F λ_n (Coulomb, at the solution's normal forces).
     let (_, upper) = geometry.bounds(data, Some(lam));
+    // A Coulomb bound F λ_n is known to the fixed point's last relative change of λ (rounding
+    // for the direct solver, the steps' accuracy for DD).
+    let normal_accuracy = sol.coulomb.map_or(0.0, |c| c.residual) * force_scale;
     for (m, p) in geometry.pairs.iter().enumerate() {
         let (ln, lt) = (lam[2 * m], lam[2 * m + 1]);
         let (wn, wt) = (sol.gaps[2 * m], sol.gaps[2 * m + 1]);
         let bound = upper[2 * m + 1];
-        let sticking = lt.abs() < bound * (1.0 - 1e-9);
+        let coefficient = data.friction.get(p.zone).copied().flatten().unwrap_or(0.0);
+        let sticking = lt.abs() < bound * (1.0 - 1e-9) - coefficient * normal_accuracy;
         if !p.bilateral {
             kkt.penetration = kkt.penetration.max(wn.max(0.0) / u_scale);
             kkt.negative_pressure = kkt.negative_pressure.max((-ln).max(0.0) / force_scale);
