@@ -252,11 +252,16 @@ fn contact_resultants_balance_the_applied_loads() {
         serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
     let (problem, sol) = solve_value(&scene).unwrap();
     let zones = wsm_core::state::zone_summaries(
-        &["joint".to_string()],
+        &problem.scene.contacts,
+        &problem.nominal,
         &problem.contact.geometry,
         &sol.contact,
     );
     let z = &zones[0];
+    let g = problem.nominal.slip[0].values[0];
+    assert_eq!(z.friction_law, "tresca");
+    assert_eq!(z.slip_limit, Some([g, g]));
+    assert_eq!(z.friction_coefficient, None);
     assert!(
         (z.normal_force - 1_012_250.0).abs() <= 1e-8 * 1_012_250.0,
         "{z:?}"

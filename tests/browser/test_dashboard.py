@@ -232,6 +232,48 @@ def test_download_result(page):
     assert csv.ok and csv.text().count("\n") >= 2
 
 
+def test_coulomb_friction_in_the_form_and_the_mesh_view(page):
+    """Issue #26: the friction law and coefficient in the form's hint, the mesh facts and the
+    fields API; the friction utilisation |τ_t| / bound colours the contact (1 where it slips)."""
+    page.goto(BASE + "/#/")
+    page.get_by_label("Bundled example").check()
+    page.get_by_label("Example", exact=True).select_option("knee-mcs2007-coulomb")
+    expect(page.locator("#contacts-hint")).to_contain_text("medial condyle outer face (Coulomb F = 0.07)")
+    expect(page.locator("#contacts-hint")).to_contain_text("tibiofibular joint (Coulomb F = 0.02)")
+    body = {"example": "knee-mcs2007-coulomb",
+            "settings": {"criteria": ["phi6"], "budget": 12, "seed": 1, "accuracy_refinements": 0}}
+    response = page.request.post(BASE + "/v1/jobs", data=json.dumps(body),
+                                 headers={"content-type": "application/json"})
+    assert response.status == 202, response.text()
+    job_id = response.json()["id"]
+    deadline = time.time() + 120
+    while api(page, f"/v1/jobs/{job_id}")["state"] not in ("succeeded", "failed", "cancelled"):
+        assert time.time() < deadline
+        time.sleep(0.3)
+    fields = api(page, f"/v1/jobs/{job_id}/fields?scenario=worst&criterion=phi6")
+    zones = fields["summary"]["contact_zones"]
+    assert [z["friction_law"] for z in zones] == ["coulomb"] * 5, zones
+    worst = api(page, f"/v1/jobs/{job_id}/result")["criteria"][0]["worst"]["data"]
+    assert zones[0]["friction_coefficient"] == worst["contacts[0].friction_coefficient"]
+    slipping = [c for c in fields["fields"]["contact"] if c["state"] == "slip"]
+    assert slipping, "no pair slips"
+    for c in slipping:
+        assert abs(abs(c["shear"]) - c["bound"]) <= 1e-6 * c["bound"], c
+    page.goto(f"{BASE}/#/jobs/{job_id}")
+    expect(page.locator("#mesh-canvas")).to_have_attribute("data-ready", "worst-phi6", timeout=60_000)
+    expect(page.locator("#mesh-facts")).to_contain_text(
+        f"Coulomb, F = {zones[0]['friction_coefficient']:.4g}")
+    page.get_by_label("Colour by").select_option("utilisation")
+    expect(page.locator("#cb-unit")).to_contain_text("friction utilisation")
+    expect(page.locator("#cb-max")).to_have_text("1")
+    page.wait_for_timeout(300)
+    # The slender knee fills a tenth of the canvas; the contact dots add the palette's colours.
+    mesh = canvas_stats(page, "#mesh-canvas")
+    assert mesh["painted"] > 0.05 * mesh["samples"] and mesh["colours"] > 30, mesh
+    page.locator("#mesh-section").screenshot(path=str(ART / "06b-mesh-friction-utilisation.png"))
+    page.goto(BASE + "/#/")
+
+
 def test_validation_errors_next_to_fields(page):
     page.goto(BASE + "/#/")
     expect(page.locator("#example option")).not_to_have_count(0)

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::vtu::{write_vtu, Field};
-use crate::scene::Criterion;
+use crate::scene::{Criterion, Data};
 use crate::state::{
     piece_pressures, zone_summaries, ContactNode, ContactState, Solution, SolveReport,
     StateProblem, ZoneSummary,
@@ -107,8 +107,8 @@ pub struct SolveFields {
     pub contact: Vec<ContactNode>,
 }
 
-/// The summary of a solve.
-pub fn summary(problem: &StateProblem, solution: &Solution) -> SolveSummary {
+/// The summary of a solve of `data`.
+pub fn summary(problem: &StateProblem, data: &Data, solution: &Solution) -> SolveSummary {
     let stats = crate::mesh::stats(problem.mesh());
     SolveSummary {
         scene: problem.scene.name.clone(),
@@ -121,12 +121,8 @@ pub fn summary(problem: &StateProblem, solution: &Solution) -> SolveSummary {
         },
         criteria: CriteriaValues::new(&solution.criteria),
         contact_zones: zone_summaries(
-            &problem
-                .scene
-                .contacts
-                .iter()
-                .map(|c| c.name.clone())
-                .collect::<Vec<_>>(),
+            &problem.scene.contacts,
+            data,
             &problem.contact.geometry,
             &solution.contact,
         ),

@@ -120,7 +120,7 @@ pub fn solve_at(
         warm: None,
     };
     let solution = problem.solve(&data, &options)?;
-    let summary = crate::output::result::summary(&problem, &solution);
+    let summary = crate::output::result::summary(&problem, &data, &solution);
     let (fields, vtu) = if request.fields {
         (
             Some(crate::output::result::fields(&problem, &solution)),

@@ -8,7 +8,7 @@ use crate::contact::direct::ContactSolution;
 use crate::contact::pairs::ContactGeometry;
 use crate::contact::qp::WarmStart;
 use crate::fem::ElementStress;
-use crate::scene::Data;
+use crate::scene::{Contact, ContactKind, Data};
 
 /// Contact status of a node pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, utoipa::ToSchema)]
@@ -39,7 +39,10 @@ pub struct ContactNode {
     pub gap: f64,
     /// Relative tangential displacement t·(u^k − u^l) \[m\].
     pub slip: f64,
-    /// Open, stick or slip, by the multipliers and the slip limit.
+    /// The friction bound on |shear| \[Pa\]: the slip limit g (Tresca) or F × pressure
+    /// (Coulomb); 0 where the pair is frictionless (g = 0, bilateral, or open under Coulomb).
+    pub bound: f64,
+    /// Open, stick or slip, by the multipliers and the friction bound.
     pub state: ContactState,
 }
 
@@ -266,6 +269,7 @@ pub(crate) fn contact_results(
             shear: lt / w,
             gap: (-wn).max(0.0),
             slip: wt,
+            bound: bound / w,
             state: if open {
                 ContactState::Open
             } else if sticking {
@@ -297,20 +301,46 @@ pub struct ZoneSummary {
     pub stick: usize,
     /// Node pairs of the zone that slip.
     pub slip: usize,
+    /// The zone's friction law: `bilateral` (tied normal, frictionless), `frictionless`
+    /// (unilateral, g = 0), `tresca` (a given slip limit) or `coulomb` (|τ_t| ≤ F τ_n).
+    pub friction_law: String,
+    /// Tresca: the smallest and the largest slip limit g over the zone \[Pa\] (equal for a
+    /// constant g), in the solve's data.
+    pub slip_limit: Option<[f64; 2]>,
+    /// Coulomb: the friction coefficient F \[-\] in the solve's data.
+    pub friction_coefficient: Option<f64>,
 }
 
 /// Per contact zone: mean and peak pressure, resultants and state counts.
 pub fn zone_summaries(
-    names: &[String],
+    contacts: &[Contact],
+    data: &Data,
     geometry: &ContactGeometry,
     nodes: &[ContactNode],
 ) -> Vec<ZoneSummary> {
-    names
+    contacts
         .iter()
         .enumerate()
-        .map(|(z, name)| {
+        .map(|(z, contact)| {
+            let coefficient = data.friction.get(z).copied().flatten();
+            let slip_limit = data.slip.get(z).map(|g| {
+                g.values
+                    .iter()
+                    .fold([f64::INFINITY, f64::NEG_INFINITY], |r, &v| {
+                        [r[0].min(v), r[1].max(v)]
+                    })
+            });
+            let friction_law = if contact.kind == ContactKind::Bilateral {
+                "bilateral"
+            } else if coefficient.is_some() {
+                "coulomb"
+            } else if slip_limit.is_some_and(|[_, hi]| hi > 0.0) {
+                "tresca"
+            } else {
+                "frictionless"
+            };
             let mut s = ZoneSummary {
-                name: name.clone(),
+                name: contact.name.clone(),
                 mean_pressure: 0.0,
                 max_pressure: 0.0,
                 normal_force: 0.0,
@@ -318,6 +348,9 @@ pub fn zone_summaries(
                 open: 0,
                 stick: 0,
                 slip: 0,
+                friction_law: friction_law.to_string(),
+                slip_limit: slip_limit.filter(|_| friction_law == "tresca"),
+                friction_coefficient: coefficient,
             };
             let mut length = 0.0;
             for (c, p) in nodes

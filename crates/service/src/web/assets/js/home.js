@@ -144,7 +144,20 @@ function setCriteria(list) {
   for (const c of document.querySelectorAll("#criteria input")) c.checked = list.includes(c.value);
 }
 
+/** A contact zone's friction in words, as the scene gives it. */
+function contactFriction(c) {
+  if (c.kind === "bilateral") return "bilateral";
+  if (typeof c.friction_coefficient === "number") return `Coulomb F = ${num(c.friction_coefficient, 3)}`;
+  if (c.slip_limit && typeof c.slip_limit === "object") return "Tresca, slip-limit profile";
+  if (typeof c.slip_limit === "number" && c.slip_limit > 0) return `Tresca g = ${num(c.slip_limit, 3)} Pa`;
+  return "frictionless";
+}
+
 function fillFromScene(scene) {
+  const contacts = (scene && Array.isArray(scene.contacts)) ? scene.contacts : [];
+  $("contacts-hint").textContent = contacts.length
+    ? `Contacts: ${contacts.map((c) => `${c.name} (${contactFriction(c)})`).join("; ")}`
+    : "";
   const search = (scene && scene.search) || {};
   if (search.criteria) setCriteria(search.criteria);
   if (search.budget !== undefined) $("budget").value = search.budget;

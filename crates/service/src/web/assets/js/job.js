@@ -417,7 +417,7 @@ async function loadFields() {
   const options = $("mesh-field").options;
   for (const o of options) {
     o.disabled = (o.value === "temperature" && !f.temperature)
-      || ((o.value === "pressure" || o.value === "slip") && !(f.contact && f.contact.length));
+      || (FIELDS[o.value].on === "contact" && !(f.contact && f.contact.length));
   }
   if (options[$("mesh-field").selectedIndex].disabled) $("mesh-field").value = "u";
   mesh.field = $("mesh-field").value;
@@ -426,6 +426,19 @@ async function loadFields() {
   updateColorbar();
   updateMag();
   meshFacts(fields.summary);
+}
+
+/** A contact zone's friction law in words, with its data in this scenario. */
+function frictionLaw(z) {
+  switch (z.friction_law) {
+    case "coulomb": return `Coulomb, F = ${num(z.friction_coefficient, 4)}`;
+    case "tresca": {
+      const [lo, hi] = z.slip_limit;
+      return lo === hi ? `Tresca, g = ${num(lo)} Pa` : `Tresca, g = ${num(lo)} … ${num(hi)} Pa`;
+    }
+    case "bilateral": return "bilateral (tied normal, frictionless)";
+    default: return "frictionless";
+  }
 }
 
 function meshFacts(summary) {
@@ -438,6 +451,7 @@ function meshFacts(summary) {
     if (v !== null) pairs.push([`${CRITERIA[c] || c} here`, `${num(v, 6)} ${(CRITERION_INFO[c] || [])[1] || ""}`]);
   }
   for (const z of summary.contact_zones || []) {
+    pairs.push([`Contact ${z.name}: friction`, frictionLaw(z)]);
     pairs.push([`Contact ${z.name}: max pressure`, `${num(z.max_pressure)} Pa`]);
     pairs.push([`Contact ${z.name}: stick / slip / open`, `${z.stick} / ${z.slip} / ${z.open}`]);
   }

@@ -11,6 +11,9 @@ export const FIELDS = {
   temperature: { label: "T", unit: "K", on: "nodes", robust: false },
   pressure: { label: "contact pressure", unit: "Pa", on: "contact", robust: true },
   slip: { label: "slip", unit: "m", on: "contact", robust: true },
+  // |τ_t| over the friction bound (g, or F × pressure under Coulomb): 1 where the pair slips;
+  // none where the pair is frictionless.
+  utilisation: { label: "friction utilisation |τ_t| / bound", unit: "-", on: "contact", robust: false },
 };
 
 // Viridis, 9 stops.
@@ -239,6 +242,7 @@ export class MeshView {
       case "i2": return d.i2 ? { tri: d.i2 } : null;
       case "pressure": return { contact: d.contact.map((c) => c.pressure) };
       case "slip": return { contact: d.contact.map((c) => c.slip) };
+      case "utilisation": return { contact: d.contact.map((c) => (c.bound > 0 ? Math.abs(c.shear) / c.bound : null)) };
       default: return null;
     }
   }
@@ -398,7 +402,8 @@ export class MeshView {
         const s = this.toScreen([cp.position[0] + d.mag * dd[0], cp.position[1] + d.mag * dd[1]]);
         ctx.beginPath();
         ctx.arc(s[0], s[1], 4.5, 0, 2 * Math.PI);
-        ctx.fillStyle = PALETTE[level(values.contact[i])];
+        const v = values.contact[i];
+        ctx.fillStyle = v === null ? "#fff" : PALETTE[level(v)];
         ctx.fill();
         ctx.strokeStyle = "#222";
         ctx.lineWidth = 0.7;
@@ -430,8 +435,11 @@ export class MeshView {
       });
       if (!best) return null;
       const cp = d.contact[best.i];
+      const v = values.contact[best.i];
+      const value = v === null ? "none (frictionless)" : `${num(v)} ${f.unit}`;
+      const bound = cp.bound > 0 ? `, bound ${num(cp.bound)} Pa` : "";
       return {
-        text: `${f.label} = ${num(values.contact[best.i])} ${f.unit} (${cp.state}) at (${num(cp.position[0], 4)}, ${num(cp.position[1], 4)}) m`,
+        text: `${f.label} = ${value} (${cp.state}${bound}) at (${num(cp.position[0], 4)}, ${num(cp.position[1], 4)}) m`,
         mark: best.s,
       };
     }
