@@ -11,7 +11,11 @@
 //!   λᵏ⁺¹ = Tresca solution with the bounds |λ_t,m| ≤ F max(λᵏ_n,m, 0),
 //! ```
 //!
-//! is the method of successive approximations of the papers (g ← F |τ_n|). Its map is a
+//! is the method of successive approximations of the papers (g ← F |τ_n|). By default its
+//! unknowns, the normal forces x on the Coulomb pairs (the bounds read nothing else), are
+//! Anderson-mixed ([`super::anderson`], depth 3): the bounds of step k + 1 come from
+//! x⁺ = G(x_k) − ΔG γ instead of G(x_k); a mixed step that makes ‖G(x) − x‖∞ grow drops the
+//! history. Convergence then also asks the state's own normal forces to match the bounds'. Its map is a
 //! contraction for small F (Nečas–Jarušek–Haslinger; the constant grows with F and with the
 //! coupling of normal and tangential responses, which vanishes for two bodies of the same
 //! material in plane strain, Goodman's decoupling); for large F the discrete Coulomb problem may
@@ -25,6 +29,7 @@
 
 use serde::Serialize;
 
+use super::anderson::Anderson;
 use super::pairs::ContactGeometry;
 use crate::scene::Data;
 
@@ -51,19 +56,33 @@ pub struct CoulombReport {
     pub residual: f64,
     /// Ratio of the last two changes (an estimate of the contraction factor; 0 before two).
     pub contraction: f64,
+    /// Steps whose slip bounds came from Anderson-mixed normal forces.
+    pub accelerated_steps: usize,
+    /// Times the Anderson history was dropped because a mixed step made the residual grow.
+    pub restarts: usize,
+}
+
+/// How the fixed point is run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FixedPoint {
+    /// The relative accuracy of the steps' multipliers ([`TOLERANCE`] for exact steps), below
+    /// which a change that no longer shrinks ends the iteration.
+    pub tolerance: f64,
+    /// Anderson depth on the normal forces of the Coulomb pairs (0 = plain successive
+    /// approximations).
+    pub anderson_depth: usize,
 }
 
 /// Solve the contact problem of `data` with `tresca`, a solver of the box-constrained problem
 /// for given multiplier bounds (lower, upper) that may warm-start from a previous solution;
 /// `multipliers` reads λ off a solution, `fail` makes the solver's error from the account of a
-/// fixed point that does not converge; `tolerance` is the relative accuracy of the steps'
-/// multipliers ([`TOLERANCE`] for exact steps), below which a change that no longer shrinks
-/// ends the iteration. Without a
+/// fixed point that does not converge; `how` gives the steps' accuracy and the Anderson depth.
+/// Without a
 /// Coulomb zone this is one Tresca solve (and no report); otherwise the fixed point above.
 pub fn solve<S, E>(
     geometry: &ContactGeometry,
     data: &Data,
-    tolerance: f64,
+    how: FixedPoint,
     mut tresca: impl FnMut(&[f64], &[f64], Option<&S>) -> Result<S, E>,
     multipliers: impl Fn(&S) -> &[f64],
     fail: impl Fn(String) -> E,
@@ -81,27 +100,62 @@ pub fn solve<S, E>(
         return Ok((state, None));
     }
     let mut report = CoulombReport::default();
+    let tolerance = how.tolerance;
+    // The slip bounds F max(x, 0) are read from `input` (a full multiplier vector); x are its
+    // normal forces on Coulomb pairs, the fixed point's unknowns.
+    let coulomb_rows: Vec<usize> = geometry
+        .pairs
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| !p.bilateral && data.friction.get(p.zone).copied().flatten().is_some())
+        .map(|(m, _)| 2 * m)
+        .collect();
+    let mut mixer = Anderson::new(how.anderson_depth);
+    let mut input = multipliers(&state).to_vec();
+    let mut mixed_input = false;
+    let mut previous_residual = f64::INFINITY;
     let mut previous_change = f64::INFINITY;
     let mut stalled = 0;
     let mut iteration = 0;
     loop {
         iteration += 1;
-        let (lower, upper) = geometry.bounds(data, Some(multipliers(&state)));
+        report.accelerated_steps += usize::from(mixed_input);
+        let (lower, upper) = geometry.bounds(data, Some(&input));
         let next = tresca(&lower, &upper, Some(&state))?;
         let (old, new) = (multipliers(&state), multipliers(&next));
         let scale = new
             .iter()
             .fold(0.0_f64, |m, x| m.max(x.abs()))
             .max(f64::MIN_POSITIVE);
+        // The change between successive states, and (after a mixed step) how far the bounds'
+        // normal forces are from the new state's own: both vanish at the fixed point.
         let (worst, change) = old
             .iter()
             .zip(new)
             .map(|(a, b)| (a - b).abs())
             .enumerate()
+            .chain(coulomb_rows.iter().map(|&r| (r, (new[r] - input[r]).abs())))
             .fold(
                 (0, 0.0_f64),
                 |(i, m), (j, d)| if d > m { (j, d) } else { (i, m) },
             );
+        let x: Vec<f64> = coulomb_rows.iter().map(|&r| input[r]).collect();
+        let g: Vec<f64> = coulomb_rows.iter().map(|&r| new[r]).collect();
+        let residual = x
+            .iter()
+            .zip(&g)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        if mixed_input && residual > previous_residual {
+            mixer.restart();
+            report.restarts += 1;
+        }
+        previous_residual = residual;
+        input = new.to_vec();
+        let mixed = mixer.next(&x, &g);
+        mixed_input = mixed != g;
+        for (&r, v) in coulomb_rows.iter().zip(mixed) {
+            input[r] = v.max(0.0);
+        }
         let change = change / scale;
         report.iterations = iteration;
         report.residual = change;

@@ -152,6 +152,8 @@ impl Kernel {
 #[derive(Debug, Clone)]
 pub struct DirectContact {
     pub geometry: ContactGeometry,
+    /// Anderson depth of the Coulomb fixed point (`solver.coulomb_acceleration`; 0 = plain).
+    pub coulomb_anderson_depth: usize,
     /// The pairs whose normal rows the prescribed displacements alone decide.
     pub feasibility: Feasibility,
     kernel: Kernel,
@@ -268,6 +270,7 @@ impl DirectContact {
         Ok(DirectContact {
             feasibility: Feasibility::new(&geometry, elastic.dofs()),
             geometry,
+            coulomb_anderson_depth: scene.solver.coulomb_acceleration.depth(),
             kernel: Kernel {
                 modes: all,
                 labels,
@@ -481,10 +484,14 @@ impl DirectContact {
             qp_seconds += sol.qp_seconds;
             Ok(sol)
         };
+        let how = coulomb::FixedPoint {
+            tolerance: coulomb::TOLERANCE,
+            anderson_depth: self.coulomb_anderson_depth,
+        };
         let (mut sol, report) = coulomb::solve(
             &self.geometry,
             data,
-            coulomb::TOLERANCE,
+            how,
             tresca,
             |s| s.multipliers.as_slice(),
             WsmError::contact,

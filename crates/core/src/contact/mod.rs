@@ -9,8 +9,10 @@
 //! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
-//! - `coulomb`: Coulomb friction as the fixed point of Tresca problems with g = F |λ_n|.
+//! - `coulomb`: Coulomb friction as the fixed point of Tresca problems with g = F |λ_n|,
+//!   accelerated by `anderson` mixing.
 
+pub mod anderson;
 pub(crate) mod bodies;
 pub mod coulomb;
 pub(crate) mod direct;

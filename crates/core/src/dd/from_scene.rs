@@ -168,11 +168,14 @@ pub fn solve_elastic(
         let flat = sol.multipliers.iter().flatten().copied().collect();
         Ok((sol, flat))
     };
-    let tolerance = coulomb::TOLERANCE.max(MULTIPLIER_NOISE * options.outer_tol);
+    let how = coulomb::FixedPoint {
+        tolerance: coulomb::TOLERANCE.max(MULTIPLIER_NOISE * options.outer_tol),
+        anderson_depth: direct.coulomb_anderson_depth,
+    };
     let ((mut sol, multipliers), coulomb_report) = coulomb::solve(
         geometry,
         data,
-        tolerance,
+        how,
         tresca,
         |s| s.1.as_slice(),
         |reason| DdError::Diverged { reason },

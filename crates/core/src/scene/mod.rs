@@ -17,10 +17,10 @@ pub(crate) use data::piecewise_linear;
 pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
-    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, CriteriaRegions,
-    Criterion, CriterionRegion, InitialGap, Material, MeshControls, Point, Refinement, Roller,
-    Scene, SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings, Thermal, ThermalStress,
-    Uncertain, Zone,
+    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
+    CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, InitialGap, Material,
+    MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
+    SolverSettings, Thermal, ThermalStress, Uncertain, Zone,
 };
 pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};

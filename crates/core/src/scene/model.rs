@@ -588,6 +588,31 @@ pub struct SolverSettings {
     /// no polygon to one subdomain per body. No interface may cut a contact zone.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub partition: Vec<Vec<Point>>,
+    /// How the Coulomb fixed point g = F |λ_n| is run: `anderson` (default; Anderson mixing of
+    /// the normal forces) or `none` (the papers' plain successive approximations).
+    #[serde(default)]
+    pub coulomb_acceleration: CoulombAcceleration,
+}
+
+/// Acceleration of the Coulomb fixed point (design §3.4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum CoulombAcceleration {
+    /// Anderson mixing of depth 3 on the normal forces of the Coulomb pairs.
+    #[default]
+    Anderson,
+    /// Plain successive approximations.
+    None,
+}
+
+impl CoulombAcceleration {
+    /// The Anderson depth (0 = plain).
+    pub fn depth(self) -> usize {
+        match self {
+            CoulombAcceleration::Anderson => 3,
+            CoulombAcceleration::None => 0,
+        }
+    }
 }
 
 fn default_tolerance() -> f64 {
@@ -601,6 +626,7 @@ impl Default for SolverSettings {
             subdomains: 0,
             tolerance: default_tolerance(),
             partition: Vec::new(),
+            coulomb_acceleration: CoulombAcceleration::default(),
         }
     }
 }
