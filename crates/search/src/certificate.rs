@@ -55,6 +55,67 @@ pub struct Certificate {
     /// ended at this point (within 1e-6 of the unit box). More than one is evidence, not proof,
     /// that no nearby basin is better; 0 when the point was found otherwise.
     pub starts: usize,
+    /// For a point that is not certified: evidence that Φ has a kink next to it (see [`Kink`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kink: Option<Kink>,
+}
+
+/// Evidence of a kink next to an uncertified point x: along the datum whose derivative violates
+/// optimality most, an evaluated point y a short way in the direction that derivative points to
+/// is no better than x, and its own derivative along that datum points back towards x. Between
+/// the two the derivative changes sign without vanishing (Φ is not differentiable there, e.g. a
+/// contact pair switching between stick and slip), so no first-order proof exists at any point
+/// the search can land on, and a larger budget will not give one.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct Kink {
+    /// Index of the parameter along which the derivative changes sign.
+    pub parameter: usize,
+    /// |y − x| along it, as a fraction of its interval.
+    pub distance: f64,
+    /// The relative rates (∂Φ/∂θ · (hi − lo) / |Φ|) at x and at y along it.
+    pub rates: [f64; 2],
+}
+
+/// Unit points within this distance (Euclidean, unit box) of an uncertified point are searched
+/// for [`Kink`] evidence.
+pub const KINK_RADIUS: f64 = 0.05;
+
+/// The [`Kink`] evidence for the uncertified point `x` (unit coordinates, value, physical
+/// slopes) among evaluated `neighbours` (within [`KINK_RADIUS`]), the nearest along the
+/// violating datum; `None` if there is none or `x` has no derivatives.
+pub(super) fn kink(
+    space: &Space,
+    sense: Sense,
+    x: (&[f64], f64, &[OneSided]),
+    neighbours: &[(Vec<f64>, f64, Vec<OneSided>)],
+) -> Option<Kink> {
+    let (unit, value, slopes) = x;
+    let direction = ascent_direction(unit, &unit_slopes(space, sense, slopes));
+    let (j, d) = direction
+        .iter()
+        .copied()
+        .enumerate()
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    if d.abs() <= CERTIFY_TOL * scale(value) {
+        return None;
+    }
+    let (i, width) = space.free_param(j);
+    neighbours
+        .iter()
+        .filter_map(|(y, y_value, y_slopes)| {
+            let step = y[j] - unit[j];
+            let back = unit_slopes(space, sense, y_slopes)[j].mean();
+            let no_better = sense.score(*y_value) <= sense.score(value);
+            (step * d > 0.0 && back * d < 0.0 && no_better).then(|| Kink {
+                parameter: i,
+                distance: step.abs(),
+                rates: [
+                    slopes[i].mean() * width / scale(value),
+                    y_slopes[i].mean() * width / scale(value),
+                ],
+            })
+        })
+        .min_by(|a, b| a.distance.total_cmp(&b.distance))
 }
 
 /// Per free datum j: the one-sided derivatives of the score along the unit coordinate u_j,
@@ -124,6 +185,7 @@ pub(super) fn certify(
             residual: None,
             active: Vec::new(),
             starts: 0,
+            kink: None,
         };
     };
     let score_slopes = unit_slopes(space, sense, slopes);
@@ -153,12 +215,61 @@ pub(super) fn certify(
         residual: Some(residual),
         active,
         starts: 0,
+        kink: None,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sign_change_of_the_derivative_next_to_the_point_is_a_kink() {
+        // Minimise Φ on θ0 ∈ [0, 2], θ1 ∈ [0, 1]: at x = (1.1, 0.5) Φ = 2 rises with θ0
+        // (dΦ/dθ0 = 1), so a minimiser would move θ0 down; at θ0 = 1.0 the slope is −4 and Φ
+        // is higher: the derivative changed sign in between.
+        let space = Space::new(&[[0.0, 2.0], [0.0, 1.0]]).unwrap();
+        let x_slopes = [OneSided::both(1.0), OneSided::both(0.0)];
+        let x = ([0.55, 0.5].as_slice(), 2.0, x_slopes.as_slice());
+        let back = |u0: f64, value: f64, slope: f64| {
+            (
+                vec![u0, 0.5],
+                value,
+                vec![OneSided::both(slope), OneSided::both(0.0)],
+            )
+        };
+        let found = kink(
+            &space,
+            Sense::Min,
+            x,
+            &[
+                back(0.5, 2.3, -4.0),
+                back(0.45, 2.6, -4.0),
+                back(0.6, 2.05, 1.0),
+            ],
+        )
+        .expect("a kink");
+        assert_eq!(found.parameter, 0);
+        assert!((found.distance - 0.05).abs() < 1e-12);
+        assert_eq!(found.rates, [1.0 * 2.0 / 2.0, -4.0 * 2.0 / 2.0]);
+        // No evidence: the neighbour's slope does not point back, or it is better, or it lies
+        // on the other side.
+        for n in [
+            back(0.5, 2.3, 0.5),
+            back(0.5, 1.9, -4.0),
+            back(0.6, 2.3, -4.0),
+        ] {
+            assert_eq!(
+                kink(&space, Sense::Min, x, std::slice::from_ref(&n)),
+                None,
+                "{n:?}"
+            );
+        }
+        // A point that is first-order optimal has no kink to report.
+        let flat = [OneSided::both(0.0), OneSided::both(0.0)];
+        let y = ([0.55, 0.5].as_slice(), 2.0, flat.as_slice());
+        assert_eq!(kink(&space, Sense::Min, y, &[back(0.5, 2.3, -4.0)]), None);
+    }
 
     #[test]
     fn proves_vertices_and_interior_points_and_refuses_the_rest() {

@@ -327,6 +327,15 @@ fn certified(
         probe.slopes.as_deref(),
     );
     proof.starts = session.ends_near(k, &probe.unit, SAME_POINT);
+    if let (Verdict::NotOptimal, Some(slopes)) = (proof.verdict, probe.slopes.as_deref()) {
+        let neighbours = session.neighbours(k, &probe.unit, certificate::KINK_RADIUS);
+        proof.kink = certificate::kink(
+            session.space,
+            sense,
+            (&probe.unit, probe.value, slopes),
+            &neighbours,
+        );
+    }
     let status = match (status, proof.verdict) {
         (
             Status::Certified | Status::Completed | Status::BudgetExhausted | Status::Stagnated,

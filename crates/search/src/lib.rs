@@ -48,7 +48,7 @@ mod space;
 mod vertex_walk;
 
 pub use cache::EvalCache;
-pub use certificate::{BoundProof, Certificate, Verdict, CERTIFY_TOL};
+pub use certificate::{BoundProof, Certificate, Kink, Verdict, CERTIFY_TOL};
 pub use driver::search;
 
 use serde::{Deserialize, Serialize};

@@ -344,6 +344,29 @@ impl<'a> Session<'a> {
         })
     }
 
+    /// Objective `k` at the evaluated points within `radius` (unit box) of `unit` that have
+    /// derivatives, as (unit point, value, physical slopes).
+    pub(super) fn neighbours(
+        &self,
+        k: usize,
+        unit: &[f64],
+        radius: f64,
+    ) -> Vec<(Vec<f64>, f64, Vec<OneSided>)> {
+        let ledger = self.ledger();
+        let criterion = self.objectives[k].criterion;
+        ledger
+            .trace
+            .iter()
+            .filter(|visit| super::space::distance(&visit.unit, unit) <= radius)
+            .filter_map(|visit| {
+                let answer = visit.answer.as_ref()?;
+                let value = self.objectives[k].value(&answer.values)?;
+                let slopes = answer.slopes.get(criterion)?.clone();
+                Some((visit.unit.clone(), value, slopes))
+            })
+            .collect()
+    }
+
     /// Objective `k` at its best point so far.
     pub(super) fn best_probe(&self, k: usize) -> Option<Probe> {
         let index = self.ledger().best[k]?;

@@ -1,7 +1,8 @@
 //! Plain-words warnings for the extrema a search did not prove (issue #24): an objective whose
 //! search stopped before optimality — budget exhausted, stagnation, time limit, cancel, failed
 //! evaluations next to its best point, or a converged polish that the exact derivatives do not
-//! certify — says that its worst value may be higher (its best value lower), which of its data
+//! certify, or a kink of Φ next to the best point (where no first-order proof exists) — says
+//! that its worst value may be higher (its best value lower), which of its data
 //! ended inside their intervals and what to do. A `certified` extremum needs no warning: the
 //! derivatives prove first-order optimality there (a local statement, like any converged
 //! search; see [`wsm_search::Certificate`]). Without derivatives (turned off), a converged
@@ -35,9 +36,25 @@ fn warning(
     names: &[&str],
     budget: usize,
 ) -> Option<String> {
-    let (reason, advice) = match o.status {
-        Status::Certified => return None,
-        Status::Completed => match &o.certificate {
+    let kink = o.certificate.as_ref().and_then(|c| c.kink).filter(|_| {
+        matches!(
+            o.status,
+            Status::BudgetExhausted | Status::Stagnated | Status::Completed
+        )
+    });
+    let (reason, advice) = match (o.status, kink) {
+        (Status::Certified, _) => return None,
+        (_, Some(k)) => (
+            format!(
+                "{symbol} has a kink next to it: its derivative along {} changes sign between the reported point and an evaluated point {:.2} % of that interval away (relative rates {:+.1e} and {:+.1e}; e.g. a contact pair switching between stick and slip), so no first-order proof exists there",
+                names.get(k.parameter).copied().unwrap_or("a datum"),
+                100.0 * k.distance,
+                k.rates[0],
+                k.rates[1]
+            ),
+            "the extremum along that datum lies between the two points, and a larger budget will not prove it",
+        ),
+        (Status::Completed, _) => match &o.certificate {
             Some(c) if c.verdict == Verdict::NotOptimal => (
                 format!(
                     "its polish converged but the exact derivatives do not prove optimality (relative residual {:.1e})",
@@ -47,20 +64,20 @@ fn warning(
             ),
             _ => return None,
         },
-        Status::BudgetExhausted => (
+        (Status::BudgetExhausted, _) => (
             format!("the budget of {budget} solves ran out before its polish converged"),
             "raise the budget (settings.budget, --budget) or narrow the intervals",
         ),
-        Status::Stagnated => (
+        (Status::Stagnated, _) => (
             "its polish stopped improving without converging".to_string(),
             "raise the budget or try another seed",
         ),
-        Status::TimeLimit => (
+        (Status::TimeLimit, _) => (
             "the time limit stopped it".to_string(),
             "raise the time limit (settings.max_seconds, --max-seconds)",
         ),
-        Status::Cancelled => ("the run was cancelled".to_string(), "run it to its end"),
-        Status::Unsettled => (
+        (Status::Cancelled, _) => ("the run was cancelled".to_string(), "run it to its end"),
+        (Status::Unsettled, _) => (
             "failed evaluations lie next to its best point".to_string(),
             "see the failures: the extremum may be where the solver gave no answer",
         ),
@@ -102,6 +119,33 @@ mod tests {
             active_bounds: bounds,
             ..ObjectiveResult::empty(0, wsm_search::Sense::Max, status, 2)
         }
+    }
+
+    #[test]
+    fn a_kink_next_to_the_best_point_is_named_with_the_datum() {
+        let mut o = objective(
+            Status::BudgetExhausted,
+            vec![ActiveBound::None, ActiveBound::Lower],
+        );
+        o.certificate = Some(wsm_search::Certificate {
+            verdict: Verdict::NotOptimal,
+            residual: Some(3e-3),
+            active: Vec::new(),
+            starts: 1,
+            kink: Some(wsm_search::Kink {
+                parameter: 0,
+                distance: 0.04,
+                rates: [3e-3, -2e-2],
+            }),
+        });
+        let w = warning("Φ5", "best", "lower", &o, &["F", "E"], 150).unwrap();
+        assert!(w.starts_with("Φ5 best may be lower"), "{w}");
+        assert!(
+            w.contains("Φ5 has a kink next to it: its derivative along F changes sign")
+                && w.contains("4.00 % of that interval")
+                && w.contains("a larger budget will not prove it"),
+            "{w}"
+        );
     }
 
     #[test]
