@@ -46,13 +46,13 @@ fn warning(
         (Status::Certified, _) => return None,
         (_, Some(k)) => (
             format!(
-                "{symbol} has a kink next to it: its derivative along {} changes sign between the reported point and an evaluated point {:.2} % of that interval away (relative rates {:+.1e} and {:+.1e}; e.g. a contact pair switching between stick and slip), so no first-order proof exists there",
+                "{symbol} has a kink next to it: its derivative along {} changes sign between the reported point and an evaluated point {:.1e} of that interval away (relative rates {:+.1e} and {:+.1e}; e.g. a contact pair switching between stick and slip), so no first-order proof exists there",
                 names.get(k.parameter).copied().unwrap_or("a datum"),
-                100.0 * k.distance,
+                k.distance,
                 k.rates[0],
                 k.rates[1]
             ),
-            "the extremum along that datum lies between the two points, and a larger budget will not prove it",
+            "a local extremum along that datum lies between the two points, which a larger budget cannot prove (it may still find a better basin elsewhere)",
         ),
         (Status::Completed, _) => match &o.certificate {
             Some(c) if c.verdict == Verdict::NotOptimal => (
@@ -142,8 +142,8 @@ mod tests {
         assert!(w.starts_with("Φ5 best may be lower"), "{w}");
         assert!(
             w.contains("Φ5 has a kink next to it: its derivative along F changes sign")
-                && w.contains("4.00 % of that interval")
-                && w.contains("a larger budget will not prove it"),
+                && w.contains("4.0e-2 of that interval")
+                && w.contains("which a larger budget cannot prove"),
             "{w}"
         );
     }
