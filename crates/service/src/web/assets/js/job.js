@@ -299,8 +299,8 @@ function dataTables(result) {
           el("tr", {}, el("th", { scope: "row" }, "Search status"), el("td"),
             el("td", { class: "num" }, c.worst.status), el("td"), el("td", { class: "num" }, c.best.status), el("td")),
           el("tr", {}, el("th", { scope: "row" }, "Optimality proof (relative residual)"), el("td"),
-            el("td", { class: "num" }, proofText(c.worst.certificate)), el("td"),
-            el("td", { class: "num" }, proofText(c.best.certificate)), el("td")),
+            el("td", { class: "num" }, proofText(c.worst.certificate, result.parameters)), el("td"),
+            el("td", { class: "num" }, proofText(c.best.certificate, result.parameters)), el("td")),
         )));
   });
   $("data-tables").replaceChildren(...blocks);
@@ -311,13 +311,15 @@ function slopeText(s) {
   return s.right === s.left ? num(s.right, 4) : `${num(s.left, 4)} (left) / ${num(s.right, 4)} (right)`;
 }
 
-/** What the exact derivatives prove about an extremum. */
-function proofText(c) {
+/** What the exact derivatives prove about an extremum (`parameters` name a kink's datum). */
+function proofText(c, parameters) {
   if (!c) return "—";
   const words = { certified: "certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
   if (c.residual === null || c.residual === undefined) return words[c.verdict];
   const starts = c.starts > 1 ? ` · ${c.starts} local searches agree` : "";
-  return `${words[c.verdict]} (${num(c.residual, 2)})${starts}`;
+  const p = c.kink ? parameters[c.kink.parameter] : null;
+  const kink = p ? ` · at a kink along ${p.name || p.field}` : "";
+  return `${words[c.verdict]} (${num(c.residual, 2)})${starts}${kink}`;
 }
 
 /** The failed evaluations of a result: where in the box the solver gave no answer, and why. */
