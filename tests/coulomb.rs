@@ -4,7 +4,10 @@
 //! F (bonded), the Tresca problem with the converged slip bound, the Cattaneo–Mindlin stick zone
 //! of a cylinder on a flat, the DD solver, and finite differences of the sensitivities.
 
+mod solves;
+
 use serde_json::{json, Value};
+use solves::relative_difference;
 use wsm_core::error::WsmError;
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{parse, SolverKind};
@@ -76,23 +79,6 @@ fn resultants(problem: &StateProblem, sol: &Solution) -> (f64, f64) {
         .fold((0.0, 0.0), |(n, t), (c, p)| {
             (n + c.pressure * p.weight, t + c.shear * p.weight)
         })
-}
-
-/// ‖a − b‖ / ‖a‖ over all nodal displacements.
-fn relative_difference(a: &Solution, b: &Solution) -> f64 {
-    let norm = |s: &Solution, t: &Solution| {
-        s.displacement
-            .iter()
-            .zip(&t.displacement)
-            .map(|(x, y)| (x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2))
-            .sum::<f64>()
-            .sqrt()
-    };
-    let zero = Solution {
-        displacement: vec![[0.0; 2]; a.displacement.len()],
-        ..Solution::default()
-    };
-    norm(a, b) / norm(a, &zero)
 }
 
 /// The floating block holds exactly while Q ≤ F N: just below the threshold the Coulomb state

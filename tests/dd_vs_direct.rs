@@ -2,41 +2,12 @@
 //! contact (issue "Domain decomposition"): same displacement to 1e-8 relative, same contact
 //! states, DD converged by itself (no fallback), partition of unity and coarse orthogonality.
 
+mod solves;
+
 use serde_json::{json, Value};
+use solves::{relative_difference, solve};
 use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
-
-fn solve(scene: &Value, kind: SolverKind) -> (StateProblem, Solution) {
-    let mut scene = parse(&scene.to_string()).unwrap();
-    scene.solver.kind = kind;
-    scene.solver.tolerance = 1e-12;
-    let problem = StateProblem::new(scene).unwrap();
-    let options = SolveOptions {
-        needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
-        warm: None,
-    };
-    let sol = problem.solve(&problem.nominal, &options).unwrap();
-    (problem, sol)
-}
-
-/// ‖a − b‖ / ‖a‖ over all nodal displacements.
-fn relative_difference(a: &Solution, b: &Solution) -> f64 {
-    let norm = a
-        .displacement
-        .iter()
-        .map(|u| u[0] * u[0] + u[1] * u[1])
-        .sum::<f64>()
-        .sqrt();
-    let diff = a
-        .displacement
-        .iter()
-        .zip(&b.displacement)
-        .map(|(x, y)| (x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2))
-        .sum::<f64>()
-        .sqrt();
-    diff / norm
-}
+use wsm_core::state::{Needs, SolveOptions, StateProblem};
 
 fn compare(name: &str, scene: Value) {
     let (_, direct) = solve(&scene, SolverKind::Direct);

@@ -6,23 +6,14 @@
 //! compares the numbers; they depend on the paper's X-ray geometry and mesh, which were not
 //! published, so only the trend and the order of magnitude are asserted).
 
-use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+mod solves;
+
+use wsm_core::scene::SolverKind;
+use wsm_core::state::{Solution, StateProblem};
 
 fn solve(name: &str, kind: SolverKind) -> (StateProblem, Solution) {
-    let mut scene = parse(wsm_core::bundled::find(name).unwrap()).unwrap();
-    scene.solver.kind = kind;
-    scene.solver.tolerance = 1e-12;
-    let problem = StateProblem::new(scene).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let options = SolveOptions {
-        needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
-        warm: None,
-    };
-    let solution = problem
-        .solve(&problem.nominal, &options)
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
-    (problem, solution)
+    let scene = serde_json::from_str(wsm_core::bundled::find(name).unwrap()).unwrap();
+    solves::solve(&scene, kind)
 }
 
 /// Extremes over all elements \[Pa\]: (min τ22, max τ22, min principal, max principal) of the
@@ -133,12 +124,7 @@ fn mcs2007_knee_dd_equals_direct() {
     assert_eq!(dd.report.solver, "dd", "{:?}", dd.report.warnings);
     let report = dd.report.dd.as_ref().expect("a DD report");
     assert!(report.fallback.is_none(), "{:?}", report.fallback);
-    let (mut diff, mut norm) = (0.0, 0.0);
-    for (a, b) in direct.displacement.iter().zip(&dd.displacement) {
-        diff += (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
-        norm += a[0] * a[0] + a[1] * a[1];
-    }
-    let relative = (diff / norm).sqrt();
+    let relative = solves::relative_difference(&direct, &dd);
     eprintln!(
         "MCS 2007 knee: ‖u_dd − u_direct‖/‖u‖ = {relative:.1e}; Coulomb steps direct {:?} dd \
          {:?}; KKT dd {:.1e}",

@@ -77,6 +77,22 @@ def api(page, path):
     return response.json()
 
 
+def run_job(page, base, body):
+    """Submit `body` to the server at `base` and wait (at most 120 s) until the job has ended:
+    (job id, its final status)."""
+    response = page.request.post(base + "/v1/jobs", data=json.dumps(body),
+                                 headers={"content-type": "application/json"})
+    assert response.status == 202, response.text()
+    job_id = response.json()["id"]
+    deadline = time.time() + 120
+    while True:
+        status = page.request.get(f"{base}/v1/jobs/{job_id}").json()
+        if status["state"] in ("succeeded", "failed", "cancelled"):
+            return job_id, status
+        assert time.time() < deadline, status
+        time.sleep(0.3)
+
+
 def canvas_stats(page, selector):
     """Painted pixels and distinct colours of a canvas (sampled on a grid)."""
     return page.eval_on_selector(selector, """(c) => {
@@ -243,14 +259,7 @@ def test_coulomb_friction_in_the_form_and_the_mesh_view(page):
     body = {"example": "knee-mcs2007-coulomb",
             "settings": {"criteria": ["phi5", "phi6"], "budget": 150, "seed": 1,
                          "accuracy_refinements": 0}}
-    response = page.request.post(BASE + "/v1/jobs", data=json.dumps(body),
-                                 headers={"content-type": "application/json"})
-    assert response.status == 202, response.text()
-    job_id = response.json()["id"]
-    deadline = time.time() + 120
-    while api(page, f"/v1/jobs/{job_id}")["state"] not in ("succeeded", "failed", "cancelled"):
-        assert time.time() < deadline
-        time.sleep(0.3)
+    job_id, _ = run_job(page, BASE, body)
     fields = api(page, f"/v1/jobs/{job_id}/fields?scenario=worst&criterion=phi5")
     zones = fields["summary"]["contact_zones"]
     assert [z["friction_law"] for z in zones] == ["coulomb"] * 5, zones
@@ -366,17 +375,7 @@ def test_failed_evaluations_are_shown(page):
     body = {"example": "block-on-base",
             "settings": {"criteria": ["phi3", "phi6"], "budget": 60, "seed": 5,
                          "accuracy_refinements": 0}}
-    response = page.request.post(fault + "/v1/jobs", data=json.dumps(body),
-                                 headers={"content-type": "application/json"})
-    assert response.status == 202, response.text()
-    job_id = response.json()["id"]
-    deadline = time.time() + 120
-    while True:
-        status = page.request.get(f"{fault}/v1/jobs/{job_id}").json()
-        if status["state"] in ("succeeded", "failed", "cancelled"):
-            break
-        assert time.time() < deadline, status
-        time.sleep(0.3)
+    job_id, status = run_job(page, fault, body)
     assert status["state"] == "succeeded", status
     result = page.request.get(f"{fault}/v1/jobs/{job_id}/result").json()
     failures = result["failures"]

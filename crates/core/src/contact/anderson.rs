@@ -7,12 +7,15 @@
 //! ```
 //!
 //! where the columns of ΔF and ΔG are the differences of consecutive residuals and images. The
-//! least-squares problem (m ≤ a few columns) is solved by its normal equations with a relative
-//! Tikhonov shift of 1e-12 of their trace, so that nearly dependent differences (an iteration
+//! least-squares problem (m ≤ a few columns) is solved by its normal equations (faer's
+//! Cholesky) with a relative Tikhonov shift of 1e-12 of their trace, so that nearly dependent differences (an iteration
 //! that has almost converged) give a small γ instead of a blow-up. Used by the Coulomb fixed
 //! point (design §3.4), where x is the vector of normal forces on Coulomb pairs.
 
 use std::collections::VecDeque;
+
+use faer::linalg::solvers::Solve;
+use faer::{Mat, Side};
 
 /// The history of an Anderson-mixed fixed-point iteration.
 #[derive(Debug, Clone)]
@@ -50,68 +53,31 @@ impl Anderson {
         if m == 0 {
             return g.to_vec();
         }
-        let residual = |i: usize| -> Vec<f64> {
-            let (x, g) = &self.history[i];
-            g.iter().zip(x).map(|(a, b)| a - b).collect()
-        };
-        let residuals: Vec<Vec<f64>> = (0..=m).map(residual).collect();
-        let df: Vec<Vec<f64>> = (0..m)
-            .map(|j| {
-                residuals[j + 1]
-                    .iter()
-                    .zip(&residuals[j])
-                    .map(|(a, b)| a - b)
-                    .collect()
-            })
-            .collect();
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        let mut gram: Vec<Vec<f64>> = (0..m)
-            .map(|i| (0..m).map(|j| dot(&df[i], &df[j])).collect())
-            .collect();
-        let trace: f64 = (0..m).map(|i| gram[i][i]).sum();
+        // ΔF: differences of consecutive residuals f_i = G(x_i) − x_i, one column each.
+        let residual = |i: usize, r: usize| self.history[i].1[r] - self.history[i].0[r];
+        let df = Mat::from_fn(g.len(), m, |r, j| residual(j + 1, r) - residual(j, r));
+        let f = Mat::from_fn(g.len(), 1, |r, _| residual(m, r));
+        let mut gram = df.transpose() * &df;
+        let trace: f64 = (0..m).map(|i| gram[(i, i)]).sum();
         if trace <= 0.0 {
             return g.to_vec();
         }
-        for (i, row) in gram.iter_mut().enumerate() {
-            row[i] += 1e-12 * trace;
+        for i in 0..m {
+            gram[(i, i)] += 1e-12 * trace;
         }
-        let rhs: Vec<f64> = (0..m).map(|i| dot(&df[i], &residuals[m])).collect();
-        let Some(gamma) = solve_spd(gram, rhs) else {
+        let Ok(factor) = gram.llt(Side::Lower) else {
             return g.to_vec();
         };
+        let gamma = factor.solve(df.transpose() * &f);
         let mut next = g.to_vec();
-        for (j, &c) in gamma.iter().enumerate() {
+        for j in 0..m {
             let (g_new, g_old) = (&self.history[j + 1].1, &self.history[j].1);
             for (v, (a, b)) in next.iter_mut().zip(g_new.iter().zip(g_old)) {
-                *v -= c * (a - b);
+                *v -= gamma[(j, 0)] * (a - b);
             }
         }
         next
     }
-}
-
-/// Solve the small symmetric positive definite system A y = b by Cholesky; None if A is not
-/// numerically positive definite.
-fn solve_spd(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    for j in 0..n {
-        let d = a[j][j] - (0..j).map(|k| a[j][k] * a[j][k]).sum::<f64>();
-        if d <= 0.0 || !d.is_finite() {
-            return None;
-        }
-        a[j][j] = d.sqrt();
-        for i in j + 1..n {
-            let s = a[i][j] - (0..j).map(|k| a[i][k] * a[j][k]).sum::<f64>();
-            a[i][j] = s / a[j][j];
-        }
-    }
-    for i in 0..n {
-        b[i] = (b[i] - (0..i).map(|k| a[i][k] * b[k]).sum::<f64>()) / a[i][i];
-    }
-    for i in (0..n).rev() {
-        b[i] = (b[i] - (i + 1..n).map(|k| a[k][i] * b[k]).sum::<f64>()) / a[i][i];
-    }
-    Some(b)
 }
 
 #[cfg(test)]

@@ -11,16 +11,18 @@
 //!   λᵏ⁺¹ = Tresca solution with the bounds |λ_t,m| ≤ F max(λᵏ_n,m, 0),
 //! ```
 //!
-//! is the method of successive approximations of the papers (g ← F |τ_n|). By default its
-//! unknowns, the normal forces x on the Coulomb pairs (the bounds read nothing else), are
-//! Anderson-mixed ([`super::anderson`], depth 3): the bounds of step k + 1 come from
-//! x⁺ = G(x_k) − ΔG γ instead of G(x_k); a mixed step that makes ‖G(x) − x‖∞ grow drops the
-//! history. Convergence then also asks the state's own normal forces to match the bounds'. Its map is a
+//! is the method of successive approximations of the papers (g ← F |τ_n|). Its map is a
 //! contraction for small F (Nečas–Jarušek–Haslinger; the constant grows with F and with the
 //! coupling of normal and tangential responses, which vanishes for two bodies of the same
 //! material in plane strain, Goodman's decoupling); for large F the discrete Coulomb problem may
 //! have several solutions and the iteration need not converge. Each step is one box QP on the
 //! already factored K and C, warm-started from the previous multipliers.
+//!
+//! By default the fixed point's unknowns, the normal forces x on the Coulomb pairs (the bounds
+//! read nothing else), are Anderson-mixed ([`super::anderson`], depth 3): the bounds of step
+//! k + 1 come from x⁺ = G(x_k) − ΔG γ instead of G(x_k); a mixed step that makes ‖G(x) − x‖∞
+//! grow drops the history. Convergence then also asks the state's own normal forces to match
+//! the bounds'.
 //!
 //! Convergence: ‖λᵏ⁺¹ − λᵏ‖∞ ≤ [`TOLERANCE`] ‖λᵏ⁺¹‖∞; with inexact (DD) steps also a change
 //! within their accuracy that has stopped shrinking. Non-convergence is reported, never
@@ -77,8 +79,8 @@ pub struct FixedPoint {
 /// for given multiplier bounds (lower, upper) that may warm-start from a previous solution;
 /// `multipliers` reads λ off a solution, `fail` makes the solver's error from the account of a
 /// fixed point that does not converge; `how` gives the steps' accuracy and the Anderson depth.
-/// Without a
-/// Coulomb zone this is one Tresca solve (and no report); otherwise the fixed point above.
+/// Without a Coulomb zone this is one Tresca solve (and no report); otherwise the fixed point
+/// above.
 pub fn solve<S, E>(
     geometry: &ContactGeometry,
     data: &Data,
