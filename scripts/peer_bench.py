@@ -124,7 +124,7 @@ def wsm_worst(wsm, scene_args, budget, out, log=None, derivatives=True):
 def extrema(outcome):
     """(criterion, sense) -> (value, status, certificate verdict) of a `wsm worst` outcome."""
     return {(c["criterion"], r["sense"]):
-            (r["best_value"], r["status"], (r.get("certificate") or {}).get("verdict"))
+            (r["value"], r["status"], (r.get("certificate") or {}).get("verdict"))
             for c in outcome["criteria"] for r in (c["worst"], c["best"])}
 
 

@@ -40,10 +40,10 @@ if [ "$state" = succeeded ]; then ok "$(grep -o '"evaluations":[0-9]*' "$body" |
 step "fetch the result: data, gradient, certificate"
 code=$(curl -s -o "$body" -w '%{http_code}' "$BASE/v1/jobs/$id/result")
 if [ "$code" = 200 ] && grep -q '"criterion":"phi3"' "$body" && grep -q '"criterion":"phi6"' "$body" \
-   && grep -q '"best_value":[-0-9]' "$body" && grep -q '"best_point":\[' "$body" \
+   && grep -q '"value":[-0-9]' "$body" && grep -q '"point":\[' "$body" \
    && grep -qF '"data":{"boundary[2].traction[0]":' "$body" \
    && grep -qF '"gradient":{"boundary[2].traction[0]":{"right":' "$body" && grep -q '"certificate":{"verdict":"' "$body"; then
-  ok "$(grep -o '"best_value":[^,]*' "$body" | head -1), $(grep -o '"verdict":"[^"]*"' "$body" | sort | uniq -c | tr -s ' ' | tr '\n' ' ')"
+  ok "$(grep -o '"value":[^,]*' "$body" | head -1), $(grep -o '"verdict":"[^"]*"' "$body" | sort | uniq -c | tr -s ' ' | tr '\n' ' ')"
 else fail "HTTP $code"; fi
 
 step "evaluations as CSV"

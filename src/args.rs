@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 
 use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
-use wsm_core::scene::SolverKind;
+use wsm_core::scene::{SolverKind, StopRule};
 use wsm_service::api::{Access, Limits};
 use wsm_service::jobs::runner::FaultRule;
 use wsm_service::server::{ServeConfig, WorkerConfig};
@@ -26,6 +26,27 @@ impl From<SolverArg> for SolverKind {
         match solver {
             SolverArg::Direct => SolverKind::Direct,
             SolverArg::Dd => SolverKind::Dd,
+        }
+    }
+}
+
+/// `--stop`: when the search may stop before its budget is spent.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum StopArg {
+    /// Spend the whole budget looking for other local optima.
+    Budget,
+    /// Stop once every vertex is screened and few local optima are estimated unseen (default).
+    GlobalRule,
+    /// Stop at the first locally certified extremum (fast; nothing global).
+    FirstCertificate,
+}
+
+impl From<StopArg> for StopRule {
+    fn from(stop: StopArg) -> StopRule {
+        match stop {
+            StopArg::Budget => StopRule::Budget,
+            StopArg::GlobalRule => StopRule::GlobalRule,
+            StopArg::FirstCertificate => StopRule::FirstCertificate,
         }
     }
 }
@@ -123,6 +144,10 @@ pub struct WorstArgs {
     /// sensitivities): cheaper evaluations, weaker answers.
     #[arg(long)]
     pub no_derivatives: bool,
+    /// When the search may stop before its budget is spent (default: the scene's
+    /// `search.stop`, global-rule).
+    #[arg(long, value_enum)]
+    pub stop: Option<StopArg>,
     /// Write the full result as JSON.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -150,6 +175,7 @@ impl TryFrom<&WorstArgs> for WorstRequest {
             accuracy_refinements: args.accuracy_refinements,
             target_error: args.target_error,
             derivatives: args.no_derivatives.then_some(false),
+            stop: args.stop.map(StopRule::from),
         })
     }
 }

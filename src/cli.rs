@@ -162,9 +162,7 @@ pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<S
     }
     let outcome = run::worst(scene, &request, &control)?;
     bar.finish_and_clear();
-    for warning in &outcome.warnings {
-        eprintln!("warning: {warning}");
-    }
+    eprint!("{}", run::summary(&outcome));
     if let Some(p) = &files.out {
         write(p, &to_json(&outcome)?)?;
     }

@@ -52,12 +52,13 @@ fn temp(name: &str) -> PathBuf {
 fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
     let scene = block();
     // The traction (parameter 1) drives the displacement Φ3: its worst lies at the upper end,
-    // which fails here.
+    // which fails here. The failing quarter of the box is screened like the rest (vertices,
+    // random starts), so well under half of the evaluations fail.
     let [lo, hi] = scene.uncertain[1].interval;
-    let threshold = lo + 0.5 * (hi - lo);
+    let threshold = lo + 0.75 * (hi - lo);
     let path = temp("failed.jsonl");
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
-    let control = fault_above(&scene, 1, 0.5).with_log(log.clone());
+    let control = fault_above(&scene, 1, 0.75).with_log(log.clone());
     let outcome = run::worst(scene.clone(), &request(), &control).unwrap();
 
     let failures = &outcome.failures;
@@ -84,11 +85,11 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
     // The worst Φ3 sits next to the failures: not settled.
     let worst_phi3 = &outcome.criteria[0].worst;
     assert_eq!(worst_phi3.status, Status::Unsettled, "{worst_phi3:?}");
-    assert!(worst_phi3.best_point.as_ref().unwrap()[1] <= threshold);
+    assert!(worst_phi3.point.as_ref().unwrap()[1] <= threshold);
     // No reported extremum is a failed point.
     for c in &outcome.criteria {
         for o in [&c.worst, &c.best] {
-            let point = o.best_point.as_ref().unwrap();
+            let point = o.point.as_ref().unwrap();
             assert!(!failures.listed.iter().any(|f| &f.point == point));
         }
     }

@@ -74,8 +74,8 @@ fn cancel_mid_search_returns_the_partial_result_with_its_best_values() {
     );
     assert!(outcome.evaluations < 200);
     for c in &outcome.criteria {
-        assert!(c.worst.best_value.is_some() && c.best.best_value.is_some());
-        assert_eq!(c.worst.best_point.as_ref().unwrap().len(), 3);
+        assert!(c.worst.value.is_some() && c.best.value.is_some());
+        assert_eq!(c.worst.point.as_ref().unwrap().len(), 3);
     }
     let phases = phases.lock().unwrap();
     let order = [
@@ -102,7 +102,7 @@ fn cancel_before_the_search_returns_an_unstarted_outcome() {
     assert_eq!(outcome.status, Status::Cancelled);
     assert_eq!(outcome.evaluations, 0);
     assert_eq!(outcome.criteria.len(), 2);
-    assert!(outcome.criteria[0].worst.best_value.is_none());
+    assert!(outcome.criteria[0].worst.value.is_none());
 }
 
 #[test]

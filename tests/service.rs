@@ -97,9 +97,7 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         nodes
     );
     let phi6 = fields["summary"]["criteria"]["phi6"].as_f64().unwrap();
-    let worst6 = result["criteria"][1]["worst"]["best_value"]
-        .as_f64()
-        .unwrap();
+    let worst6 = result["criteria"][1]["worst"]["value"].as_f64().unwrap();
     assert_eq!(phi6, worst6, "the fields are those of the worst scenario");
     let vtu = get(
         addr,
@@ -134,7 +132,7 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
     assert_eq!(status["state"], "cancelled");
     let partial = get(addr, &format!("/v1/jobs/{long}/result")).json();
     assert_eq!(partial["status"], "cancelled");
-    assert!(partial["criteria"][0]["worst"]["best_value"].is_number());
+    assert!(partial["criteria"][0]["worst"]["value"].is_number());
     let listed = get(addr, "/v1/jobs?state=cancelled").json();
     assert!(listed
         .as_array()

@@ -152,7 +152,7 @@ fn the_accuracy_statement_refines_twice_and_is_the_same_on_any_thread_count() {
     // The run's values are the ones the statement starts from.
     assert_eq!(
         a.criteria[0].worst.as_ref().unwrap().value,
-        one.criteria[0].worst.best_value.unwrap()
+        one.criteria[0].worst.value.unwrap()
     );
     let none = run::worst(block(), &request(1, Some(0)), &RunControl::new()).unwrap();
     assert!(none.accuracy.is_none());
@@ -205,9 +205,9 @@ fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
     assert!(plain.mesh_choice.is_none());
     assert_ne!(a.run_hash, plain.run_hash);
     for (x, y) in a.criteria.iter().zip(&plain.criteria) {
-        assert_eq!(x.worst.best_value, y.worst.best_value);
-        assert_eq!(x.worst.best_point, y.worst.best_point);
-        assert_eq!(x.best.best_value, y.best.best_value);
+        assert_eq!(x.worst.value, y.worst.value);
+        assert_eq!(x.worst.point, y.worst.point);
+        assert_eq!(x.best.value, y.best.value);
     }
     let (sa, sp) = (a.accuracy.unwrap(), plain.accuracy.unwrap());
     for (x, y) in sa.criteria.iter().zip(&sp.criteria) {

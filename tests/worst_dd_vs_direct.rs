@@ -41,14 +41,14 @@ fn compare(example: &str, coarsen: f64, budget: usize) {
     assert_eq!(direct.criteria.len(), dd.criteria.len());
     for (a, b) in direct.criteria.iter().zip(&dd.criteria) {
         for (x, y) in [(&a.worst, &b.worst), (&a.best, &b.best)] {
-            let (vx, vy) = (x.best_value.unwrap(), y.best_value.unwrap());
+            let (vx, vy) = (x.value.unwrap(), y.value.unwrap());
             let rel = relative(vx, vy);
             println!(
                 "{example} {:?}: direct {vx:e}, DD {vy:e}, relative {rel:.1e}",
                 a.criterion
             );
             assert!(rel <= 1e-8, "{example} {:?}: {vx} vs {vy}", a.criterion);
-            assert_eq!(x.best_point, y.best_point, "{example}: same worst data");
+            assert_eq!(x.point, y.point, "{example}: same worst data");
         }
     }
     let dd_one = worst(scene(example, coarsen, SolverKind::Dd), budget, 1);

@@ -172,9 +172,9 @@ def test_finished_job_shows_plots_and_numbers(page):
     for c in result["criteria"]:
         for sense, o in (("max", c["worst"]), ("min", c["best"])):
             cell = page.locator(f"#value-{c['criterion']}-{sense}")
-            assert float(cell.get_attribute("data-value")) == o["best_value"]
+            assert float(cell.get_attribute("data-value")) == o["value"]
             shown = float(cell.text_content().split()[0])
-            assert shown == pytest.approx(o["best_value"], rel=1e-5)
+            assert shown == pytest.approx(o["value"], rel=1e-5)
     assert int(page.locator("#stat-evaluations").get_attribute("data-value")) == result["evaluations"]
     # The accuracy statement: the estimate of each extremum next to its value.
     assert result["accuracy"], "the job's result has no accuracy statement"

@@ -1,4 +1,4 @@
-//! Local polish with exact derivatives (issue #24 item 2): a projected quasi-Newton ascent of the
+//! Local search with exact derivatives (design §4.3): a projected quasi-Newton ascent of the
 //! score in the unit box, L-BFGS-B-like in spirit for the small dimensions of a worst-scenario
 //! box (a dense inverse-Hessian estimate).
 //!
@@ -9,7 +9,7 @@
 //! p = H d with the BFGS inverse-Hessian estimate H of −score on the free set (reset to a scaled
 //! identity whenever the free set changes or p is not an ascent direction), projected onto the
 //! box and backtracked until the Armijo condition s(y) ≥ s(x) + 1e-4 · d·(y − x) holds. It stops
-//! as soon as the relative residual max|d| / |Φ| is below [`CERTIFY_TOL`] (certified), when no
+//! as soon as the relative residual max|d| / |Φ| is below [`CERTIFY_TOL`] (locally certified), when no
 //! backtracked step improves even from the identity (stagnated: a kink or the resolution of Φ),
 //! after a few infeasible trial points (stagnated: the optimum borders a failure region), at
 //! the evaluation `limit`, or on a halt. The ascents from several starts run in lockstep (one
@@ -20,8 +20,6 @@ use super::session::{Probe, Session};
 use super::space::BOUND_TOL;
 use super::Status;
 
-/// Largest first step (unit box), along the steepest ascent.
-const FIRST_STEP: f64 = 0.1;
 /// Armijo constant of the backtracking line search.
 const ARMIJO: f64 = 1e-4;
 /// Halvings of a step before the line search gives up.
@@ -30,12 +28,15 @@ const BACKTRACKS: usize = 20;
 const MAX_ITERATIONS: usize = 200;
 /// Coordinates this close to a bound are put on it.
 const SNAP: f64 = 1e-12;
-/// An infeasible trial point shrinks the step by this factor (a failure region is not worth
-/// probing at half steps) ...
-const FAILED_SHRINK: f64 = 0.1;
-/// ... and after this many infeasible trials the ascent ends: the optimum it heads for lies
-/// next to points the solver cannot answer, which no derivative can certify.
-const FAILED_TRIALS: usize = 2;
+/// After an infeasible trial point, every trial stays within this fraction of the distance
+/// (unit box, ∞-norm) from the current point to the nearest infeasible point: the ascent closes
+/// in on a failure region by halving its distance instead of probing it again ...
+const FAILURE_APPROACH: f64 = 0.5;
+/// ... until that distance is below this, or after this many infeasible trials: the ascent ends
+/// unsettled — the optimum it heads for lies next to points the solver cannot answer, which no
+/// derivative can certify.
+const FAILURE_RESOLUTION: f64 = 1e-3;
+const FAILED_TRIALS: usize = 8;
 
 /// A point of the ascent: unit coordinates, score, projected ascent direction, free set.
 struct Iterate {
@@ -119,7 +120,8 @@ struct Ascent {
     h: Option<Vec<Vec<f64>>>,
     line: Option<LineSearch>,
     iterations: usize,
-    failed_trials: usize,
+    /// The infeasible trial points so far.
+    failed: Vec<Vec<f64>>,
     /// The trial point under evaluation.
     trial: Vec<f64>,
     end: Option<Status>,
@@ -132,18 +134,33 @@ impl Ascent {
             h: None,
             line: None,
             iterations: 0,
-            failed_trials: 0,
+            failed: Vec::new(),
             trial: Vec::new(),
             end: None,
         }
     }
 
+    /// How far (unit box, ∞-norm) a trial may lie from the current point: a fraction of the
+    /// distance to the nearest infeasible point seen (unbounded before any).
+    fn reach(&self) -> f64 {
+        self.failed
+            .iter()
+            .map(|f| FAILURE_APPROACH * linf_distance(f, &self.x.unit))
+            .fold(f64::INFINITY, f64::min)
+    }
+
     /// The next point to evaluate, or `None` once the ascent has ended (`self.end` says why).
     fn propose(&mut self) -> Option<Vec<f64>> {
         while self.end.is_none() {
+            let reach = self.reach();
+            if reach <= FAILURE_APPROACH * FAILURE_RESOLUTION || self.failed.len() >= FAILED_TRIALS
+            {
+                self.end = Some(Status::Unsettled);
+                break;
+            }
             if self.line.is_none() {
                 if self.x.residual() <= CERTIFY_TOL {
-                    self.end = Some(Status::Certified);
+                    self.end = Some(Status::LocallyCertified);
                     break;
                 }
                 if self.iterations >= MAX_ITERATIONS {
@@ -153,9 +170,13 @@ impl Ascent {
                 self.iterations += 1;
                 self.line = Some(self.line_search());
             }
-            let line = self.line.as_ref().expect("a line search is under way");
+            let line = self.line.as_mut().expect("a line search is under way");
             if line.tries < BACKTRACKS {
-                let y = trial_point(&self.x.unit, &line.p, line.step);
+                let mut y = trial_point(&self.x.unit, &line.p, line.step);
+                while linf_distance(&y, &self.x.unit) > reach {
+                    line.step *= 0.5;
+                    y = trial_point(&self.x.unit, &line.p, line.step);
+                }
                 if y != self.x.unit {
                     self.trial = y.clone();
                     return Some(y);
@@ -173,7 +194,7 @@ impl Ascent {
         let g: Vec<f64> = (0..x.unit.len())
             .map(|j| if x.free[j] { x.direction[j] } else { 0.0 })
             .collect();
-        let gamma = FIRST_STEP / g.iter().fold(0.0_f64, |m, d| m.max(d.abs()));
+        let gamma = last_breakpoint(&x.unit, &g);
         let mut p: Vec<f64> = match &self.h {
             Some(h) => h.iter().map(|row| dot(row, &g)).collect(),
             None => g.iter().map(|d| gamma * d).collect(),
@@ -220,13 +241,7 @@ impl Ascent {
                 self.accept(z, &moved, gamma);
             }
             Some(_) => line.step *= 0.5,
-            None => {
-                self.failed_trials += 1;
-                if self.failed_trials >= FAILED_TRIALS {
-                    self.end = Some(Status::Stagnated);
-                }
-                line.step *= FAILED_SHRINK;
-            }
+            None => self.failed.push(self.trial.clone()),
         }
     }
 
@@ -259,6 +274,25 @@ impl Ascent {
     }
 }
 
+/// The scale γ of the identity step γ g: the last breakpoint of the projected path x + γ g,
+/// where every coordinate that moves has reached its bound. The first trial of a line search
+/// from the identity is then the vertex (or face) the slopes point to — from which the search
+/// halves back when it does not improve — so a monotone criterion is climbed in one step.
+fn last_breakpoint(x: &[f64], g: &[f64]) -> f64 {
+    x.iter()
+        .zip(g)
+        .filter(|(_, &d)| d != 0.0)
+        .map(|(&u, &d)| if d > 0.0 { (1.0 - u) / d } else { u / -d })
+        .fold(0.0_f64, f64::max)
+}
+
+/// max_j |a_j − b_j|.
+fn linf_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
 /// `x + step · p`, projected onto the unit box, coordinates within [`SNAP`] of a bound put on it.
 fn trial_point(x: &[f64], p: &[f64], step: f64) -> Vec<f64> {
     x.iter()
@@ -279,19 +313,26 @@ fn trial_point(x: &[f64], p: &[f64], step: f64) -> Vec<f64> {
 /// Where an ascent ended: unit point and score.
 pub(super) type End = (Vec<f64>, f64);
 
-/// Ascend objective `k` from each of the evaluated unit points `starts` at once — every round
-/// evaluates the next trial point of every ascent still running in one batch, so that the
-/// batches are as wide as the starts — while the run's evaluation count stays within `limit`
+/// Where a local search starts: the objective it ascends, its unit point, and whether the point
+/// is from a space-filling design (a uniform random start) rather than directed.
+pub(super) struct Start {
+    pub(super) objective: usize,
+    pub(super) unit: Vec<f64>,
+    pub(super) random: bool,
+}
+
+/// Ascend from each of `starts` at once — every round evaluates the next trial point of every
+/// ascent still running in one batch (points shared by several ascents are solved once), so that
+/// the batches are as wide as the starts — while the run's evaluation count stays within `limit`
 /// (when a round does not fit, the ascents listed last end first). Per start: why its ascent
-/// stopped (`Certified` when the residual is below [`CERTIFY_TOL`]) and the unit point where it
-/// ended with its score (`None` if the start gave no derivatives).
-pub(super) fn run(
-    session: &Session,
-    k: usize,
-    starts: Vec<Vec<f64>>,
-    limit: usize,
-) -> Vec<(Status, Option<End>)> {
-    let iterates = match visit(session, k, &starts) {
+/// stopped (`LocallyCertified` when the residual is below [`CERTIFY_TOL`]) and the unit point
+/// where it ended with its score (`None` if the start gave no derivatives).
+pub(super) fn run(session: &Session, starts: &[Start], limit: usize) -> Vec<(Status, Option<End>)> {
+    let first: Vec<(usize, Vec<f64>)> = starts
+        .iter()
+        .map(|s| (s.objective, s.unit.clone()))
+        .collect();
+    let iterates = match visit(session, &first) {
         Ok(iterates) => iterates,
         Err(stop) => return starts.iter().map(|_| (stop, None)).collect(),
     };
@@ -307,17 +348,21 @@ pub(super) fn run(
             break;
         }
         let room = limit.saturating_sub(session.evaluations());
-        for (i, _) in round.iter().skip(room) {
+        let points: Vec<(usize, Vec<f64>)> = round
+            .iter()
+            .map(|(i, y)| (starts[*i].objective, y.clone()))
+            .collect();
+        let fitting = fitting_prefix(session, &points, room);
+        for (i, _) in round.iter().skip(fitting) {
             if let Some(a) = ascents[*i].as_mut() {
                 a.end = Some(Status::BudgetExhausted);
             }
         }
-        round.truncate(room);
+        round.truncate(fitting);
         if round.is_empty() {
             break;
         }
-        let points: Vec<Vec<f64>> = round.iter().map(|(_, y)| y.clone()).collect();
-        match visit(session, k, &points) {
+        match visit(session, &points[..fitting]) {
             Ok(iterates) => {
                 for ((i, _), z) in round.iter().zip(iterates) {
                     if let Some(a) = ascents[*i].as_mut() {
@@ -347,16 +392,33 @@ pub(super) fn run(
         .collect()
 }
 
-/// Evaluate the unit points `units` in one batch for objective `k` (`None` where infeasible or
-/// without slopes).
-fn visit(session: &Session, k: usize, units: &[Vec<f64>]) -> Result<Vec<Option<Iterate>>, Status> {
-    let indices = session.indices(units).map_err(|stop| stop.0)?;
+/// How many of the first `points` fit in `room` new evaluations (points evaluated before, or
+/// repeated within the batch, cost nothing).
+fn fitting_prefix(session: &Session, points: &[(usize, Vec<f64>)], room: usize) -> usize {
+    let mut new = std::collections::HashSet::new();
+    for (n, (_, unit)) in points.iter().enumerate() {
+        if !session.has_seen(unit)
+            && new.insert(unit.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+            && new.len() > room
+        {
+            return n;
+        }
+    }
+    points.len()
+}
+
+/// Evaluate the unit points of `(objective, point)` pairs in one batch (`None` where infeasible
+/// or without slopes).
+fn visit(session: &Session, points: &[(usize, Vec<f64>)]) -> Result<Vec<Option<Iterate>>, Status> {
+    let units: Vec<&[f64]> = points.iter().map(|(_, u)| u.as_slice()).collect();
+    let indices = session.indices(&units).map_err(|stop| stop.0)?;
     Ok(indices
         .into_iter()
-        .map(|index| {
+        .zip(points)
+        .map(|(index, (k, _))| {
             session
-                .probe(k, index)
-                .and_then(|probe| Iterate::new(session, k, probe))
+                .probe(*k, index)
+                .and_then(|probe| Iterate::new(session, *k, probe))
         })
         .collect())
 }

@@ -21,8 +21,10 @@ pub const CERTIFY_TOL: f64 = 1e-6;
 #[serde(rename_all = "snake_case")]
 pub enum Verdict {
     /// First-order optimal to [`CERTIFY_TOL`]: every active bound held by the derivative's sign,
-    /// the slope along every interior datum vanishing.
-    Certified,
+    /// the slope along every interior datum vanishing — a local optimum (JSON
+    /// `"locally_certified"`; stored results say `"certified"`).
+    #[serde(alias = "certified")]
+    LocallyCertified,
     /// Some datum can still be moved to make Φ more extreme (see `residual`).
     NotOptimal,
     /// The evaluator gave no derivatives at this point: nothing is proven.
@@ -208,7 +210,7 @@ pub(super) fn certify(
         .collect();
     Certificate {
         verdict: if residual <= CERTIFY_TOL {
-            Verdict::Certified
+            Verdict::LocallyCertified
         } else {
             Verdict::NotOptimal
         },
@@ -281,7 +283,7 @@ mod tests {
             OneSided::both(-1.0),
         ];
         let max = certify(&space, Sense::Max, &[1.0, 0.0], 5.0, Some(&slopes));
-        assert_eq!(max.verdict, Verdict::Certified);
+        assert_eq!(max.verdict, Verdict::LocallyCertified);
         assert_eq!(max.residual, Some(0.0));
         assert_eq!(
             max.active,
@@ -318,7 +320,7 @@ mod tests {
         ];
         for s in [&flat, &kink] {
             let c = certify(&space, Sense::Max, &[0.5, 0.5], 1.0, Some(s));
-            assert_eq!(c.verdict, Verdict::Certified);
+            assert_eq!(c.verdict, Verdict::LocallyCertified);
             assert!(c.active.is_empty());
         }
         let convex_kink = kink.map(|s| s.scaled(-1.0));

@@ -27,12 +27,12 @@
 
 use super::cache::EvalCache;
 use super::certificate::{self, Certificate};
+use super::global::{self, Global};
 use super::optima::{self, OPTIMUM_TOL};
 use super::random::stream;
 use super::session::{Probe, Session};
 use super::space::{is_vertex, Space};
 use super::{
-    ascent,
     polish::{self, Stage},
     pso, screening, sensitivity, vertex_walk, Evaluator, ObjectiveResult, Phase, SearchControl,
     SearchError, SearchProblem, SearchResult, Status, Verdict,
@@ -81,12 +81,14 @@ pub fn search(
         cache,
     );
     let derivatives = evaluator.gives_derivatives() && space.dim() > 0;
-    let settled = if derivatives {
-        vertex_walk::run(&session)
+    let (statuses, global) = if derivatives {
+        vertex_walk::run(&session);
+        let mut global = Global::new(&session, problem.stop);
+        let statuses = global.run(problem.seed);
+        (statuses, Some(global))
     } else {
-        vec![false; problem.objectives.len()]
+        (run_phases(&session, problem.seed)?, None)
     };
-    let statuses = run_phases(&session, problem.seed, &settled, derivatives)?;
     let sensitivities = if derivatives {
         exact_sensitivities(&session)
     } else {
@@ -96,7 +98,20 @@ pub fn search(
         .into_iter()
         .zip(sensitivities)
         .enumerate()
-        .map(|(k, (status, s))| objective_result(&session, k, status, s, &problem.names))
+        .map(|(k, (status, s))| {
+            let mut result = objective_result(&session, k, status, s, &problem.names);
+            result.global = match &global {
+                Some(g) => g.evidence(
+                    k,
+                    session
+                        .best_probe(k)
+                        .as_ref()
+                        .map(|p| (p.unit.as_slice(), p.value)),
+                ),
+                None => global::without_derivatives(&session, problem.stop),
+            };
+            result
+        })
         .collect();
     let status = objectives
         .iter()
@@ -113,26 +128,13 @@ pub fn search(
     })
 }
 
-/// Screening, then swarm and polish per objective not `settled` by the vertex walk; the status of
-/// each objective. Without `derivatives`, evaluations are reserved for the finite differences.
-fn run_phases(
-    session: &Session,
-    seed: u64,
-    settled: &[bool],
-    derivatives: bool,
-) -> Result<Vec<Status>, SearchError> {
+/// Without derivatives: screening, then swarm and polish per objective; the status of each.
+/// Evaluations are reserved for the finite-difference sensitivities.
+fn run_phases(session: &Session, seed: u64) -> Result<Vec<Status>, SearchError> {
     let budget = session.budget();
     let dim = session.space.dim();
     let m = session.objectives().len();
-    let mut unsettled = settled.iter().filter(|&&s| !s).count();
-    if unsettled == 0 {
-        return Ok(vec![Status::Certified; m]);
-    }
-    let reserve = if derivatives {
-        0
-    } else {
-        (dim * m).min(budget / 2)
-    };
+    let reserve = (dim * m).min(budget / 2);
     session.set_phase(Phase::Screening);
     let design = screening::design(
         dim,
@@ -144,18 +146,13 @@ fn run_phases(
     let _ = session.evaluate(&design);
 
     let mut statuses = Vec::with_capacity(m);
-    for (k, &done) in settled.iter().enumerate() {
-        if done {
-            statuses.push(Status::Certified);
-            continue;
-        }
+    for k in 0..m {
         if let Some(halt) = session.check_halt() {
             statuses.push(halt);
             continue;
         }
         let used = session.evaluations();
-        let share = budget.saturating_sub(reserve + used) / unsettled;
-        unsettled -= 1;
+        let share = budget.saturating_sub(reserve + used) / (m - k);
         let swarm_limit = used + (SWARM_FRACTION * share as f64) as usize;
         let polish_limit = used + share;
 
@@ -168,11 +165,7 @@ fn run_phases(
         )?;
 
         session.set_phase(Phase::Polish { objective: k });
-        let status = if derivatives {
-            ascend_objective(session, k, polish_limit)
-        } else {
-            polish_objective(session, k, polish_limit)?
-        };
+        let status = polish_objective(session, k, polish_limit)?;
         statuses.push(session.halt().unwrap_or(status));
     }
     Ok(statuses)
@@ -217,28 +210,6 @@ fn polish_objective(session: &Session, k: usize, limit: usize) -> Result<Status,
         }
     }
     Ok(status)
-}
-
-/// With derivatives: projected quasi-Newton ascents from the basin tops of the sample in the top
-/// half of its range of values, all at once (their solves share the batches): a certificate is
-/// local, so the runner-ups look for a better basin. The status of the ascent that ended at the
-/// best score.
-fn ascend_objective(session: &Session, k: usize, limit: usize) -> Status {
-    let Some(tops) = basin_tops(session, k) else {
-        return Status::BudgetExhausted;
-    };
-    let mut ended: Option<(f64, Status)> = None;
-    for (status, end) in ascent::run(session, k, tops, limit) {
-        if is_halt(status) {
-            return status;
-        }
-        let Some((end, score)) = end else { continue };
-        session.note_end(k, end);
-        if ended.is_none_or(|(best, _)| score > best) {
-            ended = Some((score, status));
-        }
-    }
-    ended.map_or(Status::BudgetExhausted, |(_, status)| status)
 }
 
 /// The starts of the local searches of objective `k`: the basin tops of all points evaluated so
@@ -338,10 +309,13 @@ fn certified(
     }
     let status = match (status, proof.verdict) {
         (
-            Status::Certified | Status::Completed | Status::BudgetExhausted | Status::Stagnated,
-            Verdict::Certified,
-        ) => Status::Certified,
-        (Status::Certified, _) => Status::Completed,
+            Status::LocallyCertified
+            | Status::Completed
+            | Status::BudgetExhausted
+            | Status::Stagnated,
+            Verdict::LocallyCertified,
+        ) => Status::LocallyCertified,
+        (Status::LocallyCertified, _) => Status::Completed,
         (status, _) => status,
     };
     (Some(proof), status)
@@ -383,8 +357,8 @@ fn objective_result(
     ObjectiveResult {
         criterion: objective.criterion,
         sense: objective.sense,
-        best_value: best.as_ref().map(|p| p.value),
-        best_point,
+        value: best.as_ref().map(|p| p.value),
+        point: best_point,
         status,
         at_vertex: best.as_ref().is_some_and(|p| is_vertex(&p.unit)),
         vertex_optimal: optima::vertex_optimal(&ranked),
@@ -397,6 +371,7 @@ fn objective_result(
         data,
         gradient,
         certificate,
+        global: Default::default(),
         history: session.history(k),
     }
 }

@@ -6,18 +6,30 @@
 //! of evaluations; every point any phase asks for goes through the [`EvalCache`], which can be
 //! pre-loaded from a previous (interrupted) run and persisted afterwards. Phases, one module each:
 //!
-//! 0. `vertex_walk` — with exact derivatives from the evaluator: the centre, the vertex its
-//!    gradient signs point to per objective, then flips of the bounds the gradient does not
-//!    prove; an objective certified there (with the same signs at the centre) needs no more;
+//! With exact derivatives from the evaluator (design §4.3, "With exact derivatives"):
+//!
+//! 0. `vertex_walk` — the centre, the vertex its gradient signs point to per objective, then
+//!    flips of the bounds the gradient does not prove: a first local certificate, cheaply;
+//! 1. `global` — the global question: every vertex of the box when the budget affords it (each
+//!    one locally certified or not by its own derivatives), then rounds of local searches
+//!    (`ascent`, a projected quasi-Newton ascent) from a space-filling design, from the vertices
+//!    the gradient signs at other optima point to, and from the far side of every datum whose
+//!    derivative changes sign; it stops by the rule of [`StopRule`] (by default a Bayesian
+//!    estimate of the unseen local optima, Boender & Rinnooy Kan) and reports its
+//!    [`GlobalEvidence`].
+//!
+//! Without derivatives:
+//!
 //! 1. `screening` — all vertices of the box plus its centre when that is cheap, topped up with a
 //!    scrambled Latin hypercube (design §4.3 item 1);
 //! 2. `pso` — argmin's `ParticleSwarm`, seeded with the best points evaluated so far (item 2);
 //! 3. `polish` — a bounded compass search written as an argmin `Solver`, coarse from the basin
-//!    tops of the sample, then fine from the best of them and its ties (item 3); with exact
-//!    derivatives `ascent` instead — a projected quasi-Newton ascent from the basin tops;
-//! 4. `sensitivity` — normalised sensitivities (exact from the derivatives, else one-sided finite
-//!    differences) at each optimum; `certificate` — the first-order optimality proof of every
-//!    extremum from the exact derivatives; `optima` — basin tops, the vertex and several-maximiser reports (item 4).
+//!    tops of the sample, then fine from the best of them and its ties (item 3).
+//!
+//! Then `sensitivity` — normalised sensitivities (exact from the derivatives, else one-sided
+//! finite differences) at each optimum; `certificate` — the local first-order optimality proof of
+//! every extremum from the exact derivatives; `optima` — basin tops, the vertex and
+//! several-maximiser reports (item 4).
 //!
 //! `driver` runs them and splits the budget; `session` is the single gate to the evaluator
 //! (budget, wall time, cancellation, progress, convergence history); `guard` applies those
@@ -36,6 +48,7 @@ mod cache;
 mod certificate;
 mod cost;
 mod driver;
+mod global;
 mod guard;
 mod optima;
 mod polish;
@@ -50,6 +63,7 @@ mod vertex_walk;
 pub use cache::EvalCache;
 pub use certificate::{BoundProof, Certificate, Kink, Verdict, CERTIFY_TOL};
 pub use driver::search;
+pub use global::{default_budget, GlobalEvidence, RunnerUp, CLOSE_RUNNER_UP};
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -185,6 +199,27 @@ pub struct SearchProblem {
     /// Names of the parameters, which key the result's `data` and `gradient` (a parameter
     /// without one is `θ<index>`).
     pub names: Vec<String>,
+    /// When the search may stop before its budget is spent.
+    pub stop: StopRule,
+}
+
+/// When a search with exact derivatives may stop before its budget is spent (`search.stop`).
+/// Without derivatives the search always spends its budget.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum StopRule {
+    /// Spend the whole budget looking for other local optima.
+    Budget,
+    /// Stop an objective once its global rule is met (see [`GlobalEvidence::rule_met`]): every
+    /// vertex of the box screened (when there are at most 1024) and the Boender–Rinnooy Kan
+    /// estimate of the local optima not yet found below ½. The default.
+    #[default]
+    GlobalRule,
+    /// Stop an objective at its first locally certified extremum: fastest, and says nothing
+    /// about other basins.
+    FirstCertificate,
 }
 
 /// The phase a progress report comes from.
@@ -207,6 +242,11 @@ pub enum Phase {
     },
     /// The finite-difference steps for the sensitivities at every optimum (without derivatives).
     Sensitivity,
+    /// With derivatives: a round of local searches from new starts (numbered from 0).
+    Multistart {
+        /// The round.
+        round: usize,
+    },
 }
 
 /// Reported after every batch of evaluations.
@@ -264,9 +304,12 @@ impl Default for SearchControl<'static> {
 pub enum Status {
     /// The exact derivatives prove first-order optimality at the reported point: every bound it
     /// sits on is held by the sign of ∂Φ/∂θ, and the gradient along the other data is below
-    /// [`CERTIFY_TOL`] relative (see [`Certificate`]). A local statement: another point of the box
-    /// may be better where the criterion is not monotone, which the search then explores.
-    Certified,
+    /// [`CERTIFY_TOL`] relative (see [`Certificate`]). A local statement only: another point of
+    /// the box may be better where the criterion is not monotone; what the search knows about
+    /// that is the extremum's [`GlobalEvidence`]. (JSON `"locally_certified"`; results stored as
+    /// `"certified"` before the rename read as this.)
+    #[serde(alias = "certified")]
+    LocallyCertified,
     /// The fine polish of the best point converged: its step fell below 1e-8 of the unit box,
     /// or a poll around it was flat within 1e-9 relative.
     Completed,
@@ -307,11 +350,15 @@ pub struct ObjectiveResult {
     pub criterion: usize,
     /// Whether the criterion was maximised (worst scenario) or minimised (best one).
     pub sense: Sense,
-    /// Best criterion value (`None` if no feasible point was evaluated), in the criterion's
-    /// unit (K for Φ1–Φ2, m for Φ3–Φ4, Pa² for Φ5, Pa for Φ6).
-    pub best_value: Option<f64>,
-    /// Physical parameters of the best value (units of each parameter's field).
-    pub best_point: Option<Vec<f64>>,
+    /// The extremum's value: the largest (worst) or smallest (best) criterion value found
+    /// (`None` if no feasible point was evaluated), in the criterion's unit (K for Φ1–Φ2, m for
+    /// Φ3–Φ4, Pa² for Φ5, Pa for Φ6). Stored results name it `best_value`.
+    #[serde(alias = "best_value")]
+    pub value: Option<f64>,
+    /// The data of the extremum in the order of the parameters (units of each parameter's
+    /// field); `data` gives the same numbers by name. Stored results name it `best_point`.
+    #[serde(alias = "best_point")]
+    pub point: Option<Vec<f64>>,
     /// Why the search for this objective ended.
     pub status: Status,
     /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
@@ -338,9 +385,13 @@ pub struct ObjectiveResult {
     /// unit (both one-sided values); empty without derivatives.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub gradient: BTreeMap<String, OneSided>,
-    /// What the exact derivatives prove about the best point (absent when nothing was found).
+    /// The local proof: what the exact derivatives prove about the best point (absent when
+    /// nothing was found).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub certificate: Option<Certificate>,
+    /// The global evidence: what the search knows about other local optima of the box.
+    #[serde(default)]
+    pub global: GlobalEvidence,
     /// (number of evaluations so far, best value so far) at every improvement.
     #[schema(value_type = Vec<Vec<f64>>)]
     pub history: Vec<(usize, f64)>,
@@ -352,8 +403,8 @@ impl ObjectiveResult {
         ObjectiveResult {
             criterion,
             sense,
-            best_value: None,
-            best_point: None,
+            value: None,
+            point: None,
             status,
             at_vertex: false,
             vertex_optimal: false,
@@ -364,6 +415,7 @@ impl ObjectiveResult {
             data: BTreeMap::new(),
             gradient: BTreeMap::new(),
             certificate: None,
+            global: GlobalEvidence::default(),
             history: Vec::new(),
         }
     }

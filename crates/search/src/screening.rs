@@ -33,7 +33,7 @@ fn vertices_and_centre(dim: usize, count: usize) -> Vec<Vec<f64>> {
 
 /// `size` points, one in each of `size` equal slabs along every axis, at a random place in its
 /// cell; the slabs are matched across axes by independent random permutations.
-fn latin_hypercube(dim: usize, size: usize, rng: &mut Rng) -> Vec<Vec<f64>> {
+pub(super) fn latin_hypercube(dim: usize, size: usize, rng: &mut Rng) -> Vec<Vec<f64>> {
     let mut points = vec![vec![0.0; dim]; size];
     for j in 0..dim {
         let mut slabs: Vec<usize> = (0..size).collect();

@@ -367,6 +367,41 @@ impl<'a> Session<'a> {
             .collect()
     }
 
+    /// Objective `k` at the evaluated unit point `unit` (`None` if not evaluated or infeasible).
+    pub(super) fn probe_at(&self, k: usize, unit: &[f64]) -> Option<Probe> {
+        let index = *self.ledger().seen.get(&self.key(unit))?;
+        self.probe(k, index)
+    }
+
+    /// Whether this run has evaluated the unit point `unit` already.
+    pub(super) fn has_seen(&self, unit: &[f64]) -> bool {
+        self.ledger().seen.contains_key(&self.key(unit))
+    }
+
+    /// The key of a unit point in `seen`: the bits of its physical point.
+    fn key(&self, unit: &[f64]) -> Vec<u64> {
+        self.space
+            .to_physical(unit)
+            .iter()
+            .map(|x| x.to_bits())
+            .collect()
+    }
+
+    /// Objective `k` at every feasible point of this run, in order of evaluation.
+    pub(super) fn feasible(&self, k: usize) -> Vec<Probe> {
+        let count = self.evaluations();
+        (0..count).filter_map(|i| self.probe(k, i)).collect()
+    }
+
+    /// Distinct vertices of the box evaluated by this run (feasible or not).
+    pub(super) fn vertices_evaluated(&self) -> usize {
+        self.ledger()
+            .trace
+            .iter()
+            .filter(|visit| super::space::is_vertex(&visit.unit))
+            .count()
+    }
+
     /// Objective `k` at its best point so far.
     pub(super) fn best_probe(&self, k: usize) -> Option<Probe> {
         let index = self.ledger().best[k]?;
@@ -412,6 +447,11 @@ impl<'a> Session<'a> {
     /// Note that a local search of objective `k` ended at the unit point `unit`.
     pub(super) fn note_end(&self, k: usize, unit: Vec<f64>) {
         self.ledger().ends[k].push(unit);
+    }
+
+    /// How many local searches of objective `k` have ended.
+    pub(super) fn ends(&self, k: usize) -> usize {
+        self.ledger().ends[k].len()
     }
 
     /// How many local searches of objective `k` ended within `tol` (unit box) of `unit`.

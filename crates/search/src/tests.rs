@@ -67,6 +67,7 @@ fn problem(bounds: Vec<[f64; 2]>, objectives: &[(usize, Sense)], budget: usize) 
         max_seconds: None,
         seed: 2024,
         names: Vec::new(),
+        stop: StopRule::GlobalRule,
     }
 }
 
@@ -102,10 +103,10 @@ fn monotone_criterion_is_extremal_at_exact_vertices() {
     let e = Analytic::new(monotone);
     let r = run(&monotone_problem(), &e);
     let (max, min) = (&r.objectives[0], &r.objectives[1]);
-    assert_eq!(max.best_point, Some(vec![3.0, 0.5, 4.0]));
-    assert_eq!(max.best_value, Some(10.0));
-    assert_eq!(min.best_point, Some(vec![1.0, 2.0, -1.0]));
-    assert_eq!(min.best_value, Some(-0.5));
+    assert_eq!(max.point, Some(vec![3.0, 0.5, 4.0]));
+    assert_eq!(max.value, Some(10.0));
+    assert_eq!(min.point, Some(vec![1.0, 2.0, -1.0]));
+    assert_eq!(min.value, Some(-0.5));
     for o in [max, min] {
         assert!(o.at_vertex && o.vertex_optimal && !o.several_optima);
         assert_eq!(o.optima.len(), 1);
@@ -160,7 +161,7 @@ fn interior_maximum_beats_the_grid_with_a_fifth_of_its_evaluations() {
         &e,
     );
     let o = &r.objectives[0];
-    let best = o.best_value.unwrap();
+    let best = o.value.unwrap();
     // The other peaks lift the top by ~3e-8 only; the top is attained within ~1e-7 of PEAK.
     let truth = gaussians(PEAK);
     let grid = (0..41)
@@ -180,7 +181,7 @@ fn interior_maximum_beats_the_grid_with_a_fifth_of_its_evaluations() {
         best >= truth * (1.0 - 1e-9),
         "the polish stops at a 1e-9 flat poll"
     );
-    let x = o.best_point.as_ref().unwrap();
+    let x = o.point.as_ref().unwrap();
     assert!((x[0] / 1e5 - PEAK[0]).abs() < 1e-4 && ((x[1] + 1e-3) / 2e-3 - PEAK[1]).abs() < 1e-4);
     assert!(!o.at_vertex && !o.vertex_optimal && !o.several_optima);
     assert_eq!(o.active_bounds, vec![ActiveBound::None; 2]);
@@ -198,7 +199,7 @@ fn interior_maximum_is_found_for_many_seeds() {
         let e = Analytic::new(multimodal);
         let mut p = problem(MULTIMODAL_BOX.to_vec(), &[(0, Sense::Max)], 336);
         p.seed = seed;
-        let best = run(&p, &e).objectives[0].best_value.unwrap();
+        let best = run(&p, &e).objectives[0].value.unwrap();
         worst = worst.max((gaussians(PEAK) - best) / gaussians(PEAK));
     }
     println!("(b) worst relative error over 40 seeds: {worst:.1e}");
@@ -223,7 +224,7 @@ fn budget_is_never_exceeded_and_repeats_are_free() {
         assert_eq!(e.repeats.load(Ordering::SeqCst), 0);
         if budget == 0 {
             assert_eq!(r.status, Status::BudgetExhausted);
-            assert_eq!(r.objectives[0].best_value, None);
+            assert_eq!(r.objectives[0].value, None);
         }
     }
 }
@@ -307,7 +308,7 @@ fn cancellation_stops_before_the_next_batch() {
     );
     assert!(r.evaluations < 400);
     // The partial result still holds the best found so far.
-    assert!(r.objectives[0].best_value.is_some());
+    assert!(r.objectives[0].value.is_some());
     assert!(r.objectives.iter().all(|o| o.status == Status::Cancelled));
 
     // Raised before the start: nothing is evaluated.
@@ -334,7 +335,7 @@ fn time_limit_is_respected() {
     assert_eq!(r.status, Status::TimeLimit);
     assert!(r.elapsed >= Duration::from_millis(200));
     assert!(r.elapsed < Duration::from_millis(200 + 20 + 150));
-    assert!(r.objectives[0].best_value.is_some());
+    assert!(r.objectives[0].value.is_some());
     // An infinite limit is no limit.
     p.max_seconds = Some(f64::INFINITY);
     p.budget = 50;
@@ -411,7 +412,7 @@ fn failures_and_nan_are_infeasible_and_never_optimal() {
     )
     .unwrap();
     let o = &r.objectives[0];
-    let (best, x) = (o.best_value.unwrap(), o.best_point.clone().unwrap());
+    let (best, x) = (o.value.unwrap(), o.point.clone().unwrap());
     // The compass crawls along the oblique edge of the feasible set.
     assert!(best <= 1.5 && best > 1.5 - 1e-4, "{best}");
     assert_eq!(f(&x), Ok(vec![best]));
@@ -426,15 +427,15 @@ fn failures_and_nan_are_infeasible_and_never_optimal() {
     // Nothing feasible at all, and a criteria vector too short for the objective.
     let e = Analytic::new(|_: &[f64]| -> Criteria { Err("always".into()) });
     let r = run(&problem(vec![[0.0, 1.0]; 2], &[(0, Sense::Max)], 50), &e);
-    assert_eq!(r.objectives[0].best_value, None);
-    assert_eq!(r.objectives[0].best_point, None);
+    assert_eq!(r.objectives[0].value, None);
+    assert_eq!(r.objectives[0].point, None);
     let e = Analytic::new(|p: &[f64]| -> Criteria { Ok(vec![p[0]]) });
     let r = run(
         &problem(vec![[0.0, 1.0]], &[(0, Sense::Max), (3, Sense::Max)], 60),
         &e,
     );
-    assert_eq!(r.objectives[0].best_value, Some(1.0));
-    assert_eq!(r.objectives[1].best_value, None);
+    assert_eq!(r.objectives[0].value, Some(1.0));
+    assert_eq!(r.objectives[1].value, None);
     // Invalid problems are refused before any evaluation.
     let bad = problem(vec![[0.0, 1.0], [2.0, 1.0]], &[(0, Sense::Max)], 60);
     assert!(matches!(
@@ -463,11 +464,11 @@ fn fixed_parameters_and_low_dimensions() {
         &e,
     );
     let o = &r.objectives[0];
-    let x = o.best_point.clone().unwrap();
+    let x = o.point.clone().unwrap();
     assert_eq!((x[0], x[2]), (2.0, 5.0));
     // Φ is flat to 1e-9 relative within ~1e-4 of the maximiser.
     assert!((x[1] - 0.3).abs() < 1e-3, "{x:?}");
-    assert!(o.best_value.unwrap() > 10.0 - 1e-8);
+    assert!(o.value.unwrap() > 10.0 - 1e-8);
     use ActiveBound::{Fixed, None as Free};
     assert_eq!(o.active_bounds, vec![Fixed, Free, Fixed]);
     assert_eq!(o.sensitivities[0], None);
@@ -476,9 +477,9 @@ fn fixed_parameters_and_low_dimensions() {
 
     let e = Analytic::new(|p: &[f64]| -> Criteria { Ok(vec![(3.0 * p[0]).sin()]) });
     let r = run(&problem(vec![[0.0, 1.0]], &[(0, Sense::Max)], 100), &e);
-    let x = r.objectives[0].best_point.clone().unwrap()[0];
+    let x = r.objectives[0].point.clone().unwrap()[0];
     assert!((x - std::f64::consts::PI / 6.0).abs() < 1e-3, "{x}");
-    assert!(r.objectives[0].best_value.unwrap() > 1.0 - 1e-9, "{r:?}");
+    assert!(r.objectives[0].value.unwrap() > 1.0 - 1e-9, "{r:?}");
 
     for bounds in [vec![], vec![[1.0, 1.0], [2.0, 2.0]]] {
         let e = Analytic::new(|p: &[f64]| -> Criteria { Ok(vec![p.iter().sum::<f64>() + 1.0]) });
@@ -490,7 +491,7 @@ fn fixed_parameters_and_low_dimensions() {
         assert_eq!(e.calls(), 1);
         assert_eq!(r.status, Status::Completed);
         for o in &r.objectives {
-            assert_eq!(o.best_value, Some(if n == 0 { 1.0 } else { 4.0 }));
+            assert_eq!(o.value, Some(if n == 0 { 1.0 } else { 4.0 }));
             assert!(o.at_vertex && o.vertex_optimal && !o.several_optima);
             assert_eq!(o.sensitivities, vec![None; n]);
         }
@@ -511,7 +512,7 @@ fn two_equal_peaks_are_both_reported() {
     let o = &r.objectives[0];
     println!(
         "(h) {} evaluations, optima {:?}, best {:?}",
-        r.evaluations, o.optima, o.best_value
+        r.evaluations, o.optima, o.value
     );
     assert!(o.several_optima);
     assert_eq!(o.optima.len(), 2);
@@ -619,20 +620,59 @@ fn monotone_criteria_are_certified_at_their_vertices_by_the_walk() {
         (1, Sense::Min),
     ];
     let e = WithSlopes::new(f);
-    let r = run(&problem(bounds, &objectives, 200), &e);
+    let first = SearchProblem {
+        stop: StopRule::FirstCertificate,
+        ..problem(bounds.clone(), &objectives, 200)
+    };
+    let r = run(&first, &e);
     // The centre, then two distinct vertices (each criterion's max and min share them).
     assert_eq!(r.evaluations, 3);
     assert_eq!(e.calls.load(Ordering::SeqCst), 3);
-    assert_eq!(r.status, Status::Certified);
+    assert_eq!(r.status, Status::LocallyCertified);
+    for o in &r.objectives {
+        assert!(!o.global.rule_met, "{:?}", o.global);
+        assert!(
+            o.global.summary.contains("first local certificate"),
+            "{}",
+            o.global.summary
+        );
+    }
+    // With the global rule the same extrema, now with evidence: the 8 vertices of the 3 free
+    // data (each locally optimal vertex found at no extra cost) and two rounds of four random
+    // starts, each of whose ascents climbs to the one optimum in a single step onto a cached
+    // vertex — N = 8 starts, W = 1 optimum, 1·7/5 − 1 = 0.4 < ½ optima estimated unseen.
+    let global = run(&problem(bounds, &objectives, 200), &e);
+    assert_eq!(global.evaluations, 3 + 6 + 8);
+    for (o, f) in global.objectives.iter().zip(&r.objectives) {
+        assert_eq!((o.point.as_ref(), o.value), (f.point.as_ref(), f.value));
+        assert_eq!(o.status, Status::LocallyCertified);
+        let g = &o.global;
+        assert!(g.rule_met, "{g:?}");
+        assert_eq!((g.vertices_screened, g.vertices_total), (8, Some(8)));
+        assert_eq!(
+            (g.random_starts, g.random_optima, g.local_optima),
+            (8, 1, 1)
+        );
+        assert!((g.unseen_estimate.unwrap() - 0.4).abs() < 1e-12);
+        assert_eq!(g.runner_up, None);
+        assert!(
+            g.summary.starts_with("global rule met: 8 of 8 vertices"),
+            "{}",
+            g.summary
+        );
+    }
     let max = vec![1.0, 3.0, 2.0, 7.0];
     let min = vec![0.0, 1.0, 4.0, 7.0];
     for (o, vertex) in r.objectives.iter().zip([&max, &min, &max, &min]) {
-        assert_eq!(o.status, Status::Certified);
-        assert_eq!(o.best_point.as_ref(), Some(vertex));
+        assert_eq!(o.status, Status::LocallyCertified);
+        assert_eq!(o.point.as_ref(), Some(vertex));
         let value = f(vertex).0[o.criterion];
-        assert_eq!(o.best_value, Some(value));
+        assert_eq!(o.value, Some(value));
         let c = o.certificate.as_ref().unwrap();
-        assert_eq!((c.verdict, c.residual), (Verdict::Certified, Some(0.0)));
+        assert_eq!(
+            (c.verdict, c.residual),
+            (Verdict::LocallyCertified, Some(0.0))
+        );
         assert_eq!(c.starts, 1, "the vertex walk ended there");
         // Every free datum is on a bound, each held by the slope's sign (≤ 0 proves a max).
         assert_eq!(c.active.len(), 3);
@@ -678,12 +718,12 @@ fn an_interior_maximum_is_found_by_the_safeguard_and_certified() {
         r.evaluations, o.certificate
     );
     assert!(r.evaluations > 3, "the global phases ran");
-    let x = o.best_point.as_ref().unwrap();
+    let x = o.point.as_ref().unwrap();
     assert!(
         (x[0] - 0.3).abs() < 1e-6 && (x[1] - 0.7).abs() < 1e-6,
         "{x:?}"
     );
-    assert_eq!(o.status, Status::Certified);
+    assert_eq!(o.status, Status::LocallyCertified);
     assert!(o.active_bounds.iter().all(|b| *b == ActiveBound::None));
     let proof = o.certificate.as_ref().unwrap();
     assert!(proof.active.is_empty());
@@ -720,7 +760,96 @@ fn a_walk_that_fails_proves_nothing() {
     );
     let o = &r.objectives[0];
     assert!(r.evaluations > 2);
-    assert!(o.best_value.unwrap() < 2.0);
-    assert_ne!(o.status, Status::Certified, "{:?}", o.certificate);
+    assert!(o.value.unwrap() < 2.0);
+    assert_ne!(o.status, Status::LocallyCertified, "{:?}", o.certificate);
     assert_eq!(o.certificate.as_ref().unwrap().verdict, Verdict::NotOptimal);
+}
+
+#[test]
+fn the_global_rule_finds_the_better_of_two_separated_maxima_and_reports_the_runner_up() {
+    // Φ = p0 + p1 + 2 exp(−(p1 / 0.15)²) on [0, 1]²: along p1 a narrow peak near 0 and a ramp
+    // to 1. The centre's slope along p1 points to 1, where the vertex (1, 1) is a local maximum
+    // (Φ = 2, certified by its signs); the global maximum Φ ≈ 3 sits just inside p1 = 0.
+    let bump = |t: f64| 2.0 * (-(t / 0.15).powi(2)).exp();
+    let f = move |p: &[f64]| -> Smooth {
+        let slope = 1.0 - 2.0 * p[1] / 0.0225 * bump(p[1]);
+        (vec![p[0] + p[1] + bump(p[1])], vec![vec![1.0, slope]])
+    };
+    // The maximiser along p1 solves 1 = (2 t / 0.0225) · bump(t) (Newton from 0).
+    let mut t = 0.0_f64;
+    for _ in 0..50 {
+        let g = 1.0 - 2.0 * t / 0.0225 * bump(t);
+        let dg = -(2.0 / 0.0225) * bump(t) * (1.0 - 2.0 * t * t / 0.0225);
+        t -= g / dg;
+    }
+    let peak = 1.0 + t + bump(t);
+    let bounds = vec![[0.0, 1.0], [0.0, 1.0]];
+    let e = WithSlopes::new(f);
+    let first = run(
+        &SearchProblem {
+            stop: StopRule::FirstCertificate,
+            ..problem(bounds.clone(), &[(0, Sense::Max)], 200)
+        },
+        &e,
+    );
+    let o = &first.objectives[0];
+    assert_eq!(o.point, Some(vec![1.0, 1.0]), "the walk's local maximum");
+    assert_eq!(o.status, Status::LocallyCertified);
+    assert!(!o.global.rule_met);
+
+    let r = run(&problem(bounds, &[(0, Sense::Max)], 200), &e);
+    let o = &r.objectives[0];
+    let x = o.point.as_ref().unwrap();
+    assert!((o.value.unwrap() - peak).abs() <= 1e-9 * peak, "{o:?}");
+    assert!(x[0] == 1.0 && (x[1] - t).abs() < 1e-4, "{x:?} vs p1 = {t}");
+    assert_eq!(o.status, Status::LocallyCertified);
+    let g = &o.global;
+    assert!(g.rule_met, "{g:?}");
+    assert_eq!(g.local_optima, 2, "{g:?}");
+    let runner = g
+        .runner_up
+        .as_ref()
+        .expect("the vertex maximum is the runner-up");
+    assert_eq!((runner.point.clone(), runner.value), (vec![1.0, 1.0], 2.0));
+    assert!(runner.locally_certified);
+    assert!((runner.gap - (peak - 2.0) / peak).abs() < 1e-12);
+    println!("{} evaluations: {}", r.evaluations, g.summary);
+}
+
+#[test]
+fn an_ascent_closes_in_on_a_failure_region_and_ends_unsettled_next_to_it() {
+    // Φ = p0 + p1 rises towards (1, 1), but the solver fails for p1 > 0.75: the maximum borders
+    // the failure region, where no derivative can certify it.
+    let f = |p: &[f64]| -> Smooth { (vec![p[0] + p[1]], vec![vec![1.0, 1.0]]) };
+    struct Walled<E>(E);
+    impl<E: Evaluator> Evaluator for Walled<E> {
+        fn evaluate(&self, points: &[Vec<f64>]) -> Vec<Outcome> {
+            let mut out = self.0.evaluate(points);
+            for (p, o) in points.iter().zip(out.iter_mut()) {
+                if p[1] > 0.75 {
+                    *o = Err("no answer".into());
+                }
+            }
+            out
+        }
+        fn gives_derivatives(&self) -> bool {
+            true
+        }
+    }
+    let e = Walled(WithSlopes::new(f));
+    let r = run(
+        &SearchProblem {
+            stop: StopRule::FirstCertificate,
+            ..problem(vec![[0.0, 1.0], [0.0, 1.0]], &[(0, Sense::Max)], 60)
+        },
+        &e,
+    );
+    let o = &r.objectives[0];
+    let x = o.point.as_ref().unwrap();
+    println!("{} evaluations, {x:?}, {:?}", r.evaluations, o.status);
+    assert_eq!(x[0], 1.0);
+    assert!(x[1] <= 0.75 && x[1] > 0.75 - 1e-3, "{x:?}");
+    // Never certified, so the search looks on until its budget is spent.
+    assert_eq!(o.status, Status::BudgetExhausted);
+    assert_eq!(r.evaluations, 60);
 }

@@ -1,19 +1,16 @@
-//! The vertex walk (issue #24 item 2), run first when the evaluator gives exact derivatives.
-//! Criteria of contact problems are very often monotone in each datum over the box, and then
-//! the extremum is the vertex the gradient's signs point to — and the signs at that vertex
-//! prove it ([`certificate`](super::certificate)). The walk evaluates the centre, then for every
-//! objective the vertex its mean unit slopes point to (all objectives' vertices in one batch),
-//! and while an objective's vertex is not certified, flips the bounds the derivative there
-//! disproves (a few rounds, each batch shared by the objectives still walking).
-//!
-//! An objective is *settled* — it needs no other phase — when its last vertex is certified, no
-//! datum's slope changed sign between the points it walked through (the centre included; a
-//! change reveals non-monotone behaviour, so another vertex or an interior point may be better),
-//! and no point evaluated so far beats it. The others go on to the global phases.
+//! The vertex walk (design §4.3, "With exact derivatives"), run first when the evaluator gives
+//! exact derivatives. Criteria of contact problems are very often monotone in each datum over
+//! the box, and then the extremum is the vertex the gradient's signs point to — and the signs at
+//! that vertex prove it locally ([`certificate`](super::certificate)). The walk evaluates the
+//! centre, then for every objective the vertex its mean unit slopes point to (all objectives'
+//! vertices in one batch), and while an objective's vertex is not certified, flips the bounds
+//! the derivative there disproves (a few rounds, each batch shared by the objectives still
+//! walking). A certified end is a first local optimum; whether another is better is the global
+//! phase's question (`global`).
 
 use super::certificate::{self, scale, CERTIFY_TOL};
 use super::session::Session;
-use super::{OneSided, Phase, Verdict};
+use super::{Phase, Verdict};
 
 /// Rounds of bound flips after the first vertex.
 const MAX_FLIPS: usize = 4;
@@ -24,54 +21,30 @@ struct Walk {
     vertex: Vec<f64>,
     /// Score of the previous point of the walk.
     score: f64,
-    /// Per free datum: a clearly positive / clearly negative score slope seen.
-    signs: Vec<[bool; 2]>,
-    /// No datum's slope has changed sign along the walk.
-    monotone: bool,
     /// Still walking.
     active: bool,
-    settled: bool,
 }
 
-impl Walk {
-    /// Note the signs of the score slopes `s` at a point with value `value`; the walk stops
-    /// being monotone once some datum's slope has been seen with both signs.
-    fn note_signs(&mut self, s: &[OneSided], value: f64) {
-        let tol = CERTIFY_TOL * scale(value);
-        for (seen, slope) in self.signs.iter_mut().zip(s) {
-            for side in [slope.right, slope.left] {
-                seen[0] |= side > tol;
-                seen[1] |= side < -tol;
-            }
-        }
-        self.monotone &= self.signs.iter().all(|[pos, neg]| !(*pos && *neg));
-    }
-}
-
-/// Walk every objective; per objective whether it is settled. Never fails: a refused batch
-/// (budget or halt) ends the walk with what it has proven so far.
-pub(super) fn run(session: &Session) -> Vec<bool> {
+/// Walk every objective. Never fails: a refused batch (budget or halt) ends the walk with what
+/// it has proven so far.
+pub(super) fn run(session: &Session) {
     session.set_phase(Phase::VertexWalk);
     let m = session.objectives().len();
     let dim = session.space.dim();
     let Ok(centre) = session.indices(&[vec![0.5; dim]]) else {
-        return vec![false; m];
+        return;
     };
     let mut walks: Vec<Walk> = (0..m)
         .map(|k| {
             let mut walk = Walk {
                 vertex: Vec::new(),
                 score: f64::NEG_INFINITY,
-                signs: vec![[false; 2]; dim],
-                monotone: true,
                 active: false,
-                settled: false,
             };
             let sense = session.objectives()[k].sense;
             if let Some(probe) = session.probe(k, centre[0]) {
                 if let Some(slopes) = &probe.slopes {
                     let s = certificate::unit_slopes(session.space, sense, slopes);
-                    walk.note_signs(&s, probe.value);
                     walk.vertex = s
                         .iter()
                         .map(|s| if s.mean() > 0.0 { 1.0 } else { 0.0 })
@@ -96,13 +69,10 @@ pub(super) fn run(session: &Session) -> Vec<bool> {
             step(session, k, index, &mut walks[k]);
         }
     }
-    walks.iter().map(|w| w.settled).collect()
 }
 
-/// Judge objective `k` at its vertex (trace point `index`): settle it, stop it (certified but
-/// not monotone, or no better than the previous point), or flip the bounds its derivative
-/// disproves — a walk that is no longer monotone goes on improving the best point the global
-/// phases start from.
+/// Judge objective `k` at its vertex (trace point `index`): stop it (certified, or no better
+/// than the previous point), or flip the bounds its derivative disproves.
 fn step(session: &Session, k: usize, index: usize, walk: &mut Walk) {
     walk.active = false;
     let sense = session.objectives()[k].sense;
@@ -114,18 +84,13 @@ fn step(session: &Session, k: usize, index: usize, walk: &mut Walk) {
     };
     let score = sense.score(probe.value);
     let s = certificate::unit_slopes(session.space, sense, slopes);
-    walk.note_signs(&s, probe.value);
     if score < walk.score {
         return;
     }
     walk.score = score;
     let proof = certificate::certify(session.space, sense, &probe.unit, probe.value, Some(slopes));
-    if proof.verdict == Verdict::Certified {
+    if proof.verdict == Verdict::LocallyCertified {
         session.note_end(k, probe.unit.clone());
-        walk.settled = walk.monotone
-            && session
-                .best(k)
-                .is_some_and(|(_, best)| sense.score(best) <= score);
         return;
     }
     let tol = CERTIFY_TOL * scale(probe.value);

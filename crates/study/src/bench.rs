@@ -296,7 +296,7 @@ pub fn worst_benchmark(
         worst: outcome
             .criteria
             .iter()
-            .map(|c| c.worst.best_value.unwrap_or(f64::NAN))
+            .map(|c| c.worst.value.unwrap_or(f64::NAN))
             .collect(),
     })
 }

@@ -482,13 +482,13 @@ fn attempt(
                     })
                 })
             };
-            let values_finite = [c.worst.best_value, c.best.best_value]
+            let values_finite = [c.worst.value, c.best.value]
                 .iter()
                 .all(|v| v.is_some_and(f64::is_finite));
-            if !(values_finite && at(&c.worst.best_point, worst) && at(&c.best.best_point, best)) {
+            if !(values_finite && at(&c.worst.point, worst) && at(&c.best.point, best)) {
                 result.reason = Some(format!(
                     "worst {:?} at {:?}, best {:?} at {:?}: not the expected vertices",
-                    c.worst.best_value, c.worst.best_point, c.best.best_value, c.best.best_point
+                    c.worst.value, c.worst.point, c.best.value, c.best.point
                 ));
             }
             result.warnings = outcome.warnings;

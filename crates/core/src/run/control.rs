@@ -40,6 +40,9 @@ pub enum RunPhase {
     /// The finite-difference sensitivities at every optimum, without exact derivatives (design
     /// §4.3 item 4).
     Sensitivities,
+    /// With exact derivatives: rounds of local searches from new starts looking for other local
+    /// optima (design §4.3, "The global question").
+    Multistart,
     /// The accuracy statement: worst and best data re-solved on refined meshes.
     Accuracy,
     /// The run has ended (the outcome's status says how).
@@ -156,6 +159,7 @@ impl RunPhase {
             Phase::Global { .. } => RunPhase::Swarm,
             Phase::Polish { .. } => RunPhase::Polish,
             Phase::Sensitivity => RunPhase::Sensitivities,
+            Phase::Multistart { .. } => RunPhase::Multistart,
         }
     }
 }
@@ -164,7 +168,9 @@ impl RunPhase {
 pub(super) fn phase_objective(phase: Phase) -> Option<usize> {
     match phase {
         Phase::Global { objective } | Phase::Polish { objective } => Some(objective),
-        Phase::VertexWalk | Phase::Screening | Phase::Sensitivity => None,
+        Phase::VertexWalk | Phase::Screening | Phase::Sensitivity | Phase::Multistart { .. } => {
+            None
+        }
     }
 }
 

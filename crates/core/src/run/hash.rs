@@ -86,7 +86,7 @@ mod tests {
         );
         assert_ne!(h, run_hash(&scene, &[Criterion::Phi5], None).unwrap());
         let mut other = scene.clone();
-        other.search.budget += 7;
+        other.search.budget = Some(other.search_budget() + 7);
         other.search.seed += 1;
         assert_eq!(h, run_hash(&other, &[Criterion::Phi3], None).unwrap());
         let mut value: Value = serde_json::from_str(text).unwrap();

@@ -15,6 +15,7 @@ mod model;
 mod points;
 mod remote;
 mod request;
+mod summary;
 mod table;
 
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
@@ -24,6 +25,7 @@ pub use model::{check_admissible_set, parameter_info, PreparedModel};
 pub use points::evaluate_points;
 pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use request::{SolveRequest, WorstRequest};
+pub use summary::summary;
 pub use table::{columns as table_columns, write_csv};
 
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};

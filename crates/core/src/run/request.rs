@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::check_target;
 use crate::scenario::worst::WorstSettings;
-use crate::scene::{Criterion, Scene, SceneError, SolverKind};
+use crate::scene::{Criterion, Scene, SceneError, SolverKind, StopRule};
 
 /// A single state solve.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -54,6 +54,10 @@ pub struct WorstRequest {
     /// `false` searches without them (finite-difference sensitivities, no certificates).
     #[serde(default)]
     pub derivatives: Option<bool>,
+    /// When the search may stop before its budget is spent (default: the scene's `search.stop`,
+    /// `global_rule`): `global_rule`, `first_certificate` or `budget`.
+    #[serde(default)]
+    pub stop: Option<StopRule>,
 }
 
 impl WorstRequest {
@@ -108,6 +112,9 @@ impl WorstRequest {
         }
         if let Some(derivatives) = self.derivatives {
             settings.derivatives = derivatives;
+        }
+        if let Some(stop) = self.stop {
+            settings.stop = stop;
         }
         if self.threads == Some(0) {
             return Err(SceneError::new("threads", "must be at least 1").into());

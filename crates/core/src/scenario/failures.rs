@@ -62,36 +62,33 @@ impl FailureSummary {
         summary
     }
 
-    /// Mark the objectives whose best point has a failure within the search's resolution.
-    pub fn unsettle(&self, criteria: &mut [CriterionOutcome], bounds: &[[f64; 2]], budget: usize) {
-        if self.count == 0 || bounds.is_empty() {
+    /// Mark the objectives whose best point has a failure within the search's resolution: every
+    /// failed point of `cache` counts, not only the listed ones.
+    pub fn unsettle(
+        cache: &EvalCache,
+        criteria: &mut [CriterionOutcome],
+        bounds: &[[f64; 2]],
+        budget: usize,
+    ) {
+        if bounds.is_empty() {
+            return;
+        }
+        let failed: Vec<&[f64]> = cache
+            .iter()
+            .filter(|(_, outcome)| outcome.is_err())
+            .map(|(point, _)| point)
+            .collect();
+        if failed.is_empty() {
             return;
         }
         let resolution = (budget.max(1) as f64).powf(-1.0 / bounds.len() as f64);
         for c in criteria.iter_mut() {
             for objective in [&mut c.worst, &mut c.best] {
-                if self.near(objective, bounds, resolution) {
+                if near(&failed, objective, bounds, resolution) {
                     objective.status = Status::Unsettled;
                 }
             }
         }
-    }
-
-    /// Whether a listed failure lies within `resolution` (unit box, ∞-norm) of the best point.
-    fn near(&self, objective: &ObjectiveResult, bounds: &[[f64; 2]], resolution: f64) -> bool {
-        let Some(best) = &objective.best_point else {
-            return false;
-        };
-        self.listed.iter().any(|f| {
-            f.point
-                .iter()
-                .zip(best)
-                .zip(bounds)
-                .all(|((&x, &y), &[lo, hi])| {
-                    let width = hi - lo;
-                    width <= 0.0 || ((x - y) / width).abs() <= resolution
-                })
-        })
     }
 
     /// The plain warning of a result with failures (none without).
@@ -125,4 +122,27 @@ impl FailureSummary {
             _ => Ok(()),
         }
     }
+}
+
+/// Whether a failed point lies within `resolution` (unit box, ∞-norm) of the objective's best
+/// point.
+fn near(
+    failed: &[&[f64]],
+    objective: &ObjectiveResult,
+    bounds: &[[f64; 2]],
+    resolution: f64,
+) -> bool {
+    let Some(best) = &objective.point else {
+        return false;
+    };
+    failed.iter().any(|point| {
+        point
+            .iter()
+            .zip(best)
+            .zip(bounds)
+            .all(|((&x, &y), &[lo, hi])| {
+                let width = hi - lo;
+                width <= 0.0 || ((x - y) / width).abs() <= resolution
+            })
+    })
 }

@@ -1,31 +1,120 @@
-//! Plain-words warnings for the extrema a search did not prove (issue #24): an objective whose
+//! Plain-words warnings for the extrema a search did not prove (design §4.3): an objective whose
 //! search stopped before optimality — budget exhausted, stagnation, time limit, cancel, failed
 //! evaluations next to its best point, or a converged polish that the exact derivatives do not
 //! certify, or a kink of Φ next to the best point (where no first-order proof exists) — says
 //! that its worst value may be higher (its best value lower), which of its data
-//! ended inside their intervals and what to do. A `certified` extremum needs no warning: the
-//! derivatives prove first-order optimality there (a local statement, like any converged
-//! search; see [`wsm_search::Certificate`]). Without derivatives (turned off), a converged
-//! polish is not warned about either: nothing could prove it.
+//! ended inside their intervals and what to do. A `locally_certified` extremum needs no such
+//! warning: the derivatives prove first-order optimality there (see
+//! [`wsm_search::Certificate`]). What the local proofs leave open is said from the global
+//! evidence ([`wsm_search::GlobalEvidence`]): the global rule not met, a runner-up local optimum
+//! within a few percent, or a search that could not look (no derivatives, `first_certificate`).
 
 use crate::scenario::worst::{CriterionOutcome, WorstOutcome};
-use wsm_search::{ActiveBound, ObjectiveResult, Status, Verdict};
+use wsm_search::{ActiveBound, ObjectiveResult, Sense, Status, StopRule, Verdict, CLOSE_RUNNER_UP};
 
-/// One warning per extremum the search did not settle, worst before best, in criterion order.
+/// One warning per extremum the search did not settle, worst before best, in criterion order,
+/// then what the global evidence leaves open: a run-level warning when no global rule could
+/// apply (no derivatives, or `stop: first_certificate`), else one per extremum whose rule was
+/// not met or that has a runner-up local optimum within [`CLOSE_RUNNER_UP`] of it.
 pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
     let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
-    outcome
+    let extrema: Vec<(String, &str, &str, &ObjectiveResult)> = outcome
         .criteria
         .iter()
         .flat_map(|c: &CriterionOutcome| {
-            [("worst", "higher", &c.worst), ("best", "lower", &c.best)]
-                .map(|(which, direction, o)| (c, which, direction, o))
-        })
-        .filter_map(|(c, which, direction, o)| {
             let symbol = format!("Φ{}", c.criterion.name().trim_start_matches("phi"));
-            warning(&symbol, which, direction, o, &names, outcome.budget)
+            [
+                (symbol.clone(), "worst", "higher", &c.worst),
+                (symbol, "best", "lower", &c.best),
+            ]
         })
-        .collect()
+        .collect();
+    let mut warnings: Vec<String> = extrema
+        .iter()
+        .filter_map(|(symbol, which, direction, o)| {
+            warning(symbol, which, direction, o, &names, outcome.budget)
+        })
+        .collect();
+    let found: Vec<&(String, &str, &str, &ObjectiveResult)> =
+        extrema.iter().filter(|e| e.3.value.is_some()).collect();
+    let Some(first) = found.first() else {
+        return warnings;
+    };
+    let unproven_locally = first.3.certificate.is_none()
+        || first
+            .3
+            .certificate
+            .as_ref()
+            .is_some_and(|c| c.verdict == Verdict::NoDerivatives);
+    if unproven_locally {
+        warnings.push(
+            "searched without derivatives: no extremum is proven, locally or globally; each is \
+             the most extreme of the points evaluated (search with derivatives for local proofs \
+             and the global rule)"
+                .to_string(),
+        );
+        return warnings;
+    }
+    if first.3.global.stop == StopRule::FirstCertificate {
+        warnings.push(
+            "search.stop = first_certificate: every extremum stopped at its first local proof, \
+             and no search looked for other local optima, so a more extreme value elsewhere in \
+             the box is possible; use the default stop (global_rule) to look"
+                .to_string(),
+        );
+    } else {
+        warnings.extend(
+            found
+                .iter()
+                .filter_map(|(symbol, which, _, o)| global_warning(symbol, which, o, &names)),
+        );
+    }
+    warnings
+}
+
+/// The global evidence of one extremum in words, when it leaves something open: its rule not
+/// met, or a runner-up local optimum within [`CLOSE_RUNNER_UP`].
+fn global_warning(
+    symbol: &str,
+    which: &str,
+    o: &ObjectiveResult,
+    names: &[&str],
+) -> Option<String> {
+    let g = &o.global;
+    let kind = match o.sense {
+        Sense::Max => "maximum",
+        Sense::Min => "minimum",
+    };
+    let close = g
+        .runner_up
+        .as_ref()
+        .filter(|r| r.gap <= CLOSE_RUNNER_UP)
+        .map(|r| {
+            let at: Vec<String> = names
+                .iter()
+                .zip(&r.point)
+                .map(|(n, v)| format!("{n} = {v:.6e}"))
+                .collect();
+            format!(
+            "another local {kind}, {:.6e} at ({}), is within {:.1} % of it: the criterion is not \
+             monotone over the box, and a small change of the model could make that one the \
+             {which}",
+            r.value,
+            at.join(", "),
+            100.0 * r.gap
+        )
+        });
+    let open = (!g.rule_met).then(|| {
+        format!(
+            "the global rule was not met ({}), so a more extreme local {kind} may exist; raise \
+             the budget (settings.budget, --budget) to look further",
+            g.summary
+                .split_once(": ")
+                .map_or(g.summary.as_str(), |(_, evidence)| evidence)
+        )
+    });
+    let parts: Vec<String> = [close, open].into_iter().flatten().collect();
+    (!parts.is_empty()).then(|| format!("{symbol} {which}: {}.", parts.join("; ")))
 }
 
 fn warning(
@@ -43,7 +132,7 @@ fn warning(
         )
     });
     let (reason, advice) = match (o.status, kink) {
-        (Status::Certified, _) => return None,
+        (Status::LocallyCertified, _) => return None,
         (_, Some(k)) => (
             format!(
                 "{symbol} has a kink next to it: its derivative along {} changes sign between the reported point and an evaluated point {:.1e} of that interval away (relative rates {:+.1e} and {:+.1e}; e.g. a contact pair switching between stick and slip), so no first-order proof exists there",
@@ -82,7 +171,7 @@ fn warning(
             "see the failures: the extremum may be where the solver gave no answer",
         ),
     };
-    let Some(value) = o.best_value else {
+    let Some(value) = o.value else {
         return Some(format!(
             "{symbol} {which}: no value — no evaluation gave one ({reason}); {advice}."
         ));
@@ -114,8 +203,8 @@ mod tests {
 
     fn objective(status: Status, bounds: Vec<ActiveBound>) -> ObjectiveResult {
         ObjectiveResult {
-            best_value: Some(2.5e-3),
-            best_point: Some(vec![0.0; bounds.len()]),
+            value: Some(2.5e-3),
+            point: Some(vec![0.0; bounds.len()]),
             active_bounds: bounds,
             ..ObjectiveResult::empty(0, wsm_search::Sense::Max, status, 2)
         }

@@ -20,7 +20,7 @@ use crate::scene::{Criterion, Scene, SceneError};
 use crate::state::StateProblem;
 use wsm_search::{
     search, EvalCache, Evaluator, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense,
-    Status,
+    Status, StopRule,
 };
 
 /// Settings of one worst-scenario run (defaults from the scene's `search`).
@@ -42,6 +42,8 @@ pub struct WorstSettings {
     pub target_error: Option<f64>,
     /// Exact derivatives on every evaluation (vertex walk, quasi-Newton polish, certificates).
     pub derivatives: bool,
+    /// When the search may stop before its budget is spent.
+    pub stop: StopRule,
 }
 
 impl WorstSettings {
@@ -49,12 +51,13 @@ impl WorstSettings {
     pub fn from_scene(scene: &Scene) -> WorstSettings {
         WorstSettings {
             criteria: scene.search.criteria.clone(),
-            budget: scene.search.budget,
+            budget: scene.search_budget(),
             seed: scene.search.seed,
             max_seconds: scene.search.max_seconds,
             accuracy_refinements: None,
             target_error: None,
             derivatives: scene.search.derivatives,
+            stop: scene.search.stop,
         }
     }
 
@@ -117,7 +120,7 @@ pub struct WorstOutcome {
     pub status: Status,
     /// The uncertain parameters, in the order of every point's coordinates.
     pub parameters: Vec<ParameterInfo>,
-    /// Per criterion; the `best_point` of each extremum is aligned with `parameters`.
+    /// Per criterion; the `point` of each extremum is aligned with `parameters`.
     pub criteria: Vec<CriterionOutcome>,
     /// The run's evaluation budget (distinct points).
     pub budget: usize,
@@ -204,7 +207,7 @@ impl WorstOutcome {
 
     /// Per criterion, the (value, point) of its worst and best.
     pub fn extrema(&self) -> Extrema {
-        let pick = |o: &ObjectiveResult| o.best_value.zip(o.best_point.clone());
+        let pick = |o: &ObjectiveResult| o.value.zip(o.point.clone());
         self.criteria
             .iter()
             .map(|c| [pick(&c.worst), pick(&c.best)])
@@ -240,6 +243,7 @@ pub fn run(
             .iter()
             .map(|u| u.field.clone())
             .collect(),
+        stop: settings.stop,
     };
     let result = search(&search_problem, evaluator, cache, control)?;
     let mut objectives = result.objectives.into_iter();
@@ -260,7 +264,12 @@ pub fn run(
         }
     }
     let failures = FailureSummary::from_cache(cache);
-    failures.unsettle(&mut criteria, &search_problem.bounds, settings.budget);
+    FailureSummary::unsettle(
+        cache,
+        &mut criteria,
+        &search_problem.bounds,
+        settings.budget,
+    );
     let wall = start.elapsed().as_secs_f64();
     let inner = inner();
     Ok(WorstOutcome {
@@ -286,13 +295,13 @@ pub fn run(
 }
 
 /// The extremum's `data` as the solve used it: slope-limited slip-limit knots take their
-/// projected values (`best_point` keeps the search coordinates).
+/// projected values (`point` keeps the search coordinates).
 fn report_applied_data(
     problem: &StateProblem,
     params: &[Parameter],
     extremum: &mut ObjectiveResult,
 ) {
-    let Some(point) = &extremum.best_point else {
+    let Some(point) = &extremum.point else {
         return;
     };
     let values = applied_values(&problem.scene, &problem.nominal, params, point);

@@ -20,7 +20,7 @@ pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
     CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, InitialGap, Material,
     MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
-    SolverSettings, Thermal, ThermalStress, Uncertain, Zone,
+    SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
 };
 pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};

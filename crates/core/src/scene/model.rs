@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+pub use wsm_search::StopRule;
 
 /// A point `[x, y]` in metres.
 pub type Point = [f64; 2];
@@ -497,6 +498,29 @@ impl Criterion {
         }
     }
 
+    /// The symbol a user reads: `Φ1` … `Φ6`.
+    pub fn symbol(self) -> &'static str {
+        ["Φ1", "Φ2", "Φ3", "Φ4", "Φ5", "Φ6"][self as usize]
+    }
+
+    /// The SI unit of the criterion's value.
+    pub fn unit(self) -> &'static str {
+        ["K", "K", "m", "m", "Pa²", "Pa"][self as usize]
+    }
+
+    /// What the criterion measures, in words (design §4.2, FGCS 4.29–4.34).
+    pub fn definition(self) -> &'static str {
+        [
+            "mean temperature over an area G_r",
+            "mean temperature over a boundary piece G'_r",
+            "mean displacement along the area's normal n(X_r) over an area G_r",
+            "mean displacement along the piece's outward normal over a boundary piece G'_r",
+            "mean squared deviatoric stress intensity I2² = τᴰ:τᴰ (plane-strain τ33 included) \
+             over an area G_r",
+            "mean normal compression −n·τ·n over an area G_r next to a contact zone",
+        ][self as usize]
+    }
+
     /// Whether the criterion needs the temperature field only (Φ1, Φ2).
     pub fn is_thermal(self) -> bool {
         matches!(self, Criterion::Phi1 | Criterion::Phi2)
@@ -518,9 +542,10 @@ pub struct SearchSettings {
     /// needs at least one, here or in its request.
     #[serde(default)]
     pub criteria: Vec<Criterion>,
-    /// Maximal number of inner solves (shared by all criteria).
-    #[serde(default = "default_budget")]
-    pub budget: usize,
+    /// Maximal number of inner solves (shared by all criteria). Default: 300, plus 2^k for k ≤ 10
+    /// free uncertain data, so that every vertex of the box can be screened.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub budget: Option<usize>,
     /// Seed of the search's random streams (default 1): the same seed gives the same result on any
     /// thread count.
     #[serde(default = "default_seed")]
@@ -532,27 +557,45 @@ pub struct SearchSettings {
     /// its extrema; `false` searches without them.
     #[serde(default = "default_derivatives")]
     pub derivatives: bool,
+    /// When the search may stop before its budget is spent (with derivatives): `global_rule`
+    /// (default) when every vertex is screened and few local optima are estimated unseen,
+    /// `first_certificate` at the first locally certified extremum, `budget` never.
+    #[serde(default)]
+    pub stop: StopRule,
 }
 
 fn default_derivatives() -> bool {
     true
 }
 
-fn default_budget() -> usize {
-    300
-}
 fn default_seed() -> u64 {
     1
+}
+
+impl Scene {
+    /// The search budget: `search.budget`, else the default for the scene's free uncertain data
+    /// (those with lo < hi; see [`wsm_search::default_budget`]).
+    pub fn search_budget(&self) -> usize {
+        self.search.budget.unwrap_or_else(|| {
+            let free = self
+                .uncertain
+                .iter()
+                .filter(|u| u.interval[0] < u.interval[1])
+                .count();
+            wsm_search::default_budget(free)
+        })
+    }
 }
 
 impl Default for SearchSettings {
     fn default() -> Self {
         SearchSettings {
             criteria: Vec::new(),
-            budget: default_budget(),
+            budget: None,
             seed: default_seed(),
             max_seconds: None,
             derivatives: default_derivatives(),
+            stop: StopRule::default(),
         }
     }
 }

@@ -1125,7 +1125,7 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
             a_region_touches_a_contact(scene, &path)?;
         }
     }
-    if scene.search.budget == 0 {
+    if scene.search.budget == Some(0) {
         return Err(SceneError::new("search.budget", "must be at least 1"));
     }
     if let Some(t) = scene.search.max_seconds {

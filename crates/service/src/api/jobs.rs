@@ -120,7 +120,7 @@ fn outcome_best(outcome: &WorstOutcome) -> Vec<BestSoFar> {
         .map(|(criterion, o)| BestSoFar {
             criterion,
             sense: o.sense,
-            value: o.best_value,
+            value: o.value,
         })
         .collect()
 }
@@ -497,7 +497,7 @@ pub async fn job_fields(
         }
     };
     let point = extremum
-        .best_point
+        .point
         .clone()
         .ok_or_else(|| ApiError::conflict("no feasible point was found for this criterion"))?;
     let vtu = match q.format.as_deref().unwrap_or("json") {

@@ -152,7 +152,7 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
     }
     let (budget, path) = match request.budget {
         Some(b) => (b, "settings.budget"),
-        None => (scene.search.budget, "scene.search.budget"),
+        None => (scene.search_budget(), "scene.search.budget"),
     };
     if budget > limits.max_budget {
         return Err(ApiError::invalid(

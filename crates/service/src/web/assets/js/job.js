@@ -266,13 +266,13 @@ function dataTables(result) {
     const name = c.criterion;
     const [what, unit] = CRITERION_INFO[name] || [name, ""];
     const accuracy = statement.find((a) => a.criterion === name);
-    const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.best_value) },
-      o.best_value === null ? "—" : `${num(o.best_value, 6)} ${unit}`);
+    const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.value) },
+      o.value === null ? "—" : `${num(o.value, 6)} ${unit}`);
     const rows = result.parameters.map((p, i) => el("tr", {},
       el("th", { scope: "row" }, p.name, p.field !== p.name ? el("span", { class: "bound" }, ` ${p.field}`) : null),
       el("td", { class: "num" }, `[${num(p.interval[0])}, ${num(p.interval[1])}]`),
       ...[c.worst, c.best].flatMap((o) => [
-        el("td", { class: "num" }, o.best_point ? num(o.best_point[i], 6) : "—"),
+        el("td", { class: "num" }, o.point ? num(o.point[i], 6) : "—"),
         el("td", { class: "bound" }, boundText(o.active_bounds[i]),
           o.gradient && o.gradient[p.field] ? el("span", { class: "gradient" }, ` ∂Φ/∂θ ${slopeText(o.gradient[p.field])}`) : null),
       ]),
@@ -297,10 +297,12 @@ function dataTables(result) {
             el("td", { class: "num" }, yesNo(c.worst.several_optima)), el("td"),
             el("td", { class: "num" }, yesNo(c.best.several_optima)), el("td")),
           el("tr", {}, el("th", { scope: "row" }, "Search status"), el("td"),
-            el("td", { class: "num" }, c.worst.status), el("td"), el("td", { class: "num" }, c.best.status), el("td")),
-          el("tr", {}, el("th", { scope: "row" }, "Optimality proof (relative residual)"), el("td"),
+            el("td", { class: "num" }, statusText(c.worst.status)), el("td"), el("td", { class: "num" }, statusText(c.best.status)), el("td")),
+          el("tr", {}, el("th", { scope: "row" }, "Local proof (relative residual)"), el("td"),
             el("td", { class: "num" }, proofText(c.worst.certificate, result.parameters)), el("td"),
             el("td", { class: "num" }, proofText(c.best.certificate, result.parameters)), el("td")),
+          el("tr", {}, el("th", { scope: "row" }, "Global evidence"), el("td"),
+            globalCell(name, "max", c.worst.global, unit), el("td"), globalCell(name, "min", c.best.global, unit), el("td")),
         )));
   });
   $("data-tables").replaceChildren(...blocks);
@@ -311,10 +313,25 @@ function slopeText(s) {
   return s.right === s.left ? num(s.right, 4) : `${num(s.left, 4)} (left) / ${num(s.right, 4)} (right)`;
 }
 
+/** A search status in words: a certificate is only ever local. */
+function statusText(s) {
+  return (s || "—").replaceAll("_", " ");
+}
+
+/** What the search knows about other local optima of an extremum: the rule's verdict, the runner-up. */
+function globalCell(name, sense, g, unit) {
+  const attrs = { class: `num global ${g && g.rule_met ? "yes" : "no"}`, id: `global-${name}-${sense}` };
+  if (!g || !g.summary) return el("td", attrs, "—");
+  attrs["data-rule-met"] = String(g.rule_met);
+  const r = g.runner_up;
+  const runner = r ? el("div", {}, `Runner-up local ${sense === "max" ? "maximum" : "minimum"}: ${num(r.value, 6)} ${unit} (${num(100 * r.gap, 2)} % less extreme)`) : null;
+  return el("td", attrs, g.summary, runner);
+}
+
 /** What the exact derivatives prove about an extremum (`parameters` name a kink's datum). */
 function proofText(c, parameters) {
   if (!c) return "—";
-  const words = { certified: "certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
+  const words = { locally_certified: "locally certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
   if (c.residual === null || c.residual === undefined) return words[c.verdict];
   const starts = c.starts > 1 ? ` · ${c.starts} local searches agree` : "";
   const p = c.kink ? parameters[c.kink.parameter] : null;
@@ -399,7 +416,7 @@ async function loadFields() {
   $("dl-vtu").textContent = `VTU (${scenario} ${criterion})`;
   const c = current.result.criteria.find((x) => x.criterion === criterion);
   const extremum = c && (scenario === "worst" ? c.worst : c.best);
-  if (!extremum || !extremum.best_point) {
+  if (!extremum || !extremum.point) {
     mesh.clear();
     setLink("dl-vtu", null);
     mesh.message(`No feasible point was found for the ${scenario} scenario of ${CRITERIA[criterion] || criterion}: there is no mesh to show.`);

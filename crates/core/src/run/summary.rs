@@ -1,0 +1,104 @@
+//! The human summary of a worst-scenario outcome (design §5.1): per criterion what it measures,
+//! its worst and best value, the data that make each, and the two levels of proof — the local
+//! certificate and the global evidence — in plain words, then the warnings. `wsm worst` prints it
+//! on stderr beside the JSON on stdout.
+
+use std::fmt::Write;
+
+use crate::scenario::worst::WorstOutcome;
+use crate::scene::Criterion;
+use wsm_search::{ActiveBound, ObjectiveResult, Sense, Verdict};
+
+/// The summary as lines of text.
+pub fn summary(outcome: &WorstOutcome) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{}: {} of {} solves, status {}",
+        outcome.scene,
+        outcome.evaluations,
+        outcome.budget,
+        serde_json::to_value(outcome.status)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default()
+    );
+    let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
+    for c in &outcome.criteria {
+        let _ = writeln!(
+            out,
+            "{} [{}]: {}, the largest over its regions",
+            c.criterion.symbol(),
+            c.criterion.unit(),
+            c.criterion.definition()
+        );
+        for (which, o) in [("worst", &c.worst), ("best", &c.best)] {
+            extremum(&mut out, c.criterion, which, o, &names);
+        }
+    }
+    for w in &outcome.warnings {
+        let _ = writeln!(out, "warning: {w}");
+    }
+    out
+}
+
+fn extremum(
+    out: &mut String,
+    criterion: Criterion,
+    which: &str,
+    o: &ObjectiveResult,
+    names: &[&str],
+) {
+    let Some(value) = o.value else {
+        let _ = writeln!(out, "  {which}: no value (no evaluation gave one)");
+        return;
+    };
+    let equivalent = match criterion {
+        Criterion::Phi5 if value >= 0.0 => format!(" (√Φ5 = {:.4e} Pa)", value.sqrt()),
+        _ => String::new(),
+    };
+    let _ = writeln!(
+        out,
+        "  {which} {value:.6e} {}{equivalent}",
+        criterion.unit()
+    );
+    let data: Vec<String> = names
+        .iter()
+        .zip(o.point.iter().flatten())
+        .zip(&o.active_bounds)
+        .map(|((n, v), bound)| {
+            let place = match bound {
+                ActiveBound::Lower => " (lower end)",
+                ActiveBound::Upper => " (upper end)",
+                ActiveBound::None => " (inside)",
+                ActiveBound::Fixed => "",
+            };
+            format!("{n} = {v:.6e}{place}")
+        })
+        .collect();
+    if !data.is_empty() {
+        let _ = writeln!(out, "    data: {}", data.join(", "));
+    }
+    let local = match o.certificate.as_ref().map(|c| c.verdict) {
+        Some(Verdict::LocallyCertified) => {
+            "locally certified (the exact derivatives prove first-order optimality here)"
+        }
+        Some(Verdict::NotOptimal) => "not proven: the derivatives show a direction to improve",
+        Some(Verdict::NoDerivatives) | None => "none (no derivatives)",
+    };
+    let _ = writeln!(out, "    local proof: {local}");
+    let _ = writeln!(out, "    {}", o.global.summary);
+    if let Some(r) = &o.global.runner_up {
+        let kind = match o.sense {
+            Sense::Max => "maximum",
+            Sense::Min => "minimum",
+        };
+        let _ = writeln!(
+            out,
+            "    runner-up local {kind}: {:.6e} {} ({:.2} % less extreme)",
+            r.value,
+            criterion.unit(),
+            100.0 * r.gap
+        );
+    }
+}
