@@ -272,7 +272,7 @@ def main():
         {"slip_limit": 1.0e5},
         False,
         MATERIAL_UNCERTAINTY
-        + [{"name": "medial slip limit", "field": "contacts[0].slip_limit", "interval": [0.5e5, 1.5e5]}],
+        + [{"name": "medial slip limit", "field": "contacts[medial condyle outer face].slip_limit", "interval": [0.5e5, 1.5e5]}],
         {"criteria": ["phi5", "phi6"], "budget": 80, "seed": 1},
     )
     scenes["knee-mcs2007-coulomb"] = scene(
@@ -286,8 +286,8 @@ def main():
         True,
         [MATERIAL_UNCERTAINTY[0], MATERIAL_UNCERTAINTY[2]]
         + [
-            {"name": f"F {c}", "field": f"contacts[{i}].friction_coefficient", "interval": [0.04, 0.10]}
-            for i, (c, _, _) in enumerate(faces())
+            {"name": f"F {c}", "field": f"contacts[{c}].friction_coefficient", "interval": [0.04, 0.10]}
+            for c, _, _ in faces()
         ],
         {"criteria": ["phi5", "phi6"], "budget": 150, "seed": 1},
     )

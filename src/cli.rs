@@ -76,7 +76,8 @@ fn write(path: &Path, text: &str) -> Result<(), WsmError> {
     std::fs::write(path, text).map_err(|e| WsmError::io(path.display(), e))
 }
 
-/// `wsm solve`: the JSON summary; the full result and a VTU file on request.
+/// `wsm solve`: the JSON summary; the full result and a VTU file on request. The report's
+/// warnings also go to stderr, as `wsm worst`'s do.
 pub fn solve(
     scene: Scene,
     request: SolveRequest,
@@ -88,6 +89,9 @@ pub fn solve(
         ..request
     };
     let output = run::solve(scene, &request)?;
+    for warning in &output.summary.report.warnings {
+        eprintln!("warning: {warning}");
+    }
     if let Some(p) = out {
         write(p, &to_json(&output)?)?;
     }

@@ -245,9 +245,9 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
     let rows: Vec<&str> = text.lines().collect();
     assert_eq!(
         rows[0],
-        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error,\
-         d(phi3)/d(materials.rock.E),d(phi3)/d(boundary[2].traction[0]),d(phi3)/d(contacts[0].slip_limit),\
-         d(phi6)/d(materials.rock.E),d(phi6)/d(boundary[2].traction[0]),d(phi6)/d(contacts[0].slip_limit)"
+        "id,materials.rock.E,boundary[2].traction[0],contacts[joint].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error,\
+         d(phi3)/d(materials.rock.E),d(phi3)/d(boundary[2].traction[0]),d(phi3)/d(contacts[joint].slip_limit),\
+         d(phi6)/d(materials.rock.E),d(phi6)/d(boundary[2].traction[0]),d(phi6)/d(contacts[joint].slip_limit)"
     );
     assert_eq!(rows.len(), 1 + evaluations.len());
     for (i, row) in rows[1..].iter().enumerate() {

@@ -519,3 +519,200 @@ fn symmetric_entry_is_uncertain_once() {
     let e = wsm_core::scene::params::parameters(&scene).unwrap_err();
     assert_eq!(e.path, "uncertain[1].field");
 }
+
+/// The refusal of the block-on-base example after `edit`.
+fn refusal_of(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {
+    let mut scene = base();
+    edit(&mut scene);
+    parse(&scene.to_string()).unwrap_err()
+}
+
+/// Boundary conditions and contact zones may be named; a name must be unique in its list and
+/// usable in a field path (not blank, no brackets, not all digits).
+#[test]
+fn entry_names_are_unique_and_usable_in_paths() {
+    let named = |s: &mut Value| {
+        s["boundary"][0]["name"] = json!("clamp");
+        s["boundary"][2]["name"] = json!("push");
+    };
+    let mut ok = base();
+    named(&mut ok);
+    parse(&ok.to_string()).unwrap();
+    let e = refusal_of(|s| {
+        named(s);
+        s["boundary"][1]["name"] = json!("push");
+    });
+    assert_eq!(
+        (e.path.as_str(), e.reason.as_str()),
+        (
+            "boundary[2].name",
+            "boundary condition name 'push' used twice"
+        )
+    );
+    for (bad, why) in [
+        ("", "is empty"),
+        ("  ", "is empty"),
+        ("up[1]", "contains a bracket"),
+        ("4", "is all digits"),
+    ] {
+        let e = refusal_of(|s| s["boundary"][1]["name"] = json!(bad));
+        assert_eq!(e.path, "boundary[1].name", "{bad:?}");
+        assert!(e.reason.contains(why), "{bad:?}: {}", e.reason);
+        let e = refusal_of(|s| s["contacts"][0]["name"] = json!(bad));
+        assert_eq!(e.path, "contacts[0].name", "{bad:?}");
+        assert!(e.reason.contains(why), "{bad:?}: {}", e.reason);
+    }
+}
+
+/// A path may pick a boundary condition or contact zone by name: the same datum as its index.
+#[test]
+fn a_name_in_a_path_picks_the_same_datum_as_the_index() {
+    use wsm_core::scene::params::parameters;
+    let mut by_index = base();
+    by_index["boundary"][2]["name"] = json!("push");
+    let mut by_name = by_index.clone();
+    by_name["uncertain"][1]["field"] = json!("boundary[push].traction[0]");
+    by_name["uncertain"][2]["field"] = json!("contacts[joint].slip_limit");
+    let targets = |v: &Value| {
+        parameters(&parse(&v.to_string()).unwrap())
+            .unwrap()
+            .into_iter()
+            .map(|p| (p.target, p.lo, p.hi))
+            .collect::<Vec<_>>()
+    };
+    by_index["uncertain"][2]["field"] = json!("contacts[0].slip_limit");
+    assert_eq!(targets(&by_name), targets(&by_index));
+    // The parameter is reported by the path as written.
+    let scene = parse(&by_name.to_string()).unwrap();
+    assert_eq!(
+        parameters(&scene).unwrap()[1].name,
+        "boundary[push].traction[0]"
+    );
+    // One datum named twice, by name and by index, is refused as for two indices.
+    let mut twice = by_name.clone();
+    twice["uncertain"][0] = json!({"field": "boundary[2].traction[0]", "interval": [3e5, 4e5]});
+    let e = parameters(&parse(&twice.to_string()).unwrap()).unwrap_err();
+    assert_eq!(e.path, "uncertain[1].field");
+}
+
+/// A name that no entry has is refused at the field, with the names there are.
+#[test]
+fn an_unknown_name_in_a_path_lists_the_names() {
+    let e = refusal_of(|s| {
+        s["boundary"][0]["name"] = json!("clamp");
+        s["boundary"][2]["name"] = json!("push");
+        s["uncertain"][1]["field"] = json!("boundary[pull].traction[0]");
+    });
+    assert_eq!(e.path, "uncertain[1].field");
+    assert_eq!(
+        e.reason,
+        "'boundary[pull].traction[0]': no boundary entry is named 'pull'; the names are 'clamp', 'push'"
+    );
+    let e = refusal_of(|s| s["uncertain"][1]["field"] = json!("boundary[push].traction[0]"));
+    assert!(e.reason.contains("none has a name"), "{}", e.reason);
+    let e = refusal_of(|s| s["uncertain"][2]["field"] = json!("contacts[fault].slip_limit"));
+    assert_eq!(e.path, "uncertain[2].field");
+    assert!(e.reason.ends_with("the names are 'joint'"), "{}", e.reason);
+}
+
+/// The scene's own value of an uncertain datum must lie in its interval, ends included.
+#[test]
+fn a_nominal_value_outside_its_interval_is_refused() {
+    // rock E = 1e10 Pa against [1.1e10, 1.2e10].
+    let e = refusal_of(|s| s["uncertain"][0]["interval"] = json!([1.1e10, 1.2e10]));
+    assert_eq!(e.path, "uncertain[0]");
+    assert!(
+        e.reason.starts_with(
+            "the nominal value 10000000000 of materials.rock.E lies outside its interval \
+             [11000000000, 12000000000]"
+        ),
+        "{}",
+        e.reason
+    );
+    // A number the scene leaves out is zero in its data: uncertain, it needs a value too.
+    let e = refusal_of(|s| {
+        s["uncertain"][0] = json!({"field": "materials.rock.body_force[0]", "interval": [1.0, 2.0]})
+    });
+    assert_eq!(e.path, "uncertain[0]");
+    assert!(
+        e.reason.starts_with("the nominal value 0 of"),
+        "{}",
+        e.reason
+    );
+    let mut at_the_ends = base();
+    at_the_ends["uncertain"][0]["interval"] = json!([1e10, 1.2e10]);
+    at_the_ends["uncertain"][2]["interval"] = json!([2.5e5, 3e5]);
+    parse(&at_the_ends.to_string()).unwrap();
+}
+
+/// Implausible magnitudes are warned about (not refused), with the JSON path and the value;
+/// every bundled example is free of warnings.
+#[test]
+fn implausible_magnitudes_are_warned_about_with_path_and_value() {
+    use wsm_core::scene::warnings;
+    let warned = |edit: &dyn Fn(&mut Value)| {
+        let mut s = base();
+        edit(&mut s);
+        warnings(&parse(&s.to_string()).unwrap())
+    };
+    type Edit<'a> = &'a dyn Fn(&mut Value);
+    let cases: [(Edit, &str); 8] = [
+        (
+            &|s| {
+                s["materials"]["rock"]["E"] = json!(3e4);
+                s["uncertain"][0]["interval"] = json!([2e4, 4e4]);
+            },
+            "materials.rock.E: a Young's modulus of 3e4 Pa",
+        ),
+        (
+            &|s| s["uncertain"][0]["interval"] = json!([5e4, 1.2e10]),
+            "uncertain[0].interval: a Young's modulus of 5e4 Pa",
+        ),
+        (
+            &|s| {
+                s["materials"]["rock"] = json!({"lambda": 2e4, "mu": 2e4});
+                s["uncertain"].as_array_mut().unwrap().remove(0);
+            },
+            "materials.rock.mu: a Young's modulus of 5e4 Pa (E = μ(3λ + 2μ)/(λ + μ)",
+        ),
+        (
+            &|s| {
+                s["materials"]["rock"] = json!({"E1": 1e10, "E2": 9e4, "E3": 1e10, "nu12": 0.01,
+                    "nu13": 0.2, "nu23": 1e-4, "G12": 1e9});
+                s["uncertain"].as_array_mut().unwrap().remove(0);
+            },
+            "materials.rock.E2: a Young's modulus of 9e4 Pa",
+        ),
+        (
+            // The model is 2 m × 1 m: a diagonal of √5 m.
+            &|s| s["boundary"][0]["displacement"] = json!([null, -3.0]),
+            "boundary[0].displacement[1]: a prescribed displacement of -3e0 m is larger than the \
+             whole model (the diagonal of its bounding box is 2.23606797749979e0 m)",
+        ),
+        (
+            &|s| s["materials"]["rock"]["specific_weight"] = json!(2.45e7),
+            "materials.rock.specific_weight: a specific weight of 2.45e7 N/m³",
+        ),
+        (
+            &|s| s["boundary"][1]["pressure"] = json!(3e10),
+            "boundary[1].pressure: a surface load of 3e10 Pa",
+        ),
+        (
+            &|s| s["uncertain"][1]["interval"] = json!([3e5, 2e10]),
+            "uncertain[1].interval: a surface load of 2e10 Pa",
+        ),
+    ];
+    for (edit, start) in cases {
+        let w = warned(edit);
+        assert!(w.iter().any(|w| w.starts_with(start)), "{start}: {w:?}");
+    }
+    assert!(warned(&|_| ()).is_empty());
+    for name in wsm_core::bundled::names() {
+        let scene = parse(wsm_core::bundled::find(name).unwrap()).unwrap();
+        assert!(
+            warnings(&scene).is_empty(),
+            "{name}: {:?}",
+            warnings(&scene)
+        );
+    }
+}

@@ -80,7 +80,7 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         1 + evaluations.as_array().unwrap().len()
     );
     assert!(text.starts_with(
-        "id,materials.rock.E,boundary[2].traction[0],contacts[0].slip_limit,phi3,phi6,"
+        "id,materials.rock.E,boundary[2].traction[0],contacts[joint].slip_limit,phi3,phi6,"
     ));
     let history = get(addr, &format!("/v1/jobs/{id}/history")).json();
     assert_eq!(history[0]["criterion"], "phi3");
@@ -422,6 +422,26 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
             "expected path {path}, got {got}: {text}"
         );
         assert!(!error["detail"].as_str().unwrap().is_empty());
+    }
+    // A nominal value outside its own interval: refused on submission, naming the entry (the
+    // same rule as `wsm solve` and `wsm worst`; tests/dam.rs).
+    for endpoint in ["/v1/jobs", "/v1/solve"] {
+        let reply = post(
+            addr,
+            endpoint,
+            &with("uncertain.0.interval", json!([1.1e10, 1.2e10])),
+        );
+        assert_eq!(reply.status, 422, "{endpoint}");
+        let error = reply.json();
+        assert_eq!(error["path"], "scene.uncertain[0]", "{endpoint}");
+        let detail = error["detail"].as_str().unwrap();
+        assert!(
+            detail.contains(
+                "the nominal value 10000000000 of materials.rock.E lies outside its interval \
+                 [11000000000, 12000000000]"
+            ),
+            "{endpoint}: {detail}"
+        );
     }
     // Malformed JSON, empty body, too large, unknown ids, wrong states, bad queries.
     let raw = |method: &str, path: &str, body: &[u8]| http(addr, method, path, Some(body), &[]);

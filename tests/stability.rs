@@ -78,6 +78,7 @@ fn near_lift_off_the_contact_carries_exactly_the_net_load() {
 #[test]
 fn a_worst_scenario_result_warns_about_p1_locking() {
     let mut v = pushed_block(1.0e9, 1.0e9, 0.3, 1.0e5, 1.0e5);
+    v["materials"]["block"]["nu"] = json!(0.49);
     v["uncertain"] = json!([{"field": "materials.block.nu", "interval": [0.49, 0.495]}]);
     let request = WorstRequest {
         criteria: Some(vec![Criterion::Phi3]),
@@ -93,6 +94,7 @@ fn a_worst_scenario_result_warns_about_p1_locking() {
         .collect();
     assert_eq!(locking.len(), 1, "{:?}", outcome.warnings);
     assert!(locking[0].contains("'block'"), "{:?}", outcome.warnings);
+    v["materials"]["block"]["nu"] = json!(0.3);
     v["uncertain"] = json!([{"field": "materials.block.nu", "interval": [0.3, 0.4]}]);
     let calm = run::worst(parse(&v.to_string()).unwrap(), &request, &RunControl::new()).unwrap();
     assert!(

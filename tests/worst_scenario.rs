@@ -349,7 +349,7 @@ fn slope_limited_slip_limit_extrema_beat_an_enumeration_of_its_set() {
     for outcome in &r.criteria {
         for o in [&outcome.worst, &outcome.best] {
             let g: Vec<f64> = (0..3)
-                .map(|k| o.data[&format!("contacts[0].slip_limit.values[{k}]")])
+                .map(|k| o.data[&format!("contacts[fault_low].slip_limit.values[{k}]")])
                 .collect();
             for k in 0..2 {
                 assert!(

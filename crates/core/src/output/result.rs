@@ -28,10 +28,15 @@ pub struct CriteriaValues {
     pub phi5: Option<f64>,
     /// Φ6: largest mean normal compression −n·τ·n over the areas G_r that have a normal \[Pa\].
     pub phi6: Option<f64>,
+    /// √Φ5 \[Pa\]: Φ5 as a stress, the root mean square over its region of |τᴰ| = √(τᴰ:τᴰ)
+    /// (I2² = τᴰ:τᴰ); the von Mises stress is √(3/2) |τᴰ|, so the region's root-mean-square
+    /// von Mises stress is √(3/2) times this.
+    #[serde(default)]
+    pub phi5_equivalent_stress: Option<f64>,
 }
 
 impl CriteriaValues {
-    /// The values from an array in the order Φ1..Φ6 (`Criterion as usize`).
+    /// The values from an array in the order Φ1..Φ6 (`Criterion as usize`), with √Φ5.
     pub fn new(values: &[Option<f64>; 6]) -> CriteriaValues {
         CriteriaValues {
             phi1: values[0],
@@ -40,6 +45,7 @@ impl CriteriaValues {
             phi4: values[3],
             phi5: values[4],
             phi6: values[5],
+            phi5_equivalent_stress: values[4].map(f64::sqrt),
         }
     }
 

@@ -6,7 +6,8 @@
 //! give the exact integral of the P1 interpolant (∫λ_i = λ_i applied to the area and first
 //! moments) and of element-constant fields. A boundary piece is the part of a segment between
 //! the projections of two points; its weights integrate the P1 trace exactly, partial edges
-//! included. Means are then `Σ w_i f_i` (`mean_p1`, `mean_p0`).
+//! included, whether the piece spans many edges or lies inside one (it is measured on the
+//! traces of the edges it crosses, never refused for being shorter than an element). Means are then `Σ w_i f_i` (`mean_p1`, `mean_p0`).
 
 use std::collections::BTreeMap;
 
@@ -334,19 +335,25 @@ fn nearest_contact(mesh: &Mesh, body: usize, poly: &[P]) -> (Option<usize>, f64)
     best
 }
 
-/// Arc-length parametrisation of a segment's edges in their stored order.
+/// Arc-length parametrisation of a segment's edges in their stored order, each edge taken in
+/// the direction of the walk.
+///
+/// A segment's edges are stored in order along it but oriented with the body on their left, so
+/// a segment drawn clockwise around its body (the dam's crest from the upstream to the
+/// downstream corner) has every edge pointing backwards; [`walk_direction`] turns them.
 struct Chain<'a> {
     mesh: &'a Mesh,
-    edges: &'a [[usize; 2]],
+    edges: Vec<[usize; 2]>,
     start: Vec<f64>,
     total: f64,
 }
 
 impl<'a> Chain<'a> {
-    fn new(mesh: &'a Mesh, edges: &'a [[usize; 2]]) -> Chain<'a> {
+    fn new(mesh: &'a Mesh, edges: &[[usize; 2]]) -> Chain<'a> {
+        let edges = walk_direction(edges);
         let mut start = Vec::with_capacity(edges.len());
         let mut total = 0.0;
-        for &[a, b] in edges {
+        for &[a, b] in &edges {
             start.push(total);
             total += dist(mesh.nodes[a], mesh.nodes[b]);
         }
@@ -408,6 +415,22 @@ impl<'a> Chain<'a> {
     }
 }
 
+/// The edges of a chain in their order, each oriented from the node it shares with the edge
+/// before it to the next one (the first edge away from the node it shares with the second); an
+/// edge that shares no node with its neighbours keeps its direction.
+fn walk_direction(edges: &[[usize; 2]]) -> Vec<[usize; 2]> {
+    let mut out: Vec<[usize; 2]> = Vec::with_capacity(edges.len());
+    for (k, &[a, b]) in edges.iter().enumerate() {
+        let reversed = match (out.last(), edges.get(k + 1)) {
+            (Some(&[_, end]), _) if end == a || end == b => end == b,
+            (_, Some(next)) => next.contains(&a),
+            _ => false,
+        };
+        out.push(if reversed { [b, a] } else { [a, b] });
+    }
+    out
+}
+
 fn piece_region(
     r: usize,
     piece: &BoundaryPiece,
@@ -442,7 +465,14 @@ fn piece_region(
     let (s0, s1) = (a.min(b), a.max(b));
     let length = s1 - s0;
     if length <= 1e-12 * chain.total {
-        return Err(SceneError::new(path, "the boundary piece has zero length"));
+        return Err(SceneError::new(
+            path,
+            format!(
+                "the boundary piece has zero length: its ends project onto the same point of \
+                 segment '{}'",
+                piece.segment
+            ),
+        ));
     }
     let node_weights = chain
         .integrals(s0, s1)

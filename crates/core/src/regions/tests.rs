@@ -114,6 +114,159 @@ fn boundary_piece_means_are_exact() {
     assert!((bottom.normal[1] + 1.0).abs() < 1e-12);
 }
 
+/// A 4 m × 1 m plate meshed at `h`, with the top side as two segments: `top_cw` drawn against
+/// the body's orientation (its mesh edges point backwards along it, like the dam's crest) and
+/// `top_ccw` drawn with it; `pieces` are boundary pieces on them.
+fn plate(h: f64, pieces: serde_json::Value) -> (Scene, Mesh) {
+    let sc = scene(serde_json::json!({
+        "version": 1,
+        "bodies": [{ "name": "plate", "zones": [{ "name": "plate", "material": "m",
+            "polygon": [[0, 0], [4, 0], [4, 1], [0, 1]] }] }],
+        "segments": {
+            "top_cw":  { "body": "plate", "from": [0, 1], "to": [4, 1] },
+            "top_ccw": { "body": "plate", "from": [4, 1], "to": [0, 1] }
+        },
+        "materials": { "m": { "E": 1.0e10, "nu": 0.25 } },
+        "mesh": { "max_size": h },
+        "criteria": { "boundary_pieces": pieces }
+    }));
+    let mesh = generate(&sc).unwrap();
+    (sc, mesh)
+}
+
+/// The nodes of the plate's top side (y = 1) sorted by x.
+fn top_nodes(mesh: &Mesh) -> Vec<usize> {
+    let mut top: Vec<usize> = (0..mesh.nodes.len())
+        .filter(|&n| mesh.nodes[n][1] == 1.0)
+        .collect();
+    top.sort_by(|&a, &b| mesh.nodes[a][0].total_cmp(&mesh.nodes[b][0]));
+    top
+}
+
+/// ∫ over x ∈ [x0, x1] of the piecewise linear interpolant of `f` between the top nodes, by the
+/// trapezoid rule on each clipped edge (exact for a function linear on each piece).
+fn top_integral(mesh: &Mesh, f: &[f64], x0: f64, x1: f64) -> f64 {
+    let top = top_nodes(mesh);
+    top.windows(2)
+        .map(|e| {
+            let ([xa, _], [xb, _]) = (mesh.nodes[e[0]], mesh.nodes[e[1]]);
+            let at = |x: f64| f[e[0]] + (f[e[1]] - f[e[0]]) * (x - xa) / (xb - xa);
+            let (u0, u1) = (x0.max(xa), x1.min(xb));
+            if u1 > u0 {
+                0.5 * (u1 - u0) * (at(u0) + at(u1))
+            } else {
+                0.0
+            }
+        })
+        .sum()
+}
+
+/// A field that is not linear: its P1 trace is linear only edge by edge.
+fn curved(mesh: &Mesh) -> Vec<f64> {
+    mesh.nodes
+        .iter()
+        .map(|p| p[0] * p[0] + 0.5 * p[1])
+        .collect()
+}
+
+/// A piece lying strictly inside one boundary edge is measured on that edge: its mean is the
+/// mean of the edge's linear interpolation over [from, to], on a segment drawn either way.
+#[test]
+fn a_piece_inside_one_edge_takes_the_mean_of_the_edge_interpolation() {
+    let (sc, mesh) = plate(
+        2.5,
+        serde_json::json!([
+            { "name": "cw", "segment": "top_cw", "from": [1.1, 1], "to": [1.3, 1] },
+            { "name": "ccw", "segment": "top_ccw", "from": [1.3, 1], "to": [1.1, 1] }
+        ]),
+    );
+    let top = top_nodes(&mesh);
+    let (a, b) = top
+        .windows(2)
+        .map(|e| (e[0], e[1]))
+        .find(|&(a, b)| mesh.nodes[a][0] < 1.1 && mesh.nodes[b][0] > 1.3)
+        .expect("one edge holds the piece");
+    let g = build(&sc, &mesh).unwrap();
+    let f = curved(&mesh);
+    let t_mid = (1.2 - mesh.nodes[a][0]) / (mesh.nodes[b][0] - mesh.nodes[a][0]);
+    let exact = f[a] * (1.0 - t_mid) + f[b] * t_mid;
+    for piece in &g.pieces {
+        assert!((piece.length - 0.2).abs() < 1e-14, "{}", piece.length);
+        let mut nodes: Vec<usize> = piece.node_weights.iter().map(|w| w.0).collect();
+        nodes.sort_unstable();
+        assert_eq!(nodes, [a.min(b), a.max(b)], "{}", piece.name);
+        let mean = mean_p1(&piece.node_weights, &f);
+        assert!(
+            (mean - exact).abs() < 1e-14 * exact,
+            "{}: {mean} vs {exact}",
+            piece.name
+        );
+        assert!((piece.normal[1] - 1.0).abs() < 1e-12);
+    }
+}
+
+/// A piece over parts of several edges integrates the piecewise linear trace exactly, clipped
+/// edges included, whichever way its segment is drawn; the whole side is its full length.
+#[test]
+fn a_piece_over_several_edges_integrates_the_trace_exactly() {
+    let (sc, mesh) = plate(
+        0.3,
+        serde_json::json!([
+            { "name": "cw", "segment": "top_cw", "from": [0.37, 1], "to": [2.91, 1] },
+            { "name": "ccw", "segment": "top_ccw", "from": [2.91, 1], "to": [0.37, 1] },
+            { "name": "whole cw", "segment": "top_cw" },
+            { "name": "whole ccw", "segment": "top_ccw" }
+        ]),
+    );
+    let g = build(&sc, &mesh).unwrap();
+    let f = curved(&mesh);
+    for (piece, (x0, x1)) in
+        g.pieces
+            .iter()
+            .zip([(0.37, 2.91), (0.37, 2.91), (0.0, 4.0), (0.0, 4.0)])
+    {
+        assert!(
+            (piece.length - (x1 - x0)).abs() < 1e-12,
+            "{}: {}",
+            piece.name,
+            piece.length
+        );
+        assert!(piece.node_weights.len() > 8, "{}", piece.name);
+        assert!((sum(&piece.node_weights) - 1.0).abs() < 1e-12);
+        let exact = top_integral(&mesh, &f, x0, x1) / (x1 - x0);
+        let mean = mean_p1(&piece.node_weights, &f);
+        assert!(
+            (mean - exact).abs() < 1e-13 * exact,
+            "{}: {mean} vs {exact}",
+            piece.name
+        );
+    }
+}
+
+/// The mean of a linear field over a piece is its value at the piece's midpoint on every mesh,
+/// from pieces inside one edge to pieces over many.
+#[test]
+fn piece_means_of_a_linear_field_do_not_depend_on_the_mesh() {
+    let pieces = serde_json::json!([
+        { "name": "short cw", "segment": "top_cw", "from": [3.05, 1], "to": [3.15, 1] },
+        { "name": "long ccw", "segment": "top_ccw", "from": [3.9, 1], "to": [0.2, 1] }
+    ]);
+    for h in [4.0, 1.7, 0.6, 0.23, 0.09] {
+        let (sc, mesh) = plate(h, pieces.clone());
+        let g = build(&sc, &mesh).unwrap();
+        let f = linear(&mesh);
+        for (piece, mid) in g.pieces.iter().zip([3.1, 2.05]) {
+            let exact = 2.0 + 3.0 * mid - 5.0;
+            let mean = mean_p1(&piece.node_weights, &f);
+            assert!(
+                (mean - exact).abs() < 1e-12,
+                "h = {h}, {}: {mean} vs {exact}",
+                piece.name
+            );
+        }
+    }
+}
+
 #[test]
 fn tunnel_normal_points_into_the_hole() {
     let mut json = tunnel(0.3);

@@ -88,7 +88,8 @@ pub fn solve(scene: Scene, request: &SolveRequest) -> Result<SolveOutput, WsmErr
 }
 
 /// One state solve at given values of the uncertain parameters (in the order of the scene's
-/// `uncertain` list; `None`: the nominal data) — e.g. the worst scenario of a criterion.
+/// `uncertain` list; `None`: the nominal data) — e.g. the worst scenario of a criterion. The
+/// scene's warnings (`crate::scene::warnings`) come first in the report's warnings.
 pub fn solve_at(
     mut scene: Scene,
     point: Option<&[f64]>,
@@ -122,7 +123,9 @@ pub fn solve_at(
         warm: None,
     };
     let solution = problem.solve(&data, &options)?;
-    let summary = crate::output::result::summary(&problem, &data, &solution);
+    let mut summary = crate::output::result::summary(&problem, &data, &solution);
+    let scene_warnings = crate::scene::warnings(&problem.scene);
+    summary.report.warnings.splice(0..0, scene_warnings);
     let (fields, vtu) = if request.fields {
         (
             Some(crate::output::result::fields(&problem, &solution)),
@@ -389,7 +392,8 @@ impl Run<'_> {
         Ok(outcome)
     }
 
-    /// Warnings and, for a search that ran to its end, the accuracy statement.
+    /// Warnings (the scene's own first, `crate::scene::warnings`) and, for a search that ran
+    /// to its end, the accuracy statement.
     fn finish(
         &self,
         problem: &StateProblem,
@@ -398,7 +402,8 @@ impl Run<'_> {
     ) -> Result<(), WsmError> {
         outcome.setup_seconds = problem.setup_seconds;
         outcome.failures.check_majority(outcome.evaluations)?;
-        outcome.warnings = self.warnings(problem, outcome)?;
+        outcome.warnings = crate::scene::warnings(&problem.scene);
+        outcome.warnings.extend(self.warnings(problem, outcome)?);
         let names: Vec<String> = outcome.parameters.iter().map(|p| p.name.clone()).collect();
         if let Some(warning) = outcome.failures.warning(outcome.evaluations, &names) {
             outcome.warnings.insert(0, warning);

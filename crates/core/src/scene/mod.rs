@@ -4,7 +4,9 @@
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
 //! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
 //! `law` builds the plane-strain law of a material (FGCS 2.7′) and checks interval
-//! matrices (FGCS 4.6, 4.8), `rules` holds the sign and range rules (materials, slip limit) both of them check.
+//! matrices (FGCS 4.6, 4.8), `rules` holds the sign and range rules (materials, slip limit) both of them check,
+//! and `warnings` lists what a valid scene holds that is probably not meant (implausible
+//! magnitudes, uncertain data addressed by the index of a named entry).
 
 mod data;
 pub mod law;
@@ -12,6 +14,7 @@ mod model;
 pub mod params;
 mod rules;
 mod validate;
+mod warnings;
 
 pub(crate) use data::piecewise_linear;
 pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
@@ -24,6 +27,7 @@ pub use model::{
 };
 pub(crate) use validate::touching_tolerance;
 pub use validate::{parse, validate};
+pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};
 
 use std::fmt;
 

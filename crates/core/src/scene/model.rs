@@ -222,6 +222,11 @@ pub enum ThermalStress {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryCondition {
+    /// Optional name, unique among the boundary conditions: uncertain data refer to the
+    /// condition's numbers by it (`boundary[NAME].pressure`), which keeps pointing at this entry
+    /// when entries are inserted before it (an index does not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
     /// Name of the segment the condition acts on (a key of `segments`).
     pub segment: String,
     /// Prescribed displacement \[m\] per component; `null` leaves the component free.
@@ -269,7 +274,8 @@ pub enum ContactKind {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Contact {
-    /// Name of the contact zone, used in results and reports.
+    /// Name of the contact zone, unique among the contact zones; used in results and reports, and
+    /// by uncertain data (`contacts[NAME].slip_limit`).
     pub name: String,
     /// `[segment of body k, segment of body l]`; the normal is the outward normal of body k.
     pub between: [String; 2],
@@ -435,12 +441,16 @@ pub struct BoundaryPiece {
 pub struct Uncertain {
     /// Path of a scene number, e.g. `materials.rock.E`, `boundary[2].traction[0]`,
     /// `contacts[0].slip_limit`, `contacts[0].slip_limit.values[1]`,
-    /// `contacts[0].friction_coefficient`.
+    /// `contacts[0].friction_coefficient`; a boundary condition or contact zone may be picked by
+    /// its name instead of its index: `boundary[water_up1].pressure`,
+    /// `contacts[joint].friction_coefficient`. Results and tables name the datum by this path as
+    /// written.
     pub field: String,
     /// `[lo, hi]` in the field's unit: finite, lo ≤ hi and within the field's sign and range rules;
-    /// lo = hi keeps the number fixed.
+    /// lo = hi keeps the number fixed. The scene's own value of the field (its nominal value)
+    /// must lie in it.
     pub interval: [f64; 2],
-    /// Display name; defaults to `field`.
+    /// Display name of the parameter (e.g. `"friction of the dam joint"`); defaults to `field`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
 }

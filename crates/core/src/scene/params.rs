@@ -9,7 +9,14 @@
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g),
 //! `contacts[i].friction_coefficient` (Coulomb's F; it scales the state-dependent slip bound
 //! F |λ_n|, so the data map is affine in it like every other datum), and
-//! `thermal.reference_temperature`.
+//! `thermal.reference_temperature`. A boundary condition or contact zone is picked by its index
+//! `[i]` or by its `name` (`boundary[water_up1].pressure`, `contacts[joint].slip_limit`): a name
+//! keeps pointing at its entry when entries are inserted, an index does not, so an index whose
+//! entry has a name gets a warning ([`index_path_warnings`]).
+//!
+//! The scene's own value of every uncertain datum (its nominal value, solved by `wsm solve` and
+//! by a run's nominal solve) must lie in the datum's interval ([`parameters`] and the scene's
+//! validation refuse it otherwise).
 //!
 //! A piecewise linear slip limit with `max_slope` C \[Pa/m\] lives in the set U = {lo_k ≤ g_k ≤
 //! hi_k, g ≥ 0, |dg/ds| ≤ C} (FGCS 4.15), s the arc length along the zone (knots are fractions of
@@ -133,56 +140,140 @@ pub struct Parameter {
     pub hi: f64,
 }
 
-/// Split `a.b[2].c` into tokens: names and indices.
+/// Split `a.b[2].c[name]` into tokens: names between dots, and in brackets indices (digits) or
+/// entry names (anything else but `]`).
 fn tokens(path: &str) -> Option<Vec<Token<'_>>> {
     let mut out = Vec::new();
-    for part in path.split('.') {
-        let (name, mut rest) = match part.find('[') {
-            Some(p) => (&part[..p], &part[p..]),
-            None => (part, ""),
-        };
-        if !name.is_empty() {
-            out.push(Token::Name(name));
+    let mut rest = path;
+    loop {
+        let end = rest.find(['.', '[']).unwrap_or(rest.len());
+        if end > 0 {
+            out.push(Token::Name(&rest[..end]));
         }
-        while !rest.is_empty() {
-            let close = rest.find(']')?;
-            out.push(Token::Index(rest.get(1..close)?.trim().parse().ok()?));
-            rest = &rest[close + 1..];
+        rest = &rest[end..];
+        while let Some(inner) = rest.strip_prefix('[') {
+            let close = inner.find(']')?;
+            let key = &inner[..close];
+            out.push(match key.trim().parse() {
+                Ok(index) => Token::Index(index),
+                Err(_) if !key.trim().is_empty() => Token::Key(key),
+                Err(_) => return None,
+            });
+            rest = &inner[close + 1..];
+        }
+        match rest.strip_prefix('.') {
+            Some(after) => rest = after,
+            None if rest.is_empty() => return Some(out),
+            None => return None,
         }
     }
-    Some(out)
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Token<'a> {
     Name(&'a str),
     Index(usize),
+    /// An entry picked by its name: `boundary[water_up1]`.
+    Key(&'a str),
+}
+
+/// Whether `name` can pick its entry in a field path: not blank, no brackets (they end the
+/// selector) and not all digits (that is an index). `None` when it can, else why not.
+pub(crate) fn unaddressable(name: &str) -> Option<&'static str> {
+    if name.trim().is_empty() {
+        Some("is empty")
+    } else if name.contains(['[', ']']) {
+        Some("contains a bracket, which ends the name in a field path such as boundary[NAME]")
+    } else if name.trim().bytes().all(|b| b.is_ascii_digit()) {
+        Some("is all digits, which a field path reads as an index")
+    } else {
+        None
+    }
+}
+
+/// The index of the entry of `list` (`boundary` or `contacts`, with its entries' names) that
+/// the selector picks: `[i]` as it is (the target checks it exists), `[name]` by its name.
+fn entry_index<'a>(
+    list: &str,
+    names: impl Iterator<Item = Option<&'a str>>,
+    selector: Token<'_>,
+    unknown: Unknown<'_>,
+) -> Result<usize, SceneError> {
+    let wanted = match selector {
+        Token::Index(i) => return Ok(i),
+        Token::Key(name) => name,
+        Token::Name(_) => return Err(unknown("unknown field")),
+    };
+    let names: Vec<Option<&str>> = names.collect();
+    if let Some(i) = names.iter().position(|n| *n == Some(wanted)) {
+        return Ok(i);
+    }
+    let known: Vec<String> = names.iter().flatten().map(|n| format!("'{n}'")).collect();
+    Err(unknown(&if known.is_empty() {
+        format!("no {list} entry is named '{wanted}': none has a name (give the entry a `name`, or use its index)")
+    } else {
+        format!(
+            "no {list} entry is named '{wanted}'; the names are {}",
+            known.join(", ")
+        )
+    }))
+}
+
+fn boundary_names(scene: &Scene) -> impl Iterator<Item = Option<&str>> {
+    scene.boundary.iter().map(|b| b.name.as_deref())
+}
+
+fn contact_names(scene: &Scene) -> impl Iterator<Item = Option<&str>> {
+    scene.contacts.iter().map(|c| Some(c.name.as_str()))
+}
+
+/// Warnings for the uncertain data addressed by the index of an entry that has a name
+/// (`uncertain[2].field: boundary[4] is the entry named 'up1'; …`): inserting an entry before
+/// it would move the datum onto another entry without any error.
+pub fn index_path_warnings(scene: &Scene) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for (i, u) in scene.uncertain.iter().enumerate() {
+        let named = match tokens(&u.field).as_deref() {
+            Some([Token::Name("boundary"), Token::Index(b), ..]) => scene
+                .boundary
+                .get(*b)
+                .and_then(|bc| bc.name.as_deref())
+                .map(|name| ("boundary", *b, name)),
+            Some([Token::Name("contacts"), Token::Index(c), ..]) => scene
+                .contacts
+                .get(*c)
+                .map(|contact| ("contacts", *c, contact.name.as_str())),
+            _ => None,
+        };
+        if let Some((list, index, name)) = named {
+            warnings.push(format!(
+                "uncertain[{i}].field: {list}[{index}] is the entry named '{name}'; refer to it as \
+                 {list}[{name}] so that inserting entries cannot move the datum"
+            ));
+        }
+    }
+    warnings
 }
 
 /// The error of an unknown or unsuitable field path, with the reason.
 type Unknown<'a> = &'a dyn Fn(&str) -> SceneError;
 
 /// Resolve `uncertain[i]` against the scene and check its interval.
-pub fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter, SceneError> {
+fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter, SceneError> {
     let field_path = format!("uncertain[{i}].field");
     let unknown = |why: &str| SceneError::new(field_path.clone(), format!("'{}': {why}", u.field));
     let toks = tokens(&u.field).ok_or_else(|| unknown("not a valid field path"))?;
-    use Token::{Index as I, Name as N};
+    use Token::Name as N;
     let target = match toks.as_slice() {
         [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
-        [N("boundary"), I(b), rest @ ..] => boundary_target(scene, *b, rest, &unknown)?,
-        [N("contacts"), I(c), N("slip_limit"), rest @ ..] => {
-            slip_limit_target(scene, *c, rest, &unknown)?
+        [N("boundary"), entry, rest @ ..] => {
+            let b = entry_index("boundary", boundary_names(scene), *entry, &unknown)?;
+            boundary_target(scene, b, rest, &unknown)?
         }
-        [N("contacts"), I(c), N("friction_coefficient")] => match scene.contacts.get(*c) {
-            None => return Err(unknown("no such contact zone")),
-            Some(contact) if contact.friction_coefficient.is_none() => {
-                return Err(unknown(
-                    "the contact zone has a Tresca slip limit, not a friction coefficient",
-                ))
-            }
-            Some(_) => ParamTarget::FrictionCoefficient(*c),
-        },
+        [N("contacts"), entry, rest @ ..] => {
+            let c = entry_index("contacts", contact_names(scene), *entry, &unknown)?;
+            contact_target(scene, c, rest, &unknown)?
+        }
         [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
             ParamTarget::ReferenceTemperature
         }
@@ -290,6 +381,27 @@ fn boundary_target(
     }
 }
 
+/// `contacts[c].…`: its slip limit or its friction coefficient.
+fn contact_target(
+    scene: &Scene,
+    c: usize,
+    rest: &[Token<'_>],
+    unknown: Unknown<'_>,
+) -> Result<ParamTarget, SceneError> {
+    use Token::Name as N;
+    match rest {
+        [N("slip_limit"), rest @ ..] => slip_limit_target(scene, c, rest, unknown),
+        [N("friction_coefficient")] => match scene.contacts.get(c) {
+            None => Err(unknown("no such contact zone")),
+            Some(contact) if contact.friction_coefficient.is_none() => Err(unknown(
+                "the contact zone has a Tresca slip limit, not a friction coefficient",
+            )),
+            Some(_) => Ok(ParamTarget::FrictionCoefficient(c)),
+        },
+        _ => Err(unknown("unknown field")),
+    }
+}
+
 /// `contacts[c].slip_limit` (a constant g) or `contacts[c].slip_limit.values[k]` (a knot).
 fn slip_limit_target(
     scene: &Scene,
@@ -337,14 +449,38 @@ fn check_interval(target: &ParamTarget, lo: f64, hi: f64, ipath: &str) -> Result
     Ok(())
 }
 
-/// Resolve all uncertain parameters of a scene.
-pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
-    let params: Vec<Parameter> = scene
+/// Resolve every `uncertain[i]`, check its interval and that the scene's own value of the
+/// datum (its nominal value) lies in it: the one rule `wsm solve`, `wsm worst` and the service
+/// share through the scene's validation and [`parameters`].
+pub(crate) fn resolve_all(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
+    let nominal = Data::from_scene(scene);
+    scene
         .uncertain
         .iter()
         .enumerate()
-        .map(|(i, u)| resolve_uncertain(scene, i, u))
-        .collect::<Result<_, _>>()?;
+        .map(|(i, u)| {
+            let parameter = resolve_uncertain(scene, i, u)?;
+            let value = value(&nominal, parameter.target);
+            if parameter.lo <= value && value <= parameter.hi {
+                Ok(parameter)
+            } else {
+                Err(SceneError::new(
+                    format!("uncertain[{i}]"),
+                    format!(
+                        "the nominal value {value} of {} lies outside its interval [{}, {}]; \
+                         the scene's own value is the nominal data (solved by `wsm solve` and \
+                         first in every run), so set it inside the interval or widen the interval",
+                        u.field, parameter.lo, parameter.hi
+                    ),
+                ))
+            }
+        })
+        .collect()
+}
+
+/// Resolve all uncertain parameters of a scene.
+pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
+    let params = resolve_all(scene)?;
     for (i, p) in params.iter().enumerate() {
         if params[..i].iter().any(|q| q.target == p.target) {
             return Err(SceneError::new(
@@ -702,6 +838,73 @@ pub fn stencil(
     Stencil { points }
 }
 
+/// The value of the datum `target` in `data` (what [`set`] writes; 0 where the scene leaves the
+/// number out and the data read it as zero).
+fn value(data: &Data, target: ParamTarget) -> f64 {
+    use ParamTarget as T;
+    let material = |m: usize| &data.materials[m];
+    match target {
+        T::Young(m) | T::Poisson(m) | T::Lambda(m) | T::Mu(m) => {
+            match (target, material(m).elastic) {
+                (T::Young(_), Elastic::Young { e, .. }) => e,
+                (T::Poisson(_), Elastic::Young { nu, .. }) => nu,
+                (T::Lambda(_), Elastic::Lame { lambda, .. }) => lambda,
+                (T::Mu(_), Elastic::Lame { mu, .. }) => mu,
+                _ => 0.0,
+            }
+        }
+        T::OrthotropicYoung(m, _)
+        | T::OrthotropicPoisson(m, _)
+        | T::OrthotropicShear(m)
+        | T::Angle(m) => match (target, material(m).elastic) {
+            (T::OrthotropicYoung(_, k), Elastic::Orthotropic(o)) => o.young[k],
+            (T::OrthotropicPoisson(_, k), Elastic::Orthotropic(o)) => o.poisson[k],
+            (T::OrthotropicShear(_), Elastic::Orthotropic(o)) => o.shear,
+            (_, Elastic::Orthotropic(o)) => o.angle,
+            _ => 0.0,
+        },
+        T::MatrixEntry(m, i, j) => match material(m).elastic {
+            Elastic::Matrix(law) => law.d[i][j],
+            _ => 0.0,
+        },
+        T::OutOfPlane(m, k) => match material(m).elastic {
+            Elastic::Matrix(law) => law.out_of_plane[k],
+            _ => 0.0,
+        },
+        T::SpecificWeight(m) => material(m).specific_weight,
+        T::BodyForce(m, c) => material(m).body_force[c],
+        T::Conductivity(m) => material(m).conductivity[0],
+        T::ConductivityEntry(m, i, j) => material(m).conductivity[i + j],
+        T::HeatSource(m) => material(m).heat_source,
+        T::Expansion(m) | T::Beta(m) | T::BetaEntry(m, _) => {
+            match (target, material(m).expansion) {
+                (T::Expansion(_), Expansion::Alpha(a)) => a,
+                (T::Beta(_), Expansion::Beta(b)) => b,
+                (T::BetaEntry(_, k), Expansion::Voigt(b)) => b[k],
+                _ => 0.0,
+            }
+        }
+        T::Displacement(b, c) => match data.boundary[b].value {
+            BoundaryValue::Displacement(d) => d[c].unwrap_or(0.0),
+            _ => 0.0,
+        },
+        T::Traction(b, c) => match data.boundary[b].value {
+            BoundaryValue::Traction(t) => t[c],
+            _ => 0.0,
+        },
+        T::Pressure(b) | T::Temperature(b) | T::HeatFlux(b) => match data.boundary[b].value {
+            BoundaryValue::Pressure(v)
+            | BoundaryValue::Temperature(v)
+            | BoundaryValue::HeatFlux(v) => v,
+            _ => 0.0,
+        },
+        T::SlipConstant(c) => data.slip[c].values[0],
+        T::SlipKnot(c, k) => data.slip[c].values[k],
+        T::FrictionCoefficient(c) => data.friction[c].unwrap_or(0.0),
+        T::ReferenceTemperature => data.reference_temperature,
+    }
+}
+
 fn set(data: &mut Data, target: ParamTarget, v: f64) {
     use ParamTarget as T;
     match target {
@@ -830,7 +1033,17 @@ mod tests {
                 Token::Index(0)
             ]
         );
-        assert!(tokens("boundary[x]").is_none());
+        assert_eq!(
+            tokens("contacts[dam foundation.joint].friction_coefficient").unwrap(),
+            vec![
+                Token::Name("contacts"),
+                Token::Key("dam foundation.joint"),
+                Token::Name("friction_coefficient")
+            ]
+        );
+        assert!(tokens("boundary[]").is_none());
+        assert!(tokens("boundary[2]traction").is_none());
+        assert!(tokens("boundary[up1").is_none());
     }
 
     #[test]
@@ -891,6 +1104,7 @@ mod tests {
         let mut value: serde_json::Value = serde_json::from_str(text).unwrap();
         value["uncertain"][0]["interval"] = serde_json::json!([1.4e6, 1.5e6]);
         value["uncertain"][1]["interval"] = serde_json::json!([3e5, 4e5]);
+        value["contacts"][0]["slip_limit"]["values"] = serde_json::json!([1.45e6, 3.5e5, 1.1e6]);
         let scene = crate::scene::parse(&value.to_string()).unwrap();
         let error = parameters(&scene).unwrap_err();
         assert_eq!(error.path, "contacts[0].slip_limit.max_slope");

@@ -4,7 +4,7 @@
 
 use super::law;
 use super::model::*;
-use super::params::{check_interval_matrices, resolve_uncertain, ParamTarget, Parameter};
+use super::params::{check_interval_matrices, resolve_all, unaddressable, ParamTarget, Parameter};
 use super::rules::Constant;
 use super::SceneError;
 use std::collections::BTreeSet;
@@ -108,12 +108,7 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     check_mesh(&scene.mesh, scene)?;
     check_criteria(scene)?;
     check_search(scene)?;
-    let parameters = scene
-        .uncertain
-        .iter()
-        .enumerate()
-        .map(|(i, u)| resolve_uncertain(scene, i, u))
-        .collect::<Result<Vec<_>, _>>()?;
+    let parameters = resolve_all(scene)?;
     check_interval_matrices(scene, &parameters)?;
     check_stiffness_ratio(scene, &parameters)
 }
@@ -284,6 +279,23 @@ fn admissible(path: &str, v: f64, constant: Constant) -> Result<(), SceneError> 
     constant
         .check(finite(path, v)?)
         .map_err(|reason| SceneError::new(path, reason))
+}
+
+/// The name of an entry that field paths may pick (`boundary[NAME]`, `contacts[NAME]`): unique
+/// in its list and usable in a path ([`unaddressable`]); an error at `{path}.name` otherwise.
+fn entry_name<'a>(
+    names: &mut BTreeSet<&'a str>,
+    name: &'a str,
+    path: &str,
+    what: &str,
+) -> Result<(), SceneError> {
+    if let Some(why) = unaddressable(name) {
+        return Err(SceneError::new(
+            format!("{path}.name"),
+            format!("{what} name '{name}' {why}"),
+        ));
+    }
+    unique_name(names, name, path, what)
 }
 
 /// Record the name of the entry at `path` (a `what`): a name used before is an error at
@@ -724,8 +736,12 @@ fn segment_known(scene: &Scene, path: String, name: &str) -> Result<(), SceneErr
 }
 
 fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
+    let mut names = BTreeSet::new();
     for (i, bc) in scene.boundary.iter().enumerate() {
         let path = format!("boundary[{i}]");
+        if let Some(name) = &bc.name {
+            entry_name(&mut names, name, &path, "boundary condition")?;
+        }
         segment_known(scene, format!("{path}.segment"), &bc.segment)?;
         let set = [
             bc.displacement.is_some(),
@@ -798,7 +814,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
     let mut used = BTreeSet::new();
     for (i, c) in scene.contacts.iter().enumerate() {
         let path = format!("contacts[{i}]");
-        unique_name(&mut names, &c.name, &path, "contact")?;
+        entry_name(&mut names, &c.name, &path, "contact")?;
         for (k, seg) in c.between.iter().enumerate() {
             segment_known(scene, format!("{path}.between[{k}]"), seg)?;
             if !used.insert(seg.as_str()) {

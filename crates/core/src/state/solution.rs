@@ -173,7 +173,9 @@ pub struct SolveReport {
     pub adjoint_directions: usize,
     /// Parts of the computation skipped because nothing needed them.
     pub skipped: Vec<String>,
-    /// Messages for the user (e.g. undetermined rigid motions, near-incompressibility).
+    /// Messages for the user (e.g. undetermined rigid motions, near-incompressibility); a solve
+    /// through the front door (`run::solve`) puts the scene's warnings first
+    /// (`scene::warnings`: implausible magnitudes, data addressed by the index of a named entry).
     pub warnings: Vec<String>,
     /// Solver-specific details (DD iteration counts etc.).
     #[serde(skip_serializing_if = "Option::is_none")]
