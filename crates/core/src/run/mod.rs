@@ -28,8 +28,10 @@ pub use table::{columns as table_columns, write_csv};
 
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::estimate::statement::{
-    CriterionAccuracy, ExtremumAccuracy, RefinedLevel, RefinedSolve, RefinedValues, StatementMesh,
+    CriterionAccuracy, ExtremumAccuracy, RefinedFailure, RefinedLevel, RefinedSolve, RefinedValues,
+    StatementMesh,
 };
+pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
@@ -44,7 +46,9 @@ use std::time::Instant;
 
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::choose_mesh;
-use crate::estimate::statement::{default_refinements, statement, AccuracyStatement};
+use crate::estimate::statement::{
+    default_refinements, statement, AccuracyStatement, StatementControl,
+};
 use crate::fem::Par;
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
@@ -148,15 +152,17 @@ pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, 
 
 /// The scene a run solves: `scene` itself, or with a target error the scene on the coarsest
 /// mesh meeting it (`crate::estimate::mesh_choice`), with how it was chosen. `stop` is polled
-/// between the meshes tried. Workers call this too, so every process solves the same mesh.
+/// between the meshes tried; `fault` fails the solves where it answers (tests). Workers call
+/// this too, so every process solves the same mesh.
 pub fn run_scene(
     scene: Scene,
     settings: &WorstSettings,
     stop: &dyn Fn() -> bool,
+    fault: Option<&SolveFault>,
 ) -> Result<(Scene, Option<MeshChoice>), WsmError> {
     match settings.target_error {
         Some(target) => {
-            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop)?;
+            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop, fault)?;
             Ok((chosen, Some(choice)))
         }
         None => Ok((scene, None)),
@@ -290,9 +296,13 @@ impl Run<'_> {
         if let Some(status) = self.enter(RunPhase::MeshChoice) {
             return Ok(ControlFlow::Break(self.unstarted(&scene, status)));
         }
-        match run_scene(scene.clone(), self.settings, &|| {
-            self.stop_status().is_some()
-        }) {
+        let stop = || self.stop_status().is_some();
+        match run_scene(
+            scene.clone(),
+            self.settings,
+            &stop,
+            self.control.fault.as_deref(),
+        ) {
             Ok((chosen, choice)) => {
                 if let Some(dispatch) = &self.control.dispatch {
                     dispatch.share_scene(&chosen)?;
@@ -405,7 +415,10 @@ impl Run<'_> {
             .warnings
             .extend(crate::scenario::unproven::warnings(outcome));
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
-            outcome.accuracy = self.accuracy(problem, outcome)?;
+            if let Some((statement, asked)) = self.accuracy(problem, outcome)? {
+                outcome.warnings.extend(statement.warnings(asked));
+                outcome.accuracy = Some(statement);
+            }
         }
         if let Some(choice) = &mesh_choice {
             outcome.warnings.extend(target_warnings(choice, outcome));
@@ -417,12 +430,13 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`).
+    /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`),
+    /// with the refinements asked for.
     fn accuracy(
         &self,
         problem: &StateProblem,
         outcome: &WorstOutcome,
-    ) -> Result<Option<AccuracyStatement>, WsmError> {
+    ) -> Result<Option<(AccuracyStatement, usize)>, WsmError> {
         let refinements = self
             .settings
             .accuracy_refinements
@@ -433,16 +447,20 @@ impl Run<'_> {
         self.control
             .report(&self.event(RunPhase::Accuracy, outcome.evaluations));
         let stop = || self.stop_status().is_some();
-        statement(
+        let control = StatementControl {
+            stop: &stop,
+            dispatch: self.control.dispatch.as_deref(),
+            fault: self.control.fault.as_deref(),
+        };
+        let statement = statement(
             problem,
             self.params,
             &self.settings.criteria,
             &outcome.extrema(),
             refinements,
-            &stop,
-            self.control.dispatch.as_deref(),
-        )
-        .map(Some)
+            control,
+        )?;
+        Ok(Some((statement, refinements)))
     }
 
     /// Warnings about the result: P1 locking (ν ≥ 0.49) at the nominal, worst or best data,
@@ -507,16 +525,32 @@ impl Run<'_> {
     }
 }
 
-/// Warnings of a run with a target error: no mesh met it, or the accuracy statement finds a
-/// worst or best value whose estimate exceeds it (the choice was made at the nominal data).
+/// Warnings of a run with a target error: a mesh of the ladder that failed, no mesh met the
+/// target, or the accuracy statement finds a worst or best value whose estimate exceeds it (the
+/// choice was made at the nominal data).
 fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
     let mut warnings = Vec::new();
     let target = choice.target_error;
+    for candidate in &choice.candidates {
+        if let Some(error) = &candidate.failure {
+            let mesh = match candidate.unknowns {
+                0 => "which could not be built".to_string(),
+                n => format!("{n} unknowns"),
+            };
+            warnings.push(format!(
+                "target_error: the solve at the nominal data on the ladder's mesh with sizes × {} \
+                 ({mesh}) failed: {error}. That mesh could not be chosen, and the error estimates \
+                 of the coarser meshes that needed it are unknown.",
+                candidate.size_factor
+            ));
+        }
+    }
     if !choice.met {
-        let finest = choice.candidates.last().map_or(0, |c| c.unknowns);
+        let finest = choice.candidates.iter().map(|c| c.unknowns).max();
+        let finest = finest.unwrap_or(0);
         warnings.push(format!(
             "target_error: no mesh up to {finest} unknowns met the target {target:e} at the \
-             nominal data; the run used the finest one (mesh sizes × {})",
+             nominal data; the run used the finest one that solved (mesh sizes × {})",
             choice.size_factor
         ));
     }

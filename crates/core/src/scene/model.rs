@@ -497,6 +497,11 @@ impl Criterion {
         }
     }
 
+    /// The symbol in warnings and reports: `Φ1` … `Φ6`.
+    pub fn symbol(self) -> String {
+        format!("Φ{}", self.name().trim_start_matches("phi"))
+    }
+
     /// Whether the criterion needs the temperature field only (Φ1, Φ2).
     pub fn is_thermal(self) -> bool {
         matches!(self, Criterion::Phi1 | Criterion::Phi2)
