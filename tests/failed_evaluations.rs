@@ -329,8 +329,8 @@ fn a_target_error_run_goes_on_past_a_ladder_mesh_that_fails() {
     assert!(outcome.extrema().iter().flatten().all(Option::is_some));
     let warning = format!(
         "target_error: the solve at the nominal data on the ladder's mesh with sizes × 2 ({} \
-         unknowns) failed: contact solver: injected failure on the ladder. That mesh could not \
-         be chosen, and the error estimates of the coarser meshes that needed it are unknown.",
+         unknowns) failed: contact solver: injected failure on the ladder. That mesh cannot be \
+         chosen, and the error of the mesh with sizes × 4 cannot be estimated with it.",
         failed.unknowns
     );
     assert!(

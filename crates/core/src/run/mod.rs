@@ -525,26 +525,52 @@ impl Run<'_> {
     }
 }
 
+/// One warning per level of the target-error ladder that could not be built or solved: it
+/// cannot be chosen, nor estimate the error of the (up to two) coarser levels that solved.
+fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<String> {
+    candidates
+        .iter()
+        .enumerate()
+        .filter_map(|(i, candidate)| {
+            let error = candidate.failure.as_ref()?;
+            let factor = candidate.size_factor;
+            let what = match candidate.unknowns {
+                0 => format!("the ladder's mesh with sizes × {factor} could not be built"),
+                n => format!(
+                    "the solve at the nominal data on the ladder's mesh with sizes × {factor} \
+                     ({n} unknowns) failed"
+                ),
+            };
+            let needed: Vec<String> = candidates[i.saturating_sub(2)..i]
+                .iter()
+                .filter(|c| c.failure.is_none())
+                .map(|c| format!("× {}", c.size_factor))
+                .collect();
+            let meaning = match needed.len() {
+                0 => "That mesh cannot be chosen.".to_string(),
+                1 => format!(
+                    "That mesh cannot be chosen, and the error of the mesh with sizes {} cannot \
+                     be estimated with it.",
+                    needed[0]
+                ),
+                _ => format!(
+                    "That mesh cannot be chosen, and the errors of the meshes with sizes {} \
+                     cannot be estimated with it.",
+                    needed.join(" and ")
+                ),
+            };
+            Some(format!("target_error: {what}: {error}. {meaning}"))
+        })
+        .collect()
+}
+
 /// Warnings of a run with a target error: a mesh of the ladder that failed, no mesh met the
 /// target, or the accuracy statement finds a worst or best value whose estimate exceeds it (the
 /// choice was made at the nominal data).
 fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
     let mut warnings = Vec::new();
     let target = choice.target_error;
-    for candidate in &choice.candidates {
-        if let Some(error) = &candidate.failure {
-            let mesh = match candidate.unknowns {
-                0 => "which could not be built".to_string(),
-                n => format!("{n} unknowns"),
-            };
-            warnings.push(format!(
-                "target_error: the solve at the nominal data on the ladder's mesh with sizes × {} \
-                 ({mesh}) failed: {error}. That mesh could not be chosen, and the error estimates \
-                 of the coarser meshes that needed it are unknown.",
-                candidate.size_factor
-            ));
-        }
-    }
+    warnings.extend(ladder_failure_warnings(&choice.candidates));
     if !choice.met {
         let finest = choice.candidates.iter().map(|c| c.unknowns).max();
         let finest = finest.unwrap_or(0);
@@ -572,4 +598,50 @@ fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
         }
     }
     warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn candidate(size_factor: f64, unknowns: usize, failure: Option<&str>) -> CandidateMesh {
+        CandidateMesh {
+            size_factor,
+            unknowns,
+            triangles: unknowns,
+            values: vec![None],
+            relative_errors: vec![None],
+            meets_target: false,
+            seconds: 0.0,
+            failure: failure.map(str::to_string),
+        }
+    }
+
+    /// The ladder of the Coulomb dam with a target error of 0.002 (docs/verification.md): the
+    /// two coarsest meshes cannot be built, the finest one's Coulomb fixed point refuses.
+    #[test]
+    fn a_ladder_level_that_failed_is_warned_about_with_what_it_costs() {
+        let ladder = [
+            candidate(4.0, 0, Some("criteria.boundary_pieces[0]: zero length")),
+            candidate(2.0, 0, Some("criteria.boundary_pieces[0]: zero length")),
+            candidate(1.0, 4595, None),
+            candidate(0.5, 14516, None),
+            candidate(0.25, 51302, None),
+            candidate(0.125, 191419, Some("contact solver: no convergence")),
+        ];
+        assert_eq!(
+            ladder_failure_warnings(&ladder),
+            [
+                "target_error: the ladder's mesh with sizes × 4 could not be built: \
+                 criteria.boundary_pieces[0]: zero length. That mesh cannot be chosen.",
+                "target_error: the ladder's mesh with sizes × 2 could not be built: \
+                 criteria.boundary_pieces[0]: zero length. That mesh cannot be chosen.",
+                "target_error: the solve at the nominal data on the ladder's mesh with sizes × \
+                 0.125 (191419 unknowns) failed: contact solver: no convergence. That mesh cannot \
+                 be chosen, and the errors of the meshes with sizes × 0.5 and × 0.25 cannot be \
+                 estimated with it.",
+            ]
+        );
+        assert!(ladder_failure_warnings(&ladder[2..5]).is_empty());
+    }
 }
