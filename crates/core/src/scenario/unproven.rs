@@ -22,8 +22,7 @@ pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
                 .map(|(which, direction, o)| (c, which, direction, o))
         })
         .filter_map(|(c, which, direction, o)| {
-            let symbol = format!("Φ{}", c.criterion.name().trim_start_matches("phi"));
-            warning(&symbol, which, direction, o, &names, outcome.budget)
+            warning(&c.criterion.symbol(), which, direction, o, &names, outcome.budget)
         })
         .collect()
 }
