@@ -22,7 +22,14 @@ pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
                 .map(|(which, direction, o)| (c, which, direction, o))
         })
         .filter_map(|(c, which, direction, o)| {
-            warning(&c.criterion.symbol(), which, direction, o, &names, outcome.budget)
+            warning(
+                &c.criterion.symbol(),
+                which,
+                direction,
+                o,
+                &names,
+                outcome.budget,
+            )
         })
         .collect()
 }
