@@ -86,8 +86,10 @@ start_server() {
 start_server jobs ""
 SERVER_PID=$PID
 MAIN_URL=$URL
-# A second server whose evaluations fail above a traction (the failure-reporting test).
-start_server faults "" --inject-failures 'boundary[2].traction[0]=350000'
+# A second server whose evaluations fail above a traction and whose accuracy statements' refined
+# solves all fail (the failure-reporting tests).
+start_server faults "" --inject-failures 'boundary[2].traction[0]=350000' \
+    --inject-failures 'refined:materials.rock.E=0'
 FAULT_PID=$PID
 FAULT_URL=$URL
 # A third server that requires a token, also for reads (the access test).

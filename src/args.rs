@@ -10,7 +10,7 @@ use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
 use wsm_core::scene::{SolverKind, StopRule};
 use wsm_service::api::{Access, Limits};
-use wsm_service::jobs::runner::FaultRule;
+use wsm_service::jobs::runner::{FaultRule, FaultSolves};
 use wsm_service::server::{ServeConfig, WorkerConfig};
 use wsm_study::accuracy::AccuracyOptions;
 
@@ -226,18 +226,24 @@ pub struct ServeArgs {
     #[arg(long)]
     pub open_reads: bool,
     /// For the end-to-end tests of failure reporting only: `FIELD=VALUE` makes every
-    /// evaluation whose uncertain FIELD exceeds VALUE fail. Hidden from the help.
+    /// evaluation whose uncertain FIELD exceeds VALUE fail, `refined:FIELD=VALUE` every refined
+    /// solve of the accuracy statement; repeatable. Hidden from the help.
     #[arg(long, hide = true, value_parser = parse_fault_rule)]
-    pub inject_failures: Option<FaultRule>,
+    pub inject_failures: Vec<FaultRule>,
 }
 
-/// `FIELD=VALUE` of `--inject-failures`.
+/// `[refined:]FIELD=VALUE` of `--inject-failures`.
 fn parse_fault_rule(text: &str) -> Result<FaultRule, String> {
-    let (field, value) = text
+    let (solves, rule) = match text.strip_prefix("refined:") {
+        Some(rest) => (FaultSolves::Refined, rest),
+        None => (FaultSolves::Evaluations, text),
+    };
+    let (field, value) = rule
         .rsplit_once('=')
-        .ok_or_else(|| "expected FIELD=VALUE".to_string())?;
+        .ok_or_else(|| "expected [refined:]FIELD=VALUE".to_string())?;
     let above = value.parse::<f64>().map_err(|e| format!("VALUE: {e}"))?;
     Ok(FaultRule {
+        solves,
         field: field.to_string(),
         above,
     })

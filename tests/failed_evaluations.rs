@@ -3,13 +3,18 @@
 //! they cover and a plain warning, marks the extrema next to them unsettled, writes them to the
 //! log and the CSV table, and a resumed run replays them as failures without recomputing; a run
 //! in which most evaluations fail ends with an error instead of an empty-looking success.
+//!
+//! No failure is hidden beyond the search either (issue #43): a failed refined solve of the
+//! accuracy statement is listed, warned about and makes the statement incomplete, and a mesh of
+//! the target-error ladder that fails is warned about while the run goes on with those that
+//! solved.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use serde_json::{json, Value};
 use wsm_core::error::WsmError;
-use wsm_core::run::{self, JsonLinesLog, LogMode, RunControl, Status, WorstRequest};
+use wsm_core::run::{self, FaultSite, JsonLinesLog, LogMode, RunControl, Status, WorstRequest};
 use wsm_core::scene::{parse, Criterion, Scene};
 
 fn block() -> Scene {
@@ -34,9 +39,10 @@ fn request() -> WorstRequest {
 fn fault_above(scene: &Scene, k: usize, fraction: f64) -> RunControl {
     let [lo, hi] = scene.uncertain[k].interval;
     let threshold = lo + fraction * (hi - lo);
-    RunControl::new().with_fault(Arc::new(move |theta: &[f64]| {
-        (theta[k] > threshold)
-            .then(|| format!("injected failure: θ{k} = {} > {threshold}", theta[k]))
+    RunControl::new().with_fault(Arc::new(move |site: &FaultSite<'_>| match site {
+        FaultSite::Evaluation { point } => (point[k] > threshold)
+            .then(|| format!("injected failure: θ{k} = {} > {threshold}", point[k])),
+        _ => None,
     }))
 }
 
@@ -126,8 +132,11 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
 #[test]
 fn a_run_where_most_evaluations_fail_ends_with_the_first_error() {
     // Seven of ten points fail, scattered over the whole box (a hash of the point's bits).
-    let control = RunControl::new().with_fault(Arc::new(|theta: &[f64]| {
-        let bits = theta.iter().fold(0u64, |h, x| {
+    let control = RunControl::new().with_fault(Arc::new(|site: &FaultSite<'_>| {
+        let FaultSite::Evaluation { point } = site else {
+            return None;
+        };
+        let bits = point.iter().fold(0u64, |h, x| {
             (h ^ x.to_bits()).wrapping_mul(0x9E37_79B9_7F4A_7C15)
         });
         ((bits >> 32) % 10 < 7).then(|| "injected failure".to_string())
@@ -143,4 +152,191 @@ fn a_run_where_most_evaluations_fail_ends_with_the_first_error() {
         }
         other => panic!("expected EvaluationsFailed, got {other:?}"),
     }
+}
+
+/// The extremum of `outcome` that `[worst, best][side]` of criterion `k` names: its point.
+fn extremum_point(outcome: &run::WorstOutcome, k: usize, side: usize) -> Vec<f64> {
+    outcome.extrema()[k][side].clone().unwrap().1
+}
+
+#[test]
+fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
+    let scene = block();
+    let request = WorstRequest {
+        accuracy_refinements: Some(2),
+        ..request()
+    };
+    // Refinement 1 fails where the traction (parameter 1) lies in the upper half of its
+    // interval, refinement 2 everywhere (with the same error); the search's evaluations solve as
+    // usual.
+    let [lo, hi] = scene.uncertain[1].interval;
+    let threshold = lo + 0.5 * (hi - lo);
+    let fault = RunControl::new().with_fault(Arc::new(move |site: &FaultSite<'_>| match site {
+        FaultSite::Refined { level, point } if *level == 2 || point[1] > threshold => {
+            Some(format!("injected failure: traction {}", point[1]))
+        }
+        _ => None,
+    }));
+    let plain = run::worst(scene.clone(), &request, &RunControl::new()).unwrap();
+    let faulty = run::worst(scene, &request, &fault).unwrap();
+    assert_eq!(faulty.criteria, plain.criteria, "the search is untouched");
+    let (a, p) = (faulty.accuracy.clone().unwrap(), plain.accuracy.unwrap());
+    assert!(p.complete && p.failures.is_empty(), "{p:#?}");
+    assert!(!a.complete);
+    let sizes = |meshes: &[run::StatementMesh]| -> Vec<(usize, usize)> {
+        meshes.iter().map(|m| (m.unknowns, m.triangles)).collect()
+    };
+    assert_eq!(
+        sizes(&a.meshes),
+        sizes(&p.meshes),
+        "every refined mesh was built"
+    );
+
+    let (mut unknown, mut one_mesh) = (Vec::new(), Vec::new());
+    for (k, (c, pc)) in a.criteria.iter().zip(&p.criteria).enumerate() {
+        for (side, (entry, plain_entry)) in [(&c.worst, &pc.worst), (&c.best, &pc.best)]
+            .into_iter()
+            .enumerate()
+        {
+            let (e, pe) = (entry.as_ref().unwrap(), plain_entry.as_ref().unwrap());
+            let point = extremum_point(&faulty, k, side);
+            let failure = e.failure.as_deref().unwrap();
+            let error = format!("contact solver: injected failure: traction {}", point[1]);
+            if point[1] > threshold {
+                // Both refined solves failed: no estimate at all.
+                assert_eq!(e.refined, vec![None, None]);
+                assert_eq!((e.estimate, e.relative), (None, None));
+                assert_eq!(
+                    failure,
+                    format!("refinement 1: {error}; refinement 2: {error}")
+                );
+                unknown.push(point);
+            } else {
+                // Refinement 1 solved, bit for bit as without the fault: the estimate rests on it.
+                assert_eq!(e.refined, vec![pe.refined[0], None]);
+                assert_eq!(e.estimate, Some((e.value - pe.refined[0].unwrap()).abs()));
+                assert_eq!(failure, format!("refinement 2: {error}"));
+                one_mesh.push(point);
+            }
+        }
+    }
+    assert!(
+        !unknown.is_empty() && !one_mesh.is_empty(),
+        "both kinds of extremum occur"
+    );
+    let distinct = a.points;
+    assert_eq!(
+        distinct_count(&unknown) + distinct_count(&one_mesh),
+        distinct
+    );
+
+    // Every failed solve is listed once, with the extrema at its data.
+    assert_eq!(a.failures.len(), distinct + distinct_count(&unknown));
+    for f in &a.failures {
+        assert!(f.level == 2 || f.point[1] > threshold, "{f:?}");
+        for (k, criterion) in [Criterion::Phi3, Criterion::Phi6].into_iter().enumerate() {
+            for (side, listed) in [&f.worst_of, &f.best_of].into_iter().enumerate() {
+                let here = extremum_point(&faulty, k, side) == f.point;
+                assert_eq!(listed.contains(&criterion), here, "{f:?}");
+            }
+        }
+    }
+
+    // One warning per failed data, in plain words; the other warnings are the plain run's.
+    let (statement, others): (Vec<&String>, Vec<&String>) = faulty
+        .warnings
+        .iter()
+        .partition(|w| w.starts_with("accuracy statement:"));
+    assert_eq!(others, plain.warnings.iter().collect::<Vec<_>>());
+    assert_eq!(statement.len(), distinct, "{statement:#?}");
+    let on = |level: usize| {
+        let mesh = &a.meshes[level];
+        format!(
+            "refinement {level} (mesh sizes × {}, {} unknowns)",
+            mesh.size_factor, mesh.unknowns
+        )
+    };
+    for w in &statement {
+        // The same error on both refinements is said once.
+        let both = format!(
+            "failed on {} and {}: contact solver: injected failure",
+            on(1),
+            on(2)
+        );
+        let second = format!("failed on {}: contact solver: injected failure", on(2));
+        if w.contains(&both) {
+            assert!(
+                w.ends_with("The discretisation error of this value is unknown.")
+                    || w.ends_with("The discretisation error of these values is unknown."),
+                "{w}"
+            );
+        } else {
+            assert!(w.contains(&second), "{w}");
+            assert!(w.ends_with("rests on refinement 1 alone."), "{w}");
+        }
+    }
+    let worst_phi3 = extremum_point(&faulty, 0, 0);
+    assert!(
+        worst_phi3[1] > threshold,
+        "the traction drives the worst Φ3 up"
+    );
+    assert!(statement
+        .iter()
+        .any(|w| w.contains("the worst data of Φ3") && w.ends_with("is unknown.")));
+}
+
+fn distinct_count(points: &[Vec<f64>]) -> usize {
+    let mut seen: Vec<&Vec<f64>> = Vec::new();
+    for p in points {
+        if !seen.contains(&p) {
+            seen.push(p);
+        }
+    }
+    seen.len()
+}
+
+#[test]
+fn a_target_error_run_goes_on_past_a_ladder_mesh_that_fails() {
+    let fault = RunControl::new().with_fault(Arc::new(|site: &FaultSite<'_>| match site {
+        FaultSite::MeshChoice { size_factor } if *size_factor == 2.0 => {
+            Some("injected failure on the ladder".to_string())
+        }
+        _ => None,
+    }));
+    let request = WorstRequest {
+        target_error: Some(0.02),
+        ..request()
+    };
+    let outcome = run::worst(block(), &request, &fault).unwrap();
+    let choice = outcome.mesh_choice.as_ref().unwrap();
+    let failed = &choice.candidates[1];
+    assert_eq!(failed.size_factor, 2.0);
+    assert_eq!(
+        failed.failure.as_deref(),
+        Some("contact solver: injected failure on the ladder")
+    );
+    assert!(failed.values.iter().all(Option::is_none) && !failed.meets_target);
+    // The coarsest level's estimate needed the failed one: not met either.
+    assert!(!choice.candidates[0].meets_target);
+    assert_eq!(choice.candidates[0].relative_errors, vec![None, None]);
+    // The run went on with a level that solved and met the target.
+    assert!(choice.met && choice.size_factor <= 1.0, "{choice:#?}");
+    let chosen = choice
+        .candidates
+        .iter()
+        .find(|c| c.size_factor == choice.size_factor)
+        .unwrap();
+    assert!(chosen.failure.is_none() && chosen.meets_target);
+    assert!(outcome.extrema().iter().flatten().all(Option::is_some));
+    let warning = format!(
+        "target_error: the solve at the nominal data on the ladder's mesh with sizes × 2 ({} \
+         unknowns) failed: contact solver: injected failure on the ladder. That mesh cannot be \
+         chosen, and the error of the mesh with sizes × 4 cannot be estimated with it.",
+        failed.unknowns
+    );
+    assert!(
+        outcome.warnings.contains(&warning),
+        "{:#?}",
+        outcome.warnings
+    );
 }

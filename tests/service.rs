@@ -141,6 +141,83 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         .any(|j| j["id"] == long.as_str()));
 }
 
+/// No failure hidden (issue #43): on a server whose search evaluations fail above one traction
+/// and whose accuracy statements' refined solves all fail (`--inject-failures`), the job list
+/// and the job's status count the result's warnings and the statement's failed solves, apart
+/// from the search's failed evaluations.
+#[test]
+fn the_job_list_and_status_count_warnings_and_failed_refined_solves() {
+    let db = temp_db("faults.db");
+    let server = Server::start(
+        &db,
+        &[
+            "--workers",
+            "1",
+            "--inject-failures",
+            "boundary[2].traction[0]=350000",
+            "--inject-failures",
+            "refined:boundary[2].traction[0]=0",
+        ],
+    );
+    let addr = &server.addr;
+    let mut body = submission(30, 4);
+    body["settings"]["accuracy_refinements"] = json!(1);
+    let id = post(addr, "/v1/jobs", &body).json()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let status = wait_finished(addr, &id, Duration::from_secs(120));
+    assert_eq!(status["state"], "succeeded", "{status}");
+    let result = get(addr, &format!("/v1/jobs/{id}/result")).json();
+    let statement = &result["accuracy"];
+    assert_eq!(statement["complete"], false, "{statement}");
+    // One refinement: every distinct worst/best data failed once.
+    let failed = statement["failures"].as_array().unwrap();
+    assert_eq!(failed.len() as u64, statement["points"].as_u64().unwrap());
+    assert!(failed
+        .iter()
+        .all(|f| f["error"].as_str().unwrap().contains("injected failure")));
+    for c in statement["criteria"].as_array().unwrap() {
+        for side in ["worst", "best"] {
+            assert!(c[side]["estimate"].is_null(), "{c}");
+            assert!(c[side]["failure"].as_str().unwrap().contains("injected"));
+        }
+    }
+    let warnings = result["warnings"].as_array().unwrap();
+    let about_statement = warnings
+        .iter()
+        .filter(|w| w.as_str().unwrap().starts_with("accuracy statement:"))
+        .count();
+    assert_eq!(about_statement, failed.len(), "{warnings:#?}");
+    // The search's failures are counted apart.
+    let search_failures = result["failures"]["count"].as_u64().unwrap();
+    assert!(search_failures > 0);
+    let listed = get(addr, "/v1/jobs").json();
+    let in_list = listed
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|j| j["id"] == id.as_str())
+        .unwrap()
+        .clone();
+    for job in [
+        &status,
+        &get(addr, &format!("/v1/jobs/{id}")).json(),
+        &in_list,
+    ] {
+        assert_eq!(
+            job["warnings"].as_u64().unwrap(),
+            warnings.len() as u64,
+            "{job}"
+        );
+        assert_eq!(
+            job["accuracy_failures"].as_u64().unwrap(),
+            failed.len() as u64
+        );
+        assert_eq!(job["failures"].as_u64().unwrap(), search_failures);
+    }
+}
+
 #[test]
 fn twenty_concurrent_submissions_on_two_workers_all_finish_correctly() {
     let db = temp_db("concurrent.db");

@@ -394,6 +394,60 @@ def test_failed_evaluations_are_shown(page):
     page.goto(BASE + "/#/")
 
 
+def test_failed_refined_solves_are_shown(page):
+    """No failure hidden (issue #43): on the failure-injecting server every refined solve of the
+    accuracy statement fails. The job list flags the result's warnings, the job page opens with
+    a banner listing them, and the failures section counts the statement's failed solves apart
+    from the search's failed evaluations."""
+    fault = os.environ.get("WSM_FAULT_URL", "").rstrip("/")
+    assert fault, "scripts/browser_test.sh starts the failure-injecting server"
+    body = {"example": "block-on-base",
+            "settings": {"criteria": ["phi3", "phi6"], "budget": 60, "seed": 5,
+                         "accuracy_refinements": 1}}
+    job_id, status = run_job(page, fault, body)
+    assert status["state"] == "succeeded", status
+    result = page.request.get(f"{fault}/v1/jobs/{job_id}/result").json()
+    statement = result["accuracy"]
+    refined = statement["failures"]
+    warnings = result["warnings"]
+    assert refined and not statement["complete"], statement
+    assert status["accuracy_failures"] == len(refined), status
+    assert status["warnings"] == len(warnings), status
+    # The job list flags the warnings.
+    page.goto(f"{fault}/#/")
+    row = page.locator(f"#jobs-table tr[data-id='{job_id}']")
+    expect(row).to_have_attribute("data-warnings", str(len(warnings)))
+    expect(row.locator(".warn-flag")).to_contain_text(f"{len(warnings)} warnings")
+    # The job page opens with the warnings, the statement's among them, above everything else.
+    row.get_by_role("link").click()
+    page.wait_for_url(f"**/#/jobs/{job_id}")
+    banner = page.locator("#job-warnings")
+    expect(banner).to_be_visible()
+    expect(banner.locator("li")).to_have_count(len(warnings))
+    expect(banner).to_contain_text("accuracy statement: the refined solve at")
+    expect(banner).to_contain_text("is unknown.")
+    assert banner.bounding_box()["y"] < page.locator("#conv-h").bounding_box()["y"]
+    expect(page.locator("#job-warnings-count")).to_have_attribute("data-value", str(len(warnings)))
+    expect(page.locator("#job-accuracy-failures")).to_have_attribute("data-value", str(len(refined)))
+    # The failures section: the statement's failed solves apart from the search's.
+    expect(page.locator("#failures-section")).to_be_visible()
+    expect(page.locator("#refined-failures")).to_be_visible()
+    expect(page.locator("#refined-failures-summary")).to_contain_text(f"{len(refined)} refined solves")
+    expect(page.locator("#refined-failures-table tbody tr")).to_have_count(len(refined))
+    expect(page.locator("#refined-failures-table tbody tr").first).to_contain_text("injected failure")
+    expect(page.locator("#search-failures")).to_be_visible()
+    expect(page.locator("#failures-table tbody tr")).to_have_count(len(result["failures"]["listed"]))
+    expect(page.locator("#stat-refined-failures")).to_have_attribute("data-value", str(len(refined)))
+    expect(page.locator("#stat-failures")).to_have_attribute("data-value", str(result["failures"]["count"]))
+    expect(page.locator("#stat-accuracy")).to_contain_text(f"incomplete: {len(refined)} refined solves failed")
+    # No count of failed solves that leaves the statement's out.
+    expect(page.locator("#stats dt", has_text="Failed solves")).to_have_text(["Failed solves (search)"])
+    shot(page, "11b-failed-refined-solves")
+    page.locator("section.job-head").screenshot(path=str(ART / "11c-warnings-banner.png"))
+    page.locator("#failures-section").screenshot(path=str(ART / "11d-failed-solves.png"))
+    page.goto(BASE + "/#/")
+
+
 def test_a_token_server_is_read_and_downloaded_with_the_token(page):
     """A server with WSM_API_TOKEN: the list asks for the token; once it is entered the list,
     the job page (polled: an EventSource cannot send the token) and the downloads work."""

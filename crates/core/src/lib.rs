@@ -4,10 +4,11 @@
 //! The pipeline, one module each, every module using only those before it: `scene` (the JSON
 //! document and its validation) → `mesh` (P1 triangles, contact node pairs) → `fem` (elasticity
 //! and heat operators, loads, stresses) → `error` (the engine's error type, over the scene and
-//! FEM errors and the search's) → `bundled` (the example scenes) → `contact` (the exact direct
-//! contact solver) → `dd` (the papers' domain decomposition solver) → `regions` (the criteria's
-//! areas and boundary pieces as exact weights) → `state` (one state solve and its criteria) →
-//! `output` (result documents, the VTU writer) → `estimate` (discretisation-error estimates: mesh
+//! FEM errors and the search's) → `fault` (injected solve failures, for the tests of how runs
+//! report them) → `bundled` (the example scenes) → `contact` (the exact direct contact solver) →
+//! `dd` (the papers' domain decomposition solver) → `regions` (the criteria's areas and boundary
+//! pieces as exact weights) → `state` (one state solve and its criteria) → `output` (result
+//! documents, the VTU writer) → `estimate` (discretisation-error estimates: mesh
 //! ladders, Richardson extrapolation, the accuracy statement of a result, the mesh choice for a
 //! target error) → `scenario` (admissible-set checks, the physics evaluator and the engine around
 //! the generic search of the `wsm-search` crate) → `run` (the front door: typed requests,
@@ -24,6 +25,7 @@ pub mod contact;
 pub mod dd;
 pub mod error;
 pub mod estimate;
+pub mod fault;
 pub mod fem;
 mod memo;
 pub mod mesh;

@@ -25,8 +25,8 @@ pub struct ServeConfig {
     pub limits: Limits,
     /// Who may do what (tokens from the environment; never logged).
     pub access: Access,
-    /// Fail evaluations on purpose (tests of failure handling only).
-    pub inject_failures: Option<FaultRule>,
+    /// Fail solves on purpose (tests of failure handling only).
+    pub inject_failures: Vec<FaultRule>,
 }
 
 /// Settings of `wsm worker`.
@@ -95,7 +95,7 @@ pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
             threads_per_job: config.threads,
             lease_seconds: config.lease_seconds,
             owner: owner.clone(),
-            inject_failures: None,
+            inject_failures: Vec::new(),
         },
     );
     shutdown().await;

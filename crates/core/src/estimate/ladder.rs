@@ -67,16 +67,13 @@ impl DirectLevel {
     }
 
     /// The criteria at `data` (`None` where one is not defined), or why the solve failed.
-    pub fn criteria_at(&self, data: &Data) -> Result<Vec<Option<f64>>, String> {
-        self.problem
-            .solve(data, &self.options)
-            .map(|s| {
-                self.criteria
-                    .iter()
-                    .map(|c| s.criteria[*c as usize])
-                    .collect()
-            })
-            .map_err(|e| e.to_string())
+    pub fn criteria_at(&self, data: &Data) -> Result<Vec<Option<f64>>, WsmError> {
+        self.problem.solve(data, &self.options).map(|s| {
+            self.criteria
+                .iter()
+                .map(|c| s.criteria[*c as usize])
+                .collect()
+        })
     }
 
     /// Unknowns (free displacement DOFs) on this level's mesh.

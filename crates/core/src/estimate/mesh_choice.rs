@@ -4,8 +4,14 @@
 //! exactly as in the accuracy statement (Richardson extrapolation when the three values converge
 //! monotonically, else the largest difference; one finer level where the ladder ends), and the
 //! run takes the coarsest level whose estimate of every requested criterion is within the
-//! target. The ladder stops before a level would exceed [`MAX_CHOICE_UNKNOWNS`]; when no level
-//! meets the target the run takes the finest one built and says so.
+//! target. The ladder stops before a level would exceed [`MAX_CHOICE_UNKNOWNS`], or after a mesh
+//! at least as fine as the scene's that cannot be built; when no level meets the target the run
+//! takes the finest one that solved and says so.
+//!
+//! A level whose solve fails (or whose mesh cannot be built) is kept as a candidate with its
+//! `failure`, meets no target and helps estimate no other level's error; the run reports it as a
+//! warning and goes on with the levels that solved. Only when none solved does the choice fail,
+//! with the error of the scene's own mesh.
 //!
 //! The choice is made at the nominal data, before the search; the accuracy statement of the
 //! result then checks it at the worst and best data. The solves are cold sequential direct
@@ -19,6 +25,7 @@ use serde::{Deserialize, Serialize};
 use super::ladder::{scaled, DirectLevel};
 use super::statement::extremum_accuracy;
 use crate::error::WsmError;
+use crate::fault::{injected, FaultSite, SolveFault};
 use crate::scene::{Criterion, Scene, SceneError};
 
 /// Size factor of the coarsest level tried (relative to the scene's mesh sizes).
@@ -58,7 +65,7 @@ pub struct MeshChoice {
     /// The chosen level's size factor (the run's mesh sizes are the scene's × this).
     pub size_factor: f64,
     /// Whether the chosen level's estimate meets the target; false when no level up to
-    /// [`MAX_CHOICE_UNKNOWNS`] unknowns did (the finest level built is used).
+    /// [`MAX_CHOICE_UNKNOWNS`] unknowns did (the finest level that solved is used).
     pub met: bool,
     /// The levels built, coarsest first.
     pub candidates: Vec<CandidateMesh>,
@@ -87,25 +94,50 @@ pub fn check_target(scene: &Scene, target: f64) -> Result<(), WsmError> {
     Ok(())
 }
 
-/// A level's criteria at the nominal data.
+/// A level's criteria at the nominal data, or why its mesh could not be built or solved.
 struct Level {
     factor: f64,
+    /// Whether its mesh was built (unknowns and triangles are 0 otherwise).
+    built: bool,
     unknowns: usize,
     triangles: usize,
-    values: Result<Vec<Option<f64>>, String>,
+    values: Result<Vec<Option<f64>>, WsmError>,
     seconds: f64,
 }
 
-fn solve_level(scene: &Scene, criteria: &[Criterion], factor: f64) -> Result<Level, WsmError> {
+fn solve_level(
+    scene: &Scene,
+    criteria: &[Criterion],
+    factor: f64,
+    fault: Option<&SolveFault>,
+) -> Level {
     let start = Instant::now();
-    let level = DirectLevel::new(scene, factor, criteria)?;
-    Ok(Level {
-        factor,
-        unknowns: level.unknowns(),
-        triangles: level.triangles(),
-        values: level.criteria_at(&level.problem.nominal),
-        seconds: start.elapsed().as_secs_f64(),
-    })
+    match DirectLevel::new(scene, factor, criteria) {
+        Ok(level) => Level {
+            factor,
+            built: true,
+            unknowns: level.unknowns(),
+            triangles: level.triangles(),
+            values: match injected(
+                fault,
+                FaultSite::MeshChoice {
+                    size_factor: factor,
+                },
+            ) {
+                Some(reason) => Err(WsmError::contact(reason)),
+                None => level.criteria_at(&level.problem.nominal),
+            },
+            seconds: start.elapsed().as_secs_f64(),
+        },
+        Err(e) => Level {
+            factor,
+            built: false,
+            unknowns: 0,
+            triangles: 0,
+            values: Err(e),
+            seconds: start.elapsed().as_secs_f64(),
+        },
+    }
 }
 
 /// The relative error estimates of `level`'s values from the finer levels after it (one or
@@ -138,14 +170,15 @@ fn relative_errors(level: &Level, finer: &[&Level], criteria: usize) -> Vec<Opti
 
 /// The scene on the coarsest mesh whose estimated error of every criterion at the nominal data
 /// is within `target` (relative), and how it was chosen. `stop` is polled between levels
-/// (cancel: `WsmError::Cancelled`).
+/// (cancel: `WsmError::Cancelled`); `fault` fails the solves where it answers (tests).
 pub fn choose_mesh(
     scene: &Scene,
     criteria: &[Criterion],
     target: f64,
     stop: &dyn Fn() -> bool,
+    fault: Option<&SolveFault>,
 ) -> Result<(Scene, MeshChoice), WsmError> {
-    choose_mesh_within(scene, criteria, target, MAX_CHOICE_UNKNOWNS, stop)
+    choose_mesh_within(scene, criteria, target, MAX_CHOICE_UNKNOWNS, stop, fault)
 }
 
 /// [`choose_mesh`] with a ladder of at most `max_unknowns` unknowns.
@@ -155,6 +188,7 @@ fn choose_mesh_within(
     target: f64,
     max_unknowns: usize,
     stop: &dyn Fn() -> bool,
+    fault: Option<&SolveFault>,
 ) -> Result<(Scene, MeshChoice), WsmError> {
     check_target(scene, target)?;
     let start = Instant::now();
@@ -168,19 +202,13 @@ fn choose_mesh_within(
             break;
         }
         let factor = COARSEST_FACTOR * 0.5_f64.powi(levels.len() as i32);
-        let level = match solve_level(scene, criteria, factor) {
-            Ok(level) => level,
-            // The scene's own mesh (and every finer one) must build: its error is the run's.
-            Err(e) if factor <= 1.0 => return Err(e),
-            Err(e) => Level {
-                factor,
-                unknowns: 0,
-                triangles: 0,
-                values: Err(e.to_string()),
-                seconds: 0.0,
-            },
-        };
+        let level = solve_level(scene, criteria, factor, fault);
+        // A mesh as fine as the scene's that cannot be built: a finer one is larger still.
+        let last = !level.built && factor <= 1.0;
         levels.push(level);
+        if last {
+            break;
+        }
         let n = levels.len();
         if n >= 3
             && meets(
@@ -200,7 +228,9 @@ fn choose_mesh_within(
         chosen = Some(n - 2);
     }
     let met = chosen.is_some();
-    let index = chosen.unwrap_or(n - 1);
+    let Some(index) = chosen.or_else(|| levels.iter().rposition(|l| l.values.is_ok())) else {
+        return Err(none_solved(levels));
+    };
     let candidates = levels
         .iter()
         .enumerate()
@@ -222,7 +252,7 @@ fn choose_mesh_within(
                 meets_target: within(&relative, target),
                 relative_errors: relative,
                 seconds: level.seconds,
-                failure: level.values.as_ref().err().cloned(),
+                failure: level.values.as_ref().err().map(WsmError::to_string),
             }
         })
         .collect();
@@ -238,11 +268,30 @@ fn choose_mesh_within(
              (direct solver, cold); a level's error is estimated from the next two finer levels \
              (Richardson extrapolation when monotone, else the largest difference), relative to \
              the largest magnitude; the coarsest level meeting the target for every criterion is \
-             used, or the finest built (at most {max_unknowns} unknowns) when none does",
+             used, or the finest that solved (at most {max_unknowns} unknowns) when none does",
             COARSEST_FACTOR / 2.0
         ),
     };
     Ok((scaled(scene, size_factor)?, choice))
+}
+
+/// The error when no level of the ladder solved: the scene's own mesh's (size factor 1: the
+/// error of the run without a target), or the finest level's when the ladder ended before it.
+fn none_solved(levels: Vec<Level>) -> WsmError {
+    let factors: Vec<String> = levels.iter().map(|l| l.factor.to_string()).collect();
+    let what = format!(
+        "target_error: no mesh of the ladder (sizes × {}) could be solved at the nominal data",
+        factors.join(", ")
+    );
+    let own = levels.iter().rposition(|l| l.factor >= 1.0).unwrap_or(0);
+    match levels.into_iter().nth(own).map(|l| l.values) {
+        Some(Err(WsmError::Solver { stage, reason })) => WsmError::Solver {
+            stage,
+            reason: format!("{reason} ({what})"),
+        },
+        Some(Err(e)) => e,
+        _ => SceneError::new("target_error", what).into(),
+    }
 }
 
 fn meets(level: &Level, finer: &[&Level], target: f64, criteria: &[Criterion]) -> bool {
@@ -266,8 +315,8 @@ mod tests {
     fn picks_the_coarsest_level_meeting_the_target() {
         let scene = scene();
         let criteria = [Criterion::Phi3];
-        let (loose_scene, loose) = choose_mesh(&scene, &criteria, 0.05, &|| false).unwrap();
-        let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false).unwrap();
+        let (loose_scene, loose) = choose_mesh(&scene, &criteria, 0.05, &|| false, None).unwrap();
+        let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false, None).unwrap();
         for choice in [&loose, &tight] {
             let i = choice
                 .candidates
@@ -291,7 +340,7 @@ mod tests {
         );
         // Deterministic: the same choice, bit for bit.
         assert_eq!(
-            choose_mesh(&scene, &criteria, 0.05, &|| false)
+            choose_mesh(&scene, &criteria, 0.05, &|| false, None)
                 .unwrap()
                 .1
                 .candidates
@@ -310,7 +359,7 @@ mod tests {
     fn an_unreachable_target_takes_the_finest_level_within_the_cap_and_says_so() {
         let cap = 20_000;
         let (_, choice) =
-            choose_mesh_within(&scene(), &[Criterion::Phi3], 1e-12, cap, &|| false).unwrap();
+            choose_mesh_within(&scene(), &[Criterion::Phi3], 1e-12, cap, &|| false, None).unwrap();
         assert!(!choice.met);
         let last = choice.candidates.last().unwrap();
         assert_eq!(choice.size_factor, last.size_factor);
@@ -319,13 +368,80 @@ mod tests {
         assert!(4 * before.unknowns <= cap);
     }
 
+    /// Fails the mesh choice's solves on meshes finer than `coarsest_failing` × the scene's.
+    fn fail_finer_than(coarsest_failing: f64) -> impl Fn(&FaultSite<'_>) -> Option<String> {
+        move |site| match site {
+            FaultSite::MeshChoice { size_factor } if *size_factor <= coarsest_failing => {
+                Some(format!("injected failure at sizes × {size_factor}"))
+            }
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn failed_levels_are_kept_with_their_error_and_the_finest_level_that_solved_is_used() {
+        let cap = 20_000;
+        let fault = fail_finer_than(0.5);
+        let (chosen, choice) = choose_mesh_within(
+            &scene(),
+            &[Criterion::Phi3],
+            1e-12,
+            cap,
+            &|| false,
+            Some(&fault),
+        )
+        .unwrap();
+        assert!(!choice.met);
+        // The ladder went on to its cap through the failed levels …
+        let failed: Vec<&CandidateMesh> = choice
+            .candidates
+            .iter()
+            .filter(|c| c.size_factor <= 0.5)
+            .collect();
+        assert!(!failed.is_empty(), "{choice:#?}");
+        for c in &failed {
+            assert!(c.failure.as_ref().unwrap().contains("injected failure"));
+            assert!(c.values.iter().all(Option::is_none) && !c.meets_target);
+            assert!(c.unknowns > 0, "built, then failed to solve");
+        }
+        // … and the run takes the finest level that solved: the scene's own mesh.
+        assert_eq!(choice.size_factor, 1.0);
+        assert_eq!(chosen.mesh.max_size, scene().mesh.max_size);
+        let own = &choice.candidates[2];
+        assert_eq!(own.size_factor, 1.0);
+        assert!(own.failure.is_none() && own.values[0].is_some());
+        // Its error estimate needed the failed finer levels: unknown.
+        assert_eq!(own.relative_errors, vec![None]);
+    }
+
+    #[test]
+    fn a_ladder_where_no_level_solves_fails_with_the_scene_meshs_error() {
+        let fault = fail_finer_than(f64::INFINITY);
+        let e = choose_mesh_within(
+            &scene(),
+            &[Criterion::Phi3],
+            0.01,
+            20_000,
+            &|| false,
+            Some(&fault),
+        )
+        .unwrap_err();
+        assert_eq!(e.kind(), crate::error::ErrorKind::Solver, "{e}");
+        let text = e.to_string();
+        assert!(text.contains("injected failure at sizes × 1 "), "{text}");
+        assert!(
+            text.contains("target_error: no mesh of the ladder"),
+            "{text}"
+        );
+    }
+
     #[test]
     fn bad_targets_and_cancels_are_refused() {
         for bad in [0.0, -0.1, 1.0, f64::NAN, f64::INFINITY] {
-            let e = choose_mesh(&scene(), &[Criterion::Phi3], bad, &|| false).unwrap_err();
+            let e = choose_mesh(&scene(), &[Criterion::Phi3], bad, &|| false, None).unwrap_err();
             assert!(e.to_string().contains("target_error"), "{e}");
         }
-        let e = choose_mesh(&scene(), &[Criterion::Phi3], 0.01, &|| true).unwrap_err();
+        let e = choose_mesh(&scene(), &[Criterion::Phi3], 0.01, &|| true, None).unwrap_err();
         assert!(matches!(e, WsmError::Cancelled));
     }
 }

@@ -11,7 +11,12 @@
 //! whichever process solves a point: with a [`BatchDispatch`] (worker processes sharing a job
 //! store) each level's points are dealt to the live workers, which build the refined level
 //! themselves, while this process builds it and solves its own share. Between points and levels
-//! `stop` is polled (cancel, time limit); a statement cut short says so in `complete`.
+//! `stop` is polled (cancel, time limit).
+//!
+//! No failure is hidden (design §6): a refined solve that fails — or a refined mesh that cannot
+//! be built — is listed in `failures` with the extrema at its data, the extremum's entry keeps
+//! the error, [`AccuracyStatement::warnings`] says in plain words which value's discretisation
+//! error is therefore unknown, and `complete` is false, as it is for a statement cut short.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
@@ -23,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use super::ladder::DirectLevel;
 use super::richardson::extrapolate;
 use crate::error::WsmError;
+use crate::fault::{injected, FaultSite, SolveFault};
 use crate::run::BatchDispatch;
 use crate::scene::params::{apply, Parameter};
 use crate::scene::Criterion;
@@ -38,9 +44,10 @@ pub const MAX_REFINED_UNKNOWNS: usize = 2_000_000;
 pub struct StatementMesh {
     /// Mesh sizes relative to the run's mesh (1, 1/2, 1/4).
     pub size_factor: f64,
-    /// Unknowns (free displacement DOFs) on this mesh.
+    /// Unknowns (free displacement DOFs) on this mesh (0: it could not be built, see
+    /// `failures`).
     pub unknowns: usize,
-    /// Triangles of this mesh.
+    /// Triangles of this mesh (0: it could not be built).
     pub triangles: usize,
     /// Meshing, set-up and the solves on this mesh \[s\].
     pub seconds: f64,
@@ -63,7 +70,8 @@ pub struct ExtremumAccuracy {
     pub observed_order: Option<f64>,
     /// Richardson's value on an infinitely fine mesh (two refinements, monotone convergence).
     pub extrapolated: Option<f64>,
-    /// Why a refined solve failed.
+    /// Why refined solves of this value failed, per failed refinement ("refinement 1: …"),
+    /// joined by "; ".
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failure: Option<String>,
 }
@@ -79,6 +87,22 @@ pub struct CriterionAccuracy {
     pub best: Option<ExtremumAccuracy>,
 }
 
+/// A refined solve of the statement that failed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
+pub struct RefinedFailure {
+    /// The refinement: the run's mesh sizes halved this many times (its mesh is
+    /// `meshes[level]`).
+    pub level: u32,
+    /// The uncertain data of the solve, in the order of the result's `parameters`.
+    pub point: Vec<f64>,
+    /// The criteria whose worst (largest) value lies at these data.
+    pub worst_of: Vec<Criterion>,
+    /// The criteria whose best (smallest) value lies at these data.
+    pub best_of: Vec<Criterion>,
+    /// Why it failed: the solver's error, or why the refined mesh could not be built.
+    pub error: String,
+}
+
 /// The accuracy statement of a worst-scenario result.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct AccuracyStatement {
@@ -90,8 +114,14 @@ pub struct AccuracyStatement {
     pub points: usize,
     /// Extra wall time of the statement \[s\].
     pub seconds: f64,
-    /// False when a cancel or the time limit cut it short (or the mesh is too large to refine).
+    /// True exactly when every refined solve asked for ran and succeeded: none failed
+    /// (`failures` is empty) and no cancel or time limit cut the statement short (every
+    /// refinement asked for is in `meshes`). When false, some extremum's estimate rests on
+    /// fewer meshes than asked, or is unknown; the result's `warnings` say which.
     pub complete: bool,
+    /// The refined solves that failed, by refinement, then in the order of the extrema.
+    #[serde(default)]
+    pub failures: Vec<RefinedFailure>,
     /// How the estimates were made, in words (which data, which meshes, which estimate).
     pub method: String,
 }
@@ -131,6 +161,7 @@ pub struct RefinedLevel<'a> {
     criteria: &'a [Criterion],
     level: u32,
     built: OnceLock<Result<DirectLevel, WsmError>>,
+    fault: Option<&'a SolveFault>,
 }
 
 impl<'a> RefinedLevel<'a> {
@@ -147,7 +178,15 @@ impl<'a> RefinedLevel<'a> {
             criteria,
             level,
             built: OnceLock::new(),
+            fault: None,
         }
+    }
+
+    /// Fail the solves where `fault` answers at [`FaultSite::Refined`] (tests of failure
+    /// handling).
+    pub fn with_fault(mut self, fault: Option<&'a SolveFault>) -> Self {
+        self.fault = fault;
+        self
     }
 
     /// The refinement level (mesh sizes halved this many times).
@@ -181,24 +220,48 @@ impl<'a> RefinedLevel<'a> {
             .par_iter()
             .map(|p| {
                 (!stop()).then(|| {
-                    level.criteria_at(&apply(&problem.scene, &problem.nominal, self.params, p))
+                    let site = FaultSite::Refined {
+                        level: self.level,
+                        point: p,
+                    };
+                    match injected(self.fault, site) {
+                        Some(reason) => Err(WsmError::contact(reason)),
+                        None => level.criteria_at(&apply(
+                            &problem.scene,
+                            &problem.nominal,
+                            self.params,
+                            p,
+                        )),
+                    }
+                    .map_err(|e| e.to_string())
                 })
             })
             .collect()
     }
 }
 
+/// How the statement's solves run: when they stop, where they are dealt out, where they fail
+/// on purpose.
+#[derive(Clone, Copy)]
+pub struct StatementControl<'a> {
+    /// Polled between meshes and points (a cancel, the time limit).
+    pub stop: &'a (dyn Fn() -> bool + Sync),
+    /// Deals each level's points to worker processes, when there are any.
+    pub dispatch: Option<&'a dyn BatchDispatch>,
+    /// Fails the refined solves made in this process where it answers (tests).
+    pub fault: Option<&'a SolveFault>,
+}
+
 /// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
-/// refined meshes, their solves dealt out through `dispatch` when there is one. `stop` is polled
-/// between meshes and points.
+/// refined meshes, run as `control` says. Every refinement is tried unless `control.stop` says
+/// stop; a refined solve that fails (or a mesh that cannot be built) is a [`RefinedFailure`].
 pub fn statement(
     problem: &StateProblem,
     params: &[Parameter],
     criteria: &[Criterion],
     extrema: &Extrema,
     refinements: usize,
-    stop: &(dyn Fn() -> bool + Sync),
-    dispatch: Option<&dyn BatchDispatch>,
+    control: StatementControl<'_>,
 ) -> Result<AccuracyStatement, WsmError> {
     let start = Instant::now();
     let mut points: Vec<Vec<f64>> = Vec::new();
@@ -216,49 +279,32 @@ pub fn statement(
         seconds: 0.0,
     };
     let mut meshes = vec![base];
-    // values[level][point][criterion]
+    // values[level - 1][point][criterion]
     let mut values: Vec<Vec<RefinedValues>> = Vec::new();
-    let mut complete = true;
-    for level in 1..=refinements {
-        if stop() {
-            complete = false;
+    let mut cut_short = refinements == 0;
+    for level in 1..=refinements as u32 {
+        if (control.stop)() {
+            cut_short = true;
             break;
         }
         let t0 = Instant::now();
-        let refined = RefinedLevel::new(&problem.scene, params, criteria, level as u32);
-        let stopped = AtomicBool::new(false);
-        let local = |points: &[Vec<f64>]| -> Vec<RefinedValues> {
-            refined
-                .solve(points, stop)
-                .into_iter()
-                .map(|v| {
-                    v.unwrap_or_else(|| {
-                        stopped.store(true, Ordering::SeqCst);
-                        Err("stopped".into())
-                    })
-                })
-                .collect()
-        };
-        let dispatched = match dispatch {
-            Some(d) => d.refined(level as u32, &points, &local)?,
-            None => None,
-        };
-        let solved = dispatched.unwrap_or_else(|| local(&points));
-        if stopped.load(Ordering::SeqCst) {
-            complete = false;
+        let refined =
+            RefinedLevel::new(&problem.scene, params, criteria, level).with_fault(control.fault);
+        let Some(solved) = solve_level(&refined, &points, control)? else {
+            cut_short = true;
             break;
-        }
-        let built = refined.get()?;
+        };
+        // A mesh that cannot be built failed every solve on it (with the reason).
+        let (unknowns, triangles) = refined
+            .get()
+            .map_or((0, 0), |built| (built.unknowns(), built.triangles()));
         values.push(solved);
         meshes.push(StatementMesh {
-            size_factor: refinement_factor(level as u32),
-            unknowns: built.unknowns(),
-            triangles: built.triangles(),
+            size_factor: refinement_factor(level),
+            unknowns,
+            triangles,
             seconds: t0.elapsed().as_secs_f64(),
         });
-    }
-    if refinements == 0 {
-        complete = false;
     }
     let h: Vec<f64> = meshes
         .iter()
@@ -267,19 +313,22 @@ pub fn statement(
     let accuracy = |k: usize, extremum: &Option<(f64, Vec<f64>)>| {
         let (value, point) = extremum.as_ref()?;
         let index = points.iter().position(|q| q == point)?;
-        let mut failure = None;
+        let mut failures = Vec::new();
         let refined: Vec<Option<f64>> = values
             .iter()
-            .map(|level| match &level[index] {
+            .zip(1..)
+            .map(|(level, number)| match &level[index] {
                 Ok(v) => v[k],
                 Err(e) => {
-                    failure.get_or_insert_with(|| e.clone());
+                    failures.push(format!("refinement {number}: {e}"));
                     None
                 }
             })
             .collect();
+        let failure = (!failures.is_empty()).then(|| failures.join("; "));
         Some(extremum_accuracy(*value, refined, &h, failure))
     };
+    let failures = refined_failures(criteria, extrema, &points, &values);
     let criteria = criteria
         .iter()
         .zip(extrema)
@@ -295,9 +344,174 @@ pub fn statement(
         criteria,
         points: points.len(),
         seconds: start.elapsed().as_secs_f64(),
-        complete,
+        complete: !cut_short && failures.is_empty(),
+        failures,
         method: "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into(),
     })
+}
+
+/// The solves of `points` on one refined level, dealt out through the dispatch when there is
+/// one; `None` when `control.stop` stopped them.
+fn solve_level(
+    refined: &RefinedLevel<'_>,
+    points: &[Vec<f64>],
+    control: StatementControl<'_>,
+) -> Result<Option<Vec<RefinedValues>>, WsmError> {
+    let stopped = AtomicBool::new(false);
+    let local = |points: &[Vec<f64>]| -> Vec<RefinedValues> {
+        refined
+            .solve(points, control.stop)
+            .into_iter()
+            .map(|v| {
+                v.unwrap_or_else(|| {
+                    stopped.store(true, Ordering::SeqCst);
+                    Err("stopped".into())
+                })
+            })
+            .collect()
+    };
+    let dispatched = match control.dispatch {
+        Some(d) => d.refined(refined.level(), points, &local)?,
+        None => None,
+    };
+    let solved = dispatched.unwrap_or_else(|| local(points));
+    Ok((!stopped.load(Ordering::SeqCst)).then_some(solved))
+}
+
+/// The failed solves of `values` (by level, then point), with the extrema at their data.
+fn refined_failures(
+    criteria: &[Criterion],
+    extrema: &Extrema,
+    points: &[Vec<f64>],
+    values: &[Vec<RefinedValues>],
+) -> Vec<RefinedFailure> {
+    let at = |point: &Vec<f64>, side: usize| -> Vec<Criterion> {
+        criteria
+            .iter()
+            .zip(extrema)
+            .filter(|(_, pair)| pair[side].as_ref().is_some_and(|(_, p)| p == point))
+            .map(|(&c, _)| c)
+            .collect()
+    };
+    values
+        .iter()
+        .zip(1..)
+        .flat_map(|(level, number)| {
+            points.iter().zip(level).filter_map(move |(point, v)| {
+                let error = v.as_ref().err()?;
+                Some(RefinedFailure {
+                    level: number,
+                    point: point.clone(),
+                    worst_of: at(point, 0),
+                    best_of: at(point, 1),
+                    error: error.clone(),
+                })
+            })
+        })
+        .collect()
+}
+
+impl AccuracyStatement {
+    /// The statement's warnings in plain words, for the result's `warnings`: one per refined
+    /// mesh that could not be built; one per data whose refined solves failed (which extrema,
+    /// which refinement and mesh, the error, and that the discretisation error of those values
+    /// rests on fewer meshes or is unknown); one when fewer than the `asked` refinements were
+    /// made (a cancel or the time limit).
+    pub fn warnings(&self, asked: usize) -> Vec<String> {
+        let built = |f: &&RefinedFailure| self.meshes[f.level as usize].unknowns > 0;
+        let mut warnings = Vec::new();
+        let mut unbuilt: Vec<u32> = Vec::new();
+        for failure in self.failures.iter().filter(|f| !built(f)) {
+            if !unbuilt.contains(&failure.level) {
+                unbuilt.push(failure.level);
+                warnings.push(format!(
+                    "accuracy statement: the mesh of refinement {} (sizes × {}) could not be \
+                     built: {}. No discretisation error can be estimated from it.",
+                    failure.level, self.meshes[failure.level as usize].size_factor, failure.error
+                ));
+            }
+        }
+        let mut seen: Vec<&Vec<f64>> = Vec::new();
+        for failure in self.failures.iter().filter(built) {
+            if !seen.contains(&&failure.point) {
+                seen.push(&failure.point);
+                warnings.push(self.failure_warning(&failure.point));
+            }
+        }
+        let made = self.meshes.len() - 1;
+        if made < asked {
+            let rest = if made == 0 {
+                "the discretisation error of every worst and best value is unknown".to_string()
+            } else {
+                format!("the estimates rest on the {made} refined mesh(es) solved before")
+            };
+            warnings.push(format!(
+                "accuracy statement: cut short by a cancel or the time limit after {made} of the \
+                 {asked} refined meshes asked for; {rest}."
+            ));
+        }
+        warnings
+    }
+
+    /// The warning about the failed solves at `point` on the meshes that were built.
+    fn failure_warning(&self, point: &[f64]) -> String {
+        let at_point: Vec<&RefinedFailure> =
+            self.failures.iter().filter(|f| f.point == point).collect();
+        let first = at_point[0];
+        let symbols = |criteria: &[Criterion]| -> String {
+            let names: Vec<&str> = criteria.iter().map(|c| c.symbol()).collect();
+            names.join(", ")
+        };
+        let mut which = Vec::new();
+        if !first.worst_of.is_empty() {
+            which.push(format!("the worst data of {}", symbols(&first.worst_of)));
+        }
+        if !first.best_of.is_empty() {
+            which.push(format!("the best data of {}", symbols(&first.best_of)));
+        }
+        // The refinements (on built meshes) by error, in order: one error said once.
+        let mut by_error: Vec<(&str, Vec<String>)> = Vec::new();
+        for f in &at_point {
+            let mesh = &self.meshes[f.level as usize];
+            if mesh.unknowns == 0 {
+                continue;
+            }
+            let on = format!(
+                "refinement {} (mesh sizes × {}, {} unknowns)",
+                f.level, mesh.size_factor, mesh.unknowns
+            );
+            match by_error.iter_mut().find(|(e, _)| *e == f.error) {
+                Some((_, levels)) => levels.push(on),
+                None => by_error.push((&f.error, vec![on])),
+            }
+        }
+        let how: Vec<String> = by_error
+            .iter()
+            .map(|(error, levels)| format!("on {}: {error}", levels.join(" and ")))
+            .collect();
+        let values = if first.worst_of.len() + first.best_of.len() == 1 {
+            "this value"
+        } else {
+            "these values"
+        };
+        let solved: Vec<String> = (1..self.meshes.len() as u32)
+            .filter(|level| !at_point.iter().any(|f| f.level == *level))
+            .map(|level| format!("refinement {level}"))
+            .collect();
+        let meaning = if solved.is_empty() {
+            format!("The discretisation error of {values} is unknown.")
+        } else {
+            format!(
+                "The discretisation-error estimate of {values} rests on {} alone.",
+                solved.join(" and ")
+            )
+        };
+        format!(
+            "accuracy statement: the refined solve at {} failed {}. {meaning}",
+            which.join(" and "),
+            how.join("; ")
+        )
+    }
 }
 
 pub(crate) fn extremum_accuracy(
@@ -330,4 +544,112 @@ pub(crate) fn extremum_accuracy(
     }
     out.relative = out.estimate.map(|e| e / value.abs().max(f64::MIN_POSITIVE));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The block on its base, coarse, and the extrema of Φ3 at two corners of its box.
+    fn block() -> (StateProblem, Vec<Parameter>, Extrema) {
+        let mut scene =
+            crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap();
+        scene.mesh.max_size = 0.2;
+        scene.mesh.refine.clear();
+        let params = crate::scene::params::parameters(&scene).unwrap();
+        let problem = StateProblem::new(scene).unwrap();
+        let low: Vec<f64> = params.iter().map(|p| p.lo).collect();
+        let high: Vec<f64> = params.iter().map(|p| p.hi).collect();
+        (problem, params, vec![[Some((2.0, high)), Some((1.0, low))]])
+    }
+
+    fn run(
+        problem: &StateProblem,
+        params: &[Parameter],
+        extrema: &Extrema,
+        refinements: usize,
+        stop: &(dyn Fn() -> bool + Sync),
+    ) -> AccuracyStatement {
+        let control = StatementControl {
+            stop,
+            dispatch: None,
+            fault: None,
+        };
+        statement(
+            problem,
+            params,
+            &[Criterion::Phi3],
+            extrema,
+            refinements,
+            control,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_refined_mesh_that_cannot_be_built_fails_its_solves_in_one_warning() {
+        let (mut problem, params, extrema) = block();
+        // An imported mesh cannot be refined: every refined level fails to build.
+        problem.scene.mesh.gmsh_file = Some("imported.msh".into());
+        let a = run(&problem, &params, &extrema, 2, &|| false);
+        assert!(!a.complete);
+        assert_eq!(a.meshes.len(), 3, "both refinements were tried");
+        assert!(a.meshes[1..].iter().all(|m| m.unknowns == 0));
+        assert_eq!(
+            a.failures.len(),
+            4,
+            "2 points × 2 levels: {:#?}",
+            a.failures
+        );
+        assert!(a
+            .failures
+            .iter()
+            .all(|f| f.error.contains("mesh.gmsh_file")));
+        assert_eq!(a.failures[0].worst_of, vec![Criterion::Phi3]);
+        assert!(a.failures[0].best_of.is_empty());
+        assert_eq!(a.failures[1].best_of, vec![Criterion::Phi3]);
+        let worst = a.criteria[0].worst.as_ref().unwrap();
+        assert_eq!(worst.refined, vec![None, None]);
+        assert!(worst.estimate.is_none());
+        let failure = worst.failure.as_ref().unwrap();
+        assert!(
+            failure.starts_with("refinement 1: mesh.gmsh_file"),
+            "{failure}"
+        );
+        assert!(
+            failure.contains("; refinement 2: mesh.gmsh_file"),
+            "{failure}"
+        );
+        let warnings = a.warnings(2);
+        assert_eq!(warnings.len(), 2, "one per unbuilt mesh: {warnings:#?}");
+        assert!(warnings[0].starts_with(
+            "accuracy statement: the mesh of refinement 1 (sizes × 0.5) could not be built: \
+             mesh.gmsh_file"
+        ));
+        assert!(warnings[1].contains("refinement 2 (sizes × 0.25)"));
+    }
+
+    #[test]
+    fn a_statement_cut_short_says_how_far_it_came() {
+        let (problem, params, extrema) = block();
+        let stopped = run(&problem, &params, &extrema, 2, &|| true);
+        assert!(!stopped.complete && stopped.failures.is_empty());
+        assert_eq!(stopped.meshes.len(), 1);
+        assert_eq!(
+            stopped.warnings(2),
+            vec![
+                "accuracy statement: cut short by a cancel or the time limit after 0 of the 2 \
+                  refined meshes asked for; the discretisation error of every worst and best \
+                  value is unknown."
+                    .to_string()
+            ]
+        );
+        let whole = run(&problem, &params, &extrema, 1, &|| false);
+        assert!(whole.complete && whole.warnings(1).is_empty(), "{whole:#?}");
+        assert_eq!(
+            whole.warnings(2)[0],
+            "accuracy statement: cut short by a cancel or the time limit after 1 of the 2 \
+             refined meshes asked for; the estimates rest on the 1 refined mesh(es) solved before."
+        );
+    }
 }

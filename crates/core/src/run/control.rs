@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::log::EvaluationLog;
 use super::remote::BatchDispatch;
-use crate::scenario::evaluator::EvaluationFault;
+use crate::fault::SolveFault;
 use crate::scene::Criterion;
 use wsm_search::{Phase, Progress, Sense};
 
@@ -96,8 +96,9 @@ pub struct RunControl {
     pub log: Option<Arc<dyn EvaluationLog>>,
     /// Where evaluation batches are computed when not here (other worker processes).
     pub dispatch: Option<Arc<dyn BatchDispatch>>,
-    /// For tests of failure handling: evaluations made here fail where it answers.
-    pub fault: Option<Arc<EvaluationFault>>,
+    /// For tests of failure handling: the solves made here (search evaluations, the accuracy
+    /// statement's refined solves, the mesh choice's solves) fail where it answers.
+    pub fault: Option<Arc<SolveFault>>,
 }
 
 impl RunControl {
@@ -127,8 +128,9 @@ impl RunControl {
         self
     }
 
-    /// Fail the evaluations at the points where `fault` answers (tests of failure handling).
-    pub fn with_fault(mut self, fault: Arc<EvaluationFault>) -> Self {
+    /// Fail the solves where `fault` answers (tests of failure handling; see
+    /// [`crate::fault`]).
+    pub fn with_fault(mut self, fault: Arc<SolveFault>) -> Self {
         self.fault = Some(fault);
         self
     }

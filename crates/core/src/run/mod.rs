@@ -30,8 +30,10 @@ pub use table::{columns as table_columns, write_csv};
 
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::estimate::statement::{
-    CriterionAccuracy, ExtremumAccuracy, RefinedLevel, RefinedSolve, RefinedValues, StatementMesh,
+    CriterionAccuracy, ExtremumAccuracy, RefinedFailure, RefinedLevel, RefinedSolve, RefinedValues,
+    StatementMesh,
 };
+pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
@@ -46,7 +48,9 @@ use std::time::Instant;
 
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::choose_mesh;
-use crate::estimate::statement::{default_refinements, statement, AccuracyStatement};
+use crate::estimate::statement::{
+    default_refinements, statement, AccuracyStatement, StatementControl,
+};
 use crate::fem::Par;
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
@@ -153,15 +157,17 @@ pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, 
 
 /// The scene a run solves: `scene` itself, or with a target error the scene on the coarsest
 /// mesh meeting it (`crate::estimate::mesh_choice`), with how it was chosen. `stop` is polled
-/// between the meshes tried. Workers call this too, so every process solves the same mesh.
+/// between the meshes tried; `fault` fails the solves where it answers (tests). Workers call
+/// this too, so every process solves the same mesh.
 pub fn run_scene(
     scene: Scene,
     settings: &WorstSettings,
     stop: &dyn Fn() -> bool,
+    fault: Option<&SolveFault>,
 ) -> Result<(Scene, Option<MeshChoice>), WsmError> {
     match settings.target_error {
         Some(target) => {
-            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop)?;
+            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop, fault)?;
             Ok((chosen, Some(choice)))
         }
         None => Ok((scene, None)),
@@ -295,9 +301,13 @@ impl Run<'_> {
         if let Some(status) = self.enter(RunPhase::MeshChoice) {
             return Ok(ControlFlow::Break(self.unstarted(&scene, status)));
         }
-        match run_scene(scene.clone(), self.settings, &|| {
-            self.stop_status().is_some()
-        }) {
+        let stop = || self.stop_status().is_some();
+        match run_scene(
+            scene.clone(),
+            self.settings,
+            &stop,
+            self.control.fault.as_deref(),
+        ) {
             Ok((chosen, choice)) => {
                 if let Some(dispatch) = &self.control.dispatch {
                     dispatch.share_scene(&chosen)?;
@@ -412,7 +422,10 @@ impl Run<'_> {
             .warnings
             .extend(crate::scenario::unproven::warnings(outcome));
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
-            outcome.accuracy = self.accuracy(problem, outcome)?;
+            if let Some((statement, asked)) = self.accuracy(problem, outcome)? {
+                outcome.warnings.extend(statement.warnings(asked));
+                outcome.accuracy = Some(statement);
+            }
         }
         if let Some(choice) = &mesh_choice {
             outcome.warnings.extend(target_warnings(choice, outcome));
@@ -424,12 +437,13 @@ impl Run<'_> {
         Ok(())
     }
 
-    /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`).
+    /// The accuracy statement of a finished search (design §6, `crate::estimate::statement`),
+    /// with the refinements asked for.
     fn accuracy(
         &self,
         problem: &StateProblem,
         outcome: &WorstOutcome,
-    ) -> Result<Option<AccuracyStatement>, WsmError> {
+    ) -> Result<Option<(AccuracyStatement, usize)>, WsmError> {
         let refinements = self
             .settings
             .accuracy_refinements
@@ -440,16 +454,20 @@ impl Run<'_> {
         self.control
             .report(&self.event(RunPhase::Accuracy, outcome.evaluations));
         let stop = || self.stop_status().is_some();
-        statement(
+        let control = StatementControl {
+            stop: &stop,
+            dispatch: self.control.dispatch.as_deref(),
+            fault: self.control.fault.as_deref(),
+        };
+        let statement = statement(
             problem,
             self.params,
             &self.settings.criteria,
             &outcome.extrema(),
             refinements,
-            &stop,
-            self.control.dispatch.as_deref(),
-        )
-        .map(Some)
+            control,
+        )?;
+        Ok(Some((statement, refinements)))
     }
 
     /// Warnings about the result: P1 locking (ν ≥ 0.49) at the nominal, worst or best data,
@@ -514,16 +532,58 @@ impl Run<'_> {
     }
 }
 
-/// Warnings of a run with a target error: no mesh met it, or the accuracy statement finds a
-/// worst or best value whose estimate exceeds it (the choice was made at the nominal data).
+/// One warning per level of the target-error ladder that could not be built or solved: it
+/// cannot be chosen, nor estimate the error of the (up to two) coarser levels that solved.
+fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<String> {
+    candidates
+        .iter()
+        .enumerate()
+        .filter_map(|(i, candidate)| {
+            let error = candidate.failure.as_ref()?;
+            let factor = candidate.size_factor;
+            let what = match candidate.unknowns {
+                0 => format!("the ladder's mesh with sizes × {factor} could not be built"),
+                n => format!(
+                    "the solve at the nominal data on the ladder's mesh with sizes × {factor} \
+                     ({n} unknowns) failed"
+                ),
+            };
+            let needed: Vec<String> = candidates[i.saturating_sub(2)..i]
+                .iter()
+                .filter(|c| c.failure.is_none())
+                .map(|c| format!("× {}", c.size_factor))
+                .collect();
+            let meaning = match needed.len() {
+                0 => "That mesh cannot be chosen.".to_string(),
+                1 => format!(
+                    "That mesh cannot be chosen, and the error of the mesh with sizes {} cannot \
+                     be estimated with it.",
+                    needed[0]
+                ),
+                _ => format!(
+                    "That mesh cannot be chosen, and the errors of the meshes with sizes {} \
+                     cannot be estimated with it.",
+                    needed.join(" and ")
+                ),
+            };
+            Some(format!("target_error: {what}: {error}. {meaning}"))
+        })
+        .collect()
+}
+
+/// Warnings of a run with a target error: a mesh of the ladder that failed, no mesh met the
+/// target, or the accuracy statement finds a worst or best value whose estimate exceeds it (the
+/// choice was made at the nominal data).
 fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
     let mut warnings = Vec::new();
     let target = choice.target_error;
+    warnings.extend(ladder_failure_warnings(&choice.candidates));
     if !choice.met {
-        let finest = choice.candidates.last().map_or(0, |c| c.unknowns);
+        let finest = choice.candidates.iter().map(|c| c.unknowns).max();
+        let finest = finest.unwrap_or(0);
         warnings.push(format!(
             "target_error: no mesh up to {finest} unknowns met the target {target:e} at the \
-             nominal data; the run used the finest one (mesh sizes × {})",
+             nominal data; the run used the finest one that solved (mesh sizes × {})",
             choice.size_factor
         ));
     }
@@ -545,4 +605,50 @@ fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
         }
     }
     warnings
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn candidate(size_factor: f64, unknowns: usize, failure: Option<&str>) -> CandidateMesh {
+        CandidateMesh {
+            size_factor,
+            unknowns,
+            triangles: unknowns,
+            values: vec![None],
+            relative_errors: vec![None],
+            meets_target: false,
+            seconds: 0.0,
+            failure: failure.map(str::to_string),
+        }
+    }
+
+    /// The ladder of the Coulomb dam with a target error of 0.002 (docs/verification.md): the
+    /// two coarsest meshes cannot be built, the finest one's Coulomb fixed point refuses.
+    #[test]
+    fn a_ladder_level_that_failed_is_warned_about_with_what_it_costs() {
+        let ladder = [
+            candidate(4.0, 0, Some("criteria.boundary_pieces[0]: zero length")),
+            candidate(2.0, 0, Some("criteria.boundary_pieces[0]: zero length")),
+            candidate(1.0, 4595, None),
+            candidate(0.5, 14516, None),
+            candidate(0.25, 51302, None),
+            candidate(0.125, 191419, Some("contact solver: no convergence")),
+        ];
+        assert_eq!(
+            ladder_failure_warnings(&ladder),
+            [
+                "target_error: the ladder's mesh with sizes × 4 could not be built: \
+                 criteria.boundary_pieces[0]: zero length. That mesh cannot be chosen.",
+                "target_error: the ladder's mesh with sizes × 2 could not be built: \
+                 criteria.boundary_pieces[0]: zero length. That mesh cannot be chosen.",
+                "target_error: the solve at the nominal data on the ladder's mesh with sizes × \
+                 0.125 (191419 unknowns) failed: contact solver: no convergence. That mesh cannot \
+                 be chosen, and the errors of the meshes with sizes × 0.5 and × 0.25 cannot be \
+                 estimated with it.",
+            ]
+        );
+        assert!(ladder_failure_warnings(&ladder[2..5]).is_empty());
+    }
 }

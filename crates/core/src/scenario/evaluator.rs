@@ -18,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
+use crate::fault::{injected, FaultSite, SolveFault};
 use crate::fem::Par;
 use crate::scene::params::{apply, stencil, Parameter, Stencil};
 use crate::scene::Criterion;
@@ -103,10 +104,6 @@ pub struct InnerSummary {
 /// Sees the evaluations of every batch (the evaluation log of a run).
 pub type Observer<'a> = dyn Fn(&[Evaluation]) + Sync + 'a;
 
-/// A fault injector, for tests of how runs handle failures: at a point where it answers
-/// `Some(reason)` the evaluation fails with that reason instead of solving.
-pub type EvaluationFault = dyn Fn(&[f64]) -> Option<String> + Send + Sync;
-
 /// The criteria of a scene as a black box for the search.
 pub struct ScenarioEvaluator<'a> {
     problem: &'a StateProblem,
@@ -116,7 +113,7 @@ pub struct ScenarioEvaluator<'a> {
     warm: Option<WarmStart>,
     stats: InnerStats,
     observer: Option<&'a Observer<'a>>,
-    fault: Option<&'a EvaluationFault>,
+    fault: Option<&'a SolveFault>,
     derivatives: bool,
 }
 
@@ -152,8 +149,9 @@ impl<'a> ScenarioEvaluator<'a> {
         self
     }
 
-    /// Fail the evaluations where `fault` answers (see [`EvaluationFault`]).
-    pub fn with_fault(mut self, fault: Option<&'a EvaluationFault>) -> Self {
+    /// Fail the evaluations where `fault` answers at [`FaultSite::Evaluation`] (tests of
+    /// failure handling).
+    pub fn with_fault(mut self, fault: Option<&'a SolveFault>) -> Self {
         self.fault = fault;
         self
     }
@@ -188,7 +186,7 @@ impl<'a> ScenarioEvaluator<'a> {
             self.params,
             theta,
         );
-        let result = match self.fault.and_then(|fault| fault(theta)) {
+        let result = match injected(self.fault, FaultSite::Evaluation { point: theta }) {
             Some(reason) => Err(WsmError::contact(reason)),
             None => self.problem.solve_with_sensitivities(
                 &data,

@@ -22,7 +22,7 @@ pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
         .criteria
         .iter()
         .flat_map(|c: &CriterionOutcome| {
-            let symbol = format!("Φ{}", c.criterion.name().trim_start_matches("phi"));
+            let symbol = c.criterion.symbol().to_string();
             [
                 (symbol.clone(), "worst", "higher", &c.worst),
                 (symbol, "best", "lower", &c.best),

@@ -36,6 +36,14 @@ pub struct JobStatus {
     pub evaluations: usize,
     /// Of `evaluations`, how many failed (listed in the result's `failures`).
     pub failures: usize,
+    /// Refined solves of the accuracy statement that failed (0 until the job has a result;
+    /// listed in the result's `accuracy.failures`): the discretisation error of the values at
+    /// their data is unknown. Counted apart from the search's `failures`.
+    pub accuracy_failures: usize,
+    /// Warnings of the job's result (0 until it has one): things to read in the result's
+    /// `warnings` before trusting its numbers — failed solves, unsettled or unproven extrema,
+    /// locking, a target error not met.
+    pub warnings: usize,
     pub budget: usize,
     /// Best value so far per objective (max and min of each criterion).
     pub best: Vec<BestSoFar>,
@@ -81,6 +89,10 @@ impl JobStatus {
             (None, Some(p)) => p.failures,
             (None, None) => 0,
         };
+        let (accuracy_failures, warnings) = job.result.as_ref().map_or((0, 0), |o| {
+            let statement = o.accuracy.as_ref();
+            (statement.map_or(0, |a| a.failures.len()), o.warnings.len())
+        });
         let eta = (job.state == JobState::Running && evaluations > 0)
             .then(|| elapsed * job.budget.saturating_sub(evaluations) as f64 / evaluations as f64);
         JobStatus {
@@ -91,6 +103,8 @@ impl JobStatus {
             criteria: job.criteria.clone(),
             evaluations,
             failures,
+            accuracy_failures,
+            warnings,
             budget: job.budget,
             best,
             created_at: job.created_at,

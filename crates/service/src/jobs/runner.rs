@@ -18,7 +18,8 @@ use super::tasks::{serve_tasks, TaskConfig};
 use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use wsm_core::error::{ErrorKind, WsmError};
 use wsm_core::run::{
-    self, Evaluation, EvaluationLog, LogHeader, ProgressEvent, RunControl, Status,
+    self, Evaluation, EvaluationLog, FaultSite, LogHeader, ProgressEvent, RunControl, SolveFault,
+    Status,
 };
 
 /// Settings of a worker process.
@@ -32,14 +33,26 @@ pub struct RunnerConfig {
     pub lease_seconds: f64,
     /// This process's name in leases and evaluations.
     pub owner: String,
-    /// Fail evaluations on purpose (tests of failure handling; `wsm serve --inject-failures`).
-    pub inject_failures: Option<FaultRule>,
+    /// Fail solves on purpose (tests of failure handling; `wsm serve --inject-failures`).
+    pub inject_failures: Vec<FaultRule>,
 }
 
-/// The evaluations of every job whose uncertain `field` exceeds `above` fail (an injected fault,
-/// for the end-to-end tests of how failures are reported).
+/// The solves a [`FaultRule`] fails.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultSolves {
+    /// The search's evaluations.
+    Evaluations,
+    /// The accuracy statement's refined solves.
+    Refined,
+}
+
+/// The `solves` of every job whose uncertain `field` exceeds `above` fail (an injected fault,
+/// for the end-to-end tests of how failures are reported). Only the job's coordinator injects
+/// it: solves dealt to other worker processes run as usual.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FaultRule {
+    /// Which solves fail.
+    pub solves: FaultSolves,
     /// The `uncertain` entry's field path.
     pub field: String,
     /// Values above this fail.
@@ -47,22 +60,38 @@ pub struct FaultRule {
 }
 
 impl FaultRule {
-    /// The fault of a job's run, when its scene has the field among its uncertain data.
-    fn fault_for(
-        &self,
-        scene: &wsm_core::scene::Scene,
-    ) -> Option<Arc<wsm_core::scenario::evaluator::EvaluationFault>> {
-        let k = scene.uncertain.iter().position(|u| u.field == self.field)?;
-        let rule = self.clone();
-        Some(Arc::new(move |theta: &[f64]| {
-            (theta[k] > rule.above).then(|| {
-                format!(
-                    "injected failure: {} = {} > {}",
-                    rule.field, theta[k], rule.above
-                )
-            })
-        }))
+    /// The reason this rule fails the solve at `site` of a run whose field is parameter `k`.
+    fn answer(&self, k: usize, site: &FaultSite<'_>) -> Option<String> {
+        let point = match (self.solves, site) {
+            (FaultSolves::Evaluations, FaultSite::Evaluation { point }) => point,
+            (FaultSolves::Refined, FaultSite::Refined { point, .. }) => point,
+            _ => return None,
+        };
+        (point[k] > self.above).then(|| {
+            format!(
+                "injected failure: {} = {} > {}",
+                self.field, point[k], self.above
+            )
+        })
     }
+}
+
+/// The fault of a job's run: the rules whose field is among its scene's uncertain data (`None`
+/// when there is none).
+fn fault_for(rules: &[FaultRule], scene: &wsm_core::scene::Scene) -> Option<Arc<SolveFault>> {
+    let active: Vec<(usize, FaultRule)> = rules
+        .iter()
+        .filter_map(|rule| {
+            let k = scene.uncertain.iter().position(|u| u.field == rule.field)?;
+            Some((k, rule.clone()))
+        })
+        .collect();
+    if active.is_empty() {
+        return None;
+    }
+    Some(Arc::new(move |site: &FaultSite<'_>| {
+        active.iter().find_map(|(k, rule)| rule.answer(*k, site))
+    }))
 }
 
 /// Jobs running in this process: their cancel flags; and whether the process is stopping (its
@@ -331,10 +360,10 @@ async fn run_job(
                 request.threads = config.threads_per_job;
             }
             let scene_text = job.scene.clone();
-            let rule = config.inject_failures.clone();
+            let rules = config.inject_failures.clone();
             let task = tokio::task::spawn_blocking(move || {
                 let scene = wsm_core::scene::parse(&scene_text)?;
-                let fault = rule.as_ref().and_then(|r| r.fault_for(&scene));
+                let fault = fault_for(&rules, &scene);
                 let control = match fault {
                     Some(fault) => control.with_fault(fault),
                     None => control,

@@ -9,6 +9,11 @@ export function num(x, digits = 5) {
   return Number(x.toPrecision(digits)).toString();
 }
 
+/** A count with its noun: "1 warning", "3 warnings". */
+export function count(n, singular, plural = `${singular}s`) {
+  return `${n} ${n === 1 ? singular : plural}`;
+}
+
 /** Seconds as "1 h 2 min", "3 min 4 s" or "5.6 s". */
 export function duration(s) {
   if (s === null || s === undefined) return "—";

@@ -1,6 +1,6 @@
 // The home view: the submit form and the live job list.
 import { api, ApiError } from "./api.js";
-import { $, el, num, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
+import { $, el, num, count, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
 
 const LIST_POLL_MS = 2000;
 let listTimer = null;
@@ -46,9 +46,10 @@ function jobRow(job) {
   const href = `#/jobs/${job.id}`;
   const tr = el(
     "tr",
-    { "data-id": job.id, "data-state": job.state },
+    { "data-id": job.id, "data-state": job.state, "data-warnings": String(job.warnings) },
     el("td", { class: "scene", "data-label": "Scene" }, el("a", { href }, job.scene || job.id.slice(0, 8))),
-    el("td", { "data-label": "State" }, el("span", { class: `badge ${job.state}` }, job.state)),
+    el("td", { "data-label": "State" }, el("span", { class: `badge ${job.state}` }, job.state),
+      job.warnings ? el("span", { class: "warn-flag", title: "The result has warnings: read them on the job's page" }, `⚠ ${count(job.warnings, "warning")}`) : null),
     el("td", { "data-label": "Phase" }, PHASES[job.phase] || job.phase),
     el(
       "td",

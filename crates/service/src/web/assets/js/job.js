@@ -2,7 +2,7 @@
 // worst/best data, sensitivities, solver statistics, the scenario mesh and downloads.
 import { api, ApiError, download, hasToken } from "./api.js";
 import { ConvergencePlots, sensitivityChart } from "./charts.js";
-import { $, el, facts, num, duration, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
+import { $, el, facts, num, count, duration, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
 import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
 
 const POLL_MS = 1000;
@@ -59,6 +59,7 @@ function resetView(id) {
   $("job-state").textContent = "";
   $("job-state").className = "badge";
   $("job-error").hidden = true;
+  warningBanner([]);
   $("job-facts").replaceChildren();
   $("data-tables").replaceChildren(el("p", { class: "hint" }, "The worst and best data appear when the job has finished."));
   $("sens-chart").replaceChildren();
@@ -166,6 +167,10 @@ function onStatus(s) {
     ["Elapsed", duration(s.elapsed_seconds)],
     ["Time left (estimate)", s.eta_seconds === null ? "—" : duration(s.eta_seconds)],
     ["Outcome", s.outcome_status || "—"],
+    ["Warnings", String(s.warnings), { id: "job-warnings-count", "data-value": String(s.warnings) }],
+    ["Failed evaluations (search)", String(s.failures)],
+    ["Failed refined solves (accuracy statement)", String(s.accuracy_failures),
+      { id: "job-accuracy-failures", "data-value": String(s.accuracy_failures) }],
     ["Attempts", String(s.attempts)],
   ]);
   const cancel = $("cancel-btn");
@@ -212,6 +217,7 @@ async function loadFinished(id, gen) {
   }
   if (!here()) return;
   current.result = result;
+  warningBanner(result.warnings || []);
   showResultSections(true);
   setLink("dl-result", api.resultUrl(id), `wsm-${id}-result.json`);
   try {
@@ -339,12 +345,29 @@ function proofText(c, parameters) {
   return `${words[c.verdict]} (${num(c.residual, 2)})${starts}${kink}`;
 }
 
-/** The failed evaluations of a result: where in the box the solver gave no answer, and why. */
+/** The result's warnings at the top of the page: what to read before trusting its numbers. */
+function warningBanner(warnings) {
+  const banner = $("job-warnings");
+  banner.hidden = warnings.length === 0;
+  banner.dataset.count = warnings.length;
+  $("job-warnings-title").textContent = `${count(warnings.length, "warning")}: read before trusting the numbers below.`;
+  $("job-warnings-list").replaceChildren(...warnings.map((w) => el("li", {}, w)));
+}
+
+/** The failed solves of a result: the search's evaluations and the accuracy statement's refined
+ * solves, each counted and listed apart. */
 function failureTable(result) {
   const f = result.failures || { count: 0, listed: [] };
-  const section = $("failures-section");
-  section.hidden = f.count === 0;
-  if (f.count === 0) return;
+  const refined = (result.accuracy && result.accuracy.failures) || [];
+  $("failures-section").hidden = f.count === 0 && refined.length === 0;
+  $("search-failures").hidden = f.count === 0;
+  $("refined-failures").hidden = refined.length === 0;
+  if (f.count > 0) searchFailureTable(result, f);
+  if (refined.length > 0) refinedFailureTable(result.accuracy);
+}
+
+/** Where in the box the search's solver gave no answer, and why. */
+function searchFailureTable(result, f) {
   const shown = f.listed.length < f.count ? ` (the first ${f.listed.length} listed)` : "";
   $("failures-summary").textContent = `${f.count} of ${result.evaluations} evaluations failed${shown}. ` +
     "The worst or best may lie where the solver gave no answer; objectives with a failure next to their best point have the status “unsettled”.";
@@ -357,8 +380,28 @@ function failureTable(result) {
       el("td", { class: "error-text" }, e.error)))));
 }
 
+/** The accuracy statement's refined solves that failed: at whose data, on which mesh, why. */
+function refinedFailureTable(statement) {
+  const failures = statement.failures;
+  $("refined-failures-summary").textContent = `${count(failures.length, "refined solve")} of the accuracy statement failed. ` +
+    "The discretisation error of the values at those data rests on fewer meshes than asked, or is unknown (see the warnings at the top).";
+  const names = (criteria) => criteria.map((c) => CRITERIA[c] || c).join(", ");
+  const extrema = (f) => [f.worst_of.length ? `worst ${names(f.worst_of)}` : null,
+    f.best_of.length ? `best ${names(f.best_of)}` : null].filter(Boolean).join("; ");
+  const mesh = (level) => {
+    const m = statement.meshes[level];
+    return `refinement ${level}: sizes × ${num(m.size_factor)}, ${m.unknowns ? `${m.unknowns} unknowns` : "not built"}`;
+  };
+  $("refined-failures-table").replaceChildren(
+    el("thead", {}, el("tr", {}, el("th", { scope: "col" }, "#"), el("th", { scope: "col" }, "At the data of"),
+      el("th", { scope: "col" }, "Refined mesh"), el("th", { scope: "col" }, "Error"))),
+    el("tbody", {}, ...failures.map((f, i) => el("tr", {}, el("td", { class: "num" }, String(i + 1)),
+      el("td", {}, extrema(f)), el("td", {}, mesh(f.level)),
+      el("td", { class: "error-text" }, f.error)))));
+}
+
 const INNER_LABELS = {
-  solves: "State solves", failures: "Failed solves", factorisations: "Factorisations",
+  solves: "State solves (search)", failures: "Failed solves (search)", factorisations: "Factorisations",
   reused_factorisations: "Reused factorisations", elastic_solves: "Elastic solves", heat_solves: "Heat solves",
   mean_qp_iterations: "Mean QP iterations", solver_seconds: "Solver time [s]", max_kkt_residual: "Max KKT residual",
 };
@@ -368,7 +411,7 @@ function statistics(r) {
   const pairs = [
     ["Status", r.status],
     ["Evaluations (new)", `${r.evaluations} (${r.new_evaluations})`, { id: "stat-evaluations", "data-value": String(r.evaluations) }],
-    ["Failed evaluations", String((r.failures || {}).count || 0), { id: "stat-failures", "data-value": String((r.failures || {}).count || 0) }],
+    ["Failed evaluations (search)", String((r.failures || {}).count || 0), { id: "stat-failures", "data-value": String((r.failures || {}).count || 0) }],
     ["Budget", String(r.budget)],
     ["Wall time", duration(r.wall_seconds)],
     ["Setup time", duration(r.setup_seconds)],
@@ -382,10 +425,14 @@ function statistics(r) {
   }
   const statement = r.accuracy;
   if (statement) {
-    pairs.push(["Accuracy statement", `${statement.meshes.map((m) => m.unknowns).join(" → ")} unknowns, ${duration(statement.seconds)}${statement.complete ? "" : " (incomplete)"}`,
+    const failed = (statement.failures || []).length;
+    const incomplete = failed ? ` (incomplete: ${count(failed, "refined solve")} failed)` : " (incomplete: cut short)";
+    pairs.push(["Accuracy statement", `${statement.meshes.map((m) => m.unknowns).join(" → ")} unknowns, ${duration(statement.seconds)}${statement.complete ? "" : incomplete}`,
       { id: "stat-accuracy" }]);
+    pairs.push(["Failed refined solves (accuracy statement)", String(failed), { id: "stat-refined-failures", "data-value": String(failed) }]);
   }
-  for (const w of r.warnings || []) pairs.push(["Warning", w]);
+  const warnings = (r.warnings || []).length;
+  pairs.push(["Warnings", warnings ? `${warnings} (listed at the top of the page)` : "none", { id: "stat-warnings", "data-value": String(warnings) }]);
   for (const [k, v] of Object.entries(inner)) {
     const label = INNER_LABELS[k] || k.replaceAll("_", " ");
     const attrs = k === "max_kkt_residual" ? { id: "stat-kkt", "data-value": String(v) } : undefined;
