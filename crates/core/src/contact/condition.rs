@@ -104,6 +104,7 @@ mod tests {
         let scaled = Mat::from_fn(n, n, |i, j| a[(i, j)] / 2.0);
         let exact = exact_condition(&scaled);
         let estimate = scaled_condition(a.as_ref()).unwrap();
+        println!("1D Laplacian n = {n}: κ∞ estimate {estimate:.4e}, exact {exact:.4e}");
         assert!(exact > 1e3, "{exact}");
         assert!(
             estimate <= exact * (1.0 + 1e-12) && estimate >= exact / 3.0,
