@@ -30,13 +30,14 @@ mod tangent;
 pub use adjoint::AdjointForms;
 pub use tangent::{ContactPoint, DataDerivative};
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use faer::linalg::solvers::DenseSolveCore;
 use faer::{Mat, Par};
 use rayon::prelude::*;
 
 use super::bodies::{body_blocks, BodyBlock, BodyFactor};
+use super::condition;
 use super::coulomb::{self, CoulombReport};
 use super::feasibility::Feasibility;
 use super::pairs::{ContactGeometry, ContactRow};
@@ -171,11 +172,23 @@ pub struct StiffnessFactor {
     values: Vec<f64>,
     parts: Vec<Arc<BodyFactor>>,
     c: Mat<f64>,
+    /// κ∞ of the Jacobi-scaled C, computed on first use ([`StiffnessFactor::scaled_condition`]).
+    c_condition: OnceLock<Option<f64>>,
     /// How many body factors were reused from a cache.
     pub reused_bodies: usize,
     /// Time of the numeric factorisations with their shares of C, and of the assembly of C
     /// with the floating-body projection \[s\].
     pub seconds: [f64; 2],
+}
+
+impl StiffnessFactor {
+    /// κ∞ of C in the QP's Jacobi scaling ([`condition::scaled_condition`]; `None` when C is
+    /// not numerically positive definite), estimated once per factor.
+    fn scaled_condition(&self) -> Option<f64> {
+        *self
+            .c_condition
+            .get_or_init(|| condition::scaled_condition(self.c.as_ref()))
+    }
 }
 
 /// A cache of body factors: given the body index, its block and the global values of K, the
@@ -369,6 +382,7 @@ impl DirectContact {
             values,
             parts: parts.into_iter().map(|p| p.0).collect(),
             c: Mat::zeros(0, 0),
+            c_condition: OnceLock::new(),
             reused_bodies,
             seconds: [numeric, 0.0],
         };
@@ -484,16 +498,20 @@ impl DirectContact {
             qp_seconds += sol.qp_seconds;
             Ok(sol)
         };
-        let how = coulomb::FixedPoint {
-            tolerance: coulomb::TOLERANCE,
-            anderson_depth: self.coulomb_anderson_depth,
+        // A step's multipliers are exact to the QP's relative KKT residual amplified by the
+        // condition of C (unknown, so no rounding level beyond the tolerance, when C is not
+        // numerically positive definite).
+        let rounding_level = |s: &ContactSolution| match (&s.qp, factor.scaled_condition()) {
+            (Some(qp), Some(kappa)) => kappa * qp.kkt.max(),
+            _ => 0.0,
         };
         let (mut sol, report) = coulomb::solve(
             &self.geometry,
             data,
-            how,
+            self.coulomb_anderson_depth,
             tresca,
             |s| s.multipliers.as_slice(),
+            rounding_level,
             WsmError::contact,
         )?;
         sol.coulomb = report;

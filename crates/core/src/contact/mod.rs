@@ -10,10 +10,12 @@
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
 //! - `coulomb`: Coulomb friction as the fixed point of Tresca problems with g = F |λ_n|,
-//!   accelerated by `anderson` mixing.
+//!   accelerated by `anderson` mixing, stopped at the rounding level that `condition` (the
+//!   condition of C) gives the direct solver's steps.
 
 pub mod anderson;
 pub(crate) mod bodies;
+pub(crate) mod condition;
 pub mod coulomb;
 pub(crate) mod direct;
 pub(crate) mod feasibility;

@@ -138,7 +138,7 @@ pub fn partition(
 /// tolerance: the multipliers are reactions of stiff subdomains, so the interface error is
 /// amplified by the stiffness contrast (measured on the MCS 2007 knee, contrast 600: the
 /// successive Coulomb steps agree to 1e-8–5e-8 at a tolerance of 1e-10 and stop changing there).
-/// The Coulomb fixed point over DD steps stops at this accuracy.
+/// This is the rounding level of the Coulomb fixed point over DD steps (design §3.4).
 const MULTIPLIER_NOISE: f64 = 1e4;
 
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
@@ -168,16 +168,13 @@ pub fn solve_elastic(
         let flat = sol.multipliers.iter().flatten().copied().collect();
         Ok((sol, flat))
     };
-    let how = coulomb::FixedPoint {
-        tolerance: coulomb::TOLERANCE.max(MULTIPLIER_NOISE * options.outer_tol),
-        anderson_depth: direct.coulomb_anderson_depth,
-    };
     let ((mut sol, multipliers), coulomb_report) = coulomb::solve(
         geometry,
         data,
-        how,
+        direct.coulomb_anderson_depth,
         tresca,
         |s| s.1.as_slice(),
+        |_| coulomb::TOLERANCE.max(MULTIPLIER_NOISE * options.outer_tol),
         |reason| DdError::Diverged { reason },
     )?;
     let free_motions = direct
