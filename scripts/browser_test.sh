@@ -88,7 +88,7 @@ SERVER_PID=$PID
 MAIN_URL=$URL
 # A second server whose evaluations fail above a traction and whose accuracy statements' refined
 # solves all fail (the failure-reporting tests).
-start_server faults "" --inject-failures 'boundary[2].traction[0]=350000' \
+start_server faults "" --inject-failures 'boundary[2].traction[0]=375000' \
     --inject-failures 'refined:materials.rock.E=0'
 FAULT_PID=$PID
 FAULT_URL=$URL

@@ -154,7 +154,7 @@ fn the_job_list_and_status_count_warnings_and_failed_refined_solves() {
             "--workers",
             "1",
             "--inject-failures",
-            "boundary[2].traction[0]=350000",
+            "boundary[2].traction[0]=375000",
             "--inject-failures",
             "refined:boundary[2].traction[0]=0",
         ],
