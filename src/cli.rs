@@ -13,7 +13,7 @@ use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
     SolveRequest, WorstOutcome, WorstRequest,
 };
-use wsm_core::scene::{parse, Criterion, Scene, SceneError};
+use wsm_core::scene::{parse, CriterionSpec, Scene, SceneError};
 
 /// Exit status of an error: 2 bad input or unknown name, 3 unsolvable, 4 solver failure,
 /// 5 files and logs, 6 cancelled.
@@ -46,8 +46,8 @@ fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmEr
     Ok(parse(&text)?)
 }
 
-/// `--criteria phi3,phi5` (empty: the scene's criteria).
-pub fn parse_criteria(names: &[String]) -> Result<Option<Vec<Criterion>>, WsmError> {
+/// `--criteria phi3,phi5@heel` (empty: the scene's criteria).
+pub fn parse_criteria(names: &[String]) -> Result<Option<Vec<CriterionSpec>>, WsmError> {
     if names.is_empty() {
         return Ok(None);
     }
@@ -55,13 +55,8 @@ pub fn parse_criteria(names: &[String]) -> Result<Option<Vec<Criterion>>, WsmErr
         .iter()
         .enumerate()
         .map(|(i, c)| {
-            Criterion::parse(c).ok_or_else(|| {
-                SceneError::new(
-                    format!("--criteria[{i}]"),
-                    format!("unknown criterion '{c}' (phi1..phi6)"),
-                )
-                .into()
-            })
+            CriterionSpec::parse(c)
+                .map_err(|why| SceneError::new(format!("--criteria[{i}]"), why).into())
         })
         .collect::<Result<Vec<_>, WsmError>>()
         .map(Some)
@@ -125,7 +120,7 @@ pub struct WorstFiles {
 /// `wsm worst`: the search with a progress bar; prints the outcome without the histories.
 pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<String, WsmError> {
     let settings = request.settings(&scene)?;
-    let names: Vec<&str> = settings.criteria.iter().map(|c| c.name()).collect();
+    let names: Vec<String> = settings.criteria.iter().map(|c| c.name()).collect();
     let (file_log, memory_log) = match (&files.log, &files.resume) {
         (Some(_), Some(_)) => {
             return Err(SceneError::new(
@@ -147,14 +142,13 @@ pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<S
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let progress_bar = bar.clone();
-    let names_owned: Vec<String> = names.iter().map(|s| s.to_string()).collect();
     let mut control = RunControl::new().with_progress(move |event: &ProgressEvent| {
         progress_bar.set_position(event.evaluations as u64);
         let best: Vec<String> = event
             .best
             .iter()
             .filter(|b| b.sense == Sense::Max)
-            .zip(&names_owned)
+            .zip(&names)
             .filter_map(|(b, n)| b.value.map(|v| format!("max {n} {v:.4e}")))
             .collect();
         progress_bar.set_message(format!("{:?} {}", event.phase, best.join(", ")));

@@ -701,9 +701,9 @@ fn worst_scenario_over_the_friction_coefficient() {
     let params = parameters(&scene).unwrap();
     let problem = StateProblem::new(scene.clone()).unwrap();
     let criteria = [Criterion::Phi3, Criterion::Phi6];
+    let specs = criteria.map(wsm_core::scene::CriterionSpec::from);
     let evaluator =
-        wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &criteria)
-            .unwrap();
+        wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
     let mut grid = [(f64::NEG_INFINITY, f64::INFINITY); 2];
     for i in 0..=10 {
         for j in 0..=10 {
@@ -715,7 +715,7 @@ fn worst_scenario_over_the_friction_coefficient() {
         }
     }
     let request = WorstRequest {
-        criteria: Some(criteria.to_vec()),
+        criteria: Some(criteria.iter().map(|&c| c.into()).collect()),
         budget: Some(40),
         seed: Some(1),
         derivatives: Some(true),

@@ -111,7 +111,7 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
     assert_eq!(warnings[1], expected);
 
     let request = WorstRequest {
-        criteria: Some(vec![Criterion::Phi3]),
+        criteria: Some(vec![Criterion::Phi3.into()]),
         budget: Some(3),
         accuracy_refinements: Some(0),
         ..WorstRequest::default()

@@ -26,7 +26,7 @@ fn block() -> Scene {
 
 fn request() -> WorstRequest {
     WorstRequest {
-        criteria: Some(vec![Criterion::Phi3, Criterion::Phi6]),
+        criteria: Some(vec![Criterion::Phi3.into(), Criterion::Phi6.into()]),
         budget: Some(60),
         seed: Some(5),
         threads: Some(1),
@@ -110,7 +110,7 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
         &mut table,
         "memory",
         &outcome.parameters,
-        &[Criterion::Phi3, Criterion::Phi6],
+        &[Criterion::Phi3.into(), Criterion::Phi6.into()],
         &logged,
     )
     .unwrap();
@@ -237,7 +237,7 @@ fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
         for (k, criterion) in [Criterion::Phi3, Criterion::Phi6].into_iter().enumerate() {
             for (side, listed) in [&f.worst_of, &f.best_of].into_iter().enumerate() {
                 let here = extremum_point(&faulty, k, side) == f.point;
-                assert_eq!(listed.contains(&criterion), here, "{f:?}");
+                assert_eq!(listed.contains(&criterion.into()), here, "{f:?}");
             }
         }
     }

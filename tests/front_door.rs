@@ -29,7 +29,7 @@ fn block(max_size: f64) -> Scene {
 
 fn request(budget: usize, threads: usize) -> WorstRequest {
     WorstRequest {
-        criteria: Some(vec![Criterion::Phi3, Criterion::Phi6]),
+        criteria: Some(vec![Criterion::Phi3.into(), Criterion::Phi6.into()]),
         budget: Some(budget),
         seed: Some(5),
         threads: Some(threads),
@@ -143,7 +143,7 @@ fn a_log_of_another_run_is_refused_naming_the_hashes() {
     .unwrap();
     // Other criteria: another run.
     let mut other = request(10, 1);
-    other.criteria = Some(vec![Criterion::Phi5]);
+    other.criteria = Some(vec![Criterion::Phi5.into()]);
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
     let err = run::worst(block(0.1), &other, &RunControl::new().with_log(log)).unwrap_err();
     assert!(matches!(err, WsmError::LogMismatch { .. }), "{err}");
@@ -237,7 +237,7 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
         &mut buffer,
         "memory",
         &outcome.parameters,
-        &[Criterion::Phi3, Criterion::Phi6],
+        &[Criterion::Phi3.into(), Criterion::Phi6.into()],
         &evaluations,
     )
     .unwrap();

@@ -67,10 +67,12 @@ fn jobs_are_refused_with_the_path_a_solve_names() {
         edit(&mut scene);
         let solve = post(addr, "/v1/solve", &json!({ "scene": scene }));
         assert_eq!(solve.status, 422, "{what}: /v1/solve {}", text(&solve));
+        // Criteria that every case leaves computable (Φ6 needs the moved region): a search checks
+        // its criteria before it meshes, a solve does not look at them.
         let job = post(
             addr,
             "/v1/jobs",
-            &json!({ "scene": scene, "settings": {"budget": 10} }),
+            &json!({ "scene": scene, "settings": {"budget": 10, "criteria": ["phi3", "phi5"]} }),
         );
         assert_eq!(job.status, 422, "{what}: /v1/jobs {}", text(&job));
         let (solve, job) = (solve.json(), job.json());

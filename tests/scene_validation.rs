@@ -23,6 +23,24 @@ fn refused(edit: impl FnOnce(&mut Value), path: &str) {
     }
 }
 
+/// Apply `edit` to the block-on-base example: the scene parses (its search criteria do not block
+/// a solve), but a search with the scene's own criteria is refused with an error at `path`.
+fn refused_by_search(edit: impl FnOnce(&mut Value), path: &str) {
+    let mut v = base();
+    edit(&mut v);
+    let scene = parse(&v.to_string()).expect("the criteria a search uses do not block parsing");
+    match wsm_core::run::WorstRequest::default().settings(&scene) {
+        Ok(_) => panic!("search accepted, expected an error at {path}"),
+        Err(wsm_core::error::WsmError::Scene(e)) => assert!(
+            e.path.starts_with(path),
+            "expected error at '{path}', got '{}': {}",
+            e.path,
+            e.reason
+        ),
+        Err(e) => panic!("expected a scene error at {path}, got {e}"),
+    }
+}
+
 #[test]
 fn base_scene_is_valid() {
     parse(&base().to_string()).unwrap();
@@ -191,7 +209,7 @@ fn thermal_condition_without_thermal_section() {
 
 #[test]
 fn thermal_criterion_without_thermal_section() {
-    refused(
+    refused_by_search(
         |s| s["search"]["criteria"] = json!(["phi1"]),
         "search.criteria[0]",
     );
@@ -265,7 +283,7 @@ fn dd_partition_polygon_must_be_finite() {
 #[test]
 fn phi4_piece_on_the_dirichlet_boundary() {
     // FGCS 4.32: Φ4 averages u·n over pieces off Γu; 'bottom' has a prescribed displacement.
-    refused(
+    refused_by_search(
         |s| {
             s["criteria"]["boundary_pieces"][0]["segment"] = json!("bottom");
             s["criteria"]["boundary_pieces"][0]["from"] = json!([0.5, 0.0]);
@@ -284,7 +302,7 @@ fn phi4_piece_on_the_dirichlet_boundary() {
 #[test]
 fn phi6_without_a_region_next_to_a_contact_zone() {
     // FGCS 4.34: Φ6 averages −τ_n over areas adjacent to Γc; move G1 off the contact line.
-    refused(
+    refused_by_search(
         |s| {
             s["criteria"]["regions"][0]["polygon"] =
                 json!([[0.9, 0.7], [1.1, 0.7], [1.1, 0.8], [0.9, 0.8]]);
@@ -313,7 +331,7 @@ fn too_many_vertices() {
 
 #[test]
 fn a_criterion_listed_twice() {
-    refused(
+    refused_by_search(
         |s| s["search"]["criteria"] = json!(["phi3", "phi6", "phi3"]),
         "search.criteria[2]",
     );

@@ -81,7 +81,7 @@ fn a_worst_scenario_result_warns_about_p1_locking() {
     v["materials"]["block"]["nu"] = json!(0.49);
     v["uncertain"] = json!([{"field": "materials.block.nu", "interval": [0.49, 0.495]}]);
     let request = WorstRequest {
-        criteria: Some(vec![Criterion::Phi3]),
+        criteria: Some(vec![Criterion::Phi3.into()]),
         budget: Some(8),
         accuracy_refinements: Some(0),
         ..WorstRequest::default()

@@ -119,7 +119,7 @@ fn block() -> Scene {
 
 fn request(threads: usize, refinements: Option<usize>) -> WorstRequest {
     WorstRequest {
-        criteria: Some(vec![Criterion::Phi3, Criterion::Phi6]),
+        criteria: Some(vec![Criterion::Phi3.into(), Criterion::Phi6.into()]),
         budget: Some(40),
         seed: Some(3),
         threads: Some(threads),

@@ -6,7 +6,7 @@ use serde_json::{json, Value};
 use wsm_core::run::{worst as run_worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
 use wsm_core::scenario::evaluator::ScenarioEvaluator;
 use wsm_core::scene::params::parameters;
-use wsm_core::scene::{parse, Criterion, StopRule};
+use wsm_core::scene::{parse, Criterion, CriterionSpec, StopRule};
 use wsm_core::state::StateProblem;
 
 /// Search a scene for the given criteria (fresh run, never cancelled, exact derivatives),
@@ -26,7 +26,7 @@ fn worst_with(
 ) -> WorstOutcome {
     let scene = parse(&scene.to_string()).unwrap();
     let request = WorstRequest {
-        criteria: Some(criteria.to_vec()),
+        criteria: Some(criteria.iter().map(|&c| c.into()).collect()),
         budget: Some(budget),
         seed: Some(seed),
         derivatives: Some(derivatives),
@@ -152,7 +152,8 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
     let params = parameters(&parsed).unwrap();
     let problem = StateProblem::new(parsed).unwrap();
     let criteria = [Criterion::Phi6];
-    let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
+    let specs = criteria.map(CriterionSpec::from);
+    let evaluator = ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
     let mut grid_max = f64::NEG_INFINITY;
     for i in 0..41 {
         for j in 0..41 {
@@ -215,7 +216,8 @@ fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
     let params = parameters(&parsed).unwrap();
     assert_eq!(params.len(), 8);
     let problem = StateProblem::new(parsed).unwrap();
-    let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
+    let specs = criteria.map(CriterionSpec::from);
+    let evaluator = ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
     let vertices: Vec<Vec<f64>> = (0..1usize << params.len())
         .map(|mask| {
             params
@@ -326,7 +328,8 @@ fn slope_limited_slip_limit_extrema_beat_an_enumeration_of_its_set() {
     let parsed = parse(&scene.to_string()).unwrap();
     let params = parameters(&parsed).unwrap();
     let problem = StateProblem::new(parsed).unwrap();
-    let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
+    let specs = criteria.map(CriterionSpec::from);
+    let evaluator = ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
     let levels: Vec<f64> = (0..7).map(|i| 3e5 + 2e5 * i as f64).collect();
     let mut grid = Vec::new();
     for &a in &levels {

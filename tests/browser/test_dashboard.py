@@ -173,6 +173,8 @@ def test_finished_job_shows_plots_and_numbers(page):
         for sense, o in (("max", c["worst"]), ("min", c["best"])):
             cell = page.locator(f"#value-{c['criterion']}-{sense}")
             assert float(cell.get_attribute("data-value")) == o["value"]
+            # The region the value comes from (block-on-base has one region per criterion).
+            assert cell.get_attribute("data-region") == o["region"]
             shown = float(cell.text_content().split()[0])
             assert shown == pytest.approx(o["value"], rel=1e-5)
     assert int(page.locator("#stat-evaluations").get_attribute("data-value")) == result["evaluations"]
@@ -483,3 +485,31 @@ def test_a_token_server_is_read_and_downloaded_with_the_token(page):
 
 def test_no_console_errors(page):
     assert STATE["errors"] == [], "\n".join(STATE["errors"])
+
+
+def test_a_criterion_bound_to_one_region(page):
+    """Issue #43: a criterion bound to one region (`phi6@G1`) from the form's text field; its
+    table and value name the region it comes from, and a binding to a region that does not exist
+    is refused next to the criteria."""
+    page.goto(BASE + "/#/")
+    page.get_by_label("Bundled example").check()
+    page.get_by_label("Example", exact=True).select_option("block-on-base")
+    for box in page.locator("#criteria input").all():
+        box.uncheck()
+    page.get_by_label("Criteria bound to one region").fill("phi6@nowhere")
+    page.get_by_label("Budget (solves)").fill("20")
+    STATE["expect_refusals"] = STATE.get("expect_refusals", 0) + 1
+    page.get_by_role("button", name="Submit job").click()
+    expect(page.locator("#error-criteria")).to_contain_text("nowhere")
+    page.get_by_label("Criteria bound to one region").fill("phi6@G1")
+    page.get_by_role("button", name="Submit job").click()
+    page.wait_for_url("**/#/jobs/*")
+    job_id = page.url.rsplit("/", 1)[1]
+    expect(page.locator("#value-phi6\\@G1-max")).to_be_visible(timeout=60_000)
+    result = api(page, f"/v1/jobs/{job_id}/result")
+    assert [c["criterion"] for c in result["criteria"]] == ["phi6@G1"]
+    for sense, o in (("max", result["criteria"][0]["worst"]), ("min", result["criteria"][0]["best"])):
+        assert o["region"] == "G1", o
+        expect(page.locator(f"#value-phi6\\@G1-{sense}")).to_contain_text("in 'G1'")
+    expect(page.locator("table[data-criterion='phi6@G1']")).to_be_visible()
+    expect(page.locator("#data-tables h3").first).to_contain_text("Φ6@G1")

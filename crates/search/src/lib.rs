@@ -359,6 +359,10 @@ pub struct ObjectiveResult {
     /// field); `data` gives the same numbers by name. Stored results name it `best_point`.
     #[serde(alias = "best_point")]
     pub point: Option<Vec<f64>>,
+    /// Where the criterion takes `value`, filled in by the caller that knows (for a worst-scenario
+    /// criterion: the area or boundary piece whose mean it is).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<String>,
     /// Why the search for this objective ended.
     pub status: Status,
     /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
@@ -405,6 +409,7 @@ impl ObjectiveResult {
             sense,
             value: None,
             point: None,
+            region: None,
             status,
             at_vertex: false,
             vertex_optimal: false,

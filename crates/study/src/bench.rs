@@ -314,9 +314,9 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
     for &n in sizes {
         let problem = problem_of_size("tunnel-fault", n)?;
         let params = wsm_core::scene::params::parameters(&problem.scene)?;
-        let criteria = problem.scene.search.criteria.clone();
+        let targets = problem.targets(&problem.scene.search.criteria)?;
         let options = SolveOptions {
-            needs: Needs::for_criteria(&problem.scene, &criteria),
+            needs: Needs::for_targets(&problem.scene, &targets),
             par: Par::Seq,
             warm: None,
         };
@@ -355,7 +355,7 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
             "| {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} |\n",
             problem.elastic.dofs().n_free(),
             params.len(),
-            criteria.len(),
+            targets.len(),
             evaluation,
             cached,
             adjoint,

@@ -466,7 +466,7 @@ fn attempt(
         Input::Worst(v, worst, best) => {
             let scene = with_solver(v, kind)?;
             let request = WorstRequest {
-                criteria: Some(vec![Criterion::Phi3]),
+                criteria: Some(vec![Criterion::Phi3.into()]),
                 accuracy_refinements: Some(0),
                 ..WorstRequest::default()
             };

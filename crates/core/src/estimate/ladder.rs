@@ -7,8 +7,8 @@
 
 use crate::error::WsmError;
 use crate::fem::Par;
-use crate::scene::{Criterion, Data, Scene, SceneError, SolverKind};
-use crate::state::{Needs, SolveOptions, StateProblem};
+use crate::scene::{CriterionSpec, Data, Scene, SceneError, SolverKind};
+use crate::state::{Needs, SolveOptions, StateProblem, Target};
 
 /// The scene with all mesh sizes multiplied by `factor` (> 0). A Gmsh mesh cannot be rescaled.
 pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
@@ -41,7 +41,7 @@ pub struct DirectLevel {
     /// The scene on this level's mesh, set up for direct solves.
     pub problem: StateProblem,
     options: SolveOptions,
-    criteria: Vec<Criterion>,
+    targets: Vec<Target>,
 }
 
 impl DirectLevel {
@@ -49,31 +49,29 @@ impl DirectLevel {
     pub fn new(
         scene: &Scene,
         factor: f64,
-        criteria: &[Criterion],
+        criteria: &[CriterionSpec],
     ) -> Result<DirectLevel, WsmError> {
         let mut scene = scaled(scene, factor)?;
         scene.solver.kind = SolverKind::Direct;
         let problem = StateProblem::new(scene)?;
+        let targets = problem.targets(criteria)?;
         let options = SolveOptions {
-            needs: Needs::for_criteria(&problem.scene, criteria),
+            needs: Needs::for_targets(&problem.scene, &targets),
             par: Par::Seq,
             warm: None,
         };
         Ok(DirectLevel {
             problem,
             options,
-            criteria: criteria.to_vec(),
+            targets,
         })
     }
 
     /// The criteria at `data` (`None` where one is not defined), or why the solve failed.
     pub fn criteria_at(&self, data: &Data) -> Result<Vec<Option<f64>>, WsmError> {
-        self.problem.solve(data, &self.options).map(|s| {
-            self.criteria
-                .iter()
-                .map(|c| s.criteria[*c as usize])
-                .collect()
-        })
+        self.problem
+            .solve(data, &self.options)
+            .map(|s| self.targets.iter().map(|&t| s.value(t)).collect())
     }
 
     /// Unknowns (free displacement DOFs) on this level's mesh.

@@ -26,7 +26,7 @@ use super::ladder::{scaled, DirectLevel};
 use super::statement::extremum_accuracy;
 use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
-use crate::scene::{Criterion, Scene, SceneError};
+use crate::scene::{CriterionSpec, Scene, SceneError};
 
 /// Size factor of the coarsest level tried (relative to the scene's mesh sizes).
 pub const COARSEST_FACTOR: f64 = 4.0;
@@ -107,7 +107,7 @@ struct Level {
 
 fn solve_level(
     scene: &Scene,
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     factor: f64,
     fault: Option<&SolveFault>,
 ) -> Level {
@@ -173,7 +173,7 @@ fn relative_errors(level: &Level, finer: &[&Level], criteria: usize) -> Vec<Opti
 /// (cancel: `WsmError::Cancelled`); `fault` fails the solves where it answers (tests).
 pub fn choose_mesh(
     scene: &Scene,
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     target: f64,
     stop: &dyn Fn() -> bool,
     fault: Option<&SolveFault>,
@@ -184,7 +184,7 @@ pub fn choose_mesh(
 /// [`choose_mesh`] with a ladder of at most `max_unknowns` unknowns.
 fn choose_mesh_within(
     scene: &Scene,
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     target: f64,
     max_unknowns: usize,
     stop: &dyn Fn() -> bool,
@@ -294,7 +294,7 @@ fn none_solved(levels: Vec<Level>) -> WsmError {
     }
 }
 
-fn meets(level: &Level, finer: &[&Level], target: f64, criteria: &[Criterion]) -> bool {
+fn meets(level: &Level, finer: &[&Level], target: f64, criteria: &[CriterionSpec]) -> bool {
     within(&relative_errors(level, finer, criteria.len()), target)
 }
 
@@ -306,6 +306,7 @@ fn within(relative: &[Option<f64>], target: f64) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Criterion;
 
     fn scene() -> Scene {
         crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap()
@@ -314,7 +315,7 @@ mod tests {
     #[test]
     fn picks_the_coarsest_level_meeting_the_target() {
         let scene = scene();
-        let criteria = [Criterion::Phi3];
+        let criteria = [CriterionSpec::from(Criterion::Phi3)];
         let (loose_scene, loose) = choose_mesh(&scene, &criteria, 0.05, &|| false, None).unwrap();
         let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false, None).unwrap();
         for choice in [&loose, &tight] {
@@ -358,8 +359,15 @@ mod tests {
     #[test]
     fn an_unreachable_target_takes_the_finest_level_within_the_cap_and_says_so() {
         let cap = 20_000;
-        let (_, choice) =
-            choose_mesh_within(&scene(), &[Criterion::Phi3], 1e-12, cap, &|| false, None).unwrap();
+        let (_, choice) = choose_mesh_within(
+            &scene(),
+            &[Criterion::Phi3.into()],
+            1e-12,
+            cap,
+            &|| false,
+            None,
+        )
+        .unwrap();
         assert!(!choice.met);
         let last = choice.candidates.last().unwrap();
         assert_eq!(choice.size_factor, last.size_factor);
@@ -384,7 +392,7 @@ mod tests {
         let fault = fail_finer_than(0.5);
         let (chosen, choice) = choose_mesh_within(
             &scene(),
-            &[Criterion::Phi3],
+            &[Criterion::Phi3.into()],
             1e-12,
             cap,
             &|| false,
@@ -419,7 +427,7 @@ mod tests {
         let fault = fail_finer_than(f64::INFINITY);
         let e = choose_mesh_within(
             &scene(),
-            &[Criterion::Phi3],
+            &[Criterion::Phi3.into()],
             0.01,
             20_000,
             &|| false,
@@ -438,10 +446,11 @@ mod tests {
     #[test]
     fn bad_targets_and_cancels_are_refused() {
         for bad in [0.0, -0.1, 1.0, f64::NAN, f64::INFINITY] {
-            let e = choose_mesh(&scene(), &[Criterion::Phi3], bad, &|| false, None).unwrap_err();
+            let e =
+                choose_mesh(&scene(), &[Criterion::Phi3.into()], bad, &|| false, None).unwrap_err();
             assert!(e.to_string().contains("target_error"), "{e}");
         }
-        let e = choose_mesh(&scene(), &[Criterion::Phi3], 0.01, &|| true, None).unwrap_err();
+        let e = choose_mesh(&scene(), &[Criterion::Phi3.into()], 0.01, &|| true, None).unwrap_err();
         assert!(matches!(e, WsmError::Cancelled));
     }
 }

@@ -31,7 +31,7 @@ use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
 use crate::run::BatchDispatch;
 use crate::scene::params::{apply, Parameter};
-use crate::scene::Criterion;
+use crate::scene::CriterionSpec;
 use crate::state::StateProblem;
 
 /// Refinements by default: two while 16 × the run's unknowns stay below this, else one.
@@ -80,7 +80,7 @@ pub struct ExtremumAccuracy {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CriterionAccuracy {
     /// The criterion Φ1–Φ6 this entry is about.
-    pub criterion: Criterion,
+    pub criterion: CriterionSpec,
     /// Accuracy of the worst (largest) value; `None` when the run found no worst value.
     pub worst: Option<ExtremumAccuracy>,
     /// Accuracy of the best (smallest) value; `None` when the run found no best value.
@@ -96,9 +96,9 @@ pub struct RefinedFailure {
     /// The uncertain data of the solve, in the order of the result's `parameters`.
     pub point: Vec<f64>,
     /// The criteria whose worst (largest) value lies at these data.
-    pub worst_of: Vec<Criterion>,
+    pub worst_of: Vec<CriterionSpec>,
     /// The criteria whose best (smallest) value lies at these data.
-    pub best_of: Vec<Criterion>,
+    pub best_of: Vec<CriterionSpec>,
     /// Why it failed: the solver's error, or why the refined mesh could not be built.
     pub error: String,
 }
@@ -158,7 +158,7 @@ pub fn refinement_factor(level: u32) -> f64 {
 pub struct RefinedLevel<'a> {
     scene: &'a crate::scene::Scene,
     params: &'a [Parameter],
-    criteria: &'a [Criterion],
+    criteria: &'a [CriterionSpec],
     level: u32,
     built: OnceLock<Result<DirectLevel, WsmError>>,
     fault: Option<&'a SolveFault>,
@@ -169,7 +169,7 @@ impl<'a> RefinedLevel<'a> {
     pub fn new(
         scene: &'a crate::scene::Scene,
         params: &'a [Parameter],
-        criteria: &'a [Criterion],
+        criteria: &'a [CriterionSpec],
         level: u32,
     ) -> RefinedLevel<'a> {
         RefinedLevel {
@@ -258,7 +258,7 @@ pub struct StatementControl<'a> {
 pub fn statement(
     problem: &StateProblem,
     params: &[Parameter],
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     extrema: &Extrema,
     refinements: usize,
     control: StatementControl<'_>,
@@ -333,8 +333,8 @@ pub fn statement(
         .iter()
         .zip(extrema)
         .enumerate()
-        .map(|(k, (&criterion, [worst, best]))| CriterionAccuracy {
-            criterion,
+        .map(|(k, (criterion, [worst, best]))| CriterionAccuracy {
+            criterion: criterion.clone(),
             worst: accuracy(k, worst),
             best: accuracy(k, best),
         })
@@ -380,17 +380,17 @@ fn solve_level(
 
 /// The failed solves of `values` (by level, then point), with the extrema at their data.
 fn refined_failures(
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     extrema: &Extrema,
     points: &[Vec<f64>],
     values: &[Vec<RefinedValues>],
 ) -> Vec<RefinedFailure> {
-    let at = |point: &Vec<f64>, side: usize| -> Vec<Criterion> {
+    let at = |point: &Vec<f64>, side: usize| -> Vec<CriterionSpec> {
         criteria
             .iter()
             .zip(extrema)
             .filter(|(_, pair)| pair[side].as_ref().is_some_and(|(_, p)| p == point))
-            .map(|(&c, _)| c)
+            .map(|(c, _)| c.clone())
             .collect()
     };
     values
@@ -458,8 +458,8 @@ impl AccuracyStatement {
         let at_point: Vec<&RefinedFailure> =
             self.failures.iter().filter(|f| f.point == point).collect();
         let first = at_point[0];
-        let symbols = |criteria: &[Criterion]| -> String {
-            let names: Vec<&str> = criteria.iter().map(|c| c.symbol()).collect();
+        let symbols = |criteria: &[CriterionSpec]| -> String {
+            let names: Vec<String> = criteria.iter().map(|c| c.symbol()).collect();
             names.join(", ")
         };
         let mut which = Vec::new();
@@ -549,6 +549,7 @@ pub(crate) fn extremum_accuracy(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Criterion;
 
     /// The block on its base, coarse, and the extrema of Φ3 at two corners of its box.
     fn block() -> (StateProblem, Vec<Parameter>, Extrema) {
@@ -578,7 +579,7 @@ mod tests {
         statement(
             problem,
             params,
-            &[Criterion::Phi3],
+            &[Criterion::Phi3.into()],
             extrema,
             refinements,
             control,
@@ -605,9 +606,15 @@ mod tests {
             .failures
             .iter()
             .all(|f| f.error.contains("mesh.gmsh_file")));
-        assert_eq!(a.failures[0].worst_of, vec![Criterion::Phi3]);
+        assert_eq!(
+            a.failures[0].worst_of,
+            vec![CriterionSpec::from(Criterion::Phi3)]
+        );
         assert!(a.failures[0].best_of.is_empty());
-        assert_eq!(a.failures[1].best_of, vec![Criterion::Phi3]);
+        assert_eq!(
+            a.failures[1].best_of,
+            vec![CriterionSpec::from(Criterion::Phi3)]
+        );
         let worst = a.criteria[0].worst.as_ref().unwrap();
         assert_eq!(worst.refined, vec![None, None]);
         assert!(worst.estimate.is_none());

@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::vtu::{write_vtu, Field};
 use crate::scene::{Criterion, Data};
 use crate::state::{
-    piece_pressures, zone_summaries, ContactNode, ContactState, Solution, SolveReport,
+    piece_pressures, region_name, zone_summaries, ContactNode, ContactState, Solution, SolveReport,
     StateProblem, ZoneSummary,
 };
 
@@ -81,6 +81,11 @@ pub struct SolveSummary {
     pub mesh: MeshSummary,
     /// The criteria Φ1–Φ6 of the solve.
     pub criteria: CriteriaValues,
+    /// Per criterion (`phi1` … `phi6`), the mean over each of its regions by name: Φ is the
+    /// largest of them, and `phi3@NAME` in a search is one of them (design §4.2).
+    pub region_values: BTreeMap<String, BTreeMap<String, f64>>,
+    /// Per criterion, the region where it is largest (the region its value comes from).
+    pub attained_in: BTreeMap<String, String>,
     /// Resultants and open / stick / slip counts per contact zone, in scene order.
     pub contact_zones: Vec<ZoneSummary>,
     /// Mean contact pressure over each criteria boundary piece on a contact zone \[Pa\].
@@ -126,6 +131,25 @@ pub fn summary(problem: &StateProblem, data: &Data, solution: &Solution) -> Solv
             contact_pairs: solution.report.contact_pairs,
         },
         criteria: CriteriaValues::new(&solution.criteria),
+        region_values: Criterion::ALL
+            .into_iter()
+            .filter(|c| !solution.region_values[*c as usize].is_empty())
+            .map(|c| {
+                let values = solution.region_values[c as usize]
+                    .iter()
+                    .enumerate()
+                    .map(|(r, &v)| (region_name(&problem.criteria, c, r).to_string(), v))
+                    .collect();
+                (c.name().to_string(), values)
+            })
+            .collect(),
+        attained_in: Criterion::ALL
+            .into_iter()
+            .filter_map(|c| {
+                let region = problem.attaining_region(solution, c)?;
+                Some((c.name().to_string(), region.to_string()))
+            })
+            .collect(),
         contact_zones: zone_summaries(
             &problem.scene.contacts,
             data,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use super::log::EvaluationLog;
 use super::remote::BatchDispatch;
 use crate::fault::SolveFault;
-use crate::scene::Criterion;
+use crate::scene::CriterionSpec;
 use wsm_search::{Phase, Progress, Sense};
 
 /// The phase a run is in.
@@ -53,7 +53,7 @@ pub enum RunPhase {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct BestSoFar {
     /// The criterion Φ1–Φ6.
-    pub criterion: Criterion,
+    pub criterion: CriterionSpec,
     /// `max` (the worst scenario) or `min` (the best one).
     pub sense: Sense,
     /// `None` while no feasible point was evaluated (units of the criterion).
@@ -177,10 +177,10 @@ pub(super) fn phase_objective(phase: Phase) -> Option<usize> {
 }
 
 /// Best values per objective (max, min of each criterion in order) from a search report.
-pub(super) fn best_so_far(criteria: &[Criterion], progress: &Progress) -> Vec<BestSoFar> {
+pub(super) fn best_so_far(criteria: &[CriterionSpec], progress: &Progress) -> Vec<BestSoFar> {
     criteria
         .iter()
-        .flat_map(|&c| [(c, Sense::Max), (c, Sense::Min)])
+        .flat_map(|c| [(c.clone(), Sense::Max), (c.clone(), Sense::Min)])
         .zip(&progress.best)
         .map(|((criterion, sense), value)| BestSoFar {
             criterion,

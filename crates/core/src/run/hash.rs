@@ -10,7 +10,7 @@ use serde_json::Value;
 use sha2::{Digest, Sha256};
 
 use crate::error::WsmError;
-use crate::scene::{Criterion, Scene};
+use crate::scene::{CriterionSpec, Scene};
 
 /// Canonical JSON text of a value: keys sorted at every level, no whitespace.
 pub fn canonical_json(value: &Value) -> String {
@@ -38,7 +38,7 @@ pub fn canonical_json(value: &Value) -> String {
 /// that of the scene and criteria alone.
 pub fn run_hash(
     scene: &Scene,
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     target_error: Option<f64>,
 ) -> Result<String, WsmError> {
     let encode = |e: serde_json::Error| WsmError::io("run hash", e);
@@ -60,6 +60,7 @@ pub fn run_hash(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Criterion;
 
     #[test]
     fn canonical_form_ignores_key_order_and_whitespace() {
@@ -78,26 +79,35 @@ mod tests {
     fn hash_depends_on_scene_and_criteria_not_on_search_settings() {
         let text = crate::bundled::find("block-on-base").unwrap();
         let scene = crate::scene::parse(text).unwrap();
-        let h = run_hash(&scene, &[Criterion::Phi3], None).unwrap();
+        let h = run_hash(&scene, &[Criterion::Phi3.into()], None).unwrap();
         assert_eq!(h.len(), 64);
         assert_eq!(
             h,
-            run_hash(&scene.clone(), &[Criterion::Phi3], None).unwrap()
+            run_hash(&scene.clone(), &[Criterion::Phi3.into()], None).unwrap()
         );
-        assert_ne!(h, run_hash(&scene, &[Criterion::Phi5], None).unwrap());
+        assert_ne!(
+            h,
+            run_hash(&scene, &[Criterion::Phi5.into()], None).unwrap()
+        );
         let mut other = scene.clone();
         other.search.budget = Some(other.search_budget() + 7);
         other.search.seed += 1;
-        assert_eq!(h, run_hash(&other, &[Criterion::Phi3], None).unwrap());
+        assert_eq!(
+            h,
+            run_hash(&other, &[Criterion::Phi3.into()], None).unwrap()
+        );
         let mut value: Value = serde_json::from_str(text).unwrap();
         value["materials"]["rock"]["E"] = serde_json::json!(1.1e10);
         let changed = crate::scene::parse(&value.to_string()).unwrap();
-        assert_ne!(h, run_hash(&changed, &[Criterion::Phi3], None).unwrap());
-        let targeted = run_hash(&scene, &[Criterion::Phi3], Some(0.01)).unwrap();
+        assert_ne!(
+            h,
+            run_hash(&changed, &[Criterion::Phi3.into()], None).unwrap()
+        );
+        let targeted = run_hash(&scene, &[Criterion::Phi3.into()], Some(0.01)).unwrap();
         assert_ne!(h, targeted);
         assert_ne!(
             targeted,
-            run_hash(&scene, &[Criterion::Phi3], Some(0.001)).unwrap()
+            run_hash(&scene, &[Criterion::Phi3.into()], Some(0.001)).unwrap()
         );
     }
 }

@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::WsmError;
 use crate::scenario::evaluator::Evaluation;
-use crate::scene::Criterion;
+use crate::scene::CriterionSpec;
 
 /// What identifies a run's evaluations: the first line of a log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -31,7 +31,7 @@ pub struct LogHeader {
     /// The scene's `name`, for people reading the log (the hash decides whether it matches).
     pub scene: String,
     /// The requested criteria, in the order of each evaluation's criteria values.
-    pub criteria: Vec<Criterion>,
+    pub criteria: Vec<CriterionSpec>,
     /// The field path of every parameter, in the order of each evaluation's `point`.
     pub parameters: Vec<String>,
 }
@@ -44,7 +44,7 @@ impl LogHeader {
     pub fn new(
         run_hash: String,
         scene: String,
-        criteria: Vec<Criterion>,
+        criteria: Vec<CriterionSpec>,
         parameters: Vec<String>,
     ) -> LogHeader {
         LogHeader {

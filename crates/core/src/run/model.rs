@@ -12,7 +12,7 @@ use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
 use crate::scenario::worst::ParameterInfo;
 use crate::scene::params::{parameters, Parameter};
-use crate::scene::{Criterion, Scene};
+use crate::scene::{CriterionSpec, Scene};
 use crate::state::StateProblem;
 
 /// The uncertain parameters of `scene` as results report them (field path, interval, nominal),
@@ -37,7 +37,7 @@ pub fn check_admissible_set(scene: &Scene) -> Result<(), WsmError> {
 pub struct PreparedModel {
     problem: StateProblem,
     params: Vec<Parameter>,
-    criteria: Vec<Criterion>,
+    criteria: Vec<CriterionSpec>,
     derivatives: bool,
 }
 
@@ -47,7 +47,7 @@ impl PreparedModel {
     pub fn new(
         scene: Scene,
         params: Vec<Parameter>,
-        criteria: Vec<Criterion>,
+        criteria: Vec<CriterionSpec>,
     ) -> Result<Self, WsmError> {
         Ok(PreparedModel {
             problem: StateProblem::new(scene)?,

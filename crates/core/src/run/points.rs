@@ -23,14 +23,14 @@ use crate::error::WsmError;
 use crate::scenario::evaluator::{Evaluation, ScenarioEvaluator};
 use crate::scenario::worst::ParameterInfo;
 use crate::scene::params::parameters;
-use crate::scene::{Criterion, Scene};
+use crate::scene::{CriterionSpec, Scene};
 use wsm_search::OneSided;
 
 /// The first line of the stream: what a point is made of and what each answer holds.
 #[derive(Debug, Serialize)]
 struct Header<'a> {
     parameters: &'a [ParameterInfo],
-    criteria: Vec<&'static str>,
+    criteria: Vec<String>,
     derivatives: bool,
 }
 
@@ -38,9 +38,9 @@ struct Header<'a> {
 #[derive(Debug, Default, Serialize)]
 struct Answer {
     #[serde(skip_serializing_if = "Option::is_none")]
-    values: Option<BTreeMap<&'static str, f64>>,
+    values: Option<BTreeMap<String, f64>>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
-    gradient: BTreeMap<&'static str, BTreeMap<String, OneSided>>,
+    gradient: BTreeMap<String, BTreeMap<String, OneSided>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     max_kkt_residual: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -154,7 +154,7 @@ fn number(value: &Value, field: &str) -> Result<f64, String> {
 /// Solve at `point` and name what came out.
 fn answer(
     evaluator: &ScenarioEvaluator<'_>,
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     info: &[ParameterInfo],
     point: &[f64],
 ) -> Answer {
@@ -183,6 +183,7 @@ fn answer(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Criterion;
 
     fn block() -> Scene {
         crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap()
@@ -222,7 +223,7 @@ mod tests {
             serde_json::to_string(&outside).unwrap(),
         );
         let request = WorstRequest {
-            criteria: Some(vec![Criterion::Phi3, Criterion::Phi6]),
+            criteria: Some(vec![Criterion::Phi3.into(), Criterion::Phi6.into()]),
             ..WorstRequest::default()
         };
         let lines = run(scene.clone(), &request, &input);
@@ -233,7 +234,7 @@ mod tests {
         let model = PreparedModel::new(
             scene.clone(),
             params.clone(),
-            vec![Criterion::Phi3, Criterion::Phi6],
+            vec![Criterion::Phi3.into(), Criterion::Phi6.into()],
         )
         .unwrap()
         .with_derivatives(true);
@@ -267,7 +268,7 @@ mod tests {
         let n = parameters(&scene).unwrap().len();
         let lo: Vec<f64> = parameters(&scene).unwrap().iter().map(|p| p.lo).collect();
         let request = WorstRequest {
-            criteria: Some(vec![Criterion::Phi3]),
+            criteria: Some(vec![Criterion::Phi3.into()]),
             derivatives: Some(false),
             ..WorstRequest::default()
         };

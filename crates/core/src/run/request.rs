@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::check_target;
 use crate::scenario::worst::WorstSettings;
-use crate::scene::{Criterion, Scene, SceneError, SolverKind, StopRule};
+use crate::scene::{check_criteria_list, CriterionSpec, Scene, SceneError, SolverKind, StopRule};
 
 /// A single state solve.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
@@ -25,9 +25,10 @@ pub struct SolveRequest {
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WorstRequest {
-    /// Criteria to maximise and minimise (`phi1` … `phi6`).
+    /// Criteria to maximise and minimise: `phi1` … `phi6`, or bound to one region as
+    /// `phi3@NAME`.
     #[serde(default)]
-    pub criteria: Option<Vec<Criterion>>,
+    pub criteria: Option<Vec<CriterionSpec>>,
     /// Inner solves at most (≥ 1).
     #[serde(default)]
     pub budget: Option<usize>,
@@ -65,17 +66,15 @@ impl WorstRequest {
     /// (`criteria[1]`, `budget`, …).
     pub fn settings(&self, scene: &Scene) -> Result<WorstSettings, WsmError> {
         let mut settings = WorstSettings::from_scene(scene);
-        if let Some(criteria) = &self.criteria {
-            if criteria.is_empty() {
+        match &self.criteria {
+            Some(criteria) if criteria.is_empty() => {
                 return Err(SceneError::new("criteria", "give at least one criterion").into());
             }
-            let mut check = scene.clone();
-            check.search.criteria = criteria.clone();
-            crate::scene::validate(&check).map_err(|e| {
-                // The scene was valid: a new error comes from the criteria.
-                SceneError::new(e.path.replacen("search.criteria", "criteria", 1), e.reason)
-            })?;
-            settings.criteria = criteria.clone();
+            Some(criteria) => {
+                check_criteria_list(scene, criteria, "criteria")?;
+                settings.criteria = criteria.clone();
+            }
+            None => check_criteria_list(scene, &settings.criteria, "search.criteria")?,
         }
         if let Some(budget) = self.budget {
             if budget == 0 {

@@ -25,15 +25,20 @@ pub fn summary(outcome: &WorstOutcome) -> String {
     );
     let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
     for c in &outcome.criteria {
+        let kind = c.criterion.criterion;
+        let over = match &c.criterion.region {
+            Some(region) => format!("bound to '{region}'"),
+            None => "the largest over its regions".to_string(),
+        };
         let _ = writeln!(
             out,
-            "{} [{}]: {}, the largest over its regions",
+            "{} [{}]: {}, {over}",
             c.criterion.symbol(),
-            c.criterion.unit(),
-            c.criterion.definition()
+            kind.unit(),
+            kind.definition()
         );
         for (which, o) in [("worst", &c.worst), ("best", &c.best)] {
-            extremum(&mut out, c.criterion, which, o, &names);
+            extremum(&mut out, kind, which, o, &names);
         }
     }
     for w in &outcome.warnings {
@@ -57,9 +62,13 @@ fn extremum(
         Criterion::Phi5 if value >= 0.0 => format!(" (√Φ5 = {:.4e} Pa)", value.sqrt()),
         _ => String::new(),
     };
+    let region = o
+        .region
+        .as_ref()
+        .map_or(String::new(), |r| format!(" in '{r}'"));
     let _ = writeln!(
         out,
-        "  {which} {value:.6e} {}{equivalent}",
+        "  {which} {value:.6e} {}{equivalent}{region}",
         criterion.unit()
     );
     let data: Vec<String> = names

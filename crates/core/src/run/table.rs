@@ -9,10 +9,10 @@ use std::io::Write;
 use crate::error::WsmError;
 use crate::scenario::evaluator::Evaluation;
 use crate::scenario::worst::ParameterInfo;
-use crate::scene::Criterion;
+use crate::scene::CriterionSpec;
 
 /// The header row.
-pub fn columns(parameters: &[ParameterInfo], criteria: &[Criterion]) -> Vec<String> {
+pub fn columns(parameters: &[ParameterInfo], criteria: &[CriterionSpec]) -> Vec<String> {
     std::iter::once("id".to_string())
         .chain(parameters.iter().map(|p| p.field.clone()))
         .chain(criteria.iter().map(|c| c.name().to_string()))
@@ -30,7 +30,7 @@ pub fn write_csv(
     out: impl Write,
     what: &str,
     parameters: &[ParameterInfo],
-    criteria: &[Criterion],
+    criteria: &[CriterionSpec],
     evaluations: &[Evaluation],
 ) -> Result<(), WsmError> {
     let fail = |e: csv::Error| WsmError::io(what, e);

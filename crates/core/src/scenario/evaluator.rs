@@ -21,8 +21,8 @@ use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
 use crate::fem::Par;
 use crate::scene::params::{apply, stencil, Parameter, Stencil};
-use crate::scene::Criterion;
-use crate::state::{Needs, Solution, SolveOptions, StateProblem, Timings};
+use crate::scene::CriterionSpec;
+use crate::state::{Needs, Solution, SolveOptions, StateProblem, Target, Timings};
 use wsm_search::{Answer, Evaluator, OneSided, Outcome};
 
 /// One evaluation of the criteria at a point θ.
@@ -108,7 +108,8 @@ pub type Observer<'a> = dyn Fn(&[Evaluation]) + Sync + 'a;
 pub struct ScenarioEvaluator<'a> {
     problem: &'a StateProblem,
     params: &'a [Parameter],
-    criteria: &'a [Criterion],
+    criteria: &'a [CriterionSpec],
+    targets: Vec<Target>,
     needs: Needs,
     warm: Option<WarmStart>,
     stats: InnerStats,
@@ -122,13 +123,15 @@ impl<'a> ScenarioEvaluator<'a> {
     pub fn new(
         problem: &'a StateProblem,
         params: &'a [Parameter],
-        criteria: &'a [Criterion],
+        criteria: &'a [CriterionSpec],
     ) -> Result<ScenarioEvaluator<'a>, WsmError> {
-        let needs = Needs::for_criteria(&problem.scene, criteria);
+        let targets = problem.targets(criteria)?;
+        let needs = Needs::for_targets(&problem.scene, &targets);
         let mut evaluator = ScenarioEvaluator {
             problem,
             params,
             criteria,
+            targets,
             needs,
             warm: None,
             stats: InnerStats::default(),
@@ -136,7 +139,7 @@ impl<'a> ScenarioEvaluator<'a> {
             fault: None,
             derivatives: false,
         };
-        if needs.elastic && problem.contact.geometry.dim() > 0 {
+        if evaluator.needs.elastic && problem.contact.geometry.dim() > 0 {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
             evaluator.warm = nominal.warm_start;
         }
@@ -165,7 +168,7 @@ impl<'a> ScenarioEvaluator<'a> {
 
     fn options(&self, par: Par) -> SolveOptions {
         SolveOptions {
-            needs: self.needs,
+            needs: self.needs.clone(),
             par,
             warm: self.warm.clone(),
         }
@@ -237,8 +240,10 @@ impl<'a> ScenarioEvaluator<'a> {
         let values: Result<Vec<f64>, String> = self
             .criteria
             .iter()
-            .map(|c| {
-                solution.criteria[*c as usize]
+            .zip(&self.targets)
+            .map(|(c, &t)| {
+                solution
+                    .value(t)
                     .ok_or_else(|| format!("{} is not defined for this scene", c.name()))
             })
             .collect();
@@ -269,13 +274,11 @@ impl<'a> ScenarioEvaluator<'a> {
         if solution.sensitivities.len() != self.params.len() {
             return Vec::new();
         }
-        self.criteria
+        self.targets
             .iter()
-            .map(|&c| {
-                solution
-                    .sensitivities
-                    .iter()
-                    .map(|per_param| per_param[c as usize])
+            .map(|&t| {
+                (0..self.params.len())
+                    .map(|j| solution.derivative(t, j))
                     .collect::<Option<Vec<OneSided>>>()
             })
             .collect::<Option<Vec<_>>>()

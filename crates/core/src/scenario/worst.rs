@@ -15,9 +15,11 @@ use super::failures::FailureSummary;
 use crate::error::WsmError;
 use crate::estimate::mesh_choice::MeshChoice;
 use crate::estimate::statement::{AccuracyStatement, Extrema};
-use crate::scene::params::{applied_values, Parameter};
-use crate::scene::{Criterion, Scene, SceneError};
-use crate::state::StateProblem;
+use crate::fem::Par;
+use crate::scene::params::{applied_values, apply, Parameter};
+use crate::scene::{Criterion, CriterionSpec, Scene, SceneError};
+use crate::state::{family, region_name, Needs, Solution, SolveOptions, StateProblem};
+use rayon::prelude::*;
 use wsm_search::{
     search, EvalCache, Evaluator, Objective, ObjectiveResult, SearchControl, SearchProblem, Sense,
     Status, StopRule,
@@ -27,7 +29,7 @@ use wsm_search::{
 #[derive(Debug, Clone, PartialEq)]
 pub struct WorstSettings {
     /// The criteria whose max and min are searched, in request order.
-    pub criteria: Vec<Criterion>,
+    pub criteria: Vec<CriterionSpec>,
     /// Total number of distinct points evaluated (state solves), all phases and objectives.
     pub budget: usize,
     /// Seed of every random choice of the search.
@@ -75,7 +77,7 @@ impl WorstSettings {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, utoipa::ToSchema)]
 pub struct CriterionOutcome {
     /// The criterion Φ1–Φ6.
-    pub criterion: Criterion,
+    pub criterion: CriterionSpec,
     /// The maximum: the worst scenario A0_i = argmax Φ_i over U_ad (FGCS 4.35–4.36).
     pub worst: ObjectiveResult,
     /// The minimum over U_ad: the best scenario.
@@ -174,8 +176,8 @@ impl WorstOutcome {
                 .criteria
                 .iter()
                 .enumerate()
-                .map(|(i, &criterion)| CriterionOutcome {
-                    criterion,
+                .map(|(i, criterion)| CriterionOutcome {
+                    criterion: criterion.clone(),
                     worst: objective(i, Sense::Max),
                     best: objective(i, Sense::Min),
                 })
@@ -250,9 +252,9 @@ pub fn run(
     let mut criteria: Vec<CriterionOutcome> = settings
         .criteria
         .iter()
-        .filter_map(|&criterion| {
+        .filter_map(|criterion| {
             Some(CriterionOutcome {
-                criterion,
+                criterion: criterion.clone(),
                 worst: objectives.next()?,
                 best: objectives.next()?,
             })
@@ -263,6 +265,7 @@ pub fn run(
             report_applied_data(problem, params, extremum);
         }
     }
+    name_regions(problem, params, &mut criteria);
     let failures = FailureSummary::from_cache(cache);
     FailureSummary::unsettle(
         cache,
@@ -308,6 +311,57 @@ fn report_applied_data(
     for (u, v) in problem.scene.uncertain.iter().zip(values) {
         if let Some(slot) = extremum.data.get_mut(&u.field) {
             *slot = v;
+        }
+    }
+}
+
+/// Name the region where each extremum is attained (design §4.2): a bound criterion's own region;
+/// a criterion with one region in its family, that one; else the region of its family where the
+/// criterion is largest at the extremum's data — one solve without derivatives per distinct
+/// point, in parallel (a point that does not solve again leaves the region unnamed).
+fn name_regions(problem: &StateProblem, params: &[Parameter], criteria: &mut [CriterionOutcome]) {
+    let mut points: Vec<Vec<f64>> = Vec::new();
+    for c in criteria.iter() {
+        let members = family(&problem.criteria, c.criterion.criterion).len();
+        if c.criterion.region.is_some() || members < 2 {
+            continue;
+        }
+        for point in [&c.worst.point, &c.best.point].into_iter().flatten() {
+            if !points.contains(point) {
+                points.push(point.clone());
+            }
+        }
+    }
+    let kinds: Vec<Criterion> = criteria.iter().map(|c| c.criterion.criterion).collect();
+    let options = SolveOptions {
+        needs: Needs::for_criteria(&problem.scene, &kinds),
+        par: Par::Seq,
+        warm: None,
+    };
+    let solutions: Vec<Option<Solution>> = points
+        .par_iter()
+        .map(|point| {
+            let data = apply(&problem.scene, &problem.nominal, params, point);
+            problem.solve(&data, &options).ok()
+        })
+        .collect();
+    for c in criteria.iter_mut() {
+        let spec = c.criterion.clone();
+        let members = family(&problem.criteria, spec.criterion).len();
+        for extremum in [&mut c.worst, &mut c.best] {
+            extremum.region = match (&spec.region, &extremum.point) {
+                (Some(region), _) => Some(region.clone()),
+                (None, Some(_)) if members == 1 => {
+                    Some(region_name(&problem.criteria, spec.criterion, 0).to_string())
+                }
+                (None, Some(point)) => points
+                    .iter()
+                    .position(|p| p == point)
+                    .and_then(|i| solutions[i].as_ref())
+                    .and_then(|s| problem.attaining_region(s, spec.criterion))
+                    .map(str::to_string),
+                (None, None) => None,
+            };
         }
     }
 }

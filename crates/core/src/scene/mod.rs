@@ -21,12 +21,12 @@ pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialDa
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
-    CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, InitialGap, Material,
-    MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
-    SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
+    CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec, InitialGap,
+    Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit,
+    SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
 };
 pub(crate) use validate::touching_tolerance;
-pub use validate::{parse, validate};
+pub use validate::{check_criteria_list, parse, validate};
 pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};
 
 use std::fmt;

@@ -544,14 +544,140 @@ impl Criterion {
     }
 }
 
+/// A requested criterion: Φi as the largest mean over its regions (FGCS 4.29–4.34), or *bound* to
+/// one area or boundary piece — then its mean there (design §4.2). JSON: `"phi3"`, `"phi3@crest"`
+/// or `{"criterion": "phi3", "region": "crest"}`; written as the string form, so a criterion
+/// without a region reads and hashes as before.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct CriterionSpec {
+    /// Which Φ.
+    pub criterion: Criterion,
+    /// The one area (Φ1, Φ3, Φ5, Φ6) or boundary piece (Φ2, Φ4) it is bound to, by name; `None`:
+    /// the largest over all that qualify.
+    pub region: Option<String>,
+}
+
+impl CriterionSpec {
+    /// The name a user writes: `phi3`, or `phi3@crest` when bound.
+    pub fn name(&self) -> String {
+        match &self.region {
+            Some(r) => format!("{}@{r}", self.criterion.name()),
+            None => self.criterion.name().to_string(),
+        }
+    }
+
+    /// What a user reads: `Φ3`, or `Φ3@crest` when bound.
+    pub fn symbol(&self) -> String {
+        match &self.region {
+            Some(r) => format!("{}@{r}", self.criterion.symbol()),
+            None => self.criterion.symbol().to_string(),
+        }
+    }
+
+    /// The criterion named `s`: `phi1` … `phi6` (case and surrounding blanks ignored),
+    /// optionally `@region`; the reason when it is not one.
+    pub fn parse(s: &str) -> Result<CriterionSpec, String> {
+        let (kind, region) = match s.split_once('@') {
+            Some((kind, region)) => (kind, Some(region.trim())),
+            None => (s, None),
+        };
+        let criterion = Criterion::parse(kind).ok_or_else(|| {
+            format!("unknown criterion '{s}': expected phi1 … phi6, optionally bound to a region as phi3@NAME")
+        })?;
+        match region {
+            Some("") => Err(format!("'{s}': the region after '@' is empty")),
+            region => Ok(CriterionSpec {
+                criterion,
+                region: region.map(str::to_string),
+            }),
+        }
+    }
+}
+
+impl From<Criterion> for CriterionSpec {
+    /// The criterion over all its regions.
+    fn from(criterion: Criterion) -> CriterionSpec {
+        CriterionSpec {
+            criterion,
+            region: None,
+        }
+    }
+}
+
+impl std::fmt::Display for CriterionSpec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+impl Serialize for CriterionSpec {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for CriterionSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        /// The object form.
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Bound {
+            criterion: Criterion,
+            #[serde(default)]
+            region: Option<String>,
+        }
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Form {
+            Text(String),
+            Object(Bound),
+        }
+        match Form::deserialize(deserializer).map_err(|_| {
+            serde::de::Error::custom(
+                "expected a criterion: \"phi1\" … \"phi6\", \"phi3@REGION\" or \
+                 {\"criterion\": \"phi3\", \"region\": \"REGION\"}",
+            )
+        })? {
+            Form::Text(s) => CriterionSpec::parse(&s).map_err(serde::de::Error::custom),
+            Form::Object(b) => match b.region.as_deref().map(str::trim) {
+                Some("") => Err(serde::de::Error::custom(
+                    "the region of a criterion is empty",
+                )),
+                region => Ok(CriterionSpec {
+                    criterion: b.criterion,
+                    region: region.map(str::to_string),
+                }),
+            },
+        }
+    }
+}
+
+impl utoipa::PartialSchema for CriterionSpec {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        utoipa::openapi::ObjectBuilder::new()
+            .schema_type(utoipa::openapi::schema::Type::String)
+            .pattern(Some("^phi[1-6](@.+)?$"))
+            .description(Some(
+                "A criterion: `phi1` … `phi6` (the largest mean over its regions), or bound to one \
+                 area or boundary piece as `phi3@NAME` (its mean there). Requests also accept \
+                 `{\"criterion\": \"phi3\", \"region\": \"NAME\"}`.",
+            ))
+            .examples(["phi5", "phi3@crest"])
+            .into()
+    }
+}
+
+impl utoipa::ToSchema for CriterionSpec {}
+
 /// Worst-scenario search settings (design §4.3).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SearchSettings {
-    /// The criteria to search, e.g. `["phi3", "phi5"]`; each gets a maximum and a minimum. A run
-    /// needs at least one, here or in its request.
+    /// The criteria to search, e.g. `["phi3", "phi5@heel"]`; each gets a maximum and a minimum. A
+    /// run needs at least one, here or in its request. They are checked when a search uses them:
+    /// `wsm solve` ignores them.
     #[serde(default)]
-    pub criteria: Vec<Criterion>,
+    pub criteria: Vec<CriterionSpec>,
     /// Maximal number of inner solves (shared by all criteria). Default: 300, plus 2^k for k ≤ 10
     /// free uncertain data, so that every vertex of the box can be screened.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -993,24 +993,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
 /// with a normal must touch a contact zone's segment (within [`touching_tolerance`]); the
 /// criterion ranges over those.
 fn a_region_touches_a_contact(scene: &Scene, path: &str) -> Result<(), SceneError> {
-    let contact_lines: Vec<Vec<Point>> = scene
-        .contacts
-        .iter()
-        .flat_map(|c| c.between.iter())
-        .filter_map(|name| scene.segments.get(name))
-        .map(|s| s.polyline())
-        .collect();
-    let touches = |polygon: &[Point]| {
-        let n = polygon.len();
-        contact_lines.iter().any(|line| {
-            line.windows(2).any(|e| {
-                (0..n).any(|i| {
-                    segment_distance(e[0], e[1], polygon[i], polygon[(i + 1) % n])
-                        <= touching_tolerance(polygon)
-                })
-            })
-        })
-    };
+    let touches = |polygon: &[Point]| touches_a_contact(scene, polygon);
     let candidates: Vec<&str> = scene
         .criteria
         .regions
@@ -1033,6 +1016,24 @@ fn a_region_touches_a_contact(scene: &Scene, path: &str) -> Result<(), SceneErro
             candidates.join(", ")
         ),
     ))
+}
+
+/// Whether an edge of `polygon` lies within the touching tolerance of a contact zone's segment.
+fn touches_a_contact(scene: &Scene, polygon: &[Point]) -> bool {
+    let n = polygon.len();
+    scene
+        .contacts
+        .iter()
+        .flat_map(|c| c.between.iter())
+        .filter_map(|name| scene.segments.get(name))
+        .any(|segment| {
+            segment.polyline().windows(2).any(|e| {
+                (0..n).any(|i| {
+                    segment_distance(e[0], e[1], polygon[i], polygon[(i + 1) % n])
+                        <= touching_tolerance(polygon)
+                })
+            })
+        })
 }
 
 /// The distance below which a region touches a line: 1e-6 of the polygon's diameter (rounding
@@ -1072,75 +1073,168 @@ fn segment_distance(a: Point, b: Point, c: Point, d: Point) -> f64 {
 
 /// Φ4 is the mean normal displacement over boundary pieces off Γu (FGCS 4.32): on a segment with
 /// a prescribed displacement or a roller it would only echo the data.
-fn pieces_off_dirichlet(scene: &Scene) -> Result<(), SceneError> {
-    for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
-        let prescribing = scene.boundary.iter().position(|b| {
-            b.segment == piece.segment && (b.displacement.is_some() || b.roller.is_some())
-        });
-        if let Some(i) = prescribing {
-            return Err(SceneError::new(
-                format!("criteria.boundary_pieces[{r}].segment"),
-                format!(
-                    "phi4 needs boundary pieces off the Dirichlet boundary Γu (FGCS 4.32), but segment '{}' carries boundary[{i}], which prescribes its displacement",
-                    piece.segment
-                ),
-            ));
-        }
+fn piece_off_dirichlet(scene: &Scene, r: usize) -> Result<(), SceneError> {
+    let piece = &scene.criteria.boundary_pieces[r];
+    let prescribing = scene.boundary.iter().position(|b| {
+        b.segment == piece.segment && (b.displacement.is_some() || b.roller.is_some())
+    });
+    match prescribing {
+        Some(i) => Err(SceneError::new(
+            format!("criteria.boundary_pieces[{r}].segment"),
+            format!(
+                "phi4 needs boundary pieces off the Dirichlet boundary Γu (FGCS 4.32), but segment '{}' carries boundary[{i}], which prescribes its displacement",
+                piece.segment
+            ),
+        )),
+        None => Ok(()),
     }
-    Ok(())
 }
 
-fn check_search(scene: &Scene) -> Result<(), SceneError> {
-    for (k, c) in scene.search.criteria.iter().enumerate() {
-        let path = format!("search.criteria[{k}]");
-        if scene.search.criteria[..k].contains(c) {
+/// The criteria a search asks for (`criteria`, the JSON path of the list: `search.criteria` or a
+/// request's `criteria`): each needs its field, a region of its kind, and a bound region must
+/// exist and qualify (design §4.2). Checked when a search uses them, not by every solve.
+pub fn check_criteria_list(
+    scene: &Scene,
+    criteria: &[CriterionSpec],
+    list: &str,
+) -> Result<(), SceneError> {
+    for (k, spec) in criteria.iter().enumerate() {
+        let path = format!("{list}[{k}]");
+        if criteria[..k].contains(spec) {
             return Err(SceneError::new(
                 path,
-                format!("{} is listed twice", c.name()),
+                format!("{} is listed twice", spec.name()),
             ));
         }
+        let c = spec.criterion;
         if c.is_thermal() && scene.thermal.is_none() {
             return Err(SceneError::new(
                 path,
                 format!("{} needs the scene's `thermal` section", c.name()),
             ));
         }
-        let has_areas = !scene.criteria.regions.is_empty();
-        let has_pieces = !scene.criteria.boundary_pieces.is_empty();
-        let needs_pieces = matches!(c, Criterion::Phi2 | Criterion::Phi4);
-        if (needs_pieces && !has_pieces) || (!needs_pieces && !has_areas) {
-            let what = if needs_pieces {
-                "criteria.boundary_pieces"
-            } else {
-                "criteria.regions"
-            };
-            return Err(SceneError::new(
-                path,
-                format!("{} needs at least one entry in {what}", c.name()),
-            ));
-        }
-        if matches!(c, Criterion::Phi3 | Criterion::Phi6)
-            && scene
-                .criteria
-                .regions
-                .iter()
-                .all(|g| g.normal.is_none() && g.normal_at.is_none())
-        {
-            return Err(SceneError::new(
-                path,
-                format!("{} needs a region with `normal_at` or `normal`", c.name()),
-            ));
-        }
-        if *c == Criterion::Phi6 && scene.contacts.is_empty() {
-            return Err(SceneError::new(path, "phi6 needs a contact zone"));
-        }
-        if *c == Criterion::Phi4 {
-            pieces_off_dirichlet(scene)?;
-        }
-        if *c == Criterion::Phi6 {
-            a_region_touches_a_contact(scene, &path)?;
+        match &spec.region {
+            Some(region) => check_bound_region(scene, c, region, &path)?,
+            None => check_region_family(scene, c, &path)?,
         }
     }
+    Ok(())
+}
+
+/// An unbound criterion needs at least one region of its kind.
+fn check_region_family(scene: &Scene, c: Criterion, path: &str) -> Result<(), SceneError> {
+    let has_areas = !scene.criteria.regions.is_empty();
+    let has_pieces = !scene.criteria.boundary_pieces.is_empty();
+    let needs_pieces = matches!(c, Criterion::Phi2 | Criterion::Phi4);
+    if (needs_pieces && !has_pieces) || (!needs_pieces && !has_areas) {
+        let what = if needs_pieces {
+            "criteria.boundary_pieces"
+        } else {
+            "criteria.regions"
+        };
+        return Err(SceneError::new(
+            path,
+            format!("{} needs at least one entry in {what}", c.name()),
+        ));
+    }
+    if matches!(c, Criterion::Phi3 | Criterion::Phi6)
+        && scene
+            .criteria
+            .regions
+            .iter()
+            .all(|g| g.normal.is_none() && g.normal_at.is_none())
+    {
+        return Err(SceneError::new(
+            path,
+            format!("{} needs a region with `normal_at` or `normal`", c.name()),
+        ));
+    }
+    if c == Criterion::Phi6 && scene.contacts.is_empty() {
+        return Err(SceneError::new(path, "phi6 needs a contact zone"));
+    }
+    if c == Criterion::Phi4 {
+        for r in 0..scene.criteria.boundary_pieces.len() {
+            piece_off_dirichlet(scene, r)?;
+        }
+    }
+    if c == Criterion::Phi6 {
+        a_region_touches_a_contact(scene, path)?;
+    }
+    Ok(())
+}
+
+/// A criterion bound to `region`: an area of that name for Φ1, Φ3, Φ5, Φ6 (with a normal for Φ3
+/// and Φ6, touching a contact zone for Φ6), a boundary piece for Φ2, Φ4 (off Γu for Φ4).
+fn check_bound_region(
+    scene: &Scene,
+    c: Criterion,
+    region: &str,
+    path: &str,
+) -> Result<(), SceneError> {
+    let pieces = matches!(c, Criterion::Phi2 | Criterion::Phi4);
+    let names: Vec<&str> = if pieces {
+        scene
+            .criteria
+            .boundary_pieces
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect()
+    } else {
+        scene
+            .criteria
+            .regions
+            .iter()
+            .map(|g| g.name.as_str())
+            .collect()
+    };
+    let Some(index) = names.iter().position(|n| *n == region) else {
+        let kind = if pieces {
+            "boundary piece (criteria.boundary_pieces)"
+        } else {
+            "area (criteria.regions)"
+        };
+        return Err(SceneError::new(
+            path,
+            format!(
+                "{} is bound to '{region}', but no {kind} has that name (there are: {})",
+                c.name(),
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        ));
+    };
+    if pieces {
+        if c == Criterion::Phi4 {
+            piece_off_dirichlet(scene, index)?;
+        }
+        return Ok(());
+    }
+    let g = &scene.criteria.regions[index];
+    if matches!(c, Criterion::Phi3 | Criterion::Phi6) && g.normal.is_none() && g.normal_at.is_none()
+    {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "{} needs a normal, but region '{region}' has neither `normal` nor `normal_at` (criteria.regions[{index}])",
+                c.name()
+            ),
+        ));
+    }
+    if c == Criterion::Phi6 && !touches_a_contact(scene, &g.polygon) {
+        return Err(SceneError::new(
+            path,
+            format!(
+                "phi6 is the mean normal stress over a region adjacent to a contact zone (FGCS 4.34), but region '{region}' touches none"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn check_search(scene: &Scene) -> Result<(), SceneError> {
     if scene.search.budget == Some(0) {
         return Err(SceneError::new("search.budget", "must be at least 1"));
     }

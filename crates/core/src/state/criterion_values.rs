@@ -14,7 +14,8 @@
 
 use crate::fem::stress::i2_bilinear;
 use crate::fem::ElementStress;
-use crate::regions::CriteriaGeometry;
+use crate::regions::{AreaRegion, CriteriaGeometry};
+use crate::scene::Criterion;
 
 /// The fields a criterion evaluation can use.
 pub struct Fields<'a> {
@@ -70,18 +71,51 @@ fn normal_pressure([n0, n1]: [f64; 2], w: f64) -> [f64; 4] {
     [-w * n0 * n0, -w * n1 * n1, -2.0 * w * n0 * n1, 0.0]
 }
 
+/// The regions behind each Φ: indices into `geometry.regions` (Φ1, Φ3, Φ5, Φ6) or
+/// `geometry.pieces` (Φ2, Φ4), in the order of the region values and forms below — all areas for
+/// Φ1 and Φ5, the areas with a normal for Φ3, those of them next to a contact zone for Φ6, all
+/// pieces for Φ2 and Φ4 (FGCS 4.29–4.34).
+pub fn family(geometry: &CriteriaGeometry, criterion: Criterion) -> Vec<usize> {
+    let areas = |keep: &dyn Fn(&AreaRegion) -> bool| -> Vec<usize> {
+        (0..geometry.regions.len())
+            .filter(|&r| keep(&geometry.regions[r]))
+            .collect()
+    };
+    match criterion {
+        Criterion::Phi1 | Criterion::Phi5 => areas(&|_| true),
+        Criterion::Phi3 => areas(&|r| r.normal.is_some()),
+        Criterion::Phi6 => areas(&|r| r.normal.is_some() && r.adjacent_to_contact),
+        Criterion::Phi2 | Criterion::Phi4 => (0..geometry.pieces.len()).collect(),
+    }
+}
+
+/// The name of the `index`-th region of Φ's family.
+pub fn region_name(geometry: &CriteriaGeometry, criterion: Criterion, index: usize) -> &str {
+    let member = family(geometry, criterion)[index];
+    match criterion {
+        Criterion::Phi2 | Criterion::Phi4 => &geometry.pieces[member].name,
+        _ => &geometry.regions[member].name,
+    }
+}
+
 /// The derivative forms of the region values of Φ1..Φ6 (empty where the field or a suitable
-/// region is missing). The forms of Φ5 linearise I2² at `fields.stresses`.
+/// region is missing), per Φ in the order of its [`family`]. The forms of Φ5 linearise I2² at
+/// `fields.stresses`.
 pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<LinearForm>; 6] {
     let mut out: [Vec<LinearForm>; 6] = Default::default();
+    let areas = |c: Criterion| -> Vec<&AreaRegion> {
+        family(geometry, c)
+            .into_iter()
+            .map(|r| &geometry.regions[r])
+            .collect()
+    };
     if fields.temperature.is_some() {
         let of = |weights: &[(usize, f64)]| LinearForm {
             temperature: weights.to_vec(),
             ..LinearForm::default()
         };
-        out[0] = geometry
-            .regions
-            .iter()
+        out[0] = areas(Criterion::Phi1)
+            .into_iter()
             .map(|r| of(&r.node_weights))
             .collect();
         out[1] = geometry
@@ -98,9 +132,8 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<Linear
                 .collect(),
             ..LinearForm::default()
         };
-        out[2] = geometry
-            .regions
-            .iter()
+        out[2] = areas(Criterion::Phi3)
+            .into_iter()
             .filter_map(|r| r.normal.map(|n| along(&r.node_weights, n)))
             .collect();
         out[3] = geometry
@@ -111,9 +144,8 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<Linear
     }
     if let Some(s) = fields.stresses {
         let unit = |k: usize| std::array::from_fn::<f64, 4, _>(|j| f64::from(u8::from(j == k)));
-        out[4] = geometry
-            .regions
-            .iter()
+        out[4] = areas(Criterion::Phi5)
+            .into_iter()
             .map(|r| LinearForm {
                 stresses: r
                     .element_weights
@@ -128,20 +160,17 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<Linear
                 ..LinearForm::default()
             })
             .collect();
-        out[5] = geometry
-            .regions
-            .iter()
+        out[5] = areas(Criterion::Phi6)
+            .into_iter()
             .filter_map(|r| {
-                r.normal
-                    .filter(|_| r.adjacent_to_contact)
-                    .map(|n| LinearForm {
-                        stresses: r
-                            .element_weights
-                            .iter()
-                            .map(|&(e, w)| (e, normal_pressure(n, w)))
-                            .collect(),
-                        ..LinearForm::default()
-                    })
+                r.normal.map(|n| LinearForm {
+                    stresses: r
+                        .element_weights
+                        .iter()
+                        .map(|&(e, w)| (e, normal_pressure(n, w)))
+                        .collect(),
+                    ..LinearForm::default()
+                })
             })
             .collect();
     }
@@ -154,9 +183,16 @@ fn max_of(values: &[f64]) -> Option<f64> {
         .fold(None, |m: Option<f64>, &v| Some(m.map_or(v, |m| m.max(v))))
 }
 
-/// Φ1..Φ6 (None where the field or a suitable region is missing).
-pub fn evaluate(geometry: &CriteriaGeometry, fields: &Fields) -> [Option<f64>; 6] {
-    per_region(geometry, fields).map(|values| max_of(&values))
+/// Φ1..Φ6 (None where the field or a suitable region is missing) from the region values of
+/// [`per_region`]: the largest of each.
+pub fn maxima(region_values: &[Vec<f64>; 6]) -> [Option<f64>; 6] {
+    region_values.each_ref().map(|values| max_of(values))
+}
+
+/// The index (in its [`family`]) of the region whose value is the largest, the first of ties.
+pub fn attaining(values: &[f64]) -> Option<usize> {
+    let max = max_of(values)?;
+    values.iter().position(|&v| v == max)
 }
 
 /// The region values behind each Φ_i (the maximum over them is Φ_i): the linear criteria are

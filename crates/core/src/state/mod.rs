@@ -14,8 +14,8 @@ mod criterion_values;
 mod sensitivity;
 mod solution;
 
-pub use criterion_values::{evaluate as evaluate_criteria, Fields};
-pub use sensitivity::{OneSided, Sensitivities};
+pub use criterion_values::{attaining, family, maxima, per_region, region_name, Fields};
+pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
     piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
@@ -37,18 +37,21 @@ use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
 use crate::scene::params::Stencil;
-use crate::scene::{BoundaryValue, Criterion, Data, Scene, SceneError, SolverKind};
+use crate::scene::{BoundaryValue, Criterion, CriterionSpec, Data, Scene, SceneError, SolverKind};
 pub use sensitivity::DerivativeRoute;
 use sensitivity::{ElasticState, SolvedState};
 
 /// What a solve must compute.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Needs {
     /// Solve the heat problem (the scene has a thermal part and a criterion or the thermal load
     /// of the elastic solve needs T).
     pub heat: bool,
     /// Solve the elastic contact problem (some criterion other than Φ1/Φ2 is requested).
     pub elastic: bool,
+    /// Per Φ, the regions (indices in its [`family`]) that criteria bound to one region read:
+    /// their derivatives are computed beside those of the regions tying for the maximum.
+    pub bound_regions: [Vec<usize>; 6],
 }
 
 impl Needs {
@@ -60,13 +63,36 @@ impl Needs {
         Needs {
             heat: thermal && (elastic || criteria.iter().any(|c| c.is_thermal())),
             elastic,
+            bound_regions: Default::default(),
         }
+    }
+
+    /// What the resolved `targets` need (see [`StateProblem::targets`]).
+    pub fn for_targets(scene: &Scene, targets: &[Target]) -> Needs {
+        let kinds: Vec<Criterion> = targets.iter().map(|t| t.criterion).collect();
+        let mut needs = Needs::for_criteria(scene, &kinds);
+        for t in targets {
+            if let Some(r) = t.region {
+                needs.bound_regions[t.criterion as usize].push(r);
+            }
+        }
+        needs
     }
 
     /// Everything the scene has.
     pub fn all(scene: &Scene) -> Needs {
         Needs::for_criteria(scene, &Criterion::ALL)
     }
+}
+
+/// A requested criterion resolved on the mesh: Φ, and when it is bound to one region, that
+/// region's index in Φ's [`family`] (design §4.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Target {
+    /// Which Φ.
+    pub criterion: Criterion,
+    /// The bound region's index in the family (`None`: the largest over the family).
+    pub region: Option<usize>,
 }
 
 /// Options of one solve.
@@ -190,6 +216,46 @@ impl StateProblem {
         self.solve_with_sensitivities(data, options, &[])
     }
 
+    /// The requested criteria on this mesh: a bound region is found by name in its Φ's family
+    /// (the scene's validation has checked that it qualifies; a region the mesh cannot resolve is
+    /// an error naming the criterion).
+    pub fn targets(&self, criteria: &[CriterionSpec]) -> Result<Vec<Target>, SceneError> {
+        criteria
+            .iter()
+            .enumerate()
+            .map(|(k, spec)| {
+                let region = match &spec.region {
+                    None => None,
+                    Some(name) => {
+                        let members = family(&self.criteria, spec.criterion).len();
+                        let found = (0..members)
+                            .find(|&r| region_name(&self.criteria, spec.criterion, r) == name);
+                        Some(found.ok_or_else(|| {
+                            SceneError::new(
+                                format!("criteria[{k}]"),
+                                format!(
+                                    "{}: region '{name}' is not one of the regions {} is defined on",
+                                    spec.name(),
+                                    spec.criterion.name()
+                                ),
+                            )
+                        })?)
+                    }
+                };
+                Ok(Target {
+                    criterion: spec.criterion,
+                    region,
+                })
+            })
+            .collect()
+    }
+
+    /// The name of the region where a solution's Φ is largest (`None` where Φ has no value).
+    pub fn attaining_region(&self, solution: &Solution, criterion: Criterion) -> Option<&str> {
+        attaining(&solution.region_values[criterion as usize])
+            .map(|r| region_name(&self.criteria, criterion, r))
+    }
+
     /// Solve the state problem for `data` and differentiate the criteria along the parameter of
     /// every stencil ([`Solution::sensitivities`], one entry per stencil). A derivative that
     /// cannot be computed leaves the sensitivities empty with a warning; the state stands.
@@ -251,7 +317,7 @@ impl StateProblem {
                 .push("elastic contact solve (only thermal criteria requested)".into());
         }
         let t0 = Instant::now();
-        solution.criteria = evaluate_criteria(
+        solution.region_values = per_region(
             &self.criteria,
             &Fields {
                 temperature: temperature.as_deref().map(Vec::as_slice),
@@ -265,6 +331,7 @@ impl StateProblem {
                     .then_some(solution.stresses.as_slice()),
             },
         );
+        solution.criteria = maxima(&solution.region_values);
         report.timings.post += t0.elapsed().as_secs_f64();
         solution.temperature = temperature.map(|t| t.as_ref().clone());
         if !stencils.is_empty() {
@@ -272,8 +339,9 @@ impl StateProblem {
             let sensitivities =
                 self.differentiate(data, options, elastic.as_ref(), &solution, stencils, route);
             match sensitivities {
-                Ok((s, adjoint)) => {
+                Ok((s, regions, adjoint)) => {
                     solution.sensitivities = s;
+                    solution.region_sensitivities = regions;
                     report.adjoint_directions = adjoint;
                 }
                 Err(e) => report
@@ -296,7 +364,7 @@ impl StateProblem {
         solution: &Solution,
         stencils: &[Stencil],
         route: DerivativeRoute,
-    ) -> Result<(Sensitivities, usize), WsmError> {
+    ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
@@ -317,7 +385,7 @@ impl StateProblem {
                     stresses: &solution.stresses,
                 }),
         };
-        self.sensitivities(&state, stencils, route)
+        self.sensitivities(&state, stencils, route, &options.needs.bound_regions)
     }
 
     fn solve_elastic(

@@ -38,6 +38,11 @@ const TIE_TOL: f64 = 1e-12;
 /// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
 pub type Sensitivities = Vec<[Option<OneSided>; 6]>;
 
+/// Per parameter, per Φ, per region of its family, the one-sided derivative of the region's value
+/// — for the regions that tie for the maximum and those read by criteria bound to one region
+/// (`None` for the others).
+pub type RegionSensitivities = Vec<[Vec<Option<OneSided>>; 6]>;
+
 /// How the derivatives of the criteria are taken (design §4.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DerivativeRoute {
@@ -92,7 +97,7 @@ impl ElasticDerivative {
     }
 }
 
-/// The adjoint forms of the tied region values (design §4.4): per form, the contact adjoint of
+/// The adjoint forms of the needed region values (design §4.4): per form, the contact adjoint of
 /// its displacement part, its coefficients on du_d and on dT, and its stress part (which also
 /// reads the change of the law along the parameter).
 struct AdjointCriteria {
@@ -110,7 +115,7 @@ struct AdjointCriteria {
 
 impl AdjointCriteria {
     /// The derivatives of the region values along the data derivative `part` with the
-    /// temperature derivative `dt` (0 for the regions that do not tie for the maximum).
+    /// temperature derivative `dt` (0 for the regions not needed).
     fn along(&self, part: &ElasticDerivative, dt: Option<&[f64]>) -> [Vec<f64>; 6] {
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
         let mut out: [Vec<f64>; 6] = self.shape.map(|n| vec![0.0; n]);
@@ -152,14 +157,16 @@ impl Tangent {
 }
 
 impl StateProblem {
-    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state, by `route`, and how many
-    /// directions the adjoint gave.
+    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state, by `route`; the derivatives
+    /// of the region values that tie for each maximum or that `bound` lists (per Φ, indices in
+    /// its family); and how many directions the adjoint gave.
     pub(super) fn sensitivities(
         &self,
         state: &SolvedState,
         stencils: &[Stencil],
         route: DerivativeRoute,
-    ) -> Result<(Sensitivities, usize), WsmError> {
+        bound: &[Vec<usize>; 6],
+    ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
         let fields = Fields {
             temperature: state.temperature,
             displacement: state.elastic.as_ref().map(|e| e.displacement),
@@ -168,6 +175,15 @@ impl StateProblem {
         let forms = region_forms(&self.criteria, &fields);
         let values = per_region_with(&self.criteria, &fields, &forms);
         let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
+        let needed: [Vec<bool>; 6] = std::array::from_fn(|i| {
+            let mut needed = tied[i].clone();
+            for &r in &bound[i] {
+                if let Some(n) = needed.get_mut(r) {
+                    *n = true;
+                }
+            }
+            needed
+        });
         let d_temperatures: Vec<Option<Vec<f64>>> = stencils
             .iter()
             .map(|stencil| {
@@ -221,7 +237,7 @@ impl StateProblem {
                 let point = contact_point(el, &lo, &hi, &friction);
                 if route == DerivativeRoute::Adjoint {
                     if let Some(adjoint) =
-                        self.adjoint_criteria(state, el, &point, &forms, &tied)?
+                        self.adjoint_criteria(state, el, &point, &forms, &needed)?
                     {
                         for (j, part) in parts.iter().enumerate() {
                             if adjoint.contact.is_linear_along(&part.view()) {
@@ -251,29 +267,44 @@ impl StateProblem {
                 }
             }
         }
-        let sensitivities = derivatives
+        let derivatives: Vec<OneSidedRegions> = derivatives
             .into_iter()
-            .map(|d| {
-                let (right, left) =
-                    d.ok_or_else(|| WsmError::contact("a direction was not differentiated"))?;
-                Ok(std::array::from_fn(|i| {
-                    one_sided(&values[i], &tied[i], &right[i], &left[i])
-                }))
-            })
+            .map(|d| d.ok_or_else(|| WsmError::contact("a direction was not differentiated")))
             .collect::<Result<_, WsmError>>()?;
-        Ok((sensitivities, adjoint_directions))
+        let sensitivities = derivatives
+            .iter()
+            .map(|(right, left)| {
+                std::array::from_fn(|i| one_sided(&values[i], &tied[i], &right[i], &left[i]))
+            })
+            .collect();
+        let regions = derivatives
+            .iter()
+            .map(|(right, left)| {
+                std::array::from_fn(|i| {
+                    (0..values[i].len())
+                        .map(|r| {
+                            needed[i][r].then(|| OneSided {
+                                right: right[i][r],
+                                left: left[i][r],
+                            })
+                        })
+                        .collect()
+                })
+            })
+            .collect();
+        Ok((sensitivities, regions, adjoint_directions))
     }
 
-    /// The adjoint of every tied region form of the criteria (design §4.4): the contact adjoint
-    /// of their displacement parts and the coefficients of du_d and dT; `None` where the contact
-    /// state is only one-sided differentiable.
+    /// The adjoint of every `needed` region form of the criteria (design §4.4): the contact
+    /// adjoint of their displacement parts and the coefficients of du_d and dT; `None` where the
+    /// contact state is only one-sided differentiable.
     fn adjoint_criteria(
         &self,
         state: &SolvedState,
         el: &ElasticState,
         point: &ContactPoint,
         forms: &[Vec<LinearForm>; 6],
-        tied: &[Vec<bool>; 6],
+        needed: &[Vec<bool>; 6],
     ) -> Result<Option<AdjointCriteria>, WsmError> {
         let elastic = &self.elastic;
         let nodes = elastic.mesh().nodes.len();
@@ -285,7 +316,7 @@ impl StateProblem {
         let mut stress_forms = Vec::new();
         for (i, criterion) in forms.iter().enumerate() {
             for (r, form) in criterion.iter().enumerate() {
-                if !tied[i][r] {
+                if !needed[i][r] {
                     continue;
                 }
                 let mut a_u = vec![[0.0; 2]; nodes];

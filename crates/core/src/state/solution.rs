@@ -197,14 +197,21 @@ pub struct Solution {
     pub contact: Vec<ContactNode>,
     /// Contact multipliers and rigid amplitudes, to warm-start a nearby solve.
     pub warm_start: Option<WarmStart>,
-    /// Φ1..Φ6 (None when not requested or not defined for the scene).
+    /// Φ1..Φ6 (None when not requested or not defined for the scene): the largest of each Φ's
+    /// `region_values`.
     pub criteria: [Option<f64>; 6],
+    /// Per Φ, the value of each region of its family (`state::family`; empty where Φ is not
+    /// defined or its field was not solved).
+    pub region_values: [Vec<f64>; 6],
     /// Per requested stencil (parameter), the one-sided derivatives of Φ1..Φ6
     /// ([`StateProblem::solve_with_sensitivities`]; empty when none were requested or they
     /// could not be computed, with a warning).
     ///
     /// [`StateProblem::solve_with_sensitivities`]: super::StateProblem::solve_with_sensitivities
     pub sensitivities: super::Sensitivities,
+    /// Per requested stencil, the derivatives of the region values that tie for a maximum or
+    /// that criteria bound to one region read.
+    pub region_sensitivities: super::RegionSensitivities,
     /// Sizes, iterations, residuals, warnings and timings of the solve.
     pub report: SolveReport,
 }
@@ -406,4 +413,28 @@ pub fn piece_pressures(
             (piece.name.clone(), mean)
         })
         .collect()
+}
+
+impl Solution {
+    /// The value of a requested criterion (`None` where not computed).
+    pub fn value(&self, target: super::Target) -> Option<f64> {
+        let c = target.criterion as usize;
+        match target.region {
+            None => self.criteria[c],
+            Some(r) => self.region_values[c].get(r).copied(),
+        }
+    }
+
+    /// The one-sided derivative of a requested criterion along the `j`-th stencil's parameter
+    /// (`None` where not computed).
+    pub fn derivative(&self, target: super::Target, j: usize) -> Option<super::OneSided> {
+        let c = target.criterion as usize;
+        match target.region {
+            None => self.sensitivities.get(j)?[c],
+            Some(r) => self.region_sensitivities.get(j)?[c]
+                .get(r)
+                .copied()
+                .flatten(),
+        }
+    }
 }

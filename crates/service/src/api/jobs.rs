@@ -21,7 +21,7 @@ use wsm_core::run::{
     self, BestSoFar, CriterionOutcome, ParameterInfo, RunPhase, SolveOutput, SolveRequest,
     WorstOutcome,
 };
-use wsm_core::scene::{Criterion, Scene};
+use wsm_core::scene::{CriterionSpec, Scene};
 
 /// What a job is doing.
 #[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
@@ -130,7 +130,7 @@ fn outcome_best(outcome: &WorstOutcome) -> Vec<BestSoFar> {
     outcome
         .criteria
         .iter()
-        .flat_map(|c| [&c.worst, &c.best].map(|o| (c.criterion, o)))
+        .flat_map(|c| [&c.worst, &c.best].map(|o| (c.criterion.clone(), o)))
         .map(|(criterion, o)| BestSoFar {
             criterion,
             sense: o.sense,
@@ -306,7 +306,7 @@ pub async fn job_result(
 /// Convergence history of one criterion.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct CriterionHistory {
-    pub criterion: Criterion,
+    pub criterion: CriterionSpec,
     /// (evaluations so far, best max value so far) at every improvement.
     #[schema(value_type = Vec<Vec<f64>>)]
     pub worst: Vec<(usize, f64)>,
@@ -333,7 +333,7 @@ pub async fn job_history(
             .criteria
             .iter()
             .map(|c: &CriterionOutcome| CriterionHistory {
-                criterion: c.criterion,
+                criterion: c.criterion.clone(),
                 worst: c.worst.history.clone(),
                 best: c.best.history.clone(),
             })
@@ -389,10 +389,10 @@ pub async fn job_evaluations(
         "json" => Ok(Json(evaluations).into_response()),
         "csv" => {
             let (_, parameters) = scene_and_parameters(&job)?;
-            let criteria: Vec<Criterion> = job
+            let criteria: Vec<CriterionSpec> = job
                 .criteria
                 .iter()
-                .filter_map(|c| Criterion::parse(c))
+                .filter_map(|c| CriterionSpec::parse(c).ok())
                 .collect();
             let mut buffer = Vec::new();
             run::write_csv(
@@ -482,12 +482,13 @@ pub async fn job_fields(
     let q = query(q)?;
     let (job, outcome) = outcome(&state, &id).await?;
     let criterion = match &q.criterion {
-        Some(name) => Criterion::parse(name)
-            .ok_or_else(|| ApiError::invalid("criterion", format!("'{name}' is not phi1..phi6")))?,
+        Some(name) => {
+            CriterionSpec::parse(name).map_err(|why| ApiError::invalid("criterion", why))?
+        }
         None => outcome
             .criteria
             .first()
-            .map(|c| c.criterion)
+            .map(|c| c.criterion.clone())
             .ok_or_else(|| ApiError::conflict("the job has no criteria"))?,
     };
     let c = outcome

@@ -1,5 +1,5 @@
 // Convergence plots (uPlot) and the sensitivity bar chart (SVG).
-import { el, num, CRITERIA, CRITERION_INFO } from "./format.js";
+import { el, num, criterionLabel, criterionInfo } from "./format.js";
 
 const MAX_COLOR = "#c0392b";
 const MIN_COLOR = "#1f5fbf";
@@ -31,9 +31,9 @@ export class ConvergencePlots {
   plot(criterion) {
     let p = this.plots.get(criterion);
     if (p) return p;
-    const [what, unit] = CRITERION_INFO[criterion] || [criterion, ""];
+    const [what, unit] = criterionInfo(criterion);
     const box = el("figure", { class: "plot", "data-criterion": criterion },
-      el("h3", {}, `${CRITERIA[criterion] || criterion} — ${what} [${unit}]`));
+      el("h3", {}, `${criterionLabel(criterion)} — ${what} [${unit}]`));
     this.container.append(box);
     const axisValues = (u, splits) => splits.map((v) => num(v, 3));
     const opts = {

@@ -58,13 +58,27 @@ export const $ = (id) => document.getElementById(id);
 export const PHASES = {
   queued: "queued", mesh_choice: "choosing the mesh for the target error", meshing: "meshing", admissible_check: "checking the admissible set",
   nominal_solve: "nominal solve", vertex_walk: "vertex walk (gradients)", screening: "screening vertices", swarm: "swarm search",
-  polish: "polishing", sensitivities: "sensitivities",
+  polish: "polishing", sensitivities: "sensitivities", multistart: "looking for other local optima",
   accuracy: "accuracy statement", finished: "finished",
 };
 
 export const CRITERIA = {
   phi1: "Φ1", phi2: "Φ2", phi3: "Φ3", phi4: "Φ4", phi5: "Φ5", phi6: "Φ6",
 };
+
+/** A criterion's symbol: `phi3` → Φ3, `phi3@crest` (bound to one region) → Φ3@crest. */
+export function criterionLabel(name) {
+  const [kind, region] = String(name).split("@");
+  const symbol = CRITERIA[kind] || kind;
+  return region === undefined ? symbol : `${symbol}@${region}`;
+}
+
+/** What a criterion measures and its unit, [what, unit] (bound to one region: over that one). */
+export function criterionInfo(name) {
+  const [kind, region] = String(name).split("@");
+  const [what, unit] = CRITERION_INFO[kind] || [kind, ""];
+  return region === undefined ? [what, unit] : [`${what.replace(/ over a (region|boundary piece)$/, "")} over '${region}'`, unit];
+}
 
 /** What each criterion measures, and its unit. */
 export const CRITERION_INFO = {

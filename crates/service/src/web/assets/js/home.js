@@ -1,6 +1,6 @@
 // The home view: the submit form and the live job list.
 import { api, ApiError } from "./api.js";
-import { $, el, num, count, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
+import { $, el, num, count, when, PHASES, CRITERION_INFO, criterionLabel } from "./format.js";
 
 const LIST_POLL_MS = 2000;
 let listTimer = null;
@@ -38,7 +38,7 @@ function bestLines(job) {
     byCriterion.set(b.criterion, entry);
   }
   return [...byCriterion].map(([c, v]) =>
-    el("span", { class: "best-line" }, `${CRITERIA[c] || c}: ${num(v.max, 3)} / ${num(v.min, 3)}`),
+    el("span", { class: "best-line" }, `${criterionLabel(c)}: ${num(v.max, 3)} / ${num(v.min, 3)}`),
   );
 }
 
@@ -61,7 +61,7 @@ function jobRow(job) {
       ` ${job.evaluations}/${job.budget}`,
     ),
     el("td", { "data-label": "Created" }, when(job.created_at)),
-    el("td", { "data-label": "Criteria" }, job.criteria.map((c) => CRITERIA[c] || c).join(" ")),
+    el("td", { "data-label": "Criteria" }, job.criteria.map((c) => criterionLabel(c)).join(" ")),
     el("td", { class: "best", "data-label": "Best so far (max / min)" }, ...bestLines(job)),
   );
   tr.addEventListener("click", (e) => {
@@ -137,12 +137,18 @@ function sourceIsUpload() {
   return document.querySelector("input[name=source]:checked").value === "upload";
 }
 
+/** The checked criteria, then those bound to one region (`phi3@crest`). */
 function selectedCriteria() {
-  return [...document.querySelectorAll("#criteria input:checked")].map((c) => c.value);
+  const checked = [...document.querySelectorAll("#criteria input:checked")].map((c) => c.value);
+  const bound = $("bound-criteria").value.split(",").map((c) => c.trim()).filter((c) => c !== "");
+  return [...checked, ...bound];
 }
 
+/** Show a scene's criteria: the plain ones as checks, those bound to a region as text. */
 function setCriteria(list) {
-  for (const c of document.querySelectorAll("#criteria input")) c.checked = list.includes(c.value);
+  const names = list.map((c) => (typeof c === "string" ? c : c.region ? `${c.criterion}@${c.region}` : c.criterion));
+  for (const c of document.querySelectorAll("#criteria input")) c.checked = names.includes(c.value);
+  $("bound-criteria").value = names.filter((c) => c.includes("@")).join(", ");
 }
 
 /** A contact zone's friction in words, as the scene gives it. */
@@ -170,7 +176,7 @@ async function loadExamples() {
   for (const [c, [what, unit]] of Object.entries(CRITERION_INFO)) {
     checks.append(
       el("label", { title: `${what} [${unit}]` },
-        el("input", { type: "checkbox", value: c, name: "criteria" }), ` ${CRITERIA[c]} `,
+        el("input", { type: "checkbox", value: c, name: "criteria" }), ` ${criterionLabel(c)} `,
         el("span", { class: "hint" }, `(${c})`)),
     );
   }

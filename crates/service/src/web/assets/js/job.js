@@ -2,7 +2,7 @@
 // worst/best data, sensitivities, solver statistics, the scenario mesh and downloads.
 import { api, ApiError, download, hasToken } from "./api.js";
 import { ConvergencePlots, sensitivityChart } from "./charts.js";
-import { $, el, facts, num, count, duration, when, PHASES, CRITERIA, CRITERION_INFO } from "./format.js";
+import { $, el, facts, num, count, duration, when, PHASES, criterionLabel, criterionInfo } from "./format.js";
 import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
 
 const POLL_MS = 1000;
@@ -160,7 +160,7 @@ function onStatus(s) {
   $("job-progress-text").dataset.failures = s.failures || 0;
   facts($("job-facts"), [
     ["Phase", PHASES[s.phase] || s.phase],
-    ["Criteria", s.criteria.map((c) => CRITERIA[c] || c).join(", ")],
+    ["Criteria", s.criteria.map((c) => criterionLabel(c)).join(", ")],
     ["Created", when(s.created_at)],
     ["Started", when(s.started_at)],
     ["Finished", when(s.finished_at)],
@@ -243,7 +243,7 @@ async function loadFinished(id, gen) {
   statistics(result);
   const names = result.criteria.map((c) => c.criterion);
   for (const sel of [$("mesh-criterion"), $("sens-criterion")]) {
-    sel.replaceChildren(...names.map((c) => el("option", { value: c }, `${CRITERIA[c] || c} (${c})`)));
+    sel.replaceChildren(...names.map((c) => el("option", { value: c }, `${criterionLabel(c)} (${c})`)));
   }
   sensitivities();
   loadFields();
@@ -270,10 +270,11 @@ function dataTables(result) {
   const statement = result.accuracy ? result.accuracy.criteria : [];
   const blocks = result.criteria.map((c) => {
     const name = c.criterion;
-    const [what, unit] = CRITERION_INFO[name] || [name, ""];
+    const [what, unit] = criterionInfo(name);
     const accuracy = statement.find((a) => a.criterion === name);
-    const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.value) },
-      o.value === null ? "—" : `${num(o.value, 6)} ${unit}`);
+    const value = (o, sense) => el("td", { class: `num ${sense}`, id: `value-${name}-${sense}`, "data-value": String(o.value),
+      "data-region": o.region || "" },
+      o.value === null ? "—" : `${num(o.value, 6)} ${unit}`, o.region ? el("span", { class: "bound" }, ` in '${o.region}'`) : null);
     const rows = result.parameters.map((p, i) => el("tr", {},
       el("th", { scope: "row" }, p.name, p.field !== p.name ? el("span", { class: "bound" }, ` ${p.field}`) : null),
       el("td", { class: "num" }, `[${num(p.interval[0])}, ${num(p.interval[1])}]`),
@@ -284,14 +285,14 @@ function dataTables(result) {
       ]),
     ));
     return el("div", { class: "crit-table table-wrap" },
-      el("h3", {}, `${CRITERIA[name] || name} — ${what} [${unit}]`),
+      el("h3", {}, `${criterionLabel(name)} — ${what} [${unit}]`),
       el("table", { "data-criterion": name },
         el("thead", {}, el("tr", {},
           el("th", { scope: "col" }, "Parameter"), el("th", { scope: "col", class: "num" }, "Interval"),
           el("th", { scope: "col", class: "num max" }, "Worst θ (max)"), el("th", { scope: "col" }, "Active bound"),
           el("th", { scope: "col", class: "num min" }, "Best θ (min)"), el("th", { scope: "col" }, "Active bound"))),
         el("tbody", {},
-          el("tr", {}, el("th", { scope: "row" }, `${CRITERIA[name] || name} value`), el("td"),
+          el("tr", {}, el("th", { scope: "row" }, `${criterionLabel(name)} value`), el("td"),
             value(c.worst, "max"), el("td"), value(c.best, "min"), el("td")),
           accuracy ? el("tr", {}, el("th", { scope: "row" }, "Discretisation error (estimate)"), el("td"),
             errorCell(name, "max", accuracy.worst, unit), el("td"), errorCell(name, "min", accuracy.best, unit), el("td")) : null,
@@ -385,7 +386,7 @@ function refinedFailureTable(statement) {
   const failures = statement.failures;
   $("refined-failures-summary").textContent = `${count(failures.length, "refined solve")} of the accuracy statement failed. ` +
     "The discretisation error of the values at those data rests on fewer meshes than asked, or is unknown (see the warnings at the top).";
-  const names = (criteria) => criteria.map((c) => CRITERIA[c] || c).join(", ");
+  const names = (criteria) => criteria.map((c) => criterionLabel(c)).join(", ");
   const extrema = (f) => [f.worst_of.length ? `worst ${names(f.worst_of)}` : null,
     f.best_of.length ? `best ${names(f.best_of)}` : null].filter(Boolean).join("; ");
   const mesh = (level) => {
@@ -466,10 +467,10 @@ async function loadFields() {
   if (!extremum || !extremum.point) {
     mesh.clear();
     setLink("dl-vtu", null);
-    mesh.message(`No feasible point was found for the ${scenario} scenario of ${CRITERIA[criterion] || criterion}: there is no mesh to show.`);
+    mesh.message(`No feasible point was found for the ${scenario} scenario of ${criterionLabel(criterion)}: there is no mesh to show.`);
     return;
   }
-  mesh.message(`Solving the ${scenario} scenario of ${CRITERIA[criterion] || criterion}…`);
+  mesh.message(`Solving the ${scenario} scenario of ${criterionLabel(criterion)}…`);
   let fields;
   try {
     fields = await api.fields(id, scenario, criterion);
@@ -513,8 +514,15 @@ function meshFacts(summary) {
     ["Mesh", `${summary.mesh.nodes} nodes, ${summary.mesh.triangles} triangles`],
     ["Contact pairs", String(summary.mesh.contact_pairs)],
   ];
+  const attained = summary.attained_in || {};
   for (const [c, v] of Object.entries(summary.criteria || {})) {
-    if (v !== null) pairs.push([`${CRITERIA[c] || c} here`, `${num(v, 6)} ${(CRITERION_INFO[c] || [])[1] || ""}`]);
+    if (v === null) continue;
+    if (c === "phi5_equivalent_stress") {
+      pairs.push(["√Φ5 here", `${num(v, 6)} Pa`]);
+      continue;
+    }
+    const where = attained[c] ? ` in '${attained[c]}'` : "";
+    pairs.push([`${criterionLabel(c)} here`, `${num(v, 6)} ${criterionInfo(c)[1]}${where}`]);
   }
   for (const z of summary.contact_zones || []) {
     pairs.push([`Contact ${z.name}: friction`, frictionLaw(z)]);
