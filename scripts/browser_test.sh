@@ -61,6 +61,8 @@ START=$(date +%s)
 start_server() {
     local name=$1 token=$2
     shift 2
+    # Created before the server starts, so reading it cannot race the background redirection.
+    : >"$WORK/$name.out"
     env -u WSM_API_TOKEN ${token:+WSM_API_TOKEN="$token"} "$WSM" serve --addr 127.0.0.1:0 \
         --db "$WORK/$name.db" --workers 1 --threads-per-job 1 "$@" \
         >"$WORK/$name.out" 2>"$ARTIFACTS/$name-server.log" &

@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use super::ascent::{self, Start};
 use super::certificate::{self, scale, CERTIFY_TOL};
+use super::optima::OPTIMUM_TOL;
 use super::random::{stream, Rng};
 use super::screening::latin_hypercube;
 use super::session::{Probe, Session};
@@ -100,7 +101,8 @@ pub struct GlobalEvidence {
     /// W(N − 1)/(N − W − 2) − W (absent while N ≤ W + 2).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unseen_estimate: Option<f64>,
-    /// The best local optimum other than the reported extremum.
+    /// The best local optimum other than the reported extremum and those tying with it within
+    /// 1e-9 relative (those are `several_optima`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub runner_up: Option<RunnerUp>,
     /// The evidence in plain words.
@@ -404,10 +406,13 @@ impl<'s, 'a> Global<'s, 'a> {
         let sense = self.session.objectives()[k].sense;
         let dim = self.session.space.dim();
         let runner_up = best.and_then(|(unit, value)| {
+            // Optima that tie with the extremum (within 1e-9) are several maximisers of the same
+            // value (`several_optima`), not a runner-up.
+            let tie = sense.score(value) - OPTIMUM_TOL * scale(value);
             landscape
                 .optima
                 .iter()
-                .filter(|o| distance(&o.unit, unit) > SAME_OPTIMUM)
+                .filter(|o| distance(&o.unit, unit) > SAME_OPTIMUM && o.score < tie)
                 .max_by(|a, b| a.score.total_cmp(&b.score))
                 .map(|o| RunnerUp {
                     value: sense.score(o.score),
