@@ -8,7 +8,7 @@
 //! it there is *identified* as active and frozen; the others form the free set. The step is
 //! p = H d with the BFGS inverse-Hessian estimate H of −score on the free set (reset to a scaled
 //! identity whenever the free set changes or p is not an ascent direction), projected onto the
-//! box and backtracked until the Armijo condition s(y) ≥ s(x) + 1e-4 · d·(y − x) holds. It stops
+//! box and backtracked (by quarters, down to a trial 1e-6 from the point) until the Armijo condition s(y) ≥ s(x) + 1e-4 · d·(y − x) holds. It stops
 //! as soon as the relative residual max|d| / |Φ| is below [`CERTIFY_TOL`] (locally certified), when no
 //! backtracked step improves even from the identity (stagnated: a kink or the resolution of Φ),
 //! after a few infeasible trial points (stagnated: the optimum borders a failure region), at
@@ -22,8 +22,11 @@ use super::Status;
 
 /// Armijo constant of the backtracking line search.
 const ARMIJO: f64 = 1e-4;
-/// Halvings of a step before the line search gives up.
-const BACKTRACKS: usize = 20;
+/// A trial that does not improve shrinks the step by this factor ...
+const BACKTRACK: f64 = 0.25;
+/// ... until the trial lies this close to the current point (unit box, ∞-norm): then the line
+/// search gives up (a kink of Φ, or its resolution). About ten trials from a whole-box step.
+const MIN_TRIAL: f64 = 1e-6;
 /// Iterations of one ascent.
 const MAX_ITERATIONS: usize = 200;
 /// Coordinates this close to a bound are put on it.
@@ -104,14 +107,13 @@ fn bfgs_update(h: &mut [Vec<f64>], s: &[f64], y: &[f64]) {
 }
 
 /// The backtracking line search of one iteration: ascent direction g on the free set, step
-/// p = H g, current step length and the trials made.
+/// p = H g and the current step length.
 struct LineSearch {
     g: Vec<f64>,
     /// The scale of the identity step.
     gamma: f64,
     p: Vec<f64>,
     step: f64,
-    tries: usize,
 }
 
 /// One ascent: where it is, its inverse-Hessian estimate and line search, and why it ended.
@@ -171,16 +173,14 @@ impl Ascent {
                 self.line = Some(self.line_search());
             }
             let line = self.line.as_mut().expect("a line search is under way");
-            if line.tries < BACKTRACKS {
-                let mut y = trial_point(&self.x.unit, &line.p, line.step);
-                while linf_distance(&y, &self.x.unit) > reach {
-                    line.step *= 0.5;
-                    y = trial_point(&self.x.unit, &line.p, line.step);
-                }
-                if y != self.x.unit {
-                    self.trial = y.clone();
-                    return Some(y);
-                }
+            let mut y = trial_point(&self.x.unit, &line.p, line.step);
+            while linf_distance(&y, &self.x.unit) > reach {
+                line.step *= 0.5;
+                y = trial_point(&self.x.unit, &line.p, line.step);
+            }
+            if linf_distance(&y, &self.x.unit) >= MIN_TRIAL {
+                self.trial = y.clone();
+                return Some(y);
             }
             self.give_up_line();
         }
@@ -208,7 +208,6 @@ impl Ascent {
             gamma,
             p,
             step: 1.0,
-            tries: 0,
         }
     }
 
@@ -227,7 +226,6 @@ impl Ascent {
             .line
             .as_mut()
             .expect("a trial belongs to a line search");
-        line.tries += 1;
         let moved: Vec<f64> = self
             .trial
             .iter()
@@ -240,7 +238,7 @@ impl Ascent {
                 self.line = None;
                 self.accept(z, &moved, gamma);
             }
-            Some(_) => line.step *= 0.5,
+            Some(_) => line.step *= BACKTRACK,
             None => self.failed.push(self.trial.clone()),
         }
     }

@@ -22,8 +22,9 @@
 //!    stops early. Every mode stops at the budget, the time limit or a cancel.
 //!
 //! The local optima of an objective are the distinct ends of its local searches and its locally
-//! certified vertices, clustered within [`SAME_OPTIMUM`] (unit box); the best of them other than
-//! the reported extremum is the *runner-up*. An ascent that ends at the border of a region where
+//! certified vertices, clustered within [`SAME_OPTIMUM`] (unit box) or by equal value (within
+//! 1e-9: a criterion independent of some data has a flat face of equal maxima, one optimum); the
+//! best of them other than the reported extremum is the *runner-up*. An ascent that ends at the border of a region where
 //! the solver fails (`unsettled`), or is cut short by the budget, found no optimum: it counts
 //! neither as a start of the estimate nor as an optimum.
 
@@ -144,12 +145,15 @@ struct Landscape {
 }
 
 impl Landscape {
-    /// Add a local optimum (or a new member of a known one); its cluster index.
+    /// Add a local optimum (or a new member of a known one: within [`SAME_OPTIMUM`], or of the
+    /// same value within 1e-9 relative — a flat ridge or face of equal values is one optimum);
+    /// its cluster index.
     fn note(&mut self, unit: &[f64], score: f64, certified: bool) -> usize {
+        let same_value = |s: f64| (s - score).abs() <= OPTIMUM_TOL * s.abs().max(score.abs());
         if let Some(i) = self
             .optima
             .iter()
-            .position(|o| distance(&o.unit, unit) <= SAME_OPTIMUM)
+            .position(|o| distance(&o.unit, unit) <= SAME_OPTIMUM || same_value(o.score))
         {
             let o = &mut self.optima[i];
             if score > o.score {
@@ -549,6 +553,9 @@ mod tests {
         assert!((l.unseen_estimate().unwrap() - 1.5).abs() < 1e-15);
         // Ends within 0.05 join a cluster, keeping the better point.
         assert_eq!(l.note(&[0.97], 0.7, true), 1);
+        // A far end of the same value (a flat face of maxima) is the same optimum.
+        assert_eq!(l.note(&[0.5], 1.0 + 1e-12, false), 0);
+        assert_eq!(l.optima.len(), 2);
         assert_eq!(
             (l.optima[1].unit.clone(), l.optima[1].certified),
             (vec![0.97], true)

@@ -104,10 +104,10 @@ fn extremum(
         };
         let _ = writeln!(
             out,
-            "    runner-up local {kind}: {:.6e} {} ({:.2} % less extreme)",
+            "    runner-up local {kind}: {:.6e} {} ({:.2e} relative, less extreme)",
             r.value,
             criterion.unit(),
-            100.0 * r.gap
+            r.gap
         );
     }
 }

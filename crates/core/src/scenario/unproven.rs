@@ -96,13 +96,13 @@ fn global_warning(
                 .map(|(n, v)| format!("{n} = {v:.6e}"))
                 .collect();
             format!(
-            "another local {kind}, {:.6e} at ({}), is within {:.1} % of it: the criterion is not \
+                "another local {kind}, {:.6e} at ({}), is within {} of it: the criterion is not \
              monotone over the box, and a small change of the model could make that one the \
              {which}",
-            r.value,
-            at.join(", "),
-            100.0 * r.gap
-        )
+                r.value,
+                at.join(", "),
+                percent(r.gap)
+            )
         });
     let open = (!g.rule_met).then(|| {
         format!(
@@ -195,6 +195,16 @@ fn warning(
     Some(format!(
         "{symbol} {which} may be {direction} than the reported {value:.6e}: the search stopped before optimality — {reason}, with {place}; {advice}."
     ))
+}
+
+/// A small relative gap in percent, readable at any size: `2.5 %`, `3.2e-3 %`.
+fn percent(gap: f64) -> String {
+    let p = 100.0 * gap;
+    if p >= 0.1 {
+        format!("{p:.1} %")
+    } else {
+        format!("{p:.1e} %")
+    }
 }
 
 #[cfg(test)]
