@@ -29,8 +29,8 @@ vertices = len(points)
 points += [[lo + rng.random() * (hi - lo) for lo, hi in intervals] for _ in range(count)]
 extreme = {}
 failed = 0
-for x in points:
-    proc.stdin.write(json.dumps(list(x)) + "\n")
+for x in map(list, points):
+    proc.stdin.write(json.dumps(x) + "\n")
     proc.stdin.flush()
     answer = json.loads(proc.stdout.readline())
     if not answer.get("values"):
@@ -38,7 +38,7 @@ for x in points:
         continue
     for c, v in answer["values"].items():
         hi, lo = extreme.get(c, ((v, x), (v, x)))
-        extreme[c] = (max(hi, (v, list(x))), min(lo, (v, list(x))))
+        extreme[c] = (max(hi, (v, x)), min(lo, (v, x)))
 proc.stdin.close()
 proc.wait()
 print(f"{vertices} vertices and {count} random points ({failed} failed)")
