@@ -59,7 +59,7 @@ const START_RESERVE_CAP: usize = 100;
 const ROUND_STREAM: u64 = 1 << 20;
 
 /// The default evaluation budget for `dim` free data: 300, plus the 2^dim vertices when there are
-/// at most [`VERTEX_CAP`] of them, so that the global rule can be met by default.
+/// at most `VERTEX_CAP` (1024) of them, so that the global rule can be met by default.
 pub fn default_budget(dim: usize) -> usize {
     match vertex_count(dim) {
         Some(v) if v <= VERTEX_CAP => 300 + v as usize,

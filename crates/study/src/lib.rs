@@ -10,7 +10,7 @@
 //! - [`stability`]: `wsm study stability` — the catalogue of stiff and extreme cases, each
 //!   solved with its KKT residuals and a condition estimate ([`condition`]) or refused with a
 //!   reason.
-//! - [`bench`]: `wsm bench` — timings of assembly, factorisation, the inner solvers and the
+//! - [`mod@bench`]: `wsm bench` — timings of assembly, factorisation, the inner solvers and the
 //!   outer loop.
 
 pub mod accuracy;

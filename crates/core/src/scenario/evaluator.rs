@@ -2,7 +2,7 @@
 //! requested criteria by one state solve at the data θ (only what the criteria need), with the
 //! solve's largest KKT residual and its time, and inner-solver statistics over the run. With
 //! derivatives on, the same solve also gives the exact one-sided dΦ_i/dθ_j along every
-//! uncertain datum ([`crate::state::sensitivity`]), which drive and certify the search.
+//! uncertain datum (`state::sensitivity`), which drive and certify the search.
 //!
 //! Evaluations of a batch run in parallel (rayon, sequential factorisations inside); each
 //! warm-starts its contact solve from the nominal solution, so results do not depend on the
