@@ -39,7 +39,14 @@ fn slow_clients_are_cut_off_after_the_timeouts_and_a_huge_length_is_refused_up_f
     let db = temp_db("slow.db");
     let server = Server::start(
         &db,
-        &["--workers", "0", "--header-timeout", "2", "--body-timeout", "2"],
+        &[
+            "--workers",
+            "0",
+            "--header-timeout",
+            "2",
+            "--body-timeout",
+            "2",
+        ],
     );
     let addr = &server.addr;
 
@@ -78,7 +85,11 @@ fn slow_clients_are_cut_off_after_the_timeouts_and_a_huge_length_is_refused_up_f
     let (reply, _) = read_until_closed(&mut huge, Duration::from_secs(5));
     assert!(reply.starts_with("HTTP/1.1 413"), "{reply}");
     assert!(reply.contains("too_large"), "{reply}");
-    assert!(start.elapsed() < Duration::from_secs(1), "{:?}", start.elapsed());
+    assert!(
+        start.elapsed() < Duration::from_secs(1),
+        "{:?}",
+        start.elapsed()
+    );
 
     assert_eq!(get(addr, "/healthz").status, 200);
 }
@@ -103,7 +114,14 @@ fn idle_connections_beyond_the_cap_never_make_health_hang_and_are_closed() {
     let db = temp_db("idle.db");
     let server = Server::start(
         &db,
-        &["--workers", "0", "--max-connections", "20", "--header-timeout", "3"],
+        &[
+            "--workers",
+            "0",
+            "--max-connections",
+            "20",
+            "--header-timeout",
+            "3",
+        ],
     );
     let addr = &server.addr;
     let idle: Vec<TcpStream> = (0..70).map(|_| TcpStream::connect(addr).unwrap()).collect();

@@ -190,7 +190,15 @@ fn hostile_requests_get_clear_4xx_answers_and_the_server_keeps_answering() {
     assert_eq!(listing.status, 200);
     // Query parameters (issue #44): a bad value is refused naming its parameter.
     let id = listing.json()[0]["id"].as_str().unwrap().to_string();
-    let bad = ["abc", "-1", "0", "1e3", "99999999999999999999999", "10001", ""];
+    let bad = [
+        "abc",
+        "-1",
+        "0",
+        "1e3",
+        "99999999999999999999999",
+        "10001",
+        "",
+    ];
     for (path, parameter) in [
         ("/v1/jobs".to_string(), "limit"),
         ("/v1/jobs".to_string(), "offset"),

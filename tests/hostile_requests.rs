@@ -557,7 +557,8 @@ fn synchronous_solves_beyond_the_cap_get_503_with_retry_after() {
         let addr = addr.clone();
         std::thread::spawn(move || post(&addr, "/v1/solve", &json!({ "scene": slow_block() })))
     };
-    // While the first runs, a second is refused at once.
+    // While the first runs (its request is given a head start), a second is refused at once.
+    std::thread::sleep(std::time::Duration::from_millis(300));
     let mut refused = None;
     let start = std::time::Instant::now();
     while start.elapsed() < std::time::Duration::from_secs(20) {
@@ -572,10 +573,11 @@ fn synchronous_solves_beyond_the_cap_get_503_with_retry_after() {
         }
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
+    let first = first.join().unwrap();
+    assert_eq!(first.status, 200, "{}", text(&first));
     let refused = refused.expect("a solve refused while another ran");
     assert_eq!(refused.json()["error"], "busy", "{}", text(&refused));
     assert_eq!(refused.header("retry-after"), Some("2"));
-    assert_eq!(first.join().unwrap().status, 200);
     // The place is free again.
     let after = post(&addr, "/v1/solve", &json!({ "example": "block-on-base" }));
     assert_eq!(after.status, 200, "{}", text(&after));
@@ -595,12 +597,17 @@ fn fields_of_a_mesh_beyond_the_limit_are_refused_naming_the_option() {
     let body = with_fields.json();
     assert_eq!(body["path"], "settings.fields", "{body}");
     assert!(
-        body["detail"].as_str().unwrap().contains("at most 100 triangles"),
+        body["detail"]
+            .as_str()
+            .unwrap()
+            .contains("at most 100 triangles"),
         "{body}"
     );
     let summary = post(addr, "/v1/solve", &json!({ "example": "block-on-base" }));
     assert_eq!(summary.status, 200, "{}", text(&summary));
-    let triangles = summary.json()["summary"]["mesh"]["triangles"].as_u64().unwrap();
+    let triangles = summary.json()["summary"]["mesh"]["triangles"]
+        .as_u64()
+        .unwrap();
     assert!(triangles > 100, "{triangles}");
 }
 

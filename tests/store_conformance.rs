@@ -564,7 +564,11 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
     );
     assert!(store.evaluations("d", None).await.unwrap().is_empty());
     // The coordinator dies too: whoever takes the job over starts without the old tasks.
-    let second = store.lease("coord2", 30.0, 3).await.unwrap().expect("expired");
+    let second = store
+        .lease("coord2", 30.0, 3)
+        .await
+        .unwrap()
+        .expect("expired");
     assert_eq!(second.attempts, first.attempts + 1);
     assert!(
         !store

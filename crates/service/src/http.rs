@@ -113,8 +113,8 @@ pub async fn serve(
         let _ = stream.set_nodelay(true);
         if let Ok(permit) = open.clone().try_acquire_owned() {
             let service = TowerToHyperService::new(app.clone());
-            let connection = builder(limits.header_timeout)
-                .serve_connection(TokioIo::new(stream), service);
+            let connection =
+                builder(limits.header_timeout).serve_connection(TokioIo::new(stream), service);
             let connection = graceful.watch(connection);
             tokio::spawn(async move {
                 let _ = connection.await;
@@ -145,9 +145,7 @@ async fn refuse(stream: TcpStream, permit: OwnedSemaphorePermit) {
     });
     let mut builder = builder(Duration::from_secs(1));
     builder.keep_alive(false);
-    let _ = builder
-        .serve_connection(TokioIo::new(stream), busy)
-        .await;
+    let _ = builder.serve_connection(TokioIo::new(stream), busy).await;
     drop(permit);
 }
 
@@ -159,7 +157,10 @@ fn busy_response() -> Response<Body> {
     let mut response = Response::new(Body::from(body.to_string()));
     *response.status_mut() = StatusCode::SERVICE_UNAVAILABLE;
     let headers = response.headers_mut();
-    headers.insert(header::CONTENT_TYPE, HeaderValue::from_static("application/json"));
+    headers.insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("application/json"),
+    );
     headers.insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
     headers.insert(header::CONNECTION, HeaderValue::from_static("close"));
     response

@@ -45,7 +45,8 @@ pub async fn guard(State(limits): State<BodyLimits>, request: Request, next: Nex
             ))
         }
     };
-    next.run(Request::from_parts(parts, Body::from(bytes))).await
+    next.run(Request::from_parts(parts, Body::from(bytes)))
+        .await
 }
 
 /// One `Authorization` header at most; a declared length within `max_bytes`.

@@ -13,7 +13,11 @@ pub fn parse<T: DeserializeOwned>(RawQuery(query): RawQuery) -> Result<T, ApiErr
     let pairs = form_urlencoded::parse(text.as_bytes());
     serde_path_to_error::deserialize(serde_urlencoded::Deserializer::new(pairs)).map_err(|e| {
         let path = e.path().to_string();
-        let path = if path == "." { "query".to_string() } else { path };
+        let path = if path == "." {
+            "query".to_string()
+        } else {
+            path
+        };
         ApiError::invalid(path, format!("in the query: {}", e.into_inner()))
     })
 }

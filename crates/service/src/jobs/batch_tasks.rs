@@ -150,9 +150,7 @@ impl StoreDispatch {
 
     /// Wait for a store call; its error as this job's.
     fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
-        self.runtime
-            .block_on(call)
-            .map_err(|e| self.store_error(e))
+        self.runtime.block_on(call).map_err(|e| self.store_error(e))
     }
 
     /// Wait for a store call spawned on the runtime; its error (or the task's) as this job's.

@@ -39,8 +39,7 @@ const PROBE_TIMEOUT: Duration = Duration::from_secs(2);
 pub fn spawn_monitor(store: Arc<dyn JobStore>, health: Arc<StoreHealth>) {
     tokio::spawn(async move {
         loop {
-            let failure = match tokio::time::timeout(PROBE_TIMEOUT, store.check_writable()).await
-            {
+            let failure = match tokio::time::timeout(PROBE_TIMEOUT, store.check_writable()).await {
                 Ok(answer) => answer.err().map(|e| e.to_string()),
                 Err(_) => Some(format!(
                     "job store: a write did not complete within {} s (the database is locked \

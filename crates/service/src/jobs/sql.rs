@@ -139,22 +139,20 @@ fn unavailable(e: &sqlx::Error) -> bool {
         | sqlx::Error::WorkerCrashed
         | sqlx::Error::BeginFailed
         | sqlx::Error::InvalidSavePointStatement => true,
-        sqlx::Error::Database(d) => {
-            match d.try_downcast_ref::<sqlx::postgres::PgDatabaseError>() {
-                Some(pg) => {
-                    let code = pg.code();
-                    ["08", "40", "53", "57", "58"]
-                        .iter()
-                        .any(|class| code.starts_with(class))
-                        || code == "55P03"
-                        || code == "25006"
-                }
-                None => d
-                    .code()
-                    .and_then(|c| c.parse::<i32>().ok())
-                    .is_some_and(|c| matches!(c & 0xff, 5..=10 | 13..=15)),
+        sqlx::Error::Database(d) => match d.try_downcast_ref::<sqlx::postgres::PgDatabaseError>() {
+            Some(pg) => {
+                let code = pg.code();
+                ["08", "40", "53", "57", "58"]
+                    .iter()
+                    .any(|class| code.starts_with(class))
+                    || code == "55P03"
+                    || code == "25006"
             }
-        }
+            None => d
+                .code()
+                .and_then(|c| c.parse::<i32>().ok())
+                .is_some_and(|c| matches!(c & 0xff, 5..=10 | 13..=15)),
+        },
         _ => false,
     }
 }
