@@ -346,7 +346,7 @@ async fn run_job(
     let mut retries = 0;
     let end = loop {
         match run.attempt(progress_tx.clone()).await {
-            Attempt::Ended(end) => break end,
+            Attempt::Ended(end) => break *end,
             Attempt::StoreFailed(error) if retries < STORE_RETRIES => {
                 retries += 1;
                 eprintln!("wsm: job {id}: {error}; resuming once the store takes writes");
@@ -393,7 +393,7 @@ async fn run_job(
 /// How one run of a job ended.
 enum Attempt {
     /// With an outcome or an error of its own.
-    Ended(JobEnd),
+    Ended(Box<JobEnd>),
     /// On an unavailable store (the message): the job is not at fault.
     StoreFailed(String),
 }
@@ -413,19 +413,19 @@ impl Run<'_> {
         let (store, config, job) = (self.store, self.config, self.job);
         let id = job.id.clone();
         if let Some(why) = &job.damaged {
-            return Attempt::Ended(JobEnd::Failed {
+            return Attempt::Ended(Box::new(JobEnd::Failed {
                 kind: "damaged".into(),
                 error: format!("the stored job is damaged and cannot run: {why}"),
-            });
+            }));
         }
         let replay = match store.evaluations(&id, None).await {
             Ok(replay) => replay,
             Err(e) if e.unavailable => return Attempt::StoreFailed(e.to_string()),
             Err(e) => {
-                return Attempt::Ended(JobEnd::Failed {
+                return Attempt::Ended(Box::new(JobEnd::Failed {
                     kind: "io".into(),
                     error: e.to_string(),
-                })
+                }))
             }
         };
         let store_failed = Arc::new(AtomicBool::new(false));
@@ -471,7 +471,7 @@ impl Run<'_> {
             };
             run::worst(scene, &request, &control)
         });
-        Attempt::Ended(match task.await {
+        Attempt::Ended(Box::new(match task.await {
             // A cancel that came after the last evaluation (during the sensitivities or
             // the accuracy statement) still ends the job cancelled, as the 202 promised.
             Ok(Ok(outcome))
@@ -496,7 +496,7 @@ impl Run<'_> {
                 kind: "panic".into(),
                 error: format!("the job was aborted: {join}"),
             },
-        })
+        }))
     }
 
     /// Wait until the store takes writes again; false when the job should not run again here
