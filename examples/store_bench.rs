@@ -69,7 +69,7 @@ async fn bench(db: &str, batches: usize) {
             .await
             .unwrap();
         assert!(inserted);
-        let job = store.lease("coordinator", 60.0).await.unwrap().unwrap();
+        let job = store.lease("coordinator", 60.0, 3).await.unwrap().unwrap();
         let loops: Vec<_> = (0..workers)
             .map(|w| tokio::spawn(task_loop(store.clone(), format!("w{job_no}-{w}"))))
             .collect();

@@ -3,6 +3,7 @@
 //! `wsm_service::server`, `wsm_study`).
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 
@@ -10,6 +11,7 @@ use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
 use wsm_core::scene::{SolverKind, StopRule};
 use wsm_service::api::{Access, Limits};
+use wsm_service::http::ConnectionLimits;
 use wsm_service::jobs::runner::{FaultRule, FaultSolves};
 use wsm_service::server::{ServeConfig, WorkerConfig};
 use wsm_study::accuracy::AccuracyOptions;
@@ -218,9 +220,37 @@ pub struct ServeArgs {
     /// Largest estimated mesh of a job [triangles].
     #[arg(long, default_value_t = 2_000_000)]
     pub max_triangles: usize,
-    /// Largest request body [bytes].
+    /// Largest request body [bytes]; a larger declared Content-Length is refused (413) before
+    /// the body is read.
     #[arg(long, default_value_t = 4 << 20)]
     pub max_body_bytes: usize,
+    /// A request's head (request line and headers) must arrive within this long of the
+    /// connection's opening or of the previous response, else the connection is closed [s].
+    #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
+    pub header_timeout: f64,
+    /// A request's body must arrive within this long of its head, else 408 [s].
+    #[arg(long, default_value_t = 30.0, value_parser = parse_seconds)]
+    pub body_timeout: f64,
+    /// Connections open at once; beyond, 503 at once (default: the file-descriptor limit less
+    /// room for the store and workers, at most 4096).
+    #[arg(long)]
+    pub max_connections: Option<usize>,
+    /// Synchronous solves (POST /v1/solve, a job's fields) at once; beyond, 503 with Retry-After
+    /// (default: half the cores, 1 to 4).
+    #[arg(long)]
+    pub max_concurrent_solves: Option<usize>,
+    /// Triangles of the largest mesh whose fields a response carries (beyond: 422 naming
+    /// settings.fields).
+    #[arg(long, default_value_t = 50_000)]
+    pub max_field_triangles: usize,
+    /// A job whose worker died (its lease expired) this many times fails instead of being
+    /// leased again.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_attempts: u32,
+    /// How long a store statement waits for a lock another process holds before it fails (the
+    /// request then gets 503, the job is retried) [s].
+    #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
+    pub store_timeout: f64,
     /// With WSM_API_TOKEN set, let anyone read jobs, scenes and results (by default reads need
     /// the token, or the read-only token WSM_READ_TOKEN).
     #[arg(long)]
@@ -230,6 +260,15 @@ pub struct ServeArgs {
     /// solve of the accuracy statement; repeatable. Hidden from the help.
     #[arg(long, hide = true, value_parser = parse_fault_rule)]
     pub inject_failures: Vec<FaultRule>,
+}
+
+/// A positive, finite number of seconds.
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(s) if s.is_finite() && s > 0.0 && s <= 86_400.0 => Ok(s),
+        Ok(_) => Err("must be more than 0 and at most 86400 seconds".into()),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// `[refined:]FIELD=VALUE` of `--inject-failures`.
@@ -269,8 +308,22 @@ impl From<ServeArgs> for ServeConfig {
                 max_active_jobs: args.max_active_jobs,
                 max_triangles: args.max_triangles,
                 max_body_bytes: args.max_body_bytes,
+                max_concurrent_solves: args
+                    .max_concurrent_solves
+                    .unwrap_or_else(wsm_service::api::default_concurrent_solves)
+                    .max(1),
+                max_field_triangles: args.max_field_triangles,
+                body_timeout: Duration::from_secs_f64(args.body_timeout),
                 ..Limits::default()
             },
+            connections: ConnectionLimits {
+                header_timeout: Duration::from_secs_f64(args.header_timeout),
+                max_connections: args
+                    .max_connections
+                    .unwrap_or_else(wsm_service::http::default_max_connections),
+            },
+            store_timeout: Duration::from_secs_f64(args.store_timeout),
+            max_attempts: args.max_attempts,
             inject_failures: args.inject_failures,
             access: Access {
                 token: token_from_env("WSM_API_TOKEN"),
@@ -296,6 +349,13 @@ pub struct WorkerArgs {
     /// A job or task whose lease is not renewed for this long is taken over [s].
     #[arg(long, default_value_t = 30.0)]
     pub lease_seconds: f64,
+    /// A job whose worker died (its lease expired) this many times fails instead of being
+    /// leased again.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
+    pub max_attempts: u32,
+    /// How long a store statement waits for a lock another process holds before it fails [s].
+    #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
+    pub store_timeout: f64,
 }
 
 impl From<WorkerArgs> for WorkerConfig {
@@ -305,6 +365,8 @@ impl From<WorkerArgs> for WorkerConfig {
             threads: args.threads,
             jobs: args.jobs,
             lease_seconds: args.lease_seconds,
+            store_timeout: Duration::from_secs_f64(args.store_timeout),
+            max_attempts: args.max_attempts,
         }
     }
 }

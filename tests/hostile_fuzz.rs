@@ -188,6 +188,34 @@ fn hostile_requests_get_clear_4xx_answers_and_the_server_keeps_answering() {
     // Listings stay small however many jobs were accepted.
     let listing = get(addr, "/v1/jobs?limit=500");
     assert_eq!(listing.status, 200);
+    // Query parameters (issue #44): a bad value is refused naming its parameter.
+    let id = listing.json()[0]["id"].as_str().unwrap().to_string();
+    let bad = [
+        "abc",
+        "-1",
+        "0",
+        "1e3",
+        "99999999999999999999999",
+        "10001",
+        "",
+    ];
+    for (path, parameter) in [
+        ("/v1/jobs".to_string(), "limit"),
+        ("/v1/jobs".to_string(), "offset"),
+        ("/v1/jobs".to_string(), "state"),
+        (format!("/v1/jobs/{id}/evaluations"), "limit"),
+        (format!("/v1/jobs/{id}/evaluations"), "offset"),
+        (format!("/v1/jobs/{id}/fields"), "format"),
+    ] {
+        for value in bad {
+            let query = format!("{path}?{parameter}={value}");
+            let reply = http(addr, "GET", &query, None, &[]);
+            if reply.status == 422 {
+                assert_eq!(reply.json()["path"], parameter, "{query}");
+            }
+            tally.send(addr, &query, "GET", &query, b"");
+        }
+    }
     assert!(
         listing.body.len() < 500 * 4096,
         "{} bytes",

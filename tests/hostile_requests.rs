@@ -540,3 +540,118 @@ fn a_job_whose_server_died_shows_it_waits_for_a_worker_not_its_last_phase() {
         std::thread::sleep(std::time::Duration::from_millis(100));
     }
 }
+
+/// The block on its base meshed finer (a solve of about a second here).
+fn slow_block() -> Value {
+    let mut scene = block();
+    scene["mesh"]["max_size"] = json!(0.01);
+    scene
+}
+
+#[test]
+fn synchronous_solves_beyond_the_cap_get_503_with_retry_after() {
+    let db = temp_db("hostile-solves.db");
+    let server = Server::start(&db, &["--workers", "0", "--max-concurrent-solves", "1"]);
+    let addr = server.addr.clone();
+    let first = {
+        let addr = addr.clone();
+        std::thread::spawn(move || post(&addr, "/v1/solve", &json!({ "scene": slow_block() })))
+    };
+    // While the first runs (its request is given a head start), a second is refused at once.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let mut refused = None;
+    let start = std::time::Instant::now();
+    while start.elapsed() < std::time::Duration::from_secs(20) {
+        let reply = post(&addr, "/v1/solve", &json!({ "example": "block-on-base" }));
+        if reply.status == 503 {
+            refused = Some(reply);
+            break;
+        }
+        assert_eq!(reply.status, 200, "{}", text(&reply));
+        if first.is_finished() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let first = first.join().unwrap();
+    assert_eq!(first.status, 200, "{}", text(&first));
+    let refused = refused.expect("a solve refused while another ran");
+    assert_eq!(refused.json()["error"], "busy", "{}", text(&refused));
+    assert_eq!(refused.header("retry-after"), Some("2"));
+    // The place is free again.
+    let after = post(&addr, "/v1/solve", &json!({ "example": "block-on-base" }));
+    assert_eq!(after.status, 200, "{}", text(&after));
+}
+
+#[test]
+fn fields_of_a_mesh_beyond_the_limit_are_refused_naming_the_option() {
+    let db = temp_db("hostile-fields.db");
+    let server = Server::start(&db, &["--workers", "0", "--max-field-triangles", "100"]);
+    let addr = &server.addr;
+    let with_fields = post(
+        addr,
+        "/v1/solve",
+        &json!({ "example": "block-on-base", "settings": {"fields": true} }),
+    );
+    assert_eq!(with_fields.status, 422, "{}", text(&with_fields));
+    let body = with_fields.json();
+    assert_eq!(body["path"], "settings.fields", "{body}");
+    assert!(
+        body["detail"]
+            .as_str()
+            .unwrap()
+            .contains("at most 100 triangles"),
+        "{body}"
+    );
+    let summary = post(addr, "/v1/solve", &json!({ "example": "block-on-base" }));
+    assert_eq!(summary.status, 200, "{}", text(&summary));
+    let triangles = summary.json()["summary"]["mesh"]["triangles"]
+        .as_u64()
+        .unwrap();
+    assert!(triangles > 100, "{triangles}");
+}
+
+#[test]
+fn query_errors_name_their_parameter_and_evaluation_pages_are_bounded() {
+    let db = temp_db("hostile-queries.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let job = post(addr, "/v1/jobs", &json!({ "example": "block-on-base" }));
+    assert_eq!(job.status, 202, "{}", text(&job));
+    let id = job.json()["id"].as_str().unwrap().to_string();
+    let cases = [
+        ("/v1/jobs?limit=abc".to_string(), "limit"),
+        ("/v1/jobs?offset=-1".to_string(), "offset"),
+        ("/v1/jobs?state=sleeping".to_string(), "state"),
+        ("/v1/jobs?limit=501".to_string(), "limit"),
+        (format!("/v1/jobs/{id}/evaluations?limit=10001"), "limit"),
+        (format!("/v1/jobs/{id}/evaluations?limit=1e3"), "limit"),
+        (format!("/v1/jobs/{id}/evaluations?offset=x"), "offset"),
+        (format!("/v1/jobs/{id}/evaluations?format=xml"), "format"),
+    ];
+    for (path, parameter) in cases {
+        let reply = get(addr, &path);
+        assert_eq!(reply.status, 422, "{path}: {}", text(&reply));
+        assert_eq!(reply.json()["path"], parameter, "{path}: {}", text(&reply));
+    }
+    let page = get(addr, &format!("/v1/jobs/{id}/evaluations?limit=10000"));
+    assert_eq!(page.status, 200, "{}", text(&page));
+}
+
+#[test]
+fn two_authorization_headers_are_refused() {
+    let db = temp_db("hostile-auth.db");
+    let (server, _) = Server::start_with_token(&db, &["--workers", "0"], Some("secret"));
+    let addr = &server.addr;
+    let both = [
+        ("Authorization", "Bearer secret"),
+        ("Authorization", "Bearer wrong"),
+    ];
+    for headers in [both, [both[1], both[0]]] {
+        let reply = common::http(addr, "GET", "/v1/jobs", None, &headers);
+        assert_eq!(reply.status, 400, "{}", text(&reply));
+        assert_eq!(reply.json()["error"], "bad_request");
+    }
+    let one = common::http(addr, "GET", "/v1/jobs", None, &[both[0]]);
+    assert_eq!(one.status, 200, "{}", text(&one));
+}

@@ -125,7 +125,7 @@ async fn concurrent_leases_take_each_job_once(store: Arc<dyn JobStore>) {
             let store = store.clone();
             tokio::spawn(async move {
                 let mut got = Vec::new();
-                while let Some(job) = store.lease(&format!("w{w}"), 60.0).await.unwrap() {
+                while let Some(job) = store.lease(&format!("w{w}"), 60.0, 3).await.unwrap() {
                     assert_eq!(job.state, JobState::Running);
                     got.push(job.id);
                 }
@@ -148,9 +148,9 @@ conformance!(
 
 async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc<dyn JobStore>) {
     assert!(store.insert(job("j"), usize::MAX).await.unwrap());
-    let first = store.lease("w1", 0.3).await.unwrap().unwrap();
+    let first = store.lease("w1", 0.3, 3).await.unwrap().unwrap();
     assert_eq!(first.attempts, 1);
-    assert!(store.lease("w2", 0.3).await.unwrap().is_none(), "held");
+    assert!(store.lease("w2", 0.3, 3).await.unwrap().is_none(), "held");
     assert_eq!(
         store.renew("j", "w1", 0.3).await.unwrap(),
         Lease::Held {
@@ -159,7 +159,7 @@ async fn leases_renew_expire_by_the_database_clock_and_pass_cancel_on(store: Arc
     );
     assert_eq!(store.renew("j", "w2", 0.3).await.unwrap(), Lease::Lost);
     tokio::time::sleep(Duration::from_millis(450)).await;
-    let second = store.lease("w2", 30.0).await.unwrap().expect("expired");
+    let second = store.lease("w2", 30.0, 3).await.unwrap().expect("expired");
     assert_eq!(second.attempts, 2);
     assert_eq!(store.renew("j", "w1", 30.0).await.unwrap(), Lease::Lost);
     assert!(
@@ -202,11 +202,42 @@ conformance!(
     leases_renew_expire_by_the_database_clock_and_pass_cancel_on
 );
 
+/// A job whose worker keeps dying (its lease expires each time) is leased `max_attempts` times,
+/// then failed with the cause; a lease given back on shutdown is not counted.
+async fn a_job_whose_workers_keep_dying_fails_after_max_attempts(store: Arc<dyn JobStore>) {
+    assert!(store.insert(job("dies"), usize::MAX).await.unwrap());
+    let first = store.lease("w0", 0.2, 3).await.unwrap().unwrap();
+    assert_eq!(first.attempts, 1);
+    // A shutdown gives the lease back: not a death.
+    assert_eq!(store.release_all("w0").await.unwrap(), 1);
+    for attempt in 2..=4 {
+        let leased = store.lease(&format!("w{attempt}"), 0.2, 3).await.unwrap();
+        assert_eq!(leased.expect("leased again").attempts, attempt);
+        tokio::time::sleep(Duration::from_millis(350)).await; // the worker "dies"
+    }
+    // Its third death: failed instead of leased.
+    assert!(store.lease("w5", 30.0, 3).await.unwrap().is_none());
+    let failed = store.get("dies").await.unwrap().unwrap();
+    assert_eq!(failed.state, JobState::Failed);
+    assert_eq!(failed.error_kind.as_deref(), Some("attempts_exhausted"));
+    let error = failed.error.unwrap();
+    assert!(error.contains("3 times"), "{error}");
+    assert!(error.contains("--max-attempts 3"), "{error}");
+    // Another job behind it is still leased.
+    assert!(store.insert(job("next"), usize::MAX).await.unwrap());
+    let next = store.lease("w5", 30.0, 3).await.unwrap().unwrap();
+    assert_eq!(next.id, "next");
+}
+conformance!(
+    a_job_whose_workers_keep_dying_fails_after_max_attempts_on_every_backend,
+    a_job_whose_workers_keep_dying_fails_after_max_attempts
+);
+
 async fn evaluations_are_stored_exactly_in_order_by_the_lease_holder_only(
     store: Arc<dyn JobStore>,
 ) {
     assert!(store.insert(job("e"), usize::MAX).await.unwrap());
-    store.lease("w1", 30.0).await.unwrap().unwrap();
+    store.lease("w1", 30.0, 3).await.unwrap().unwrap();
     for i in 0..5 {
         let seq = store
             .append_evaluations("e", "w1", &[evaluation(i as f64 + 0.1)])
@@ -247,7 +278,7 @@ conformance!(
 
 async fn batch_tasks_are_leased_once_and_return_in_part_order(store: Arc<dyn JobStore>) {
     assert!(store.insert(job("t"), usize::MAX).await.unwrap());
-    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let coordinator = store.lease("coord", 30.0, 3).await.unwrap().unwrap();
     let parts: Vec<Vec<Vec<f64>>> = (0..6)
         .map(|p| vec![vec![p as f64, 0.5], vec![p as f64, 0.25]])
         .collect();
@@ -335,7 +366,7 @@ conformance!(
 
 async fn refined_tasks_return_their_values_and_add_no_evaluations(store: Arc<dyn JobStore>) {
     assert!(store.insert(job("r"), usize::MAX).await.unwrap());
-    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let coordinator = store.lease("coord", 30.0, 3).await.unwrap().unwrap();
     let attempt = coordinator.attempts;
     store
         .post_tasks(
@@ -425,7 +456,7 @@ async fn a_coordinator_takes_its_own_batch_only_and_a_released_task_is_leased_ag
     store: Arc<dyn JobStore>,
 ) {
     assert!(store.insert(job("s"), usize::MAX).await.unwrap());
-    let coordinator = store.lease("coord", 30.0).await.unwrap().unwrap();
+    let coordinator = store.lease("coord", 30.0, 3).await.unwrap().unwrap();
     let attempt = coordinator.attempts;
     let parts = [vec![vec![1.0]], vec![vec![2.0]]];
     store
@@ -492,7 +523,7 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
     store: Arc<dyn JobStore>,
 ) {
     assert!(store.insert(job("d"), usize::MAX).await.unwrap());
-    let first = store.lease("coord1", 0.3).await.unwrap().unwrap();
+    let first = store.lease("coord1", 0.3, 3).await.unwrap().unwrap();
     store
         .post_tasks(
             "d",
@@ -533,7 +564,11 @@ async fn a_dead_workers_task_is_leased_again_and_a_taken_over_jobs_tasks_are_dro
     );
     assert!(store.evaluations("d", None).await.unwrap().is_empty());
     // The coordinator dies too: whoever takes the job over starts without the old tasks.
-    let second = store.lease("coord2", 30.0).await.unwrap().expect("expired");
+    let second = store
+        .lease("coord2", 30.0, 3)
+        .await
+        .unwrap()
+        .expect("expired");
     assert_eq!(second.attempts, first.attempts + 1);
     assert!(
         !store
@@ -587,7 +622,7 @@ async fn the_chosen_scene_is_recorded_by_the_lease_holder_for_the_workers(
         !store.record_chosen_scene("c", "coord", "{}").await.unwrap(),
         "a queued job has no coordinator"
     );
-    store.lease("coord", 30.0).await.unwrap().unwrap();
+    store.lease("coord", 30.0, 3).await.unwrap().unwrap();
     assert!(!store
         .record_chosen_scene("c", "intruder", "{\"x\": 1}")
         .await
@@ -614,7 +649,7 @@ async fn an_idle_worker_finds_the_newest_job_coordinated_elsewhere(store: Arc<dy
         None,
         "a queued job has no coordinator yet"
     );
-    store.lease("coord", 30.0).await.unwrap().unwrap();
+    store.lease("coord", 30.0, 3).await.unwrap().unwrap();
     assert_eq!(
         store.coordinated_elsewhere("w").await.unwrap(),
         Some(("p".to_string(), "hash-p".to_string()))
@@ -659,7 +694,7 @@ async fn the_active_job_limit_holds_under_concurrent_submissions(store: Arc<dyn 
     assert_eq!(accepted, 5, "the limit is 5");
     assert_eq!(store.active_count().await.unwrap(), 5);
     assert!(!store.insert(job("late"), 5).await.unwrap());
-    let leased = store.lease("w", 30.0).await.unwrap().unwrap();
+    let leased = store.lease("w", 30.0, 3).await.unwrap().unwrap();
     store
         .finish(&leased.id, "w", JobEnd::Cancelled(None))
         .await
@@ -701,16 +736,16 @@ async fn a_stopping_process_gives_its_leases_back_and_listings_leave_scenes_out(
         "a listing does not read scene documents"
     );
     assert_eq!(listed[0].scene_name, "scene");
-    store.lease("leaving", 600.0).await.unwrap().unwrap();
+    store.lease("leaving", 600.0, 3).await.unwrap().unwrap();
     assert_eq!(store.release_all("someone else").await.unwrap(), 0);
     assert!(
-        store.lease("other", 60.0).await.unwrap().is_none(),
+        store.lease("other", 60.0, 3).await.unwrap().is_none(),
         "still leased"
     );
     assert_eq!(store.release_all("leaving").await.unwrap(), 1);
     let queued = store.get("r").await.unwrap().unwrap();
     assert_eq!(queued.state, JobState::Queued);
-    let again = store.lease("other", 60.0).await.unwrap().unwrap();
+    let again = store.lease("other", 60.0, 3).await.unwrap().unwrap();
     assert_eq!((again.id.as_str(), again.attempts), ("r", 2));
     assert!(
         store

@@ -1,11 +1,13 @@
 //! wsm-service — the HTTP service of `wsm`: the durable job store and queue (`jobs`: SQLite or
 //! PostgreSQL, migrations in the repository's `migrations/`), its workers, the HTTP API (`api`),
-//! the dashboard (`web`) and the `wsm serve` / `wsm worker` entry points (`server`).
+//! the dashboard (`web`), the connections (`http`: timeouts and a connection cap) and the
+//! `wsm serve` / `wsm worker` entry points (`server`).
 //!
 //! It drives the engine only through `wsm_core::run` (requests, prepared models, outcomes)
 //! and `wsm_core::scene` (the document); the engine never depends on this crate.
 
 pub mod api;
+pub mod http;
 pub mod jobs;
 pub mod server;
 pub mod web;

@@ -5,8 +5,10 @@
 //! another once their lease expires.
 
 use std::sync::Arc;
+use std::time::Duration;
 
-use crate::api::{Access, AppState, Limits};
+use crate::api::{Access, AppState, Limits, SolveSlots};
+use crate::http::ConnectionLimits;
 use crate::jobs::health::{spawn_monitor, StoreHealth};
 use crate::jobs::runner::{release_on_shutdown, spawn_workers, FaultRule, Live, RunnerConfig};
 use crate::jobs::sql::SqlStore;
@@ -23,6 +25,11 @@ pub struct ServeConfig {
     pub threads_per_job: Option<usize>,
     pub lease_seconds: f64,
     pub limits: Limits,
+    pub connections: ConnectionLimits,
+    /// How long a store statement waits for another's lock before it fails.
+    pub store_timeout: Duration,
+    /// A job whose lease expired this many times is failed instead of leased again.
+    pub max_attempts: u32,
     /// Who may do what (tokens from the environment; never logged).
     pub access: Access,
     /// Fail solves on purpose (tests of failure handling only).
@@ -39,6 +46,10 @@ pub struct WorkerConfig {
     /// Jobs coordinated at once.
     pub jobs: usize,
     pub lease_seconds: f64,
+    /// How long a store statement waits for another's lock before it fails.
+    pub store_timeout: Duration,
+    /// A job whose lease expired this many times is failed instead of leased again.
+    pub max_attempts: u32,
 }
 
 /// A process's name in leases and evaluations: its role, host, process id and a random part.
@@ -51,8 +62,8 @@ fn owner_name(role: &str) -> String {
     format!("{role}-{host}-{}-{}", std::process::id(), &id[..8])
 }
 
-async fn open_store(db: &str) -> Result<Arc<dyn JobStore>, WsmError> {
-    let store = SqlStore::open(db)
+async fn open_store(db: &str, timeout: Duration) -> Result<Arc<dyn JobStore>, WsmError> {
+    let store = SqlStore::open_with(db, timeout)
         .await
         .map_err(|e| WsmError::io(redact(db), e))?;
     Ok(Arc::new(store))
@@ -79,7 +90,7 @@ fn redact(db: &str) -> String {
 
 /// Run a worker process (no HTTP) until a shutdown signal.
 pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
-    let store = open_store(&config.db).await?;
+    let store = open_store(&config.db, config.store_timeout).await?;
     let owner = owner_name("worker");
     let live = Arc::new(Live::default());
     println!(
@@ -95,6 +106,7 @@ pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
             threads_per_job: config.threads,
             lease_seconds: config.lease_seconds,
             owner: owner.clone(),
+            max_attempts: config.max_attempts,
             inject_failures: Vec::new(),
         },
     );
@@ -111,7 +123,9 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
             "a read token needs WSM_API_TOKEN too (without it every endpoint is open anyway)",
         ));
     }
-    let store = open_store(&config.db).await?;
+    crate::http::check_max_connections(config.connections.max_connections)
+        .map_err(|why| WsmError::io("--max-connections", why))?;
+    let store = open_store(&config.db, config.store_timeout).await?;
     let live = Arc::new(Live::default());
     let owner = owner_name("serve");
     let health = Arc::new(StoreHealth::default());
@@ -126,6 +140,7 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
                 threads_per_job: config.threads_per_job,
                 lease_seconds: config.lease_seconds,
                 owner: owner.clone(),
+                max_attempts: config.max_attempts,
                 inject_failures: config.inject_failures.clone(),
             },
         );
@@ -136,8 +151,12 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
         limits: Arc::new(config.limits.clone()),
         access: Arc::new(config.access.clone()),
         health,
+        solves: SolveSlots::new(config.limits.max_concurrent_solves),
     };
-    let app = crate::api::router(state).merge(crate::web::router());
+    let app = crate::api::guarded(
+        crate::api::router(state).merge(crate::web::router()),
+        &config.limits,
+    );
     let listener = tokio::net::TcpListener::bind(&config.addr)
         .await
         .map_err(|e| WsmError::io(&config.addr, e))?;
@@ -148,10 +167,14 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
         "wsm: serving http://{local}/ (dashboard), API at http://{local}/v1, database {}",
         redact(&config.db)
     );
-    axum::serve(listener, app)
-        .with_graceful_shutdown(shutdown())
-        .await
-        .map_err(|e| WsmError::io(local, e))?;
+    crate::http::serve(
+        listener,
+        app,
+        config.connections.clone(),
+        shutdown(),
+        Duration::from_secs(10),
+    )
+    .await;
     release_on_shutdown(&store, &live, &owner).await;
     Ok(())
 }

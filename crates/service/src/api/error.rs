@@ -1,7 +1,7 @@
 //! API errors: every failure answers JSON `{error, detail, path?}` with the status that says
 //! what went wrong (400 malformed JSON, 401 missing token, 404 unknown id, 409 wrong state,
-//! 413 too large, 422 invalid scene or settings with the JSON path, 503 queue full with
-//! `Retry-After`, 500 store failure).
+//! 413 too large, 422 invalid scene or settings with the JSON path, 503 queue full, busy or
+//! store unavailable with `Retry-After`, 500 anything else).
 
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -16,7 +16,8 @@ use wsm_core::error::{ErrorKind, WsmError};
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct ErrorBody {
     /// A stable code: `malformed_json`, `invalid_input`, `not_found`, `conflict`, `too_large`,
-    /// `queue_full`, `unauthorized`, `unsolvable`, `solver_failure`, `internal`.
+    /// `queue_full`, `busy`, `store_unavailable`, `unauthorized`, `unsolvable`, `solver_failure`,
+    /// `request_timeout`, `internal`.
     pub error: String,
     /// What is wrong, for a person.
     pub detail: String,
@@ -104,8 +105,20 @@ pub fn join_path(prefix: &str, path: &str) -> String {
 }
 
 impl From<StoreError> for ApiError {
+    /// An unavailable database is 503 with `Retry-After` (it may pass: ask again), anything
+    /// else 500.
     fn from(e: StoreError) -> ApiError {
-        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string())
+        if e.unavailable {
+            let mut error = ApiError::new(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "store_unavailable",
+                format!("{e}; try again later"),
+            );
+            error.retry_after = Some(5);
+            error
+        } else {
+            ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string())
+        }
     }
 }
 

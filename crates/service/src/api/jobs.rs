@@ -5,7 +5,7 @@
 use std::convert::Infallible;
 use std::time::Duration;
 
-use axum::extract::{Path, Query, State};
+use axum::extract::{Path, RawQuery, State};
 use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
 use super::error::{ApiError, ErrorBody};
-use super::AppState;
+use super::{query, AppState};
 use crate::jobs::{now, JobRecord, JobState, Page};
 use wsm_core::run::{
     self, BestSoFar, CriterionOutcome, ParameterInfo, RunPhase, SolveOutput, SolveRequest,
@@ -191,11 +191,6 @@ fn page(limit: Option<usize>, offset: Option<usize>, max: usize) -> Result<Page,
     })
 }
 
-fn query<T>(q: Result<Query<T>, axum::extract::rejection::QueryRejection>) -> Result<T, ApiError> {
-    q.map(|Query(t)| t)
-        .map_err(|e| ApiError::invalid("query", e.body_text()))
-}
-
 /// Jobs, newest first.
 #[utoipa::path(get, path = "/v1/jobs", tag = "jobs", params(ListQuery),
     responses((status = 200, body = Vec<JobStatus>),
@@ -203,10 +198,10 @@ fn query<T>(q: Result<Query<T>, axum::extract::rejection::QueryRejection>) -> Re
 pub async fn list_jobs(
     State(state): State<AppState>,
     headers: HeaderMap,
-    q: Result<Query<ListQuery>, axum::extract::rejection::QueryRejection>,
+    raw: RawQuery,
 ) -> Result<Json<Vec<JobStatus>>, ApiError> {
     state.access.authorize_read(&headers)?;
-    let q = query(q)?;
+    let q: ListQuery = query::parse(raw)?;
     let jobs = state
         .store
         .list(q.state, page(q.limit, q.offset, 500)?)
@@ -347,10 +342,13 @@ pub async fn job_history(
 pub struct EvaluationsQuery {
     /// `json` (default) or `csv`.
     pub format: Option<String>,
-    /// At most this many (default: all).
+    /// At most this many (1–10,000; default: all, which the job's budget bounds).
     pub limit: Option<usize>,
     pub offset: Option<usize>,
 }
+
+/// The largest page of evaluations.
+const MAX_EVALUATIONS_PAGE: usize = 10_000;
 
 fn scene_and_parameters(job: &JobRecord) -> Result<(Scene, Vec<ParameterInfo>), ApiError> {
     let scene = wsm_core::scene::parse(&job.scene)
@@ -371,19 +369,19 @@ pub async fn job_evaluations(
     State(state): State<AppState>,
     headers: HeaderMap,
     Path(id): Path<String>,
-    q: Result<Query<EvaluationsQuery>, axum::extract::rejection::QueryRejection>,
+    raw: RawQuery,
 ) -> Result<Response, ApiError> {
     state.access.authorize_read(&headers)?;
-    let q = query(q)?;
-    let job = find(&state, &id).await?;
+    let q: EvaluationsQuery = query::parse(raw)?;
     let page = match (q.limit, q.offset) {
         (None, None) => None,
-        (limit, offset) => Some(page(
-            Some(limit.unwrap_or(usize::MAX >> 1)),
+        (None, Some(offset)) => Some(Page {
+            limit: usize::MAX >> 1,
             offset,
-            usize::MAX >> 1,
-        )?),
+        }),
+        (limit, offset) => Some(page(limit, offset, MAX_EVALUATIONS_PAGE)?),
     };
+    let job = find(&state, &id).await?;
     let evaluations = state.store.evaluations(&id, page).await?;
     match q.format.as_deref().unwrap_or("json") {
         "json" => Ok(Json(evaluations).into_response()),
@@ -476,10 +474,10 @@ pub async fn job_fields(
     State(state): State<AppState>,
     headers: HeaderMap,
     Path(id): Path<String>,
-    q: Result<Query<FieldsQuery>, axum::extract::rejection::QueryRejection>,
+    raw: RawQuery,
 ) -> Result<Response, ApiError> {
     state.access.authorize_read(&headers)?;
-    let q = query(q)?;
+    let q: FieldsQuery = query::parse(raw)?;
     let (job, outcome) = outcome(&state, &id).await?;
     let criterion = match &q.criterion {
         Some(name) => {
@@ -530,10 +528,14 @@ pub async fn job_fields(
         solver: None,
         fields: true,
     };
-    let output = tokio::task::spawn_blocking(move || run::solve_at(scene, Some(&point), &request))
-        .await
-        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| ApiError::engine(e, "scene"))?;
+    let place = state.solves.take()?;
+    let output = tokio::task::spawn_blocking(move || {
+        let _place = place;
+        run::solve_at(scene, Some(&point), &request)
+    })
+    .await
+    .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
+    .map_err(|e| ApiError::engine(e, "scene"))?;
     if vtu {
         let name = format!(
             "{id}-{}-{}.vtu",
@@ -552,6 +554,12 @@ pub async fn job_fields(
         )
             .into_response())
     } else {
+        super::solves::check_fields(
+            &output,
+            state.limits.max_field_triangles,
+            "format",
+            "download them as format=vtu for ParaView",
+        )?;
         Ok(Json(output).into_response())
     }
 }

@@ -6,13 +6,18 @@
 
 mod body;
 mod error;
+mod guard;
 mod jobs;
 mod misc;
+mod query;
+mod solves;
 mod submit;
 
 pub use error::{ApiError, ErrorBody};
+pub use solves::SolveSlots;
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use axum::extract::DefaultBodyLimit;
 use axum::http::{header, HeaderMap, StatusCode};
@@ -39,6 +44,20 @@ pub struct Limits {
     pub max_budget: usize,
     /// Queued and running jobs at once; beyond, 503 with `Retry-After`.
     pub max_active_jobs: usize,
+    /// Synchronous solves (`POST /v1/solve`, a job's fields) at once; beyond, 503 with
+    /// `Retry-After`.
+    pub max_concurrent_solves: usize,
+    /// Triangles of the largest mesh whose fields a response carries.
+    pub max_field_triangles: usize,
+    /// A request's body must arrive within this long.
+    pub body_timeout: Duration,
+}
+
+/// The default cap on synchronous solves: half the cores (at least 1, at most 4), so that
+/// solves leave room for the job workers and the requests.
+pub fn default_concurrent_solves() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (cores / 2).clamp(1, 4)
 }
 
 impl Default for Limits {
@@ -50,6 +69,9 @@ impl Default for Limits {
             max_parameters: 64,
             max_budget: 100_000,
             max_active_jobs: 1000,
+            max_concurrent_solves: default_concurrent_solves(),
+            max_field_triangles: 50_000,
+            body_timeout: Duration::from_secs(30),
         }
     }
 }
@@ -129,6 +151,8 @@ pub struct AppState {
     pub access: Arc<Access>,
     /// Whether the store takes writes (probed in the background).
     pub health: Arc<StoreHealth>,
+    /// Places for synchronous solves (`Limits::max_concurrent_solves`).
+    pub solves: SolveSlots,
 }
 
 #[derive(OpenApi)]
@@ -172,6 +196,15 @@ pub fn router(state: AppState) -> Router {
             }),
         )
         .layer(DefaultBodyLimit::max(body_limit))
+}
+
+/// The request guard around a whole app (the API and the dashboard).
+pub fn guarded(app: Router, limits: &Limits) -> Router {
+    let body = guard::BodyLimits {
+        max_bytes: limits.max_body_bytes,
+        timeout: limits.body_timeout,
+    };
+    app.layer(axum::middleware::from_fn_with_state(body, guard::guard))
 }
 
 /// The OpenAPI document as served and as checked in (`openapi/openapi.json`).

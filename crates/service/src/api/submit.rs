@@ -186,7 +186,7 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
         (status = 413, description = "Body too large", body = ErrorBody),
         (status = 415, description = "Body not declared as JSON", body = ErrorBody),
         (status = 422, description = "Invalid scene or settings (with the JSON path)", body = ErrorBody),
-        (status = 503, description = "Queue full (see Retry-After)", body = ErrorBody),
+        (status = 503, description = "Queue full, or the store unavailable (see Retry-After)", body = ErrorBody),
     )
 )]
 pub async fn submit_job(
@@ -265,6 +265,7 @@ pub async fn submit_job(
         (status = 413, description = "Body too large", body = ErrorBody),
         (status = 415, description = "Body not declared as JSON", body = ErrorBody),
         (status = 422, description = "Invalid scene, too large, or unsolvable", body = ErrorBody),
+        (status = 503, description = "As many solves running as the server runs at once (see Retry-After)", body = ErrorBody),
     )
 )]
 pub async fn solve(
@@ -273,6 +274,7 @@ pub async fn solve(
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<SolveOutput>, ApiError> {
     state.access.authorize_write(&headers)?;
+    let place = state.solves.take()?;
     let submission: SolveSubmission = parse_body(&headers, body)?;
     let (scene, _) = validated_scene(submission.scene, submission.example).await?;
     check_size(
@@ -281,9 +283,18 @@ pub async fn solve(
         "a synchronous solve (submit a job)",
     )?;
     let request = submission.settings;
-    let output = tokio::task::spawn_blocking(move || run::solve(scene, &request))
-        .await
-        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| ApiError::engine(e, "scene"))?;
+    let output = tokio::task::spawn_blocking(move || {
+        let _place = place;
+        run::solve(scene, &request)
+    })
+    .await
+    .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
+    .map_err(|e| ApiError::engine(e, "scene"))?;
+    super::solves::check_fields(
+        &output,
+        state.limits.max_field_triangles,
+        "settings.fields",
+        "ask without fields for the summary, or coarsen scene.mesh.max_size",
+    )?;
     Ok(Json(output))
 }

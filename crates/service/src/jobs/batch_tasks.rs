@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 
 use tokio::task::JoinHandle;
 
-use super::{wait, JobStore, StoreResult, TaskKey, TaskKind, TaskScope};
+use super::{wait, JobStore, StoreError, StoreResult, TaskKey, TaskKind, TaskScope};
 use wsm_core::error::WsmError;
 use wsm_core::run::{
     BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedSolve, RefinedValues,
@@ -57,6 +57,9 @@ pub struct StoreDispatch {
     pub lease_seconds: f64,
     /// Raised when the job's lease was lost: stop waiting.
     pub lost: Arc<AtomicBool>,
+    /// Raised when a store call failed because the database was unavailable (the job is then
+    /// retried, not failed).
+    pub store_failed: Arc<AtomicBool>,
     next_batch: AtomicU64,
     /// The live threads last counted, and when.
     live: Mutex<Option<(Instant, usize)>>,
@@ -75,6 +78,7 @@ impl StoreDispatch {
         own_threads: usize,
         lease_seconds: f64,
         lost: Arc<AtomicBool>,
+        store_failed: Arc<AtomicBool>,
     ) -> StoreDispatch {
         StoreDispatch {
             store,
@@ -85,6 +89,7 @@ impl StoreDispatch {
             own_threads,
             lease_seconds,
             lost,
+            store_failed,
             next_batch: AtomicU64::new(0),
             live: Mutex::new(None),
             pending: Mutex::new(None),
@@ -135,9 +140,17 @@ impl StoreDispatch {
         WsmError::io(format!("job {}", self.job), e)
     }
 
+    /// A store error as this job's, noting an unavailable database.
+    fn store_error(&self, e: StoreError) -> WsmError {
+        if e.unavailable {
+            self.store_failed.store(true, Ordering::SeqCst);
+        }
+        self.io(e)
+    }
+
     /// Wait for a store call; its error as this job's.
     fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
-        self.runtime.block_on(call).map_err(|e| self.io(e))
+        self.runtime.block_on(call).map_err(|e| self.store_error(e))
     }
 
     /// Wait for a store call spawned on the runtime; its error (or the task's) as this job's.
@@ -145,7 +158,7 @@ impl StoreDispatch {
         self.runtime
             .block_on(task)
             .map_err(|e| self.io(e))?
-            .map_err(|e| self.io(e))
+            .map_err(|e| self.store_error(e))
     }
 
     /// Take over the batch's tasks nobody has started (or whose worker died), solve them with

@@ -208,10 +208,33 @@ pub struct JobInput {
     pub chosen_scene: Option<String>,
 }
 
-/// Store errors (database failures); the message names the operation.
+/// Store errors; the message names the operation. `unavailable` marks a failure of the
+/// database itself (locked past the timeout, disk full or read-only, I/O error, connection
+/// lost): it may pass, so the API answers 503 and a job is retried, never failed, by it.
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("job store: {0}")]
-pub struct StoreError(pub String);
+#[error("job store: {message}")]
+pub struct StoreError {
+    pub message: String,
+    pub unavailable: bool,
+}
+
+impl StoreError {
+    /// A failure that retrying will not cure (a damaged row, a value that does not encode).
+    pub fn new(message: impl Into<String>) -> StoreError {
+        StoreError {
+            message: message.into(),
+            unavailable: false,
+        }
+    }
+
+    /// The database did not do what was asked of it, for now.
+    pub fn unavailable(message: impl Into<String>) -> StoreError {
+        StoreError {
+            message: message.into(),
+            unavailable: true,
+        }
+    }
+}
 
 pub type StoreResult<T> = Result<T, StoreError>;
 
@@ -233,8 +256,15 @@ pub trait JobStore: Send + Sync + 'static {
     /// Give back every job and task `owner` holds (a process shutting down): its running jobs
     /// are queued again at once for any worker, their evaluations kept; the number of jobs.
     async fn release_all(&self, owner: &str) -> StoreResult<usize>;
-    /// Lease the oldest queued job, or a running job whose lease expired, for `owner`.
-    async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>>;
+    /// Lease the oldest queued job, or a running job whose lease expired, for `owner`. A job
+    /// whose lease expires for the `max_attempts`-th time (its worker died or hung each time)
+    /// is failed instead, with the reason, and the next one is looked at.
+    async fn lease(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        max_attempts: u32,
+    ) -> StoreResult<Option<JobRecord>>;
     /// Extend the lease and read the job's cancel flag.
     async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease>;
     async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()>;

@@ -33,9 +33,16 @@ pub struct RunnerConfig {
     pub lease_seconds: f64,
     /// This process's name in leases and evaluations.
     pub owner: String,
+    /// A job whose lease expired this many times (its worker died or hung each time) fails
+    /// instead of being leased again.
+    pub max_attempts: u32,
     /// Fail solves on purpose (tests of failure handling; `wsm serve --inject-failures`).
     pub inject_failures: Vec<FaultRule>,
 }
+
+/// Runs of one job in one lease that may end on an unavailable store before the job fails:
+/// each waits for the store to take writes again and resumes from the stored evaluations.
+const STORE_RETRIES: u32 = 10;
 
 /// The solves a [`FaultRule`] fails.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -153,7 +160,7 @@ struct Backoff {
 
 impl Backoff {
     const FIRST: Duration = Duration::from_millis(500);
-    const MAX: Duration = Duration::from_secs(30);
+    const MAX: Duration = Duration::from_secs(5);
 
     fn new() -> Backoff {
         Backoff {
@@ -201,7 +208,8 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
             let mut backoff = Backoff::new();
             while !live.stopping.load(Ordering::SeqCst) {
                 work.borrow_and_update();
-                match store.lease(&config.owner, config.lease_seconds).await {
+                let lease = store.lease(&config.owner, config.lease_seconds, config.max_attempts);
+                match lease.await {
                     Ok(Some(job)) => {
                         backoff.succeeded();
                         run_job(&store, &live, &config, job).await
@@ -252,6 +260,8 @@ struct StoreLog {
     owner: String,
     run_hash: String,
     replay: Vec<Evaluation>,
+    /// Raised when an append failed because the database was unavailable.
+    store_failed: Arc<AtomicBool>,
 }
 
 impl EvaluationLog for StoreLog {
@@ -273,7 +283,12 @@ impl EvaluationLog for StoreLog {
                     .append_evaluations(&self.job, &self.owner, evaluations),
             )
             .map(|_| ())
-            .map_err(|e| WsmError::io(format!("job {}", self.job), e))
+            .map_err(|e| {
+                if e.unavailable {
+                    self.store_failed.store(true, Ordering::SeqCst);
+                }
+                WsmError::io(format!("job {}", self.job), e)
+            })
     }
 }
 
@@ -321,98 +336,186 @@ async fn run_job(
     ));
     let (progress_tx, progress_rx) = mpsc::unbounded_channel::<ProgressEvent>();
     let publisher = tokio::spawn(publish(store.clone(), id.clone(), progress_rx));
-    let stored = match &job.damaged {
-        Some(why) => Err(format!("the stored job is damaged and cannot run: {why}")),
-        None => store
-            .evaluations(&id, None)
-            .await
-            .map_err(|e| e.to_string()),
+    let run = Run {
+        store,
+        config,
+        job: &job,
+        cancel: &cancel,
+        lost: &lost,
     };
-    let end = match stored {
-        Ok(replay) => {
-            let log = StoreLog {
-                store: store.clone(),
-                runtime: tokio::runtime::Handle::current(),
-                job: id.clone(),
-                owner: config.owner.clone(),
-                run_hash: job.run_hash.clone(),
-                replay,
-            };
-            let dispatch = StoreDispatch::new(
-                store.clone(),
-                tokio::runtime::Handle::current(),
-                id.clone(),
-                config.owner.clone(),
-                job.attempts,
-                config.threads(),
-                config.lease_seconds,
-                lost.clone(),
-            );
-            let control = RunControl::new()
-                .with_cancel(cancel.clone())
-                .with_log(Arc::new(log))
-                .with_dispatch(Arc::new(dispatch))
-                .with_progress(move |e| {
-                    let _ = progress_tx.send(e.clone());
-                });
-            let mut request = job.settings.clone();
-            if config.threads_per_job.is_some() {
-                request.threads = config.threads_per_job;
-            }
-            let scene_text = job.scene.clone();
-            let rules = config.inject_failures.clone();
-            let task = tokio::task::spawn_blocking(move || {
-                let scene = wsm_core::scene::parse(&scene_text)?;
-                let fault = fault_for(&rules, &scene);
-                let control = match fault {
-                    Some(fault) => control.with_fault(fault),
-                    None => control,
-                };
-                run::worst(scene, &request, &control)
-            });
-            match task.await {
-                // A cancel that came after the last evaluation (during the sensitivities or
-                // the accuracy statement) still ends the job cancelled, as the 202 promised.
-                Ok(Ok(outcome))
-                    if outcome.status == Status::Cancelled || cancel.load(Ordering::SeqCst) =>
-                {
-                    JobEnd::Cancelled(Some(outcome))
+    let mut retries = 0;
+    let end = loop {
+        match run.attempt(progress_tx.clone()).await {
+            Attempt::Ended(end) => break *end,
+            Attempt::StoreFailed(error) if retries < STORE_RETRIES => {
+                retries += 1;
+                eprintln!("wsm: job {id}: {error}; resuming once the store takes writes");
+                if !run.await_writable(live).await {
+                    break match cancel.load(Ordering::SeqCst) {
+                        true => JobEnd::Cancelled(None),
+                        false => JobEnd::Failed {
+                            kind: "io".into(),
+                            error,
+                        },
+                    };
                 }
-                Ok(Ok(outcome)) => JobEnd::Succeeded(outcome),
-                Ok(Err(WsmError::Cancelled)) => JobEnd::Cancelled(None),
-                Ok(Err(e)) => JobEnd::Failed {
-                    kind: kind_name(e.kind()).into(),
-                    error: e.to_string(),
-                },
-                Err(join) if join.is_panic() => JobEnd::Failed {
-                    kind: "panic".into(),
-                    error: format!("the job panicked: {}", panic_message(join.into_panic())),
-                },
-                Err(join) => JobEnd::Failed {
-                    kind: "panic".into(),
-                    error: format!("the job was aborted: {join}"),
-                },
+            }
+            Attempt::StoreFailed(error) => {
+                break JobEnd::Failed {
+                    kind: "io".into(),
+                    error: format!(
+                        "{error} (the store failed {} times in a row while the job ran)",
+                        retries + 1
+                    ),
+                }
             }
         }
-        Err(error) => JobEnd::Failed {
-            kind: if job.damaged.is_some() {
-                "damaged"
-            } else {
-                "io"
-            }
-            .into(),
-            error,
-        },
     };
-    heartbeat.abort();
+    drop(progress_tx);
     let _ = publisher.await;
-    // A job whose lease was taken over belongs to its new owner now.
-    if !lost.load(Ordering::SeqCst) {
-        if let Err(e) = store.finish(&id, &config.owner, end).await {
-            eprintln!("wsm: job {id}: {e}");
+    // A job whose lease was taken over belongs to its new owner now; a process that stops has
+    // given its leases back. The end is stored once the store takes writes again.
+    let mut backoff = Backoff::new();
+    while !lost.load(Ordering::SeqCst) && !live.stopping.load(Ordering::SeqCst) {
+        match store.finish(&id, &config.owner, end.clone()).await {
+            Ok(()) => break,
+            Err(e) if e.unavailable => backoff.failed(format!("job {id}: {e}")).await,
+            Err(e) => {
+                eprintln!("wsm: job {id}: {e}");
+                break;
+            }
         }
     }
+    heartbeat.abort();
     live.lock().remove(&id);
+}
+
+/// How one run of a job ended.
+enum Attempt {
+    /// With an outcome or an error of its own.
+    Ended(Box<JobEnd>),
+    /// On an unavailable store (the message): the job is not at fault.
+    StoreFailed(String),
+}
+
+/// One job in the hands of a job slot.
+struct Run<'a> {
+    store: &'a Arc<dyn JobStore>,
+    config: &'a RunnerConfig,
+    job: &'a JobRecord,
+    cancel: &'a Arc<AtomicBool>,
+    lost: &'a Arc<AtomicBool>,
+}
+
+impl Run<'_> {
+    /// Run the job from its stored evaluations to its end (or to a store failure).
+    async fn attempt(&self, progress_tx: mpsc::UnboundedSender<ProgressEvent>) -> Attempt {
+        let (store, config, job) = (self.store, self.config, self.job);
+        let id = job.id.clone();
+        if let Some(why) = &job.damaged {
+            return Attempt::Ended(Box::new(JobEnd::Failed {
+                kind: "damaged".into(),
+                error: format!("the stored job is damaged and cannot run: {why}"),
+            }));
+        }
+        let replay = match store.evaluations(&id, None).await {
+            Ok(replay) => replay,
+            Err(e) if e.unavailable => return Attempt::StoreFailed(e.to_string()),
+            Err(e) => {
+                return Attempt::Ended(Box::new(JobEnd::Failed {
+                    kind: "io".into(),
+                    error: e.to_string(),
+                }))
+            }
+        };
+        let store_failed = Arc::new(AtomicBool::new(false));
+        let log = StoreLog {
+            store: store.clone(),
+            runtime: tokio::runtime::Handle::current(),
+            job: id.clone(),
+            owner: config.owner.clone(),
+            run_hash: job.run_hash.clone(),
+            replay,
+            store_failed: store_failed.clone(),
+        };
+        let dispatch = StoreDispatch::new(
+            store.clone(),
+            tokio::runtime::Handle::current(),
+            id.clone(),
+            config.owner.clone(),
+            job.attempts,
+            config.threads(),
+            config.lease_seconds,
+            self.lost.clone(),
+            store_failed.clone(),
+        );
+        let control = RunControl::new()
+            .with_cancel(self.cancel.clone())
+            .with_log(Arc::new(log))
+            .with_dispatch(Arc::new(dispatch))
+            .with_progress(move |e| {
+                let _ = progress_tx.send(e.clone());
+            });
+        let mut request = job.settings.clone();
+        if config.threads_per_job.is_some() {
+            request.threads = config.threads_per_job;
+        }
+        let scene_text = job.scene.clone();
+        let rules = config.inject_failures.clone();
+        let task = tokio::task::spawn_blocking(move || {
+            let scene = wsm_core::scene::parse(&scene_text)?;
+            let fault = fault_for(&rules, &scene);
+            let control = match fault {
+                Some(fault) => control.with_fault(fault),
+                None => control,
+            };
+            run::worst(scene, &request, &control)
+        });
+        Attempt::Ended(Box::new(match task.await {
+            // A cancel that came after the last evaluation (during the sensitivities or
+            // the accuracy statement) still ends the job cancelled, as the 202 promised.
+            Ok(Ok(outcome))
+                if outcome.status == Status::Cancelled || self.cancel.load(Ordering::SeqCst) =>
+            {
+                JobEnd::Cancelled(Some(outcome))
+            }
+            Ok(Ok(outcome)) => JobEnd::Succeeded(outcome),
+            Ok(Err(WsmError::Cancelled)) => JobEnd::Cancelled(None),
+            Ok(Err(e)) if store_failed.load(Ordering::SeqCst) && e.kind() == ErrorKind::Io => {
+                return Attempt::StoreFailed(e.to_string())
+            }
+            Ok(Err(e)) => JobEnd::Failed {
+                kind: kind_name(e.kind()).into(),
+                error: e.to_string(),
+            },
+            Err(join) if join.is_panic() => JobEnd::Failed {
+                kind: "panic".into(),
+                error: format!("the job panicked: {}", panic_message(join.into_panic())),
+            },
+            Err(join) => JobEnd::Failed {
+                kind: "panic".into(),
+                error: format!("the job was aborted: {join}"),
+            },
+        }))
+    }
+
+    /// Wait until the store takes writes again; false when the job should not run again here
+    /// (its lease was lost, it was cancelled, or the process is stopping).
+    async fn await_writable(&self, live: &Live) -> bool {
+        let mut backoff = Backoff::new();
+        loop {
+            if self.lost.load(Ordering::SeqCst)
+                || self.cancel.load(Ordering::SeqCst)
+                || live.stopping.load(Ordering::SeqCst)
+            {
+                return false;
+            }
+            match self.store.check_writable().await {
+                Ok(()) => return true,
+                Err(e) => backoff.failed(format!("job {}: {e}", self.job.id)).await,
+            }
+        }
+    }
 }
 
 /// Renew the lease every third of its length; the same statement reads the cancel flag (a

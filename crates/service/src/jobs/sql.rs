@@ -114,7 +114,47 @@ fn raise(signal: &watch::Sender<u64>) {
 }
 
 fn db(operation: &'static str) -> impl Fn(sqlx::Error) -> StoreError {
-    move |e| StoreError(format!("{operation}: {e}"))
+    move |e| {
+        let message = format!("{operation}: {e}");
+        if unavailable(&e) {
+            StoreError::unavailable(message)
+        } else {
+            StoreError::new(message)
+        }
+    }
+}
+
+/// Whether a database error may pass by itself: the database is locked past the timeout, full,
+/// read-only, failing its I/O or unreachable (SQLite's primary result codes BUSY, LOCKED, NOMEM,
+/// READONLY, INTERRUPT, IOERR, FULL, CANTOPEN, PROTOCOL; PostgreSQL's SQLSTATE classes 08
+/// connection, 40 rollback, 53 resources, 57 operator intervention, 58 system, and lock
+/// timeouts or a read-only transaction) — as opposed to a statement or row that fails again.
+fn unavailable(e: &sqlx::Error) -> bool {
+    match e {
+        sqlx::Error::Io(_)
+        | sqlx::Error::Tls(_)
+        | sqlx::Error::Protocol(_)
+        | sqlx::Error::PoolTimedOut
+        | sqlx::Error::PoolClosed
+        | sqlx::Error::WorkerCrashed
+        | sqlx::Error::BeginFailed
+        | sqlx::Error::InvalidSavePointStatement => true,
+        sqlx::Error::Database(d) => match d.try_downcast_ref::<sqlx::postgres::PgDatabaseError>() {
+            Some(pg) => {
+                let code = pg.code();
+                ["08", "40", "53", "57", "58"]
+                    .iter()
+                    .any(|class| code.starts_with(class))
+                    || code == "55P03"
+                    || code == "25006"
+            }
+            None => d
+                .code()
+                .and_then(|c| c.parse::<i32>().ok())
+                .is_some_and(|c| matches!(c & 0xff, 5..=10 | 13..=15)),
+        },
+        _ => false,
+    }
 }
 
 /// A statement assembled from constant pieces (the backend's clock and locking clauses).
@@ -123,21 +163,45 @@ fn sql(text: String) -> sqlx::AssertSqlSafe<String> {
 }
 
 fn json<T: serde::Serialize>(value: &T) -> StoreResult<String> {
-    serde_json::to_string(value).map_err(|e| StoreError(format!("encoding: {e}")))
+    serde_json::to_string(value).map_err(|e| StoreError::new(format!("encoding: {e}")))
 }
 
 fn parse<T: serde::de::DeserializeOwned>(text: &str, what: &str) -> StoreResult<T> {
-    serde_json::from_str(text).map_err(|e| StoreError(format!("decoding {what}: {e}")))
+    serde_json::from_str(text).map_err(|e| StoreError::new(format!("decoding {what}: {e}")))
 }
 
-/// The settings of every pooled SQLite connection.
-async fn prepare_sqlite(conn: &mut sqlx::AnyConnection) -> Result<(), sqlx::Error> {
-    conn.execute(
-        "PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;
-         PRAGMA foreign_keys = ON; PRAGMA busy_timeout = 10000;",
-    )
-    .await?;
+/// How long a statement waits for a lock another connection or process holds before it fails
+/// (unavailable): SQLite's busy timeout, PostgreSQL's `lock_timeout`.
+pub const DEFAULT_LOCK_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// The settings of every pooled connection: on SQLite the journal, foreign keys and the busy
+/// timeout, on PostgreSQL the lock timeout.
+async fn prepare(
+    conn: &mut sqlx::AnyConnection,
+    backend: Backend,
+    lock_timeout: Duration,
+) -> Result<(), sqlx::Error> {
+    let millis = lock_timeout.as_millis();
+    let statement = match backend {
+        Backend::Sqlite => format!(
+            "PRAGMA journal_mode = WAL; PRAGMA synchronous = NORMAL;
+             PRAGMA foreign_keys = ON; PRAGMA busy_timeout = {millis};"
+        ),
+        Backend::Postgres => format!("SET lock_timeout = {millis}"),
+    };
+    conn.execute(sqlx::AssertSqlSafe(statement)).await?;
     Ok(())
+}
+
+/// Whether a connection given back to the pool is fit to be lent again: its transaction, if
+/// one failed, has been rolled back (the ping runs after the rollback its drop queued). A
+/// connection still in a transaction — SQLite rolls a transaction back by itself after an I/O
+/// error or a full disk, and sqlx's own ROLLBACK then fails and leaves its count at one — is
+/// closed instead: lent again, its next `BEGIN` would fail ("begin_with at non-zero transaction
+/// depth") for as long as the process lives.
+async fn fit_for_reuse(conn: &mut sqlx::AnyConnection) -> Result<bool, sqlx::Error> {
+    conn.ping().await?;
+    Ok(!conn.is_in_transaction())
 }
 
 /// Refuse a file that exists but is not a SQLite database (SQLite itself would only say so on
@@ -155,11 +219,11 @@ fn check_sqlite_header(url: &str) -> StoreResult<()> {
     match file.read(&mut header) {
         Ok(0) => Ok(()), // an empty file becomes a new database
         Ok(n) if n == header.len() && &header == b"SQLite format 3\0" => Ok(()),
-        Ok(_) => Err(StoreError(format!(
+        Ok(_) => Err(StoreError::new(format!(
             "'{path}' is not a SQLite database (it does not start with the SQLite header); \
              give a new file name or the right file"
         ))),
-        Err(e) => Err(StoreError(format!("reading '{path}': {e}"))),
+        Err(e) => Err(StoreError::new(format!("reading '{path}': {e}"))),
     }
 }
 
@@ -175,7 +239,7 @@ async fn check_integrity(conn: &mut sqlx::AnyConnection) -> StoreResult<()> {
         return Ok(());
     }
     let shown: Vec<&str> = rows.iter().take(3).map(String::as_str).collect();
-    Err(StoreError(format!(
+    Err(StoreError::new(format!(
         "the database is damaged (PRAGMA quick_check: {}); restore it from a backup or start \
          with a new file",
         shown.join("; ")
@@ -210,6 +274,11 @@ impl SqlStore {
     /// Open the database (a SQLite file, created if needed, or a PostgreSQL URL) and apply the
     /// backend's migrations.
     pub async fn open(db_arg: &str) -> StoreResult<SqlStore> {
+        SqlStore::open_with(db_arg, DEFAULT_LOCK_TIMEOUT).await
+    }
+
+    /// [`SqlStore::open`] with a lock timeout other than [`DEFAULT_LOCK_TIMEOUT`].
+    pub async fn open_with(db_arg: &str, lock_timeout: Duration) -> StoreResult<SqlStore> {
         sqlx::any::install_default_drivers();
         let backend = Backend::of(db_arg);
         let url = match backend {
@@ -226,24 +295,18 @@ impl SqlStore {
         let mut first = sqlx::AnyConnection::connect_with(&options)
             .await
             .map_err(db("opening the database"))?;
+        prepare(&mut first, backend, lock_timeout)
+            .await
+            .map_err(db("opening the database"))?;
         if backend == Backend::Sqlite {
-            prepare_sqlite(&mut first)
-                .await
-                .map_err(db("opening the database"))?;
             check_integrity(&mut first).await?;
         }
         first.close().await.map_err(db("opening the database"))?;
         let pool = AnyPoolOptions::new()
             .max_connections(8)
             .acquire_timeout(Duration::from_secs(15))
-            .after_connect(move |conn, _| {
-                Box::pin(async move {
-                    if backend == Backend::Sqlite {
-                        prepare_sqlite(conn).await?;
-                    }
-                    Ok(())
-                })
-            })
+            .after_connect(move |conn, _| Box::pin(prepare(conn, backend, lock_timeout)))
+            .after_release(|conn, _| Box::pin(fit_for_reuse(conn)))
             .connect_with(options)
             .await
             .map_err(db("opening the database"))?;
@@ -254,7 +317,7 @@ impl SqlStore {
         migrations
             .run(&pool)
             .await
-            .map_err(|e| StoreError(format!("migrations: {e}")))?;
+            .map_err(|e| StoreError::new(format!("migrations: {e}")))?;
         let store = SqlStore {
             pool,
             backend,
@@ -388,7 +451,7 @@ impl SqlStore {
         .await
         .map_err(db("reading a batch"))?;
         if rows.is_empty() {
-            return Err(StoreError(format!(
+            return Err(StoreError::new(format!(
                 "reading a batch: the tasks of job {id} batch {batch} are gone"
             )));
         }
@@ -568,17 +631,16 @@ impl JobStore for SqlStore {
     }
 
     async fn check_writable(&self) -> StoreResult<()> {
-        let probe = |e: sqlx::Error| StoreError(format!("the database does not take writes: {e}"));
-        let mut tx = self.pool.begin().await.map_err(probe)?;
-        sqlx::query(
-            "INSERT INTO workers (owner, threads, started_at, last_seen)
-             VALUES ('wsm-write-probe', 0, 0, 0)
-             ON CONFLICT (owner) DO UPDATE SET threads = 0",
-        )
-        .execute(&mut *tx)
+        // Committed: a write rolled back never reaches the disk, so it would pass on a database
+        // whose files can no longer be written.
+        sqlx::query(sql(format!(
+            "INSERT INTO store_probe (id, probed_at) VALUES (1, {now})
+             ON CONFLICT (id) DO UPDATE SET probed_at = {now}",
+            now = self.backend.now()
+        )))
+        .execute(&self.pool)
         .await
-        .map_err(probe)?;
-        tx.rollback().await.map_err(probe)?;
+        .map_err(db("the database does not take writes"))?;
         Ok(())
     }
 
@@ -607,22 +669,67 @@ impl JobStore for SqlStore {
         Ok(jobs as usize)
     }
 
-    async fn lease(&self, owner: &str, lease_seconds: f64) -> StoreResult<Option<JobRecord>> {
+    async fn lease(
+        &self,
+        owner: &str,
+        lease_seconds: f64,
+        max_attempts: u32,
+    ) -> StoreResult<Option<JobRecord>> {
         let now = self.backend.now();
         let lease = db("leasing a job");
         let mut tx = self.begin_write(false, &lease).await?;
-        let id: Option<String> = sqlx::query_scalar(sql(format!(
-            "SELECT id FROM jobs
-             WHERE state = 'queued' OR (state = 'running' AND lease_expires_at < {now})
-             ORDER BY created_at, id LIMIT 1{}",
-            self.backend.lock_row()
-        )))
-        .fetch_optional(&mut *tx)
-        .await
-        .map_err(&lease)?;
-        let Some(id) = id else {
-            tx.commit().await.map_err(&lease)?;
-            return Ok(None);
+        let id = loop {
+            let row = sqlx::query(sql(format!(
+                "SELECT id, state, lost_leases FROM jobs
+                 WHERE state = 'queued' OR (state = 'running' AND lease_expires_at < {now})
+                 ORDER BY created_at, id LIMIT 1{}",
+                self.backend.lock_row()
+            )))
+            .fetch_optional(&mut *tx)
+            .await
+            .map_err(&lease)?;
+            let Some(row) = row else {
+                tx.commit().await.map_err(&lease)?;
+                return Ok(None);
+            };
+            let id: String = row.try_get("id").map_err(&lease)?;
+            let state: String = row.try_get("state").map_err(&lease)?;
+            if state == "queued" {
+                break id;
+            }
+            // Its worker died or hung: counted, and after `max_attempts` of them not run again.
+            let lost = row.try_get::<i64, _>("lost_leases").map_err(&lease)? + 1;
+            if lost < i64::from(max_attempts) {
+                sqlx::query("UPDATE jobs SET lost_leases = $1 WHERE id = $2")
+                    .bind(lost)
+                    .bind(&id)
+                    .execute(&mut *tx)
+                    .await
+                    .map_err(&lease)?;
+                break id;
+            }
+            let error = format!(
+                "the job's worker stopped without finishing it {lost} times (its lease expired \
+                 each time: the process was killed, for example for lack of memory, or hung); \
+                 not run again (wsm serve --max-attempts {max_attempts})"
+            );
+            sqlx::query(sql(format!(
+                "UPDATE jobs SET state = 'failed', lost_leases = $1, error = $2,
+                     error_kind = 'attempts_exhausted', finished_at = {now},
+                     lease_owner = NULL, lease_expires_at = NULL
+                 WHERE id = $3"
+            )))
+            .bind(lost)
+            .bind(error)
+            .bind(&id)
+            .execute(&mut *tx)
+            .await
+            .map_err(&lease)?;
+            sqlx::query("DELETE FROM tasks WHERE job_id = $1")
+                .bind(&id)
+                .execute(&mut *tx)
+                .await
+                .map_err(&lease)?;
         };
         let row = sqlx::query(sql(format!(
             "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2,
@@ -697,7 +804,7 @@ impl JobStore for SqlStore {
         .await
         .map_err(&store)?;
         if held.is_none() {
-            return Err(StoreError(format!(
+            return Err(StoreError::new(format!(
                 "storing an evaluation: job {id} is no longer leased by this worker"
             )));
         }
@@ -845,7 +952,7 @@ impl JobStore for SqlStore {
         .await
         .map_err(&post)?;
         if held != Some(attempt as i64) {
-            return Err(StoreError(format!(
+            return Err(StoreError::new(format!(
                 "posting tasks: job {id} is no longer coordinated by this worker"
             )));
         }
@@ -1108,5 +1215,59 @@ impl JobStore for SqlStore {
 
     fn results_signal(&self) -> Signal {
         self.results.subscribe()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fresh SQLite store in the temporary folder.
+    async fn store() -> SqlStore {
+        let dir = std::env::temp_dir().join(format!("wsm-sql-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(format!("{}.db", uuid::Uuid::new_v4()));
+        SqlStore::open(path.to_str().unwrap()).await.unwrap()
+    }
+
+    fn job(id: &str) -> NewJob {
+        NewJob {
+            id: id.into(),
+            scene: "{}".into(),
+            settings: Default::default(),
+            scene_name: "s".into(),
+            criteria: vec!["phi3".into()],
+            budget: 1,
+            run_hash: "h".into(),
+        }
+    }
+
+    /// SQLite ends a transaction by itself after an I/O error or a full disk; sqlx's ROLLBACK on
+    /// drop then fails and its transaction count stays at one. Such a connection must not be
+    /// lent again: every later write transaction on it would fail ("begin_with at non-zero
+    /// transaction depth"). Reproduced by ending the transaction behind sqlx's back.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_connection_whose_transaction_ended_behind_sqlx_is_not_lent_again() {
+        let store = store().await;
+        for _ in 0..3 {
+            let mut tx = store.pool.begin().await.unwrap();
+            sqlx::query("ROLLBACK").execute(&mut *tx).await.unwrap();
+            drop(tx);
+        }
+        // More write transactions than the pool has connections: every one must begin.
+        for k in 0..20 {
+            store
+                .insert(job(&format!("j{k}")), usize::MAX)
+                .await
+                .unwrap_or_else(|e| panic!("insert {k}: {e}"));
+        }
+        assert_eq!(store.active_count().await.unwrap(), 20);
+    }
+
+    #[test]
+    fn locks_and_lost_disks_are_unavailable_and_a_missing_row_is_not() {
+        assert!(unavailable(&sqlx::Error::PoolTimedOut));
+        assert!(unavailable(&sqlx::Error::InvalidSavePointStatement));
+        assert!(!unavailable(&sqlx::Error::RowNotFound));
     }
 }
