@@ -62,7 +62,11 @@ fn points(params: &[Parameter], random: usize) -> Vec<Vec<f64>> {
 fn assert_beats(scene: &Scene, outcome: &WorstOutcome, points: &[Vec<f64>]) {
     let params = parameters(scene).unwrap();
     let problem = StateProblem::new(scene.clone()).unwrap();
-    let criteria: Vec<_> = outcome.criteria.iter().map(|c| c.criterion.clone()).collect();
+    let criteria: Vec<_> = outcome
+        .criteria
+        .iter()
+        .map(|c| c.criterion.clone())
+        .collect();
     let evaluator = ScenarioEvaluator::new(&problem, &params, &criteria).unwrap();
     let values: Vec<Vec<f64>> = evaluator
         .evaluate_batch(points)
@@ -71,7 +75,10 @@ fn assert_beats(scene: &Scene, outcome: &WorstOutcome, points: &[Vec<f64>]) {
         .collect();
     assert!(values.len() * 10 >= points.len() * 9, "most points solve");
     for (c, outcome) in outcome.criteria.iter().enumerate() {
-        let max = values.iter().map(|v| v[c]).fold(f64::NEG_INFINITY, f64::max);
+        let max = values
+            .iter()
+            .map(|v| v[c])
+            .fold(f64::NEG_INFINITY, f64::max);
         let min = values.iter().map(|v| v[c]).fold(f64::INFINITY, f64::min);
         let (worst, best) = (outcome.worst.value.unwrap(), outcome.best.value.unwrap());
         assert!(
@@ -161,6 +168,9 @@ fn small_bundled_examples_beat_an_independent_vertex_screening() {
         assert_beats(&scene, &outcome, &points(&params, 0));
         assert_rules_honest(&outcome);
         let json = serde_json::to_string(&outcome).unwrap();
-        assert!(!json.contains("\"certified\""), "{name}: a bare 'certified' label");
+        assert!(
+            !json.contains("\"certified\""),
+            "{name}: a bare 'certified' label"
+        );
     }
 }
