@@ -744,6 +744,11 @@ fn refusal_after(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {
     refusal(&scene)
 }
 
+/// An edit of the example scene.
+type Edit = fn(&mut Value);
+/// An edit that writes a name into the example scene.
+type Naming = Box<dyn Fn(&mut Value, String)>;
+
 /// Words of Rust's or serde's vocabulary that a user must never read.
 const RUST_WORDS: [&str; 9] = [
     "struct", "Material", "Scene", "f64", "u64", "usize", "u32", "sequence", "enum ",
@@ -779,7 +784,7 @@ fn an_array_where_an_object_belongs_is_refused_with_its_path() {
 
 #[test]
 fn type_errors_are_told_in_json_words() {
-    let cases: Vec<(fn(&mut Value), &str, &str)> = vec![
+    let cases: Vec<(Edit, &str, &str)> = vec![
         (
             |s| s["materials"]["rock"]["E"] = json!("stiff"),
             "materials.rock.E",
@@ -822,7 +827,7 @@ fn type_errors_are_told_in_json_words() {
 #[test]
 fn every_name_has_the_same_limit_in_every_message() {
     let limit = wsm_core::scene::MAX_NAME;
-    let edits: Vec<(Box<dyn Fn(&mut Value, String)>, &str)> = vec![
+    let edits: Vec<(Naming, &str)> = vec![
         (Box::new(|s, n| s["name"] = json!(n)), "name"),
         (
             Box::new(|s, n| s["bodies"][0]["name"] = json!(n)),
@@ -861,7 +866,7 @@ fn every_name_has_the_same_limit_in_every_message() {
 
 #[test]
 fn huge_coordinates_are_named_as_such_not_as_zero_area() {
-    let cases: Vec<(fn(&mut Value), &str)> = vec![
+    let cases: Vec<(Edit, &str)> = vec![
         (
             |s| s["bodies"][1]["zones"][0]["polygon"][2] = json!([1e308, 1e308]),
             "bodies[1].zones[0].polygon[2]",

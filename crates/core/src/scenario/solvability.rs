@@ -179,11 +179,14 @@ fn is_bound(target: ParamTarget) -> bool {
     )
 }
 
+/// Parameters (by index) with the sign of their swing along a generator.
+type Members = Vec<(usize, f64)>;
+
 /// The loads' generators over the box: e = offset + Σ t_g direction_g, t_g ∈ [0, 1]; each with
 /// its parameters and the sign of their swing along it.
 struct Generators {
     offset: Vec<f64>,
-    directions: Vec<(Vec<f64>, Vec<(usize, f64)>)>,
+    directions: Vec<(Vec<f64>, Members)>,
 }
 
 impl Generators {
@@ -198,7 +201,7 @@ impl Generators {
             .fold(norm(base), f64::max);
         let mut offset = base.to_vec();
         // (unit direction, total length, members with their signed lengths)
-        let mut groups: Vec<(Vec<f64>, f64, Vec<(usize, f64)>)> = Vec::new();
+        let mut groups: Vec<(Vec<f64>, f64, Members)> = Vec::new();
         for (i, swing) in swings {
             let length = norm(&swing);
             if length <= 1e-13 * scale {
