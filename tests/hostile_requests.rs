@@ -655,3 +655,283 @@ fn two_authorization_headers_are_refused() {
     let one = common::http(addr, "GET", "/v1/jobs", None, &[both[0]]);
     assert_eq!(one.status, 200, "{}", text(&one));
 }
+
+/// The block with Coulomb friction F on its joint instead of the Tresca slip limit.
+fn block_with_coulomb(f: f64) -> Value {
+    let mut scene = block();
+    let joint = scene["contacts"][0].as_object_mut().unwrap();
+    joint.remove("slip_limit");
+    joint.insert("friction_coefficient".into(), json!(f));
+    scene["uncertain"].as_array_mut().unwrap().truncate(2);
+    scene
+}
+
+/// `wsm worst` on `scene` (a file in the test's directory): its exit code and stderr.
+fn worst_cli(scene: &Value, name: &str) -> (i32, String) {
+    let file = temp_db(name);
+    std::fs::write(&file, scene.to_string()).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .args(["worst", &file, "--budget", "5"])
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Issue #44 items 6–8: what a solve refuses, a job refuses at submission — the nominal data
+/// included — with the same 422 and path, and `wsm worst` with the matching exit code (2 bad
+/// input, 3 unsolvable, as `wsm solve`); arrays where objects belong and oversized coordinates
+/// are refused with their path, in plain words.
+#[test]
+fn jobs_refuse_what_a_solve_refuses_nominal_data_included() {
+    let db = temp_db("hostile-nominal.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let mut cases: Vec<(String, Value, &str, &str, i32)> = Vec::new();
+    // A Coulomb coefficient that holds nothing: the pushed block slides (a solve says so).
+    for f in [0.0, -0.0, 1e-300] {
+        cases.push((
+            format!("friction coefficient {f:e}"),
+            block_with_coulomb(f),
+            "unsolvable",
+            "scene.bodies[1]",
+            3,
+        ));
+    }
+    cases.push((
+        "a negative friction coefficient".into(),
+        block_with_coulomb(-0.1),
+        "invalid_input",
+        "scene.contacts[0].friction_coefficient",
+        2,
+    ));
+    let mut second = block();
+    second["boundary"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"segment": "bottom", "displacement": [0.001, 0.0]}));
+    cases.push((
+        "a second displacement on one segment".into(),
+        second,
+        "invalid_input",
+        "scene.boundary[3].displacement[0]",
+        2,
+    ));
+    let mut outside = block();
+    outside["boundary"][2]["traction"] = json!([500000.0, 0.0]);
+    cases.push((
+        "a nominal traction outside its interval".into(),
+        outside,
+        "invalid_input",
+        "scene.uncertain[1]",
+        2,
+    ));
+    for rock in [json!([1e10, 0.25]), json!([1, 2])] {
+        let mut scene = block();
+        scene["materials"]["rock"] = rock.clone();
+        cases.push((
+            format!("materials.rock = {rock}"),
+            scene,
+            "invalid_input",
+            "scene.materials.rock",
+            2,
+        ));
+    }
+    let mut huge = block();
+    huge["bodies"][1]["zones"][0]["polygon"][2] = json!([1e308, 1e308]);
+    cases.push((
+        "coordinates of 1e308".into(),
+        huge,
+        "invalid_input",
+        "scene.bodies[1].zones[0].polygon[2]",
+        2,
+    ));
+    for (k, (what, scene, error, path, code)) in cases.iter().enumerate() {
+        for endpoint in ["/v1/solve", "/v1/jobs"] {
+            let reply = post(addr, endpoint, &json!({ "scene": scene }));
+            assert_eq!(reply.status, 422, "{what} at {endpoint}: {}", text(&reply));
+            let body = reply.json();
+            assert_eq!(body["error"], *error, "{what} at {endpoint}: {body}");
+            assert_eq!(body["path"], *path, "{what} at {endpoint}: {body}");
+            let detail = body["detail"].as_str().unwrap();
+            for word in ["zero area", "struct", "Poisson", "f64", "sequence"] {
+                assert!(!detail.contains(word), "{what} at {endpoint}: {detail}");
+            }
+        }
+        let (exit, stderr) = worst_cli(scene, &format!("nominal-{k}.json"));
+        assert_eq!(exit, *code, "{what}: wsm worst said {stderr}");
+        // The command line prints the message: a bad field by its path, an unsolvable body
+        // by its name.
+        let named = if *code == 3 {
+            "body 'block'"
+        } else {
+            path.trim_start_matches("scene.")
+        };
+        assert!(stderr.contains(named), "{what}: {stderr}");
+    }
+    let listed = get(addr, "/v1/jobs").json();
+    assert_eq!(
+        listed.as_array().map_or(0, Vec::len),
+        0,
+        "nothing was queued"
+    );
+}
+
+/// Item 8: a job whose scene has no `search` is told to add criteria to its settings (or the
+/// scene), and a wrong criterion of the scene's own search block is named in the scene.
+#[test]
+fn missing_or_wrong_criteria_are_named_where_the_user_fixes_them() {
+    let db = temp_db("hostile-criteria-paths.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let mut scene = block();
+    scene.as_object_mut().unwrap().remove("search");
+    let reply = post(addr, "/v1/jobs", &json!({ "scene": scene }));
+    assert_eq!(reply.status, 422, "{}", text(&reply));
+    let body = reply.json();
+    assert_eq!(body["path"], "settings.criteria", "{body}");
+    assert!(
+        body["detail"].as_str().unwrap().contains("search.criteria"),
+        "{body}"
+    );
+    let with_criteria = post(
+        addr,
+        "/v1/jobs",
+        &json!({ "scene": scene, "settings": {"criteria": ["phi3"], "budget": 10} }),
+    );
+    assert_eq!(with_criteria.status, 202, "{}", text(&with_criteria));
+
+    let mut scene = block();
+    scene["search"]["criteria"] = json!(["phi3", "phi1"]);
+    let reply = post(addr, "/v1/jobs", &json!({ "scene": scene }));
+    assert_eq!(reply.status, 422, "{}", text(&reply));
+    assert_eq!(reply.json()["path"], "scene.search.criteria[1]");
+    let reply = post(
+        addr,
+        "/v1/jobs",
+        &json!({ "scene": block(), "settings": {"criteria": ["phi3", "phi1"]} }),
+    );
+    assert_eq!(reply.json()["path"], "settings.criteria[1]");
+}
+
+/// Item 7: request settings of the wrong JSON kind are told in JSON words, without Rust type
+/// names.
+#[test]
+fn settings_of_the_wrong_kind_are_told_in_json_words() {
+    let db = temp_db("hostile-plain-words.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let cases = [
+        (
+            json!({"budget": {}}),
+            "settings.budget",
+            "non-negative whole number",
+        ),
+        (
+            json!({"budget": -3}),
+            "settings.budget",
+            "non-negative whole number",
+        ),
+        (
+            json!({"max_seconds": "soon"}),
+            "settings.max_seconds",
+            "a number",
+        ),
+        (json!({"criteria": "phi3"}), "settings.criteria", "an array"),
+        (
+            json!({"derivatives": 1}),
+            "settings.derivatives",
+            "a boolean",
+        ),
+    ];
+    for (settings, path, words) in cases {
+        let reply = post(
+            addr,
+            "/v1/jobs",
+            &json!({"example": "block-on-base", "settings": settings}),
+        );
+        assert_eq!(reply.status, 422, "{settings}: {}", text(&reply));
+        let body = reply.json();
+        assert_eq!(body["path"], path, "{body}");
+        let detail = body["detail"].as_str().unwrap();
+        assert!(detail.contains(words), "{settings}: {detail}");
+        for word in [
+            "WorstRequest",
+            "struct",
+            "u64",
+            "usize",
+            "f64",
+            "map",
+            "sequence",
+        ] {
+            assert!(!detail.contains(word), "{settings}: {detail}");
+        }
+    }
+}
+
+/// The block with `n` uncertain pressures on its top (the top pressure split into n parts of
+/// 1e6/n Pa, each uncertain in [lo/n, 1.1e6/n]) besides its own three uncertain data.
+fn block_with_uncertain_pressures(n: usize, lo: f64) -> Value {
+    let mut scene = block();
+    scene["boundary"][1]["pressure"] = json!(0.0);
+    for k in 0..n {
+        let b = scene["boundary"].as_array().unwrap().len();
+        scene["boundary"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"segment": "top", "pressure": 1e6 / n as f64}));
+        scene["uncertain"].as_array_mut().unwrap().push(json!({
+            "field": format!("boundary[{b}].pressure"),
+            "interval": [lo / n as f64, 1.1e6 / n as f64],
+            "name": format!("p{k}"),
+        }));
+    }
+    scene
+}
+
+/// Item 5: the submission checks of 64 uncertain data answer within a second (they took 2.6–
+/// 9.9 s: 4,096 vertices, each with its loads assembled) and stay exact: 61 pressures of the
+/// block's top whose least total cannot hold the pushed block upright are refused at that
+/// vertex — one of 2^61, which a sample of the box would not meet.
+#[test]
+fn submission_checks_of_many_uncertain_data_are_quick_and_exact() {
+    let db = temp_db("hostile-quick-checks.db");
+    let server = Server::start(&db, &["--workers", "0"]);
+    let addr = &server.addr;
+    let scene = block_with_uncertain_pressures(61, 2e5);
+    assert_eq!(scene["uncertain"].as_array().unwrap().len(), 64);
+    let mut times = Vec::new();
+    for _ in 0..3 {
+        let start = std::time::Instant::now();
+        let reply = post(
+            addr,
+            "/v1/jobs",
+            &json!({ "scene": scene, "settings": {"budget": 10} }),
+        );
+        times.push(start.elapsed());
+        assert_eq!(reply.status, 202, "{}", text(&reply));
+    }
+    times.sort();
+    assert!(
+        times[1] < std::time::Duration::from_secs(1),
+        "median {:?} of {times:?}",
+        times[1]
+    );
+    // The pushed block (2e5 N/m at 0.25 m) tips unless ≈ 1e5 N/m press it down: a least total
+    // of 5e4 N/m from the pressures (weight 12,250 N/m) cannot hold it.
+    let reply = post(
+        addr,
+        "/v1/jobs",
+        &json!({ "scene": block_with_uncertain_pressures(61, 5e4), "settings": {"budget": 10} }),
+    );
+    assert_eq!(reply.status, 422, "{}", text(&reply));
+    let body = reply.json();
+    assert_eq!(body["path"], "scene.uncertain", "{body}");
+    let detail = body["detail"].as_str().unwrap();
+    assert!(
+        detail.contains(&format!("p0 = {}", 5e4 / 61.0)) && detail.contains("p60 = "),
+        "{detail}"
+    );
+}

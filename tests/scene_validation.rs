@@ -734,3 +734,232 @@ fn implausible_magnitudes_are_warned_about_with_path_and_value() {
         );
     }
 }
+
+// ---------- issue #44: shapes, plain messages, names, coordinates, angles ----------
+
+/// The error of the block-on-base example after `edit`.
+fn refusal_after(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {
+    let mut scene = base();
+    edit(&mut scene);
+    refusal(&scene)
+}
+
+/// An edit of the example scene.
+type Edit = fn(&mut Value);
+/// An edit that writes a name into the example scene.
+type Naming = Box<dyn Fn(&mut Value, String)>;
+
+/// Words of Rust's or serde's vocabulary that a user must never read.
+const RUST_WORDS: [&str; 9] = [
+    "struct", "Material", "Scene", "f64", "u64", "usize", "u32", "sequence", "enum ",
+];
+
+fn assert_plain(e: &wsm_core::scene::SceneError) {
+    for word in RUST_WORDS {
+        assert!(!e.reason.contains(word), "'{word}' in {e}");
+    }
+}
+
+#[test]
+fn an_array_where_an_object_belongs_is_refused_with_its_path() {
+    // serde would read these by position: E = 1e10, ν = 0.25 (accepted), E = 1, ν = 2 (a ν
+    // message about a value the user never wrote as ν).
+    for rock in [json!([1e10, 0.25]), json!([1, 2]), json!([1e10])] {
+        let e = refusal_after(|s| s["materials"]["rock"] = rock.clone());
+        assert_eq!(e.path, "materials.rock", "{rock}: {e}");
+        assert!(e.reason.contains("expected an object"), "{rock}: {e}");
+        assert_plain(&e);
+    }
+    let e = refusal_after(|s| s["mesh"] = json!([0.05]));
+    assert_eq!(e.path, "mesh", "{e}");
+    assert!(e.reason.contains("expected an object"), "{e}");
+    let e = refusal_after(|s| s["boundary"][1] = json!(["top", null, null, 1e6]));
+    assert_eq!(e.path, "boundary[1]", "{e}");
+    let e = refusal_after(|s| s["contacts"][0]["slip_limit"] = json!([[0.0, 1.0], [1e5, 2e5]]));
+    assert_eq!(e.path, "contacts[0].slip_limit", "{e}");
+    assert!(e.reason.contains("expected an object"), "{e}");
+    let e = refusal_after(|s| s["search"] = json!([["phi3"], 10]));
+    assert_eq!(e.path, "search", "{e}");
+}
+
+#[test]
+fn type_errors_are_told_in_json_words() {
+    let cases: Vec<(Edit, &str, &str)> = vec![
+        (
+            |s| s["materials"]["rock"]["E"] = json!("stiff"),
+            "materials.rock.E",
+            "expected a number",
+        ),
+        (
+            |s| s["version"] = json!({}),
+            "version",
+            "expected a non-negative whole number, got an object",
+        ),
+        (
+            |s| s["bodies"] = json!({"a": 1}),
+            "bodies",
+            "expected an array",
+        ),
+        (
+            |s| s["materials"]["rock"]["conductivity"] = json!("high"),
+            "materials.rock.conductivity",
+            "a conductivity",
+        ),
+        (
+            |s| s["contacts"][0]["kind"] = json!(3),
+            "contacts[0].kind",
+            "expected",
+        ),
+        (
+            |s| s["search"]["seed"] = json!(-1),
+            "search.seed",
+            "whole number",
+        ),
+    ];
+    for (edit, path, words) in cases {
+        let e = refusal_after(edit);
+        assert_eq!(e.path, path, "{e}");
+        assert!(e.reason.contains(words), "{e}");
+        assert_plain(&e);
+    }
+}
+
+#[test]
+fn every_name_has_the_same_limit_in_every_message() {
+    let limit = wsm_core::scene::MAX_NAME;
+    let edits: Vec<(Naming, &str)> = vec![
+        (Box::new(|s, n| s["name"] = json!(n)), "name"),
+        (
+            Box::new(|s, n| s["bodies"][0]["name"] = json!(n)),
+            "bodies[0].name",
+        ),
+        (
+            Box::new(|s, n| s["criteria"]["regions"][0]["name"] = json!(n)),
+            "criteria.regions[0].name",
+        ),
+        (
+            Box::new(|s, n| {
+                let rock = s["materials"]["rock"].clone();
+                s["materials"].as_object_mut().unwrap().insert(n, rock);
+            }),
+            "materials",
+        ),
+    ];
+    for (edit, path) in &edits {
+        for length in [limit + 1, 5 * limit, wsm_core::scene::MAX_TEXT + 1] {
+            let mut scene = base();
+            edit(&mut scene, "n".repeat(length));
+            let e = refusal(&scene);
+            assert_eq!(&e.path, path, "{e}");
+            assert!(
+                e.reason.contains(&format!("at most {limit}")),
+                "{length} characters: {e}"
+            );
+        }
+        let mut scene = base();
+        edit(&mut scene, "n".repeat(limit));
+        if *path == "name" {
+            parse(&scene.to_string()).expect("a name of the limit's length is accepted");
+        }
+    }
+}
+
+#[test]
+fn huge_coordinates_are_named_as_such_not_as_zero_area() {
+    let cases: Vec<(Edit, &str)> = vec![
+        (
+            |s| s["bodies"][1]["zones"][0]["polygon"][2] = json!([1e308, 1e308]),
+            "bodies[1].zones[0].polygon[2]",
+        ),
+        (
+            |s| {
+                s["bodies"][0]["zones"][0]["polygon"] =
+                    json!([[0, 0], [1e308, 0], [1e308, 1e308], [0, 1e308]])
+            },
+            "bodies[0].zones[0].polygon[1]",
+        ),
+        (
+            |s| s["criteria"]["regions"][0]["normal_at"] = json!([1e308, 0.5]),
+            "criteria.regions[0].normal_at",
+        ),
+        (
+            |s| s["criteria"]["boundary_pieces"][0]["to"] = json!([-1e300, 1.0]),
+            "criteria.boundary_pieces[0].to",
+        ),
+        (
+            |s| s["segments"]["top"]["to"] = json!([0.5, 1e9]),
+            "segments.top.path[1]",
+        ),
+    ];
+    for (edit, path) in cases {
+        let e = refusal_after(edit);
+        assert_eq!(e.path, path, "{e}");
+        assert!(!e.reason.contains("zero area"), "{e}");
+        assert!(e.reason.contains("finite numbers of at most"), "{e}");
+    }
+    // A large but sane site (a 100 km model) is accepted.
+    let mut scene = base();
+    for body in scene["bodies"].as_array_mut().unwrap() {
+        for p in body["zones"][0]["polygon"].as_array_mut().unwrap() {
+            p[0] = json!(p[0].as_f64().unwrap() * 1e5);
+            p[1] = json!(p[1].as_f64().unwrap() * 1e5);
+        }
+    }
+    if let Err(e) = parse(&scene.to_string()) {
+        assert!(!e.reason.contains("finite numbers"), "{e}");
+    }
+}
+
+#[test]
+fn an_orthotropic_angle_must_be_a_sane_number_of_degrees() {
+    for angle in [1e308, -1e308, 361.0, 1e20] {
+        let e = refusal(&with_rock(
+            json!({"E1": 20e9, "E2": 10e9, "E3": 12e9, "nu12": 0.22, "nu13": 0.2, "nu23": 0.25,
+                   "G12": 4e9, "angle": angle, "specific_weight": 24500.0}),
+            &[],
+        ));
+        assert_eq!(e.path, "materials.rock.angle", "{angle}: {e}");
+        assert!(e.reason.contains("[-360, 360] degrees"), "{e}");
+    }
+    let e = refusal(&with_rock(
+        orthotropic(),
+        &[json!({"field": "materials.rock.angle", "interval": [0.0, 1e308]})],
+    ));
+    assert_eq!(e.path, "uncertain[0].interval", "{e}");
+    parse(
+        &with_rock(
+            orthotropic(),
+            &[json!({"field": "materials.rock.angle", "interval": [-90.0, 90.0]})],
+        )
+        .to_string(),
+    )
+    .expect("an angle within a half turn either way is accepted");
+}
+
+#[test]
+fn a_segment_component_is_prescribed_once() {
+    let e = refusal_after(|s| {
+        s["boundary"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"segment": "bottom", "displacement": [0.001, null]}))
+    });
+    assert_eq!(e.path, "boundary[3].displacement[0]", "{e}");
+    assert!(e.reason.contains("boundary[0]"), "{e}");
+    // Equal values too: with uncertain data the two would part.
+    let e = refusal_after(|s| {
+        s["boundary"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"segment": "bottom", "displacement": [null, 0.0]}))
+    });
+    assert_eq!(e.path, "boundary[3].displacement[1]", "{e}");
+    // Each component once, in two conditions, is fine.
+    let mut scene = base();
+    scene["boundary"][0]["displacement"] = json!([0.0, null]);
+    scene["boundary"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"segment": "bottom", "displacement": [null, 0.0]}));
+    parse(&scene.to_string()).expect("x by one condition, y by another");
+}

@@ -53,7 +53,7 @@ use crate::estimate::statement::{
 };
 use crate::fem::Par;
 use crate::scenario::evaluator::ScenarioEvaluator;
-use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
+use crate::scenario::solvability::check_admissible_box;
 use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{apply, parameters, Parameter};
 use crate::scene::Scene;
@@ -328,8 +328,7 @@ impl Run<'_> {
         if let Some(status) = self.enter(RunPhase::AdmissibleCheck) {
             return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));
         }
-        check_feasibility_on_box(problem, self.params)?;
-        match check_balance_on_vertices(problem, self.params, &|| self.stop_status().is_some()) {
+        match check_admissible_box(problem, self.params, &|| self.stop_status().is_some()) {
             Err(WsmError::Cancelled) => {
                 let status = self.stop_status().unwrap_or(Status::Cancelled);
                 return Ok(ControlFlow::Break(self.unstarted(&problem.scene, status)));

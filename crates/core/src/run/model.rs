@@ -9,7 +9,7 @@ use super::run_scene;
 use crate::error::WsmError;
 use crate::estimate::statement::RefinedLevel;
 use crate::scenario::evaluator::ScenarioEvaluator;
-use crate::scenario::solvability::{check_balance_on_vertices, check_feasibility_on_box};
+use crate::scenario::solvability::check_admissible_box;
 use crate::scenario::worst::ParameterInfo;
 use crate::scene::params::{parameters, Parameter};
 use crate::scene::{CriterionSpec, Scene};
@@ -24,13 +24,13 @@ pub fn parameter_info(scene: &Scene) -> Result<Vec<ParameterInfo>, WsmError> {
 
 /// The admissible-set checks a search makes before any evaluation, on the scene's own mesh:
 /// every `uncertain` entry, the contact feasibility of the prescribed displacements on the whole
-/// box, and the balance of floating bodies at the vertices. The service runs them on submission,
-/// so that a job that cannot start is refused with the field instead of failing later.
+/// box, and the balance of floating bodies at the nominal data and over the box — the same
+/// function a run calls (`check_admissible_box`). The service runs it on submission, so that a
+/// job that cannot start is refused with the field instead of failing later.
 pub fn check_admissible_set(scene: &Scene) -> Result<(), WsmError> {
     let params = parameters(scene)?;
     let problem = StateProblem::new(scene.clone())?;
-    check_feasibility_on_box(&problem, &params)?;
-    check_balance_on_vertices(&problem, &params, &|| false)
+    check_admissible_box(&problem, &params, &|| false)
 }
 
 /// A scene meshed and assembled for evaluations of the given criteria at points of its box.

@@ -63,7 +63,9 @@ pub struct WorstRequest {
 
 impl WorstRequest {
     /// The settings of the run on `scene`, checked. Errors name the request field
-    /// (`criteria[1]`, `budget`, …).
+    /// (`criteria[1]`, `budget`, …), or the scene's own search block (`search.criteria[0]`) when
+    /// its criteria are used and one is wrong; without criteria in either, the request's
+    /// `criteria` (what the caller adds).
     pub fn settings(&self, scene: &Scene) -> Result<WorstSettings, WsmError> {
         let mut settings = WorstSettings::from_scene(scene);
         match &self.criteria {
@@ -119,7 +121,12 @@ impl WorstRequest {
             return Err(SceneError::new("threads", "must be at least 1").into());
         }
         if settings.criteria.is_empty() {
-            return Err(SceneError::new("search.criteria", "no criterion requested").into());
+            return Err(SceneError::new(
+                "criteria",
+                "no criterion requested: give the criteria to search here, or in the scene's \
+                 search.criteria",
+            )
+            .into());
         }
         Ok(settings)
     }

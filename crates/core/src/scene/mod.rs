@@ -13,6 +13,7 @@ pub mod law;
 mod model;
 pub mod params;
 mod rules;
+mod shape;
 mod validate;
 mod warnings;
 
@@ -25,8 +26,9 @@ pub use model::{
     Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit,
     SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
 };
+pub use shape::{objects_where_objects, plain_message};
 pub(crate) use validate::touching_tolerance;
-pub use validate::{check_criteria_list, parse, validate};
+pub use validate::{check_criteria_list, parse, validate, MAX_COORDINATE, MAX_NAME, MAX_TEXT};
 pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};
 
 use std::fmt;

@@ -200,7 +200,10 @@ pub struct Material {
 
 /// A conductivity: a scalar or a symmetric 2×2 matrix.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a conductivity: a number, or a 2×2 matrix [[k11, k12], [k21, k22]]"
+)]
 pub enum Conductivity {
     /// Isotropic κ [W/(m K)].
     Scalar(f64),
@@ -210,7 +213,10 @@ pub enum Conductivity {
 
 /// A thermal stress coefficient: a scalar β or the Voigt vector.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a thermal stress coefficient: a number, or [beta11, beta22, beta12, beta33]"
+)]
 pub enum ThermalStress {
     /// β \[Pa/K\]: the thermal stress β (T − T0) I.
     Scalar(f64),
@@ -320,7 +326,10 @@ pub enum InitialGap {
 
 /// Slip limit: a constant, or piecewise linear on knots given as fractions of the zone length.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a slip limit: a number, or an object {\"knots\": [...], \"values\": [...], \"max_slope\": optional number}"
+)]
 pub enum SlipLimit {
     /// One slip limit g \[Pa\] along the whole zone (≥ 0).
     Constant(f64),

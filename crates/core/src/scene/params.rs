@@ -122,6 +122,7 @@ impl ParamTarget {
             | ParamTarget::Traction(..)
             | ParamTarget::Pressure(_) => Some(Constant::Load),
             ParamTarget::Displacement(..) => Some(Constant::Displacement),
+            ParamTarget::Angle(_) => Some(Constant::Angle),
             _ => None,
         }
     }

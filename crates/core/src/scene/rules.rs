@@ -31,6 +31,8 @@ pub(crate) enum Constant {
     Load,
     /// A prescribed displacement component.
     Displacement,
+    /// The orientation of an orthotropic material's axis 1 \[deg\].
+    Angle,
 }
 
 /// Largest modulus, load or slip limit \[Pa, N/m³\].
@@ -39,6 +41,9 @@ const MAX_STRESS: f64 = 1e15;
 const MIN_MODULUS: f64 = 1e-3;
 /// Largest prescribed displacement \[m\].
 const MAX_DISPLACEMENT: f64 = 1e3;
+/// Largest orientation angle in magnitude \[deg\]: a full turn either way; beyond, the angle
+/// is no orientation a user means (and 1e308° has no accurate sine).
+const MAX_ANGLE: f64 = 360.0;
 /// Largest friction coefficient [-] (measured coefficients are below 2; far beyond that the
 /// Coulomb problem has no unique solution and the fixed point cannot converge).
 const MAX_FRICTION: f64 = 100.0;
@@ -57,6 +62,7 @@ impl Constant {
             Constant::Poisson => v > -1.0 && v < 0.5,
             Constant::Load => v.abs() <= MAX_STRESS,
             Constant::Displacement => v.abs() <= MAX_DISPLACEMENT,
+            Constant::Angle => v.abs() <= MAX_ANGLE,
         }
     }
 
@@ -86,6 +92,7 @@ impl Constant {
                 "a load (pressure, traction, specific weight, body force) must be at most 1e15 in magnitude (Pa or N/m3)"
             }
             Constant::Displacement => "a prescribed displacement must be at most 1e3 m in magnitude",
+            Constant::Angle => "the angle must lie in [-360, 360] degrees",
         }
     }
 
@@ -142,6 +149,8 @@ mod tests {
         assert!(Constant::Displacement.check(0.025).is_ok());
         assert!(Constant::Displacement.check(1e4).is_err());
         assert!(Constant::Conductivity.check(1e10).is_err());
+        assert!(Constant::Angle.check(-360.0).is_ok() && Constant::Angle.check(1e308).is_err());
+        assert!(Constant::Angle.check(f64::NAN).is_err());
         assert!(Constant::Young.check_interval(1e9, 1e16).is_err());
     }
 }

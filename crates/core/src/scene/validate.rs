@@ -6,6 +6,7 @@ use super::law;
 use super::model::*;
 use super::params::{check_interval_matrices, resolve_all, unaddressable, ParamTarget, Parameter};
 use super::rules::Constant;
+use super::shape::{array_read_as_object, objects_where_objects, plain_message};
 use super::SceneError;
 use std::collections::BTreeSet;
 
@@ -14,12 +15,15 @@ pub fn parse(text: &str) -> Result<Scene, SceneError> {
     let located = |e: serde_path_to_error::Error<serde_json::Error>| {
         let path = e.path().to_string();
         let path = if path == "." { String::from("$") } else { path };
-        SceneError::new(path, e.into_inner().to_string())
+        SceneError::new(path, plain_message(&e.into_inner().to_string()))
     };
     let de = &mut serde_json::Deserializer::from_str(text);
     let value: serde_json::Value = serde_path_to_error::deserialize(de).map_err(located)?;
     check_sizes(&value, &mut String::new())?;
-    let scene: Scene = serde_path_to_error::deserialize(value).map_err(located)?;
+    let scene: Scene = serde_path_to_error::deserialize(value.clone()).map_err(|e| {
+        array_read_as_object::<Scene>(&value, e.path()).unwrap_or_else(|| located(e))
+    })?;
+    objects_where_objects(&value, &scene)?;
     validate(&scene)?;
     Ok(scene)
 }
@@ -28,12 +32,17 @@ pub fn parse(text: &str) -> Result<Scene, SceneError> {
 /// [`MAX_VERTICES`] as well).
 pub const MAX_LIST: usize = MAX_VERTICES;
 
-/// Characters accepted in any string or key of a scene document: names are echoed in
-/// results, listings and messages.
+/// Characters accepted in any other string of a scene document (a description, a field path, a
+/// reference to a name).
 pub const MAX_TEXT: usize = 1000;
 
-/// Refuse any list longer than [`MAX_LIST`] and any string or key longer than [`MAX_TEXT`],
-/// naming the first (`path` is the JSON path so far, as serde_path_to_error writes it).
+/// Characters accepted in any name of a scene document — the scene's `name`, the `name` of an
+/// entry, a key (material, segment): names are echoed in results, job listings and messages.
+pub const MAX_NAME: usize = 200;
+
+/// Refuse any list longer than [`MAX_LIST`], any name (a `name` member or a key) longer than
+/// [`MAX_NAME`] and any other string longer than [`MAX_TEXT`], naming the first (`path` is the
+/// JSON path so far, as serde_path_to_error writes it).
 fn check_sizes(value: &serde_json::Value, path: &mut String) -> Result<(), SceneError> {
     let here = |path: &str| {
         if path.is_empty() {
@@ -63,17 +72,31 @@ fn check_sizes(value: &serde_json::Value, path: &mut String) -> Result<(), Scene
                 if !path.is_empty() {
                     path.push('.');
                 }
-                if key.chars().count() > MAX_TEXT {
+                if key.chars().count() > MAX_NAME {
                     return Err(SceneError::new(
                         here(path).trim_end_matches('.').to_string(),
                         format!(
-                            "a key of {} characters; at most {MAX_TEXT}",
+                            "a key (a name) of {} characters; a name has at most {MAX_NAME}",
                             key.chars().count()
                         ),
                     ));
                 }
                 path.push_str(key);
-                check_sizes(member, path)?;
+                match member {
+                    serde_json::Value::String(name)
+                        if key == "name" && name.chars().count() > MAX_NAME =>
+                    {
+                        return Err(SceneError::new(
+                            path.clone(),
+                            format!(
+                                "{} characters; a name has at most {MAX_NAME} (it is shown in \
+                                 results, job listings and messages)",
+                                name.chars().count()
+                            ),
+                        ));
+                    }
+                    _ => check_sizes(member, path)?,
+                }
                 path.truncate(len);
             }
         }
@@ -92,12 +115,6 @@ fn check_sizes(value: &serde_json::Value, path: &mut String) -> Result<(), Scene
 pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     if scene.version != 1 {
         return Err(SceneError::new("version", "only version 1 is supported"));
-    }
-    if scene.name.chars().count() > MAX_NAME {
-        return Err(SceneError::new(
-            "name",
-            format!("at most {MAX_NAME} characters (it is shown in every job listing)"),
-        ));
     }
     check_vertex_count(scene)?;
     check_bodies(scene)?;
@@ -222,9 +239,6 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
     ))
 }
 
-/// Characters accepted in the scene's name.
-pub const MAX_NAME: usize = 200;
-
 /// Vertices accepted in all polygons, holes, paths and criteria regions of a scene together. The
 /// geometric checks (simple polygons, overlapping bodies) grow faster than linearly with the
 /// vertex count: this bound keeps the whole validation under about a second.
@@ -316,16 +330,32 @@ fn unique_name<'a>(
     }
 }
 
+/// Largest coordinate magnitude \[m\] (10,000 km): areas, lengths and orientations of the
+/// geometric checks stay far from overflow (a product of two coordinates is at most 1e14).
+pub const MAX_COORDINATE: f64 = 1e7;
+
+/// Every point of a list (its path `{path}[k]`) as [`check_point`].
 fn check_points(path: &str, pts: &[Point]) -> Result<(), SceneError> {
     for (k, p) in pts.iter().enumerate() {
-        if !p[0].is_finite() || !p[1].is_finite() {
-            return Err(SceneError::new(
-                format!("{path}[{k}]"),
-                "coordinates must be finite",
-            ));
-        }
+        check_point(&format!("{path}[{k}]"), *p)?;
     }
     Ok(())
+}
+
+/// A point (or direction) with finite components within [`MAX_COORDINATE`].
+fn check_point(path: &str, p: Point) -> Result<(), SceneError> {
+    if p.iter().all(|c| c.abs() <= MAX_COORDINATE) {
+        Ok(())
+    } else {
+        Err(SceneError::new(
+            path,
+            format!(
+                "coordinates must be finite numbers of at most {MAX_COORDINATE:.0e} m in \
+                 magnitude (got [{:e}, {:e}])",
+                p[0], p[1]
+            ),
+        ))
+    }
 }
 
 /// Twice the signed area of a closed polygon.
@@ -570,7 +600,7 @@ fn check_elastic(path: &str, m: &Material) -> Result<(), SceneError> {
     ];
     get("G12", m.g12, Constant::Mu)?;
     if let Some(angle) = m.angle {
-        finite(&format!("{path}.angle"), angle)?;
+        admissible(&format!("{path}.angle"), angle, Constant::Angle)?;
     }
     check_orthotropic_compliance(path, young, poisson)
 }
@@ -767,6 +797,7 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
                     "both components are free",
                 ));
             }
+            prescribed_once(scene, i, d)?;
             for (c, v) in d.iter().enumerate() {
                 if let Some(v) = v {
                     admissible(
@@ -786,7 +817,7 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
             admissible(&format!("{path}.pressure"), p, Constant::Load)?;
         }
         if let Some(Roller { direction: Some(d) }) = bc.roller {
-            check_points(&format!("{path}.roller.direction"), &[d])?;
+            check_point(&format!("{path}.roller.direction"), d)?;
             if d[0].hypot(d[1]) == 0.0 {
                 return Err(SceneError::new(
                     format!("{path}.roller.direction"),
@@ -804,6 +835,29 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
                     ));
                 }
             }
+        }
+    }
+    Ok(())
+}
+
+/// A displacement component of a segment is prescribed by one condition: a second one on the
+/// same segment and component (equal or not — with uncertain data they part) is refused at
+/// `boundary[i].displacement[c]`, naming the first.
+fn prescribed_once(scene: &Scene, i: usize, d: [Option<f64>; 2]) -> Result<(), SceneError> {
+    let segment = &scene.boundary[i].segment;
+    for (j, earlier) in scene.boundary[..i].iter().enumerate() {
+        let Some(e) = earlier.displacement.filter(|_| &earlier.segment == segment) else {
+            continue;
+        };
+        if let Some(c) = (0..2).find(|&c| d[c].is_some() && e[c].is_some()) {
+            return Err(SceneError::new(
+                format!("boundary[{i}].displacement[{c}]"),
+                format!(
+                    "segment '{segment}' already has its {} displacement prescribed by \
+                     boundary[{j}]; give each component of a segment once",
+                    ["x", "y"][c]
+                ),
+            ));
         }
     }
     Ok(())
@@ -858,10 +912,7 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                         "must be > 0",
                     ));
                 }
-                check_points(
-                    &format!("{path}.initial_gap.parabola.touch_at"),
-                    &[*touch_at],
-                )?;
+                check_point(&format!("{path}.initial_gap.parabola.touch_at"), *touch_at)?;
             }
             Some(InitialGap::PiecewiseLinear { knots, values }) => {
                 check_knots(
@@ -963,7 +1014,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
         unique_name(&mut names, &g.name, &path, "region")?;
         check_polygon(&format!("{path}.polygon"), &g.polygon)?;
         if let Some(n) = g.normal {
-            check_points(&format!("{path}.normal"), &[n])?;
+            check_point(&format!("{path}.normal"), n)?;
             if n[0].hypot(n[1]) == 0.0 {
                 return Err(SceneError::new(
                     format!("{path}.normal"),
@@ -972,18 +1023,21 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
             }
         }
         if let Some(x) = g.normal_at {
-            check_points(&format!("{path}.normal_at"), &[x])?;
+            check_point(&format!("{path}.normal_at"), x)?;
         }
     }
     for (r, piece) in scene.criteria.boundary_pieces.iter().enumerate() {
         let path = format!("criteria.boundary_pieces[{r}]");
         unique_name(&mut names, &piece.name, &path, "boundary piece")?;
         segment_known(scene, format!("{path}.segment"), &piece.segment)?;
-        for p in [piece.from, piece.to, piece.normal_at]
-            .into_iter()
-            .flatten()
-        {
-            check_points(&path, &[p])?;
+        for (field, p) in [
+            ("from", piece.from),
+            ("to", piece.to),
+            ("normal_at", piece.normal_at),
+        ] {
+            if let Some(p) = p {
+                check_point(&format!("{path}.{field}"), p)?;
+            }
         }
     }
     Ok(())

@@ -2,7 +2,7 @@
 //! must parse (400), no object may repeat a key (422 naming it: `serde_json` would silently
 //! keep the last), the document and its `scene` and `settings` must be objects (422: serde
 //! would read a struct from an array by position), and every field must fit its type (422 with
-//! the field's JSON path).
+//! the field's JSON path, in JSON words: `expected a number`, never a Rust type name).
 
 use std::fmt;
 
@@ -14,6 +14,7 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use super::error::{join_path, ApiError};
+use wsm_core::scene::plain_message;
 
 /// Members of a submission that must be JSON objects when given.
 const OBJECT_MEMBERS: [&str; 2] = ["scene", "settings"];
@@ -55,7 +56,7 @@ pub fn parse_body<T: DeserializeOwned>(
     serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         let path = if path == "." { "$".to_string() } else { path };
-        ApiError::invalid(path, e.into_inner().to_string())
+        ApiError::invalid(path, plain_message(&e.into_inner().to_string()))
     })
 }
 

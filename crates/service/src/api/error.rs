@@ -94,6 +94,19 @@ impl ApiError {
     }
 }
 
+impl ApiError {
+    /// An error of a run's settings ([`wsm_core::run::WorstRequest::settings`]): a path under
+    /// `search.` names the scene's own search block (`scene.search.criteria[0]`), any other a
+    /// field of the request's `settings` (`settings.budget`).
+    pub fn settings(error: WsmError) -> ApiError {
+        let prefix = match error.path() {
+            Some(path) if path.starts_with("search.") => "scene",
+            _ => "settings",
+        };
+        ApiError::engine(error, prefix)
+    }
+}
+
 /// `scene` + `materials.rock.E` → `scene.materials.rock.E`; `$` is the root.
 pub fn join_path(prefix: &str, path: &str) -> String {
     match (prefix.is_empty(), path) {

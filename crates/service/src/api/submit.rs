@@ -199,9 +199,7 @@ pub async fn submit_job(
     let (scene, text) = validated_scene(submission.scene, submission.example).await?;
     let request = submission.settings;
     check_limits(&scene, &request, &state.limits)?;
-    let settings = request
-        .settings(&scene)
-        .map_err(|e| ApiError::engine(e, "settings"))?;
+    let settings = request.settings(&scene).map_err(ApiError::settings)?;
     wsm_core::run::parameter_info(&scene).map_err(|e| ApiError::engine(e, "scene"))?;
     let checked = scene.clone();
     tokio::task::spawn_blocking(move || run::check_admissible_set(&checked))
