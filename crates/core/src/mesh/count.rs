@@ -33,8 +33,11 @@ const LEAF_PER_H: f64 = 2.0;
 /// Estimated counts of the mesh of a scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshCount {
+    /// Triangles.
     pub triangles: f64,
+    /// Nodes (contact nodes once per body).
     pub nodes: f64,
+    /// Contact node pairs over all contact zones.
     pub contact_pairs: f64,
     /// Triangles per size source: (JSON path of its `max_size`, triangles where it sets h),
     /// `mesh.max_size` first.
@@ -109,7 +112,10 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
         .filter_map(|c| scene.segments.get(&c.between[0]))
         .map(|s| {
             let line = s.polyline();
-            let inner: usize = line.windows(2).map(|w| size.subdivide(w[0], w[1]).len()).sum();
+            let inner: usize = line
+                .windows(2)
+                .map(|w| size.subdivide(w[0], w[1]).len())
+                .sum();
             PAIRS_PER_PIECE * (inner + line.len() - 1) as f64 + 1.0
         })
         .sum();
@@ -144,8 +150,20 @@ impl<'a> Domain<'a> {
             .map(|z| bbox(z.outer.iter().copied()))
             .collect();
         let bounds = boxes.iter().fold(
-            [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY],
-            |a, b| [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])],
+            [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ],
+            |a, b| {
+                [
+                    a[0].min(b[0]),
+                    a[1].min(b[1]),
+                    a[2].max(b[2]),
+                    a[3].max(b[3]),
+                ]
+            },
         );
         Domain { geo, boxes, bounds }
     }
@@ -198,8 +216,8 @@ mod tests {
     }
 
     fn probe_scene(global: Option<f64>, refine: f64) -> Scene {
-        let mut scene = crate::scene::parse(crate::bundled::example("block-on-base").unwrap())
-            .expect("parses");
+        let mut scene =
+            crate::scene::parse(crate::bundled::example("block-on-base").unwrap()).expect("parses");
         scene.mesh.refine[0].max_size = refine;
         if let Some(h) = global {
             scene.mesh.max_size = h;
