@@ -63,11 +63,22 @@ pub struct SceneArgs {
     pub example: Option<String>,
 }
 
+/// The memory limit of the commands that solve.
+#[derive(Args)]
+pub struct MemoryArgs {
+    /// Refuse (exit status 2), before meshing, a scene whose solve is estimated to need more
+    /// memory than this: bytes, or 512M, 12G, 1.5T (default: half the machine's memory).
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    pub max_solve_memory: Option<u64>,
+}
+
 /// `wsm evaluate`.
 #[derive(Args)]
 pub struct EvaluateArgs {
     #[command(flatten)]
     pub input: SceneArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Criteria, e.g. phi3,phi5 (default: the scene's `search.criteria`).
     #[arg(long, value_delimiter = ',')]
     pub criteria: Vec<String>,
@@ -93,6 +104,8 @@ impl TryFrom<&EvaluateArgs> for WorstRequest {
 pub struct SolveArgs {
     #[command(flatten)]
     pub input: SceneArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Inner solver (default: the scene's choice).
     #[arg(long, value_enum)]
     pub solver: Option<SolverArg>,
@@ -118,6 +131,8 @@ impl From<&SolveArgs> for SolveRequest {
 pub struct WorstArgs {
     #[command(flatten)]
     pub input: SceneArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Criteria, e.g. phi3,phi5 (default: the scene's `search.criteria`).
     #[arg(long, value_delimiter = ',')]
     pub criteria: Vec<String>,

@@ -32,6 +32,20 @@ pub fn load_scene(input: &crate::args::SceneArgs) -> Result<Scene, WsmError> {
     read_scene(input.scene.as_deref(), input.example.as_deref())
 }
 
+/// [`load_scene`], refused (before meshing) when its solve is estimated to need more memory than
+/// `--max-solve-memory` (design §3.1, cost estimate).
+pub fn load_affordable_scene(
+    input: &crate::args::SceneArgs,
+    memory: &crate::args::MemoryArgs,
+) -> Result<Scene, WsmError> {
+    let scene = load_scene(input)?;
+    let limit = memory
+        .max_solve_memory
+        .unwrap_or_else(run::default_max_solve_memory);
+    run::estimate_solve_cost(&scene)?.check(limit as f64)?;
+    Ok(scene)
+}
+
 /// Read and validate a scene from a file or a bundled example.
 fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {

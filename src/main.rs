@@ -67,13 +67,12 @@ enum StudyCommand {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Command::Solve(a) => cli::load_scene(&a.input)
+        Command::Solve(a) => cli::load_affordable_scene(&a.input, &a.memory)
             .and_then(|scene| cli::solve(scene, (&a).into(), a.out.as_deref(), a.vtu.as_deref())),
-        Command::Worst(a) => cli::load_scene(&a.input)
+        Command::Worst(a) => cli::load_affordable_scene(&a.input, &a.memory)
             .and_then(|scene| cli::worst(scene, (&a).try_into()?, (&a).into())),
-        Command::Evaluate(a) => {
-            cli::load_scene(&a.input).and_then(|scene| cli::evaluate(scene, (&a).try_into()?))
-        }
+        Command::Evaluate(a) => cli::load_affordable_scene(&a.input, &a.memory)
+            .and_then(|scene| cli::evaluate(scene, (&a).try_into()?)),
         Command::Serve(a) => cli::serve(a.into()),
         Command::Worker(a) => cli::worker(a.into()),
         Command::Openapi => cli::openapi(),

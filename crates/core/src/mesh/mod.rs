@@ -7,6 +7,7 @@
 
 pub(crate) mod assemble;
 mod check;
+mod count;
 mod generate;
 pub(crate) mod geom;
 mod gmsh;
@@ -19,6 +20,7 @@ pub mod structured;
 pub(crate) mod tests;
 mod tri;
 
+pub use count::{count, MeshCount};
 pub use generate::{generate, stats, MeshStats};
 pub use gmsh::import_gmsh;
 

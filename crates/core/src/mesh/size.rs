@@ -107,18 +107,37 @@ impl SizeField {
 
     /// h(p).
     pub fn at(&self, p: P) -> f64 {
-        self.sources.iter().fold(self.global, |h, s| {
-            let d = match &s.shape {
-                Shape::Area(ring) if point_in_ring(p, ring) => 0.0,
-                Shape::Area(ring) => ring_distance(p, ring),
-                Shape::Lines(lines) => lines
-                    .iter()
-                    .flat_map(|l| l.windows(2).map(|w| point_segment(p, w[0], w[1]).0))
-                    .chain(lines.iter().filter(|l| l.len() == 1).map(|l| dist(p, l[0])))
-                    .fold(f64::INFINITY, f64::min),
-            };
-            h.min(s.size + GRADING * d)
-        })
+        self.at_with_source(p).0
+    }
+
+    /// h(p) and the source that sets it (index in [`Self::source_paths`]; None: the global
+    /// size).
+    pub fn at_with_source(&self, p: P) -> (f64, Option<usize>) {
+        self.sources
+            .iter()
+            .enumerate()
+            .fold((self.global, None), |(h, which), (i, s)| {
+                let d = match &s.shape {
+                    Shape::Area(ring) if point_in_ring(p, ring) => 0.0,
+                    Shape::Area(ring) => ring_distance(p, ring),
+                    Shape::Lines(lines) => lines
+                        .iter()
+                        .flat_map(|l| l.windows(2).map(|w| point_segment(p, w[0], w[1]).0))
+                        .chain(lines.iter().filter(|l| l.len() == 1).map(|l| dist(p, l[0])))
+                        .fold(f64::INFINITY, f64::min),
+                };
+                let local = s.size + GRADING * d;
+                if local < h {
+                    (local, Some(i))
+                } else {
+                    (h, which)
+                }
+            })
+    }
+
+    /// JSON paths of the refinement sources' `max_size`, in source order.
+    pub fn source_paths(&self) -> impl Iterator<Item = &str> {
+        self.sources.iter().map(|s| s.path.as_str())
     }
 
     /// Rough number of triangles for a domain of the given area; errors when it is too many,

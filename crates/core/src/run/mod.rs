@@ -9,6 +9,7 @@
 //! [`crate::error::ErrorKind`] maps onto HTTP statuses and exit codes.
 
 mod control;
+mod cost;
 mod hash;
 mod log;
 mod model;
@@ -19,6 +20,9 @@ mod summary;
 mod table;
 
 pub use control::{BestSoFar, ProgressEvent, ProgressFn, RunControl, RunPhase};
+pub use cost::{
+    default_max_solve_memory, estimate_solve_cost, parse_bytes, CostRefusal, SolveCost,
+};
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
 pub use model::{check_admissible_set, parameter_info, PreparedModel};
