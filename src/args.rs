@@ -72,6 +72,14 @@ pub struct MemoryArgs {
     pub max_solve_memory: Option<u64>,
 }
 
+impl MemoryArgs {
+    /// The limit in bytes: the flag's value or the machine's default share.
+    pub fn limit(&self) -> u64 {
+        self.max_solve_memory
+            .unwrap_or_else(wsm_core::run::default_max_solve_memory)
+    }
+}
+
 /// `wsm evaluate`.
 #[derive(Args)]
 pub struct EvaluateArgs {
@@ -258,6 +266,11 @@ pub struct ServeArgs {
     /// settings.fields).
     #[arg(long, default_value_t = 50_000)]
     pub max_field_triangles: usize,
+    /// Peak memory one solve may need: bytes, or 512M, 12G (default: half the machine's
+    /// memory). A scene beyond it is refused with 422 naming the mesh size to coarsen, before
+    /// meshing; a job's refined accuracy levels beyond it are not built (and say so).
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    pub max_solve_memory: Option<u64>,
     /// A job whose worker died (its lease expired) this many times fails instead of being
     /// leased again.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
@@ -328,6 +341,9 @@ impl From<ServeArgs> for ServeConfig {
                     .unwrap_or_else(wsm_service::api::default_concurrent_solves)
                     .max(1),
                 max_field_triangles: args.max_field_triangles,
+                max_solve_memory: args
+                    .max_solve_memory
+                    .unwrap_or_else(wsm_core::run::default_max_solve_memory),
                 body_timeout: Duration::from_secs_f64(args.body_timeout),
                 ..Limits::default()
             },
@@ -371,6 +387,11 @@ pub struct WorkerArgs {
     /// How long a store statement waits for a lock another process holds before it fails [s].
     #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
     pub store_timeout: f64,
+    /// Peak memory one solve may need: bytes, or 512M, 12G (default: half the machine's
+    /// memory). A job beyond it fails naming the mesh size to coarsen; its refined accuracy
+    /// levels beyond it are not built (and say so).
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    pub max_solve_memory: Option<u64>,
 }
 
 impl From<WorkerArgs> for WorkerConfig {
@@ -382,6 +403,9 @@ impl From<WorkerArgs> for WorkerConfig {
             lease_seconds: args.lease_seconds,
             store_timeout: Duration::from_secs_f64(args.store_timeout),
             max_attempts: args.max_attempts,
+            max_solve_memory: args
+                .max_solve_memory
+                .unwrap_or_else(wsm_core::run::default_max_solve_memory),
         }
     }
 }

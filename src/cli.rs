@@ -39,10 +39,7 @@ pub fn load_affordable_scene(
     memory: &crate::args::MemoryArgs,
 ) -> Result<Scene, WsmError> {
     let scene = load_scene(input)?;
-    let limit = memory
-        .max_solve_memory
-        .unwrap_or_else(run::default_max_solve_memory);
-    run::estimate_solve_cost(&scene)?.check(limit as f64)?;
+    run::estimate_solve_cost(&scene)?.check(memory.limit() as f64)?;
     Ok(scene)
 }
 
@@ -132,7 +129,14 @@ pub struct WorstFiles {
 }
 
 /// `wsm worst`: the search with a progress bar; prints the outcome without the histories.
-pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<String, WsmError> {
+/// Refined levels of the accuracy statement whose solve would need more than `max_solve_bytes`
+/// are not built, and the result says so.
+pub fn worst(
+    scene: Scene,
+    request: WorstRequest,
+    files: WorstFiles,
+    max_solve_bytes: u64,
+) -> Result<String, WsmError> {
     let settings = request.settings(&scene)?;
     let names: Vec<String> = settings.criteria.iter().map(|c| c.name()).collect();
     let (file_log, memory_log) = match (&files.log, &files.resume) {
@@ -156,17 +160,19 @@ pub fn worst(scene: Scene, request: WorstRequest, files: WorstFiles) -> Result<S
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let progress_bar = bar.clone();
-    let mut control = RunControl::new().with_progress(move |event: &ProgressEvent| {
-        progress_bar.set_position(event.evaluations as u64);
-        let best: Vec<String> = event
-            .best
-            .iter()
-            .filter(|b| b.sense == Sense::Max)
-            .zip(&names)
-            .filter_map(|(b, n)| b.value.map(|v| format!("max {n} {v:.4e}")))
-            .collect();
-        progress_bar.set_message(format!("{:?} {}", event.phase, best.join(", ")));
-    });
+    let mut control = RunControl::new()
+        .with_max_solve_memory(max_solve_bytes)
+        .with_progress(move |event: &ProgressEvent| {
+            progress_bar.set_position(event.evaluations as u64);
+            let best: Vec<String> = event
+                .best
+                .iter()
+                .filter(|b| b.sense == Sense::Max)
+                .zip(&names)
+                .filter_map(|(b, n)| b.value.map(|v| format!("max {n} {v:.4e}")))
+                .collect();
+            progress_bar.set_message(format!("{:?} {}", event.phase, best.join(", ")));
+        });
     if let Some(log) = &file_log {
         control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
     } else if let Some(log) = &memory_log {

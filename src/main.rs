@@ -70,7 +70,7 @@ fn main() -> ExitCode {
         Command::Solve(a) => cli::load_affordable_scene(&a.input, &a.memory)
             .and_then(|scene| cli::solve(scene, (&a).into(), a.out.as_deref(), a.vtu.as_deref())),
         Command::Worst(a) => cli::load_affordable_scene(&a.input, &a.memory)
-            .and_then(|scene| cli::worst(scene, (&a).try_into()?, (&a).into())),
+            .and_then(|scene| cli::worst(scene, (&a).try_into()?, (&a).into(), a.memory.limit())),
         Command::Evaluate(a) => cli::load_affordable_scene(&a.input, &a.memory)
             .and_then(|scene| cli::evaluate(scene, (&a).try_into()?)),
         Command::Serve(a) => cli::serve(a.into()),

@@ -121,6 +121,51 @@ fn a_huge_polygon_or_a_repeated_criterion_is_refused_at_once_and_the_server_keep
     );
 }
 
+/// The probe's one request that killed the server (block-on-base refined to 0.0002: 23 GB, OOM):
+/// refused before meshing as a solve and as a job, naming the refinement to coarsen and the value
+/// that fits; a refinement that fits the limit but not the triangle cap is named the same way.
+#[test]
+fn a_solve_beyond_the_memory_limit_is_refused_before_meshing_naming_the_size() {
+    let db = temp_db("hostile-memory.db");
+    let server = Server::start(&db, &["--workers", "1", "--max-solve-memory", "2G"]);
+    let addr = &server.addr;
+    let mut scene = block();
+    scene["mesh"]["refine"][0]["max_size"] = json!(0.0002);
+    for (path, body) in [
+        ("/v1/solve", json!({ "scene": scene })),
+        (
+            "/v1/jobs",
+            json!({ "scene": scene, "settings": {"criteria": ["phi3"]} }),
+        ),
+    ] {
+        let start = std::time::Instant::now();
+        let reply = post(addr, path, &body);
+        assert_eq!(reply.status, 422, "{path}: {}", text(&reply));
+        let error = reply.json();
+        assert_eq!(error["path"], "scene.mesh.refine[0].max_size", "{error}");
+        let detail = error["detail"].as_str().unwrap();
+        assert!(
+            detail.contains("contact pairs") && detail.contains("fits"),
+            "{detail}"
+        );
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(3),
+            "{:?}",
+            start.elapsed()
+        );
+    }
+    assert_eq!(get(addr, "/healthz").status, 200);
+    // The probe's undercounted mesh (max_size = refine = 0.0042: 432,721 triangles, estimated
+    // 447,547 now, 2.2× under before) is over the synchronous solve's triangle cap.
+    let mut scene = block();
+    scene["mesh"]["max_size"] = json!(0.0042);
+    scene["mesh"]["refine"][0]["max_size"] = json!(0.0042);
+    let reply = post(addr, "/v1/solve", &json!({ "scene": scene }));
+    assert_eq!(reply.status, 422, "{}", text(&reply));
+    let path = reply.json()["path"].as_str().unwrap().to_string();
+    assert!(path.starts_with("scene.mesh."), "{path}");
+}
+
 #[test]
 fn numbers_beyond_double_precision_are_bad_input_not_server_errors() {
     let db = temp_db("hostile-magnitudes.db");

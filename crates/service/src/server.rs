@@ -50,6 +50,8 @@ pub struct WorkerConfig {
     pub store_timeout: Duration,
     /// A job whose lease expired this many times is failed instead of leased again.
     pub max_attempts: u32,
+    /// Peak memory one solve may need \[bytes\] (design §3.1, cost estimate).
+    pub max_solve_memory: u64,
 }
 
 /// A process's name in leases and evaluations: its role, host, process id and a random part.
@@ -107,6 +109,7 @@ pub async fn worker(config: WorkerConfig) -> Result<(), WsmError> {
             lease_seconds: config.lease_seconds,
             owner: owner.clone(),
             max_attempts: config.max_attempts,
+            max_solve_memory: config.max_solve_memory,
             inject_failures: Vec::new(),
         },
     );
@@ -141,6 +144,7 @@ pub async fn serve(config: ServeConfig) -> Result<(), WsmError> {
                 lease_seconds: config.lease_seconds,
                 owner: owner.clone(),
                 max_attempts: config.max_attempts,
+                max_solve_memory: config.limits.max_solve_memory,
                 inject_failures: config.inject_failures.clone(),
             },
         );

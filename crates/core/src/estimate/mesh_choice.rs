@@ -177,9 +177,22 @@ pub fn choose_mesh(
     target: f64,
     stop: &dyn Fn() -> bool,
     fault: Option<&SolveFault>,
+    refuse: Option<&Refusal<'_>>,
 ) -> Result<(Scene, MeshChoice), WsmError> {
-    choose_mesh_within(scene, criteria, target, MAX_CHOICE_UNKNOWNS, stop, fault)
+    choose_mesh_within(
+        scene,
+        criteria,
+        target,
+        MAX_CHOICE_UNKNOWNS,
+        stop,
+        fault,
+        refuse,
+    )
 }
+
+/// Why the level with mesh sizes × factor must not be built (its solve would need more memory
+/// than the run may use; answered by the caller from the cost estimate, design §3.1).
+pub type Refusal<'a> = dyn Fn(f64) -> Option<WsmError> + 'a;
 
 /// [`choose_mesh`] with a ladder of at most `max_unknowns` unknowns.
 fn choose_mesh_within(
@@ -189,6 +202,7 @@ fn choose_mesh_within(
     max_unknowns: usize,
     stop: &dyn Fn() -> bool,
     fault: Option<&SolveFault>,
+    refuse: Option<&Refusal<'_>>,
 ) -> Result<(Scene, MeshChoice), WsmError> {
     check_target(scene, target)?;
     let start = Instant::now();
@@ -202,6 +216,18 @@ fn choose_mesh_within(
             break;
         }
         let factor = COARSEST_FACTOR * 0.5_f64.powi(levels.len() as i32);
+        if let Some(error) = refuse.and_then(|refuse| refuse(factor)) {
+            // Beyond the memory limit: not built, and every finer level is larger still.
+            levels.push(Level {
+                factor,
+                built: false,
+                unknowns: 0,
+                triangles: 0,
+                values: Err(error),
+                seconds: 0.0,
+            });
+            break;
+        }
         let level = solve_level(scene, criteria, factor, fault);
         // A mesh as fine as the scene's that cannot be built: a finer one is larger still.
         let last = !level.built && factor <= 1.0;
@@ -316,8 +342,9 @@ mod tests {
     fn picks_the_coarsest_level_meeting_the_target() {
         let scene = scene();
         let criteria = [CriterionSpec::from(Criterion::Phi3)];
-        let (loose_scene, loose) = choose_mesh(&scene, &criteria, 0.05, &|| false, None).unwrap();
-        let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false, None).unwrap();
+        let (loose_scene, loose) =
+            choose_mesh(&scene, &criteria, 0.05, &|| false, None, None).unwrap();
+        let (_, tight) = choose_mesh(&scene, &criteria, 0.002, &|| false, None, None).unwrap();
         for choice in [&loose, &tight] {
             let i = choice
                 .candidates
@@ -341,7 +368,7 @@ mod tests {
         );
         // Deterministic: the same choice, bit for bit.
         assert_eq!(
-            choose_mesh(&scene, &criteria, 0.05, &|| false, None)
+            choose_mesh(&scene, &criteria, 0.05, &|| false, None, None)
                 .unwrap()
                 .1
                 .candidates
@@ -366,6 +393,7 @@ mod tests {
             cap,
             &|| false,
             None,
+            None,
         )
         .unwrap();
         assert!(!choice.met);
@@ -387,6 +415,29 @@ mod tests {
     }
 
     #[test]
+    fn a_level_beyond_the_memory_limit_ends_the_ladder_unbuilt() {
+        let refuse = |factor: f64| {
+            (factor < 1.0).then(|| crate::scene::SceneError::new("mesh.max_size", "too big").into())
+        };
+        let (_, choice) = choose_mesh_within(
+            &scene(),
+            &[Criterion::Phi3.into()],
+            1e-12,
+            MAX_CHOICE_UNKNOWNS,
+            &|| false,
+            None,
+            Some(&refuse),
+        )
+        .unwrap();
+        let last = choice.candidates.last().unwrap();
+        assert_eq!(last.size_factor, 0.5, "{choice:#?}");
+        assert_eq!(last.unknowns, 0, "not built");
+        assert!(last.failure.as_ref().unwrap().contains("too big"));
+        assert!(!choice.met);
+        assert_eq!(choice.size_factor, 1.0, "the finest level built");
+    }
+
+    #[test]
     fn failed_levels_are_kept_with_their_error_and_the_finest_level_that_solved_is_used() {
         let cap = 20_000;
         let fault = fail_finer_than(0.5);
@@ -397,6 +448,7 @@ mod tests {
             cap,
             &|| false,
             Some(&fault),
+            None,
         )
         .unwrap();
         assert!(!choice.met);
@@ -432,6 +484,7 @@ mod tests {
             20_000,
             &|| false,
             Some(&fault),
+            None,
         )
         .unwrap_err();
         assert_eq!(e.kind(), crate::error::ErrorKind::Solver, "{e}");
@@ -446,11 +499,26 @@ mod tests {
     #[test]
     fn bad_targets_and_cancels_are_refused() {
         for bad in [0.0, -0.1, 1.0, f64::NAN, f64::INFINITY] {
-            let e =
-                choose_mesh(&scene(), &[Criterion::Phi3.into()], bad, &|| false, None).unwrap_err();
+            let e = choose_mesh(
+                &scene(),
+                &[Criterion::Phi3.into()],
+                bad,
+                &|| false,
+                None,
+                None,
+            )
+            .unwrap_err();
             assert!(e.to_string().contains("target_error"), "{e}");
         }
-        let e = choose_mesh(&scene(), &[Criterion::Phi3.into()], 0.01, &|| true, None).unwrap_err();
+        let e = choose_mesh(
+            &scene(),
+            &[Criterion::Phi3.into()],
+            0.01,
+            &|| true,
+            None,
+            None,
+        )
+        .unwrap_err();
         assert!(matches!(e, WsmError::Cancelled));
     }
 }

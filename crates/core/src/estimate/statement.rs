@@ -250,6 +250,9 @@ pub struct StatementControl<'a> {
     pub dispatch: Option<&'a dyn BatchDispatch>,
     /// Fails the refined solves made in this process where it answers (tests).
     pub fault: Option<&'a SolveFault>,
+    /// Why refinement `level` must not be built (its solve would need more memory than the
+    /// run may use), checked before meshing it; `None` builds every level.
+    pub refuse_level: Option<&'a (dyn Fn(u32) -> Option<String> + Sync)>,
 }
 
 /// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
@@ -286,6 +289,17 @@ pub fn statement(
         if (control.stop)() {
             cut_short = true;
             break;
+        }
+        if let Some(reason) = control.refuse_level.and_then(|refuse| refuse(level)) {
+            // Not built: every solve on it failed with the reason (listed, warned, incomplete).
+            values.push(points.iter().map(|_| Err(reason.clone())).collect());
+            meshes.push(StatementMesh {
+                size_factor: refinement_factor(level),
+                unknowns: 0,
+                triangles: 0,
+                seconds: 0.0,
+            });
+            continue;
         }
         let t0 = Instant::now();
         let refined =
@@ -575,6 +589,7 @@ mod tests {
             stop,
             dispatch: None,
             fault: None,
+            refuse_level: None,
         };
         statement(
             problem,

@@ -99,6 +99,10 @@ pub struct RunControl {
     /// For tests of failure handling: the solves made here (search evaluations, the accuracy
     /// statement's refined solves, the mesh choice's solves) fail where it answers.
     pub fault: Option<Arc<SolveFault>>,
+    /// Peak memory a single solve may need \[bytes\] (`--max-solve-memory`): a run whose scene
+    /// is estimated beyond it is refused before meshing, and a refined level of its accuracy
+    /// statement beyond it is not built (a listed failure) — design §3.1, cost estimate.
+    pub max_solve_bytes: Option<f64>,
 }
 
 impl RunControl {
@@ -132,6 +136,12 @@ impl RunControl {
     /// [`crate::fault`]).
     pub fn with_fault(mut self, fault: Arc<SolveFault>) -> Self {
         self.fault = Some(fault);
+        self
+    }
+
+    /// Refuse solves estimated to need more than `bytes` of memory (design §3.1).
+    pub fn with_max_solve_memory(mut self, bytes: u64) -> Self {
+        self.max_solve_bytes = Some(bytes as f64);
         self
     }
 

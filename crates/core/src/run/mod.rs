@@ -51,9 +51,10 @@ use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use crate::error::WsmError;
+use crate::estimate::ladder::scaled;
 use crate::estimate::mesh_choice::choose_mesh;
 use crate::estimate::statement::{
-    default_refinements, statement, AccuracyStatement, StatementControl,
+    default_refinements, refinement_factor, statement, AccuracyStatement, StatementControl,
 };
 use crate::fem::Par;
 use crate::scenario::evaluator::ScenarioEvaluator;
@@ -161,21 +162,34 @@ pub fn log_header(scene: &Scene, settings: &WorstSettings) -> Result<LogHeader, 
 
 /// The scene a run solves: `scene` itself, or with a target error the scene on the coarsest
 /// mesh meeting it (`crate::estimate::mesh_choice`), with how it was chosen. `stop` is polled
-/// between the meshes tried; `fault` fails the solves where it answers (tests). Workers call
-/// this too, so every process solves the same mesh.
+/// between the meshes tried; `fault` fails the solves where it answers (tests); a mesh whose
+/// solve is estimated beyond `max_solve_bytes` ends the ladder unbuilt (design §3.1). Workers
+/// call this too when the coordinator shared no scene, so every process solves the same mesh.
 pub fn run_scene(
     scene: Scene,
     settings: &WorstSettings,
     stop: &dyn Fn() -> bool,
     fault: Option<&SolveFault>,
+    max_solve_bytes: Option<f64>,
 ) -> Result<(Scene, Option<MeshChoice>), WsmError> {
-    match settings.target_error {
-        Some(target) => {
-            let (chosen, choice) = choose_mesh(&scene, &settings.criteria, target, stop, fault)?;
-            Ok((chosen, Some(choice)))
-        }
-        None => Ok((scene, None)),
-    }
+    let Some(target) = settings.target_error else {
+        return Ok((scene, None));
+    };
+    let refuse = |factor: f64| -> Option<WsmError> {
+        let limit = max_solve_bytes?;
+        let level = scaled(&scene, factor).ok()?;
+        let refusal = estimate_solve_cost(&level).ok()?.check(limit).err()?;
+        Some(refusal.into())
+    };
+    let (chosen, choice) = choose_mesh(
+        &scene,
+        &settings.criteria,
+        target,
+        stop,
+        fault,
+        Some(&refuse),
+    )?;
+    Ok((chosen, Some(choice)))
 }
 
 /// A worst-scenario search on `scene`: the worst and best of each requested criterion over the
@@ -186,6 +200,9 @@ pub fn worst(
     control: &RunControl,
 ) -> Result<WorstOutcome, WsmError> {
     let settings = request.settings(&scene)?;
+    if let Some(limit) = control.max_solve_bytes {
+        estimate_solve_cost(&scene)?.check(limit)?;
+    }
     let params = parameters(&scene)?;
     let header = log_header(&scene, &settings)?;
     let replay = match &control.log {
@@ -311,6 +328,7 @@ impl Run<'_> {
             self.settings,
             &stop,
             self.control.fault.as_deref(),
+            self.control.max_solve_bytes,
         ) {
             Ok((chosen, choice)) => {
                 if let Some(dispatch) = &self.control.dispatch {
@@ -457,10 +475,17 @@ impl Run<'_> {
         self.control
             .report(&self.event(RunPhase::Accuracy, outcome.evaluations));
         let stop = || self.stop_status().is_some();
+        let refuse = |level: u32| {
+            let limit = self.control.max_solve_bytes?;
+            let refined = scaled(&problem.scene, refinement_factor(level)).ok()?;
+            let cost = estimate_solve_cost(&refined).ok()?;
+            cost.check(limit).err().map(|r| r.message)
+        };
         let control = StatementControl {
             stop: &stop,
             dispatch: self.control.dispatch.as_deref(),
             fault: self.control.fault.as_deref(),
+            refuse_level: Some(&refuse),
         };
         let statement = statement(
             problem,

@@ -75,7 +75,7 @@ impl PreparedModel {
         let params = parameters(&scene)?;
         let scene = match chosen_scene {
             Some(text) => crate::scene::parse(text)?,
-            None => run_scene(scene, &settings, &|| false, None)?.0,
+            None => run_scene(scene, &settings, &|| false, None, None)?.0,
         };
         Ok(PreparedModel::new(scene, params, settings.criteria)?
             .with_derivatives(settings.derivatives))

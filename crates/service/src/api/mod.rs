@@ -49,6 +49,9 @@ pub struct Limits {
     pub max_concurrent_solves: usize,
     /// Triangles of the largest mesh whose fields a response carries.
     pub max_field_triangles: usize,
+    /// Peak memory one solve may need \[bytes\]: beyond, a scene is refused (422 naming the
+    /// mesh size to coarsen) before meshing (design §3.1, cost estimate).
+    pub max_solve_memory: u64,
     /// A request's body must arrive within this long.
     pub body_timeout: Duration,
 }
@@ -71,6 +74,7 @@ impl Default for Limits {
             max_active_jobs: 1000,
             max_concurrent_solves: default_concurrent_solves(),
             max_field_triangles: 50_000,
+            max_solve_memory: wsm_core::run::default_max_solve_memory(),
             body_timeout: Duration::from_secs(30),
         }
     }

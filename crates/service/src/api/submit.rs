@@ -102,36 +102,24 @@ fn run_example(name: &str) -> Result<String, ApiError> {
         .map_err(|e| ApiError::invalid("example", e.to_string()))
 }
 
-/// Triangles a scene's mesh will have, roughly: area / (√3/4 · max_size²).
-fn estimated_triangles(scene: &Scene) -> f64 {
-    let area = |polygon: &[[f64; 2]]| {
-        let n = polygon.len();
-        (0..n)
-            .map(|i| {
-                let (a, b) = (polygon[i], polygon[(i + 1) % n]);
-                a[0] * b[1] - a[1] * b[0]
-            })
-            .sum::<f64>()
-            .abs()
-            / 2.0
-    };
-    let total: f64 = scene
-        .bodies
-        .iter()
-        .flat_map(|b| &b.zones)
-        .map(|z| area(&z.polygon) - z.holes.iter().map(|h| area(h)).sum::<f64>())
-        .sum();
-    let h = scene.mesh.max_size;
-    total / (0.433 * h * h)
-}
-
-fn check_size(scene: &Scene, limit: usize, what: &str) -> Result<(), ApiError> {
-    let estimate = estimated_triangles(scene);
-    if estimate > limit as f64 {
+/// The scene's solve cost estimated before meshing (design §3.1, `run::estimate_solve_cost`)
+/// against the server's limits: at most `max_triangles` for `what`, and a peak memory of at
+/// most `max_bytes`; a refusal names the mesh size to coarsen and the value that fits.
+fn check_cost(
+    scene: &Scene,
+    max_triangles: usize,
+    max_bytes: u64,
+    what: &str,
+) -> Result<(), ApiError> {
+    let cost = run::estimate_solve_cost(scene).map_err(|e| ApiError::engine(e, "scene"))?;
+    cost.check(max_bytes as f64)
+        .map_err(|r| ApiError::invalid(format!("scene.{}", r.path), r.message))?;
+    if cost.triangles > max_triangles as f64 {
         return Err(ApiError::invalid(
-            "scene.mesh.max_size",
+            format!("scene.{}", cost.size_field),
             format!(
-                "about {estimate:.0} triangles; this server accepts at most {limit} for {what} (raise max_size)"
+                "about {:.0} triangles; this server accepts at most {max_triangles} for {what} (raise this size)",
+                cost.triangles
             ),
         ));
     }
@@ -139,7 +127,12 @@ fn check_size(scene: &Scene, limit: usize, what: &str) -> Result<(), ApiError> {
 }
 
 fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Result<(), ApiError> {
-    check_size(scene, limits.max_triangles, "a job")?;
+    check_cost(
+        scene,
+        limits.max_triangles,
+        limits.max_solve_memory,
+        "a job",
+    )?;
     if scene.uncertain.len() > limits.max_parameters {
         return Err(ApiError::invalid(
             "scene.uncertain",
@@ -275,9 +268,10 @@ pub async fn solve(
     let place = state.solves.take()?;
     let submission: SolveSubmission = parse_body(&headers, body)?;
     let (scene, _) = validated_scene(submission.scene, submission.example).await?;
-    check_size(
+    check_cost(
         &scene,
         state.limits.max_solve_triangles,
+        state.limits.max_solve_memory,
         "a synchronous solve (submit a job)",
     )?;
     let request = submission.settings;

@@ -36,6 +36,9 @@ pub struct RunnerConfig {
     /// A job whose lease expired this many times (its worker died or hung each time) fails
     /// instead of being leased again.
     pub max_attempts: u32,
+    /// Peak memory one solve may need \[bytes\]: a job beyond it fails naming the mesh size
+    /// to coarsen, and refined accuracy levels beyond it are not built (design §3.1).
+    pub max_solve_memory: u64,
     /// Fail solves on purpose (tests of failure handling; `wsm serve --inject-failures`).
     pub inject_failures: Vec<FaultRule>,
 }
@@ -450,6 +453,7 @@ impl Run<'_> {
             store_failed.clone(),
         );
         let control = RunControl::new()
+            .with_max_solve_memory(config.max_solve_memory)
             .with_cancel(self.cancel.clone())
             .with_log(Arc::new(log))
             .with_dispatch(Arc::new(dispatch))
