@@ -150,7 +150,7 @@ pub struct WorstArgs {
     /// Random seed (default: the scene's).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Wall-time limit of the run [s]; the partial result is returned with status time_limit.
+    /// Wall-time limit of the run (seconds); the partial result is returned with status time_limit.
     #[arg(long)]
     pub max_seconds: Option<f64>,
     /// Threads of the run's own pool (default: all cores).
@@ -231,7 +231,7 @@ pub struct ServeArgs {
     /// Threads of each job (default: all cores).
     #[arg(long)]
     pub threads_per_job: Option<usize>,
-    /// A running job whose lease is not renewed for this long is resumed by another worker [s].
+    /// A running job whose lease is not renewed for this long is resumed by another worker (seconds).
     #[arg(long, default_value_t = 30.0)]
     pub lease_seconds: f64,
     /// Largest inner-solve budget a job may ask for.
@@ -240,18 +240,18 @@ pub struct ServeArgs {
     /// Queued and running jobs at once (beyond: 503 with Retry-After).
     #[arg(long, default_value_t = 1000)]
     pub max_active_jobs: usize,
-    /// Largest estimated mesh of a job [triangles].
+    /// Largest estimated mesh of a job (triangles).
     #[arg(long, default_value_t = 2_000_000)]
     pub max_triangles: usize,
-    /// Largest request body [bytes]; a larger declared Content-Length is refused (413) before
+    /// Largest request body (bytes); a larger declared Content-Length is refused (413) before
     /// the body is read.
     #[arg(long, default_value_t = 4 << 20)]
     pub max_body_bytes: usize,
     /// A request's head (request line and headers) must arrive within this long of the
-    /// connection's opening or of the previous response, else the connection is closed [s].
+    /// connection's opening or of the previous response, else the connection is closed (seconds).
     #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
     pub header_timeout: f64,
-    /// A request's body must arrive within this long of its head, else 408 [s].
+    /// A request's body must arrive within this long of its head, else 408 (seconds).
     #[arg(long, default_value_t = 30.0, value_parser = parse_seconds)]
     pub body_timeout: f64,
     /// Connections open at once; beyond, 503 at once (default: the file-descriptor limit less
@@ -276,7 +276,7 @@ pub struct ServeArgs {
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_attempts: u32,
     /// How long a store statement waits for a lock another process holds before it fails (the
-    /// request then gets 503, the job is retried) [s].
+    /// request then gets 503, the job is retried) (seconds).
     #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
     pub store_timeout: f64,
     /// With WSM_API_TOKEN set, let anyone read jobs, scenes and results (by default reads need
@@ -377,14 +377,14 @@ pub struct WorkerArgs {
     /// Jobs coordinated at once by this process.
     #[arg(long, default_value_t = 1)]
     pub jobs: usize,
-    /// A job or task whose lease is not renewed for this long is taken over [s].
+    /// A job or task whose lease is not renewed for this long is taken over (seconds).
     #[arg(long, default_value_t = 30.0)]
     pub lease_seconds: f64,
     /// A job whose worker died (its lease expired) this many times fails instead of being
     /// leased again.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..))]
     pub max_attempts: u32,
-    /// How long a store statement waits for a lock another process holds before it fails [s].
+    /// How long a store statement waits for a lock another process holds before it fails (seconds).
     #[arg(long, default_value_t = 10.0, value_parser = parse_seconds)]
     pub store_timeout: f64,
     /// Peak memory one solve may need: bytes, or 512M, 12G (default: half the machine's

@@ -63,7 +63,7 @@ pub fn descriptor_limit() -> usize {
 }
 
 /// The default connection cap: the descriptor limit less [`RESERVED_DESCRIPTORS`] and
-/// [`OVERFLOW`], at most [`MAX_DEFAULT_CONNECTIONS`], at least 16.
+/// `OVERFLOW`, at most `MAX_DEFAULT_CONNECTIONS`, at least 16.
 pub fn default_max_connections() -> usize {
     descriptor_limit()
         .saturating_sub(RESERVED_DESCRIPTORS + OVERFLOW)

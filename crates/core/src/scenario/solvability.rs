@@ -80,7 +80,7 @@ pub fn check_admissible_box(
 /// Δᵢ = 0 (a load on a clamped body) cannot move the balance, and parameters with parallel Δᵢ
 /// (pressures on one face) add up to one generator, both exactly. The vertices of the remaining
 /// generators are checked — all of them up to 2^12, beyond that a deterministic sample of
-/// [`MAX_VERTICES`].
+/// `MAX_VERTICES`.
 pub fn check_balance(
     problem: &StateProblem,
     params: &[Parameter],

@@ -3,8 +3,8 @@
 //!
 //! Supported paths: `materials.M.{E, nu, lambda, mu, E1, E2, E3, nu12, nu13, nu23, G12, angle,
 //! matrix[i][j], out_of_plane[k], specific_weight, body_force[c], conductivity,
-//! conductivity[i][j], heat_source, expansion, beta, beta[k]}` (a symmetric matrix entry [i][j]
-//! varies [j][i] with it), `boundary[i].{displacement[c], traction[c],
+//! conductivity[i][j], heat_source, expansion, beta, beta[k]}` (a symmetric matrix entry `[i][j]`
+//! varies `[j][i]` with it), `boundary[i].{displacement[c], traction[c],
 //! pressure, temperature, heat_flux}`, `contacts[i].slip_limit` (constant g) and
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g),
 //! `contacts[i].friction_coefficient` (Coulomb's F; it scales the state-dependent slip bound
@@ -61,7 +61,7 @@ pub enum ParamTarget {
     OrthotropicShear(usize),
     /// `materials.M.angle` \[deg\].
     Angle(usize),
-    /// `materials.M.matrix[i][j]` with i ≤ j (and its mirror [j][i]).
+    /// `materials.M.matrix[i][j]` with i ≤ j (and its mirror `[j][i]`).
     MatrixEntry(usize, usize, usize),
     /// `materials.M.out_of_plane[k]`.
     OutOfPlane(usize, usize),
@@ -71,7 +71,7 @@ pub enum ParamTarget {
     BodyForce(usize, usize),
     /// `materials.M.conductivity` (a scalar).
     Conductivity(usize),
-    /// `materials.M.conductivity[i][j]` with i ≤ j (and its mirror [j][i]).
+    /// `materials.M.conductivity[i][j]` with i ≤ j (and its mirror `[j][i]`).
     ConductivityEntry(usize, usize, usize),
     /// `materials.M.heat_source`.
     HeatSource(usize),

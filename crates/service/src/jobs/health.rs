@@ -35,7 +35,7 @@ const PERIOD: Duration = Duration::from_secs(2);
 /// process makes a write wait for the whole lock timeout).
 const PROBE_TIMEOUT: Duration = Duration::from_secs(2);
 
-/// Probe `store` now and then every [`PERIOD`], recording the answers in `health`.
+/// Probe `store` now and then every `PERIOD`, recording the answers in `health`.
 pub fn spawn_monitor(store: Arc<dyn JobStore>, health: Arc<StoreHealth>) {
     tokio::spawn(async move {
         loop {
