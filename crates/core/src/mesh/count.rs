@@ -29,6 +29,13 @@ const PAIRS_PER_PIECE: f64 = 1.6;
 
 /// A leaf of the quadtree is at most this many local sizes wide.
 const LEAF_PER_H: f64 = 2.0;
+/// Quadtree cells visited at most: beyond, a cell is counted whole with its centre's size (a
+/// rougher estimate, reached only for meshes of millions of triangles that any limit refuses;
+/// it keeps the count to milliseconds for a hostile size such as 1e-300).
+const MAX_CELLS: usize = 1 << 18;
+/// Edges longer than this many local sizes are counted from the size at their ends and middle
+/// instead of being subdivided point by point (same reason).
+const MAX_EXACT_EDGE_POINTS: f64 = 1e5;
 
 /// Estimated counts of the mesh of a scene.
 #[derive(Debug, Clone, PartialEq)]
@@ -73,13 +80,15 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
     let b = domain.bounds;
     let side = (b[2] - b[0]).max(b[3] - b[1]).max(f64::MIN_POSITIVE);
     let mut stack = vec![([b[0], b[1]], side)];
+    let mut cells = 0;
     while let Some((corner, s)) = stack.pop() {
         if !domain.may_touch(corner, s) {
             continue;
         }
+        cells += 1;
         let centre = [corner[0] + 0.5 * s, corner[1] + 0.5 * s];
         let (h, source) = size.at_with_source(centre);
-        if s > LEAF_PER_H * h {
+        if s > LEAF_PER_H * h && cells < MAX_CELLS {
             let half = 0.5 * s;
             for (dx, dy) in [(0.0, 0.0), (half, 0.0), (0.0, half), (half, half)] {
                 stack.push(([corner[0] + dx, corner[1] + dy], half));
@@ -112,11 +121,11 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
         .filter_map(|c| scene.segments.get(&c.between[0]))
         .map(|s| {
             let line = s.polyline();
-            let inner: usize = line
+            let inner: f64 = line
                 .windows(2)
-                .map(|w| size.subdivide(w[0], w[1]).len())
+                .map(|w| inner_points(&size, w[0], w[1]))
                 .sum();
-            PAIRS_PER_PIECE * (inner + line.len() - 1) as f64 + 1.0
+            PAIRS_PER_PIECE * (inner + (line.len() - 1) as f64) + 1.0
         })
         .sum();
     Ok(MeshCount {
@@ -131,8 +140,21 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
 fn ring_points(size: &SizeField, ring: &[P]) -> f64 {
     let n = ring.len();
     (0..n)
-        .map(|i| 1 + size.subdivide(ring[i], ring[(i + 1) % n]).len())
-        .sum::<usize>() as f64
+        .map(|i| 1.0 + inner_points(size, ring[i], ring[(i + 1) % n]))
+        .sum()
+}
+
+/// Points the mesher puts inside the edge a–b: its own subdivision, or for an edge of more than
+/// [`MAX_EXACT_EDGE_POINTS`] local sizes its length over the least size at its ends and middle.
+fn inner_points(size: &SizeField, a: P, b: P) -> f64 {
+    let middle = [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])];
+    let h = size.at(a).min(size.at(b)).min(size.at(middle));
+    let rough = (b[0] - a[0]).hypot(b[1] - a[1]) / h;
+    if rough.is_finite() && rough <= MAX_EXACT_EDGE_POINTS {
+        size.subdivide(a, b).len() as f64
+    } else {
+        rough
+    }
 }
 
 /// The union of the zone polygons, with bounding boxes for quick rejection.
@@ -223,6 +245,18 @@ mod tests {
             scene.mesh.max_size = h;
         }
         scene
+    }
+
+    /// Hostile sizes (the fuzz corpus's 1e-300, 1e-308) are counted in milliseconds as a mesh no
+    /// limit accepts, not by visiting every cell or edge point.
+    #[test]
+    fn vanishing_sizes_are_counted_at_once_as_enormous() {
+        for (global, refine) in [(None, 1e-300), (Some(1e-308), 1e-308), (None, 1e-9)] {
+            let start = std::time::Instant::now();
+            let c = count(&probe_scene(global, refine)).expect("estimate");
+            assert!(c.triangles > 1e12 && c.contact_pairs > 1e6, "{c:?}");
+            assert!(start.elapsed().as_secs_f64() < 2.0, "{:?}", start.elapsed());
+        }
     }
 
     /// Triangles within 20 % (contact pairs within 30 %) of the mesher on every bundled example and on the probe's block-on-base
