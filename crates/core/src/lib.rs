@@ -1,7 +1,8 @@
 //! wsm-core — the numerical engine of `wsm`: worst-scenario analysis of multibody elastic contact
 //! with Tresca friction, and its front door.
 //!
-//! The pipeline, one module each, every module using only those before it: `scene` (the JSON
+//! The pipeline, one module each, every module using only those before it (a test keeps it so:
+//! `layering`), after the private `memo` (a small value cache): `scene` (the JSON
 //! document and its validation) → `mesh` (P1 triangles, contact node pairs) → `fem` (elasticity
 //! and heat operators, loads, stresses) → `error` (the engine's error type, over the scene and
 //! FEM errors and the search's) → `fault` (injected solve failures, for the tests of how runs
@@ -35,3 +36,6 @@ pub mod run;
 pub mod scenario;
 pub mod scene;
 pub mod state;
+
+#[cfg(test)]
+mod layering;

@@ -8,7 +8,7 @@
 //!
 //! The refined solves are cold (no warm start) direct solves, sequential inside and parallel
 //! over the points, so the statement is bit-identical on any thread count, after a resume and
-//! whichever process solves a point: with a [`BatchDispatch`] (worker processes sharing a job
+//! whichever process solves a point: with a [`RefinedDispatch`] (worker processes sharing a job
 //! store) each level's points are dealt to the live workers, which build the refined level
 //! themselves, while this process builds it and solves its own share. Between points and levels
 //! `stop` is polled (cancel, time limit).
@@ -29,7 +29,6 @@ use super::ladder::DirectLevel;
 use super::richardson::extrapolate;
 use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
-use crate::run::BatchDispatch;
 use crate::scene::params::{apply, Parameter};
 use crate::scene::CriterionSpec;
 use crate::state::StateProblem;
@@ -147,6 +146,20 @@ pub type RefinedValues = Result<Vec<Option<f64>>, String>;
 /// Solves points (physical parameter values) on one refined level, in input order.
 pub type RefinedSolve<'a> = dyn Fn(&[Vec<f64>]) -> Vec<RefinedValues> + Sync + 'a;
 
+/// Deals the statement's refined solves to other processes (the service's job store, with worker
+/// processes behind it; the run's evaluation batches go the same way, `run::BatchDispatch`).
+pub trait RefinedDispatch: Send + Sync {
+    /// The solves of `points` on the run's mesh refined `level` times, in input order — this
+    /// process's share solved with `local`, the others' by processes that build the refined
+    /// level themselves; `None`: not dispatched (solve them all here).
+    fn refined(
+        &self,
+        level: u32,
+        points: &[Vec<f64>],
+        local: &RefinedSolve<'_>,
+    ) -> Result<Option<Vec<RefinedValues>>, WsmError>;
+}
+
 /// The mesh size factor of refinement `level` (sizes halved `level` times).
 pub fn refinement_factor(level: u32) -> f64 {
     0.5_f64.powi(level as i32)
@@ -247,7 +260,7 @@ pub struct StatementControl<'a> {
     /// Polled between meshes and points (a cancel, the time limit).
     pub stop: &'a (dyn Fn() -> bool + Sync),
     /// Deals each level's points to worker processes, when there are any.
-    pub dispatch: Option<&'a dyn BatchDispatch>,
+    pub dispatch: Option<&'a dyn RefinedDispatch>,
     /// Fails the refined solves made in this process where it answers (tests).
     pub fault: Option<&'a SolveFault>,
     /// Why refinement `level` must not be built (its solve would need more memory than the

@@ -34,8 +34,8 @@ pub use table::{columns as table_columns, write_csv};
 
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::estimate::statement::{
-    CriterionAccuracy, ExtremumAccuracy, RefinedFailure, RefinedLevel, RefinedSolve, RefinedValues,
-    StatementMesh,
+    CriterionAccuracy, ExtremumAccuracy, RefinedDispatch, RefinedFailure, RefinedLevel,
+    RefinedSolve, RefinedValues, StatementMesh,
 };
 pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
@@ -483,7 +483,11 @@ impl Run<'_> {
         };
         let control = StatementControl {
             stop: &stop,
-            dispatch: self.control.dispatch.as_deref(),
+            dispatch: self
+                .control
+                .dispatch
+                .as_deref()
+                .map(|d| d as &dyn RefinedDispatch),
             fault: self.control.fault.as_deref(),
             refuse_level: Some(&refuse),
         };

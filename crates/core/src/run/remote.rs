@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
 use crate::error::WsmError;
-use crate::estimate::statement::{RefinedSolve, RefinedValues};
+use crate::estimate::statement::RefinedDispatch;
 use crate::scenario::evaluator::{Evaluation, InnerSummary, ScenarioEvaluator};
 use crate::scene::Scene;
 use wsm_search::{Evaluator, Outcome};
@@ -29,8 +29,9 @@ pub struct DispatchedBatch {
     pub remote: Vec<bool>,
 }
 
-/// Evaluates batches of points in other processes.
-pub trait BatchDispatch: Send + Sync {
+/// Evaluates batches of points in other processes (and, as a [`RefinedDispatch`], the accuracy
+/// statement's refined solves).
+pub trait BatchDispatch: RefinedDispatch {
     /// Points handed out at once (one fan-out batch; cancellation is seen between batches),
     /// given the mean solve time of a point so far (`None` before the first).
     fn chunk_size(&self, seconds_per_point: Option<f64>) -> usize;
@@ -41,16 +42,6 @@ pub trait BatchDispatch: Send + Sync {
         points: &[Vec<f64>],
         local: &LocalEvaluate<'_>,
     ) -> Result<Option<DispatchedBatch>, WsmError>;
-    /// The accuracy statement's solves of `points` on the run's mesh refined `level` times
-    /// ([`crate::estimate::statement`]), in input order — this process's share solved with
-    /// `local`, the others' by processes that build the refined level themselves; `None`: not
-    /// dispatched (solve them all here).
-    fn refined(
-        &self,
-        level: u32,
-        points: &[Vec<f64>],
-        local: &RefinedSolve<'_>,
-    ) -> Result<Option<Vec<RefinedValues>>, WsmError>;
     /// The scene this run chose for its target error, before any batch: the other processes
     /// evaluate on it instead of choosing again.
     fn share_scene(&self, scene: &Scene) -> Result<(), WsmError>;

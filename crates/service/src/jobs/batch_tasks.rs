@@ -27,7 +27,8 @@ use tokio::task::JoinHandle;
 use super::{wait, JobStore, StoreError, StoreResult, TaskKey, TaskKind, TaskScope};
 use wsm_core::error::WsmError;
 use wsm_core::run::{
-    BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedSolve, RefinedValues,
+    BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedDispatch, RefinedSolve,
+    RefinedValues,
 };
 use wsm_core::scene::Scene;
 
@@ -308,6 +309,25 @@ impl BatchDispatch for StoreDispatch {
         }))
     }
 
+    fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
+        let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
+        let held = self.call(
+            self.store
+                .record_chosen_scene(&self.job, &self.owner, &text),
+        )?;
+        if held {
+            Ok(())
+        } else {
+            Err(self.io("the job's lease was taken over"))
+        }
+    }
+
+    fn flush(&self) -> Result<(), WsmError> {
+        self.settle()
+    }
+}
+
+impl RefinedDispatch for StoreDispatch {
     fn refined(
         &self,
         level: u32,
@@ -329,22 +349,5 @@ impl BatchDispatch for StoreDispatch {
             &results,
         )?;
         Ok(fanned.map(|(values, _)| values))
-    }
-
-    fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
-        let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
-        let held = self.call(
-            self.store
-                .record_chosen_scene(&self.job, &self.owner, &text),
-        )?;
-        if held {
-            Ok(())
-        } else {
-            Err(self.io("the job's lease was taken over"))
-        }
-    }
-
-    fn flush(&self) -> Result<(), WsmError> {
-        self.settle()
     }
 }
