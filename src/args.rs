@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 
 use wsm_core::error::WsmError;
 use wsm_core::run::{SolveRequest, WorstRequest};
-use wsm_core::scene::{SolverKind, StopRule};
+use wsm_core::scene::{CriterionSpec, SceneError, SolverKind, StopRule};
 use wsm_service::api::{Access, Limits};
 use wsm_service::http::ConnectionLimits;
 use wsm_service::jobs::runner::{FaultRule, FaultSolves};
@@ -100,7 +100,7 @@ impl TryFrom<&EvaluateArgs> for WorstRequest {
 
     fn try_from(args: &EvaluateArgs) -> Result<WorstRequest, WsmError> {
         Ok(WorstRequest {
-            criteria: crate::cli::parse_criteria(&args.criteria)?,
+            criteria: parse_criteria(&args.criteria)?,
             derivatives: args.no_derivatives.then_some(false),
             ..WorstRequest::default()
         })
@@ -192,7 +192,7 @@ impl TryFrom<&WorstArgs> for WorstRequest {
 
     fn try_from(args: &WorstArgs) -> Result<WorstRequest, WsmError> {
         Ok(WorstRequest {
-            criteria: crate::cli::parse_criteria(&args.criteria)?,
+            criteria: parse_criteria(&args.criteria)?,
             budget: args.budget,
             seed: args.seed,
             max_seconds: args.max_seconds,
@@ -205,9 +205,9 @@ impl TryFrom<&WorstArgs> for WorstRequest {
     }
 }
 
-impl From<&WorstArgs> for crate::cli::WorstFiles {
-    fn from(args: &WorstArgs) -> crate::cli::WorstFiles {
-        crate::cli::WorstFiles {
+impl From<&WorstArgs> for WorstFiles {
+    fn from(args: &WorstArgs) -> WorstFiles {
+        WorstFiles {
             out: args.out.clone(),
             log: args.log.clone(),
             resume: args.resume.clone(),
@@ -508,4 +508,28 @@ pub struct StabilityArgs {
     /// Directory for stability.md and stability.json.
     #[arg(long)]
     pub out: Option<PathBuf>,
+}
+
+/// `--criteria phi3,phi5@heel` (empty: the scene's criteria).
+fn parse_criteria(names: &[String]) -> Result<Option<Vec<CriterionSpec>>, WsmError> {
+    if names.is_empty() {
+        return Ok(None);
+    }
+    names
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            CriterionSpec::parse(c)
+                .map_err(|why| SceneError::new(format!("--criteria[{i}]"), why).into())
+        })
+        .collect::<Result<Vec<_>, WsmError>>()
+        .map(Some)
+}
+
+/// Files of `wsm worst`.
+pub struct WorstFiles {
+    pub out: Option<PathBuf>,
+    pub log: Option<PathBuf>,
+    pub resume: Option<PathBuf>,
+    pub table: Option<PathBuf>,
 }

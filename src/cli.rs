@@ -2,7 +2,7 @@
 //! files, a progress bar on stderr, writing result files, and one-line errors with an exit code
 //! per error kind.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::sync::Arc;
 
@@ -13,7 +13,7 @@ use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
     SolveRequest, WorstOutcome, WorstRequest,
 };
-use wsm_core::scene::{parse, CriterionSpec, Scene, SceneError};
+use wsm_core::scene::{parse, Scene, SceneError};
 
 /// Exit status of an error: 2 bad input or unknown name, 3 unsolvable, 4 solver failure,
 /// 5 files and logs, 6 cancelled.
@@ -55,22 +55,6 @@ fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmEr
         }
     };
     Ok(parse(&text)?)
-}
-
-/// `--criteria phi3,phi5@heel` (empty: the scene's criteria).
-pub fn parse_criteria(names: &[String]) -> Result<Option<Vec<CriterionSpec>>, WsmError> {
-    if names.is_empty() {
-        return Ok(None);
-    }
-    names
-        .iter()
-        .enumerate()
-        .map(|(i, c)| {
-            CriterionSpec::parse(c)
-                .map_err(|why| SceneError::new(format!("--criteria[{i}]"), why).into())
-        })
-        .collect::<Result<Vec<_>, WsmError>>()
-        .map(Some)
 }
 
 /// Pretty JSON of a result; an encoding failure is an error.
@@ -120,21 +104,13 @@ pub fn evaluate(scene: Scene, request: WorstRequest) -> Result<String, WsmError>
     Ok(String::new())
 }
 
-/// Files of `wsm worst`.
-pub struct WorstFiles {
-    pub out: Option<PathBuf>,
-    pub log: Option<PathBuf>,
-    pub resume: Option<PathBuf>,
-    pub table: Option<PathBuf>,
-}
-
 /// `wsm worst`: the search with a progress bar; prints the outcome without the histories.
 /// Refined levels of the accuracy statement whose solve would need more than `max_solve_bytes`
 /// are not built, and the result says so.
 pub fn worst(
     scene: Scene,
     request: WorstRequest,
-    files: WorstFiles,
+    files: crate::args::WorstFiles,
     max_solve_bytes: u64,
 ) -> Result<String, WsmError> {
     let settings = request.settings(&scene)?;
