@@ -171,22 +171,7 @@ impl<'a> Domain<'a> {
             .iter()
             .map(|z| bbox(z.outer.iter().copied()))
             .collect();
-        let bounds = boxes.iter().fold(
-            [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ],
-            |a, b| {
-                [
-                    a[0].min(b[0]),
-                    a[1].min(b[1]),
-                    a[2].max(b[2]),
-                    a[3].max(b[3]),
-                ]
-            },
-        );
+        let bounds = bbox(geo.zones.iter().flat_map(|z| z.outer.iter().copied()));
         Domain { geo, boxes, bounds }
     }
 

@@ -725,11 +725,7 @@ impl JobStore for SqlStore {
             .execute(&mut *tx)
             .await
             .map_err(&lease)?;
-            sqlx::query("DELETE FROM tasks WHERE job_id = $1")
-                .bind(&id)
-                .execute(&mut *tx)
-                .await
-                .map_err(&lease)?;
+            delete_tasks(&mut tx, &id).await.map_err(&lease)?;
         };
         let row = sqlx::query(sql(format!(
             "UPDATE jobs SET state = 'running', lease_owner = $1, lease_expires_at = {now} + $2,
@@ -743,11 +739,7 @@ impl JobStore for SqlStore {
         .await
         .map_err(&lease)?;
         // The tasks of an earlier attempt belong to a coordinator that is gone.
-        sqlx::query("DELETE FROM tasks WHERE job_id = $1")
-            .bind(&id)
-            .execute(&mut *tx)
-            .await
-            .map_err(&lease)?;
+        delete_tasks(&mut tx, &id).await.map_err(&lease)?;
         tx.commit().await.map_err(&lease)?;
         // Idle workers prepare the job's model ahead of its first fanned-out batch.
         self.announce(WORK_CHANNEL).await;
@@ -863,11 +855,7 @@ impl JobStore for SqlStore {
         .execute(&mut *tx)
         .await
         .map_err(&finish)?;
-        sqlx::query("DELETE FROM tasks WHERE job_id = $1")
-            .bind(id)
-            .execute(&mut *tx)
-            .await
-            .map_err(&finish)?;
+        delete_tasks(&mut tx, id).await.map_err(&finish)?;
         tx.commit().await.map_err(&finish)?;
         Ok(())
     }
@@ -1216,6 +1204,18 @@ impl JobStore for SqlStore {
     fn results_signal(&self) -> Signal {
         self.results.subscribe()
     }
+}
+
+/// Drop a job's fan-out tasks (those of an earlier attempt, or of a job that ended).
+async fn delete_tasks(
+    tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+    job_id: &str,
+) -> Result<(), sqlx::Error> {
+    sqlx::query("DELETE FROM tasks WHERE job_id = $1")
+        .bind(job_id)
+        .execute(&mut **tx)
+        .await
+        .map(|_| ())
 }
 
 #[cfg(test)]
