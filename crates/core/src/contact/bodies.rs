@@ -287,10 +287,15 @@ fn schur_blocks(
         .collect()
 }
 
-/// Replace the rows and columns of `pinned` DOFs by the identity scaled to the mean diagonal.
-pub fn pin(pattern: SymbolicSparseColMatRef<'_, usize>, values: &mut [f64], pinned: &[usize]) {
+/// Replace the rows and columns of `pinned` DOFs (increasing) by the identity scaled to the mean
+/// diagonal; returns that scale (1 when nothing is pinned).
+pub fn pin(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    values: &mut [f64],
+    pinned: &[usize],
+) -> f64 {
     if pinned.is_empty() {
-        return;
+        return 1.0;
     }
     let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
     let n = pattern.ncols();
@@ -312,4 +317,5 @@ pub fn pin(pattern: SymbolicSparseColMatRef<'_, usize>, values: &mut [f64], pinn
             }
         }
     }
+    diag
 }

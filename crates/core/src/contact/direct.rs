@@ -42,10 +42,12 @@ use super::coulomb::{self, CoulombReport};
 use super::feasibility::Feasibility;
 use super::pairs::{ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
+use super::sparse::system::SparseSystem;
+use super::sparse::{self, SparseFailure, TrescaProblem};
 use crate::error::WsmError;
 use crate::fem::rigid::{orthonormal_columns, pick_pinned, remove_components};
 use crate::fem::{ElasticCoefficients, ElasticProblem, RigidModes};
-use crate::scene::Data;
+use crate::scene::{ContactMethod, Data, SceneError};
 
 /// Relative size (to the largest displacement) of the gap defect that triggers a refinement.
 const REFINE_TOL: f64 = 1e-12;
@@ -160,6 +162,9 @@ pub struct DirectContact {
     kernel: Kernel,
     g: Mat<f64>,
     bodies: Vec<BodyBlock>,
+    /// The sparse contact path ([`super::sparse`]) when the scene takes it; then `bodies` is
+    /// empty and no C is formed.
+    sparse: Option<SparseSystem>,
 }
 
 /// K (with pinned DOFs) factorised for one stiffness data set, body by body, with
@@ -220,6 +225,21 @@ pub struct ContactSolution {
     pub refinements: usize,
     /// The Coulomb fixed point (None without a Coulomb zone).
     pub coulomb: Option<CoulombReport>,
+    /// The sparse path's active-set iteration (None on the dense path).
+    pub sparse: Option<SparseReport>,
+}
+
+/// The sparse contact path's iteration, summed over the Tresca problems of a solve.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SparseReport {
+    /// Active-set steps, each one sparse factorisation.
+    pub steps: usize,
+    /// Rows that changed status.
+    pub changes: usize,
+    /// Relative accuracy of the last solve (its iterative-refinement correction).
+    pub accuracy: f64,
+    /// Nonzeros of the factor of one step.
+    pub factor_nnz: usize,
 }
 
 impl DirectContact {
@@ -265,6 +285,29 @@ impl DirectContact {
             pinned.extend(pick_pinned(rm.modes.as_ref()));
         }
         pinned.sort_unstable();
+        let wants_sparse = match scene.solver.contact {
+            ContactMethod::Dense => false,
+            ContactMethod::Sparse => true,
+            ContactMethod::Auto => geometry.pairs.len() >= sparse::AUTO_PAIRS,
+        };
+        let mut sparse_system = None;
+        if wants_sparse {
+            let off_pairs = pinned_off_pairs(&all, &geometry, &modes);
+            match SparseSystem::new(&geometry, elastic.operator().pattern(), off_pairs.clone())? {
+                Ok(system) => {
+                    pinned = off_pairs;
+                    sparse_system = Some(system);
+                }
+                Err(reason) if scene.solver.contact == ContactMethod::Sparse => {
+                    return Err(SceneError::new(
+                        "solver.contact",
+                        format!("the sparse contact path cannot take this scene: {reason}; use \"dense\" or \"auto\""),
+                    )
+                    .into());
+                }
+                Err(_) => {}
+            }
+        }
         let mut g = Mat::<f64>::zeros(k, geometry.dim());
         for (r, row) in geometry.rows.iter().enumerate() {
             for j in 0..k {
@@ -279,7 +322,10 @@ impl DirectContact {
                 .map_err(|_| WsmError::contact("rigid modes of the floating bodies are dependent"))?
                 .inverse()
         };
-        let bodies = body_blocks(elastic, &geometry, &pinned)?;
+        let bodies = match sparse_system {
+            Some(_) => Vec::new(),
+            None => body_blocks(elastic, &geometry, &pinned)?,
+        };
         Ok(DirectContact {
             feasibility: Feasibility::new(&geometry, elastic.dofs()),
             geometry,
@@ -292,7 +338,18 @@ impl DirectContact {
             },
             g,
             bodies,
+            sparse: sparse_system,
         })
+    }
+
+    /// Whether the scene takes the sparse contact path (no C, no dense derivatives).
+    pub fn is_sparse(&self) -> bool {
+        self.sparse.is_some()
+    }
+
+    /// Nonzeros of one step's factor on the sparse path (None on the dense path).
+    pub fn sparse_factor_nnz(&self) -> Option<usize> {
+        self.sparse.as_ref().map(SparseSystem::factor_nnz)
     }
 
     /// G = RᵀBᵀ and e = Rᵀ f: the equilibrium rows of the floating bodies for free-DOF loads f.
@@ -354,6 +411,18 @@ impl DirectContact {
     ) -> Result<StiffnessFactor, WsmError> {
         let start = std::time::Instant::now();
         let values = elastic.operator().assemble(coefficients)?;
+        if self.sparse.is_some() {
+            // The sparse path factorises per active set; K's values are all it needs.
+            return Ok(StiffnessFactor {
+                coefficients: coefficients.to_vec(),
+                values,
+                parts: Vec::new(),
+                c: Mat::zeros(0, 0),
+                c_condition: OnceLock::new(),
+                reused_bodies: 0,
+                seconds: [start.elapsed().as_secs_f64(), 0.0],
+            });
+        }
         let body = |(b, block): (usize, &BodyBlock)| cache(b, block, &values);
         let parts: Vec<(Arc<BodyFactor>, bool)> = match par {
             Par::Seq => self
@@ -488,22 +557,35 @@ impl DirectContact {
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
         let mut qp_seconds = 0.0;
+        let mut sparse_steps = (0, 0);
         let tresca = |lower: &[f64], upper: &[f64], previous: Option<&ContactSolution>| {
             let start = previous.map(|p| WarmStart {
                 x: p.multipliers.clone(),
                 alpha: p.rigid.clone(),
             });
             let start = start.as_ref().or(warm);
-            let sol = self.solve_tresca(factor, elastic, rhs, fixed, lower, upper, start)?;
+            let sol = match &self.sparse {
+                Some(system) => self.solve_tresca_sparse(
+                    system, factor, elastic, rhs, fixed, lower, upper, start,
+                )?,
+                None => self.solve_tresca(factor, elastic, rhs, fixed, lower, upper, start)?,
+            };
             qp_seconds += sol.qp_seconds;
+            if let Some(r) = &sol.sparse {
+                sparse_steps.0 += r.steps;
+                sparse_steps.1 += r.changes;
+            }
             Ok(sol)
         };
         // A step's multipliers are exact to the QP's relative KKT residual amplified by the
         // condition of C (unknown, so no rounding level beyond the tolerance, when C is not
         // numerically positive definite).
-        let rounding_level = |s: &ContactSolution| match (&s.qp, factor.scaled_condition()) {
-            (Some(qp), Some(kappa)) => kappa * qp.kkt.max(),
-            _ => 0.0,
+        let rounding_level = |s: &ContactSolution| match (&s.qp, &s.sparse) {
+            (_, Some(report)) => report.accuracy,
+            (Some(qp), None) => factor
+                .scaled_condition()
+                .map_or(0.0, |kappa| kappa * qp.kkt.max()),
+            (None, None) => 0.0,
         };
         let (mut sol, report) = coulomb::solve(
             &self.geometry,
@@ -516,6 +598,11 @@ impl DirectContact {
         )?;
         sol.coulomb = report;
         sol.qp_seconds = qp_seconds;
+        if let Some(total) = sol.sparse.as_mut() {
+            // Steps and changes summed over the Tresca problems of a Coulomb solve.
+            total.steps = sparse_steps.0;
+            total.changes = sparse_steps.1;
+        }
         Ok(sol)
     }
 
@@ -598,6 +685,73 @@ impl DirectContact {
             qp_seconds,
             refinements,
             coulomb: None,
+            sparse: None,
+        })
+    }
+
+    /// [`Self::solve_tresca`] on the sparse path ([`super::sparse`]): the active-set iteration
+    /// on the primal, then the dense path's normal form (no component along free motions).
+    #[allow(clippy::too_many_arguments)]
+    fn solve_tresca_sparse(
+        &self,
+        system: &SparseSystem,
+        factor: &StiffnessFactor,
+        elastic: &ElasticProblem,
+        rhs: &[f64],
+        fixed: &[f64],
+        lower: &[f64],
+        upper: &[f64],
+        warm: Option<&WarmStart>,
+    ) -> Result<ContactSolution, WsmError> {
+        let start = std::time::Instant::now();
+        let mut offsets = vec![0.0; self.geometry.dim()];
+        self.add_offsets(fixed, &mut offsets);
+        let problem = TrescaProblem {
+            geometry: &self.geometry,
+            modes: self.kernel.modes.as_ref(),
+            k_values: &factor.values,
+            rhs,
+            offsets: &offsets,
+            lower,
+            upper,
+        };
+        let outcome = sparse::solve(system, &problem, warm, Par::Seq).map_err(|e| match e {
+            SparseFailure::Unbalanced { mode, residual } => self.explain(QpError::Infeasible {
+                equality_rows: vec![mode],
+                residuals: vec![residual],
+            }),
+            SparseFailure::NotConverged(reason) => {
+                WsmError::contact(format!("sparse contact solver: {reason}"))
+            }
+            SparseFailure::Solver(e) => e,
+        })?;
+        let free_motions = self.kernel.free_motions(&self.geometry, lower, upper)?;
+        let mut u_free = outcome.u;
+        remove_components(free_motions.as_ref(), &mut u_free);
+        let gaps = self.gaps(&u_free, fixed);
+        Ok(ContactSolution {
+            equilibrium_residual: self.equilibrium_residual(
+                elastic,
+                &factor.values,
+                &u_free,
+                &outcome.multipliers,
+                rhs,
+            ),
+            u_free,
+            multipliers: outcome.multipliers,
+            rigid: outcome.rigid,
+            gaps,
+            qp: None,
+            free_motions: free_motions.ncols(),
+            qp_seconds: start.elapsed().as_secs_f64(),
+            refinements: 0,
+            coulomb: None,
+            sparse: Some(SparseReport {
+                steps: outcome.steps,
+                changes: outcome.changes,
+                accuracy: outcome.accuracy,
+                factor_nnz: system.factor_nnz(),
+            }),
         })
     }
 
@@ -713,6 +867,32 @@ impl DirectContact {
             other => WsmError::contact(other.to_string()),
         }
     }
+}
+
+/// One DOF per rigid mode of the floating bodies, none on a contact pair (the sparse path
+/// prescribes the pairs' coordinates), chosen as [`pick_pinned`] does on the other DOFs.
+fn pinned_off_pairs(
+    all: &Mat<f64>,
+    geometry: &ContactGeometry,
+    modes: &[RigidModes],
+) -> Vec<usize> {
+    let mut on_pairs = vec![false; all.nrows()];
+    for row in &geometry.rows {
+        row.free.iter().for_each(|&(i, _)| on_pairs[i] = true);
+    }
+    let mut pinned = Vec::new();
+    for rm in modes {
+        let off = Mat::<f64>::from_fn(rm.modes.nrows(), rm.modes.ncols(), |i, j| {
+            if on_pairs[i] {
+                0.0
+            } else {
+                rm.modes[(i, j)]
+            }
+        });
+        pinned.extend(pick_pinned(off.as_ref()));
+    }
+    pinned.sort_unstable();
+    pinned
 }
 
 /// A human description of a rigid motion a (1,0) + b (0,1) + c rotation.

@@ -9,6 +9,8 @@
 //! - `bodies`: the diagonal blocks of K, one per body, analysed and factorised on their own.
 //! - `direct`: the exact direct solver — K factorised once per stiffness, the contact problem
 //!   condensed on the multipliers (C = B K⁺ Bᵀ), floating bodies handled through their kernel.
+//! - `sparse`: the direct solver's sparse path above a pair count — a primal–dual active set on
+//!   the primal, each step one sparse factorisation, memory O(nnz of a factor).
 //! - `coulomb`: Coulomb friction as the fixed point of Tresca problems with g = F |λ_n|,
 //!   accelerated by `anderson` mixing, stopped at the rounding level that `condition` (the
 //!   condition of C) gives the direct solver's steps.
@@ -21,3 +23,4 @@ pub(crate) mod direct;
 pub(crate) mod feasibility;
 pub(crate) mod pairs;
 pub mod qp;
+pub(crate) mod sparse;

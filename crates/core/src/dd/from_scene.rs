@@ -194,6 +194,7 @@ pub fn solve_elastic(
         qp_seconds: 0.0,
         refinements: 0,
         coulomb: coulomb_report,
+        sparse: None,
     };
     Ok((contact, sol))
 }

@@ -21,7 +21,7 @@ pub(crate) use data::piecewise_linear;
 pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
-    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
+    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
     CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec, InitialGap,
     Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit,
     SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,

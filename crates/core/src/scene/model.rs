@@ -780,6 +780,31 @@ pub struct SolverSettings {
     /// the normal forces) or `none` (the papers' plain successive approximations).
     #[serde(default)]
     pub coulomb_acceleration: CoulombAcceleration,
+    /// How the direct solver treats the contact (design §3.1): `auto` (default; the sparse path
+    /// from 1,500 pairs), `dense` (the condensed QP on C = B K⁺ Bᵀ, exact derivatives) or
+    /// `sparse` (primal–dual active set on sparse factors, memory O(nnz of a factor)).
+    #[serde(default, skip_serializing_if = "ContactMethod::is_auto")]
+    pub contact: ContactMethod,
+}
+
+/// How the direct solver treats the contact (design §3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactMethod {
+    /// The sparse path from 1,500 pairs on, else the dense one.
+    #[default]
+    Auto,
+    /// The condensed dense QP (memory grows with the square of the pairs).
+    Dense,
+    /// The primal–dual active set on sparse factors.
+    Sparse,
+}
+
+impl ContactMethod {
+    /// The default.
+    pub fn is_auto(&self) -> bool {
+        *self == ContactMethod::Auto
+    }
 }
 
 /// Acceleration of the Coulomb fixed point (design §3.4).
@@ -815,6 +840,7 @@ impl Default for SolverSettings {
             tolerance: default_tolerance(),
             partition: Vec::new(),
             coulomb_acceleration: CoulombAcceleration::default(),
+            contact: ContactMethod::default(),
         }
     }
 }

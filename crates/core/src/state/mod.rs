@@ -365,6 +365,12 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
+        if self.contact.is_sparse() && options.needs.elastic {
+            return Err(WsmError::contact(format!(
+                "exact derivatives need the dense contact path, and this scene's {} contact pairs take the sparse one (solver.contact: \"dense\" forces it, at a memory cost that grows with the square of the pairs)",
+                self.contact.geometry.pairs.len()
+            )));
+        }
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
@@ -449,6 +455,13 @@ impl StateProblem {
             report.qp_fallback_iterations = qp.fallback_iterations;
             report.active_set_changes = qp.active_set_changes;
             report.undetermined_modes = qp.undetermined_modes;
+        }
+        if let Some(sparse) = &sol.sparse {
+            if report.solver == "direct" {
+                report.solver = "direct (sparse contact)".into();
+            }
+            report.sparse_steps = sparse.steps;
+            report.active_set_changes = sparse.changes;
         }
         report.undetermined_modes = report.undetermined_modes.max(sol.free_motions);
         if report.undetermined_modes > 0 {

@@ -139,7 +139,8 @@ impl Timings {
 /// The solver report of one solve.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SolveReport {
-    /// The solver that answered: `direct`, `dd`, or `direct (DD unavailable)` when DD failed.
+    /// The solver that answered: `direct`, `direct (sparse contact)` on the direct solver's
+    /// sparse path, `dd`, or `direct (DD unavailable)` when DD failed.
     pub solver: String,
     /// Mesh nodes (a contact node counted once per body).
     pub nodes: usize,
@@ -160,6 +161,9 @@ pub struct SolveReport {
     pub qp_fallback_iterations: usize,
     /// Variables that changed active-set status over the Newton steps (direct solver).
     pub active_set_changes: usize,
+    /// Active-set steps of the direct solver's sparse contact path (each one sparse
+    /// factorisation; 0 on the dense path).
+    pub sparse_steps: usize,
     /// KKT residuals of the contact solution (all zero without contact).
     pub kkt: ContactKkt,
     /// The Coulomb fixed point: steps, last relative change and contraction estimate (only
