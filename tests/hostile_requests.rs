@@ -121,16 +121,17 @@ fn a_huge_polygon_or_a_repeated_criterion_is_refused_at_once_and_the_server_keep
     );
 }
 
-/// The probe's one request that killed the server (block-on-base refined to 0.0002: 23 GB, OOM):
-/// refused before meshing as a solve and as a job, naming the refinement to coarsen and the value
-/// that fits; a refinement that fits the limit but not the triangle cap is named the same way.
+/// The probe's one request that killed the server (block-on-base refined to 0.0002: 23 GB, OOM;
+/// now 0.66 GB on the sparse contact path), four times finer: refused before meshing as a solve
+/// and as a job, naming the refinement to coarsen and the value that fits; a refinement that
+/// fits the limit but not the triangle cap is named the same way.
 #[test]
 fn a_solve_beyond_the_memory_limit_is_refused_before_meshing_naming_the_size() {
     let db = temp_db("hostile-memory.db");
     let server = Server::start(&db, &["--workers", "1", "--max-solve-memory", "2G"]);
     let addr = &server.addr;
     let mut scene = block();
-    scene["mesh"]["refine"][0]["max_size"] = json!(0.0002);
+    scene["mesh"]["refine"][0]["max_size"] = json!(0.00005);
     for (path, body) in [
         ("/v1/solve", json!({ "scene": scene })),
         (

@@ -1,7 +1,9 @@
 //! The solve-cost limit of the command line (design §3.1, issue #44): the probe's block-on-base
 //! with `mesh.refine[0].max_size = 0.0002` (23 GB and an OOM kill before) is refused before
-//! meshing, in well under a second, with exit status 2 and the refinement named; a solve that
-//! fits goes through; a bad limit is refused naming the flag.
+//! meshing on the dense contact path, in well under a second, with exit status 2 and the
+//! refinement named (by default it now takes the sparse path, 0.66 GB, and a ten times finer
+//! refinement is refused on it); a solve that fits goes through; a bad limit is refused naming
+//! the flag.
 
 use std::io::Write;
 use std::process::{Command, Output, Stdio};
@@ -11,6 +13,13 @@ fn probe_scene(refine: f64) -> String {
     let text = wsm_core::bundled::example("block-on-base").expect("bundled");
     let mut scene: serde_json::Value = serde_json::from_str(text).expect("json");
     scene["mesh"]["refine"][0]["max_size"] = serde_json::json!(refine);
+    scene.to_string()
+}
+
+/// The probe's scene on the dense contact path.
+fn dense_probe_scene(refine: f64) -> String {
+    let mut scene: serde_json::Value = serde_json::from_str(&probe_scene(refine)).expect("json");
+    scene["solver"] = serde_json::json!({"contact": "dense"});
     scene.to_string()
 }
 
@@ -33,8 +42,12 @@ fn wsm(args: &[&str], scene: &str) -> Output {
 
 #[test]
 fn probe_case_refused_before_meshing() {
-    let scene = probe_scene(0.0002);
-    for command in ["solve", "worst", "evaluate"] {
+    for (command, scene) in [
+        ("solve", dense_probe_scene(0.0002)),
+        ("worst", dense_probe_scene(0.0002)),
+        ("evaluate", dense_probe_scene(0.0002)),
+        ("solve", probe_scene(0.00002)),
+    ] {
         let start = Instant::now();
         let out = wsm(&[command, "--max-solve-memory", "12G"], &scene);
         let seconds = start.elapsed().as_secs_f64();
@@ -114,7 +127,7 @@ fn a_refined_level_beyond_the_limit_is_not_built_and_says_so() {
 #[test]
 fn a_run_beyond_its_limit_fails_before_meshing_with_the_path() {
     use wsm_core::run::{self, RunControl, WorstRequest};
-    let scene = wsm_core::scene::parse(&probe_scene(0.0002)).expect("scene");
+    let scene = wsm_core::scene::parse(&probe_scene(0.00005)).expect("scene");
     let control = RunControl::new().with_max_solve_memory(2 << 30);
     let start = Instant::now();
     let err = run::worst(scene, &WorstRequest::default(), &control).expect_err("refused");

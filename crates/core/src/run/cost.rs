@@ -5,16 +5,20 @@
 //! refusal of a solve beyond a memory limit, naming the size field that dominates and the value
 //! of it that fits.
 //!
-//! Memory model (dense contact path, the only one so far): the dual Hessian C = B K⁺ Bᵀ is
-//! m × m with m = 2 × pairs, and the solve holds about [`DENSE_COPIES`] matrices of that size at
-//! its peak (C, its floating-body projection and correction terms, the QP's scaled copy and
-//! Cholesky factor of the free set, the W = L₂₂⁻¹ B_cᵀ blocks); the rest grows with the
-//! unknowns (sparse factor, mesh, fields). Time: the QP's dense factorisations, ∝ m³.
+//! Memory model of the dense contact path: the dual Hessian C = B K⁺ Bᵀ is m × m with
+//! m = 2 × pairs, and the solve holds about [`DENSE_COPIES`] matrices of that size at its peak
+//! (C, its floating-body projection and correction terms, the QP's scaled copy and Cholesky
+//! factor of the free set, the W = L₂₂⁻¹ B_cᵀ blocks); the rest grows with the unknowns (sparse
+//! factor, mesh, fields). Time: the QP's dense factorisations, ∝ m³. The sparse contact path
+//! (taken from [`crate::contact::sparse::AUTO_PAIRS`] pairs, or by `solver.contact`) holds no
+//! matrix of the pairs' size: its memory and time grow with the unknowns only
+//! ([`SPARSE_BYTES_PER_UNKNOWN`], [`SPARSE_SECONDS_PER_UNKNOWN`]: one merged pattern, its factor
+//! and about 15 active-set steps).
 
 use serde::Serialize;
 
 use crate::error::WsmError;
-use crate::scene::{Scene, SceneError};
+use crate::scene::{ContactMethod, Scene, SceneError};
 
 /// m × m matrices of 8 bytes held at the peak of a dense contact solve, m from the *estimated*
 /// pairs (fitted: peak RSS of block-on-base at refine 0.004 … 0.0007 and tunnel-fault,
@@ -29,6 +33,12 @@ const BYTES_PER_UNKNOWN: f64 = 1500.0;
 const SECONDS_PER_M3: f64 = 9.0e-10;
 /// Seconds per unknown of meshing, assembly and factorisation.
 const SECONDS_PER_UNKNOWN: f64 = 2.0e-5;
+/// Extra bytes per unknown of the sparse contact path: the merged pattern, its assembly plan,
+/// the step's factor and right-hand sides (fitted: hertz with 3,848 and 10,020 pairs, 144,166
+/// and 370,902 unknowns, peak RSS 366 MB and 931 MB, docs/benchmarks.md).
+const SPARSE_BYTES_PER_UNKNOWN: f64 = 1000.0;
+/// Seconds per unknown of the sparse path's active-set steps (same runs: 13 and 16 steps).
+const SPARSE_SECONDS_PER_UNKNOWN: f64 = 3.5e-5;
 /// Share of the limit the suggested size aims at (estimates are within ~20 %).
 const FIT_MARGIN: f64 = 0.8;
 
@@ -41,8 +51,8 @@ pub struct SolveCost {
     pub unknowns: f64,
     /// Contact node pairs.
     pub contact_pairs: f64,
-    /// Whether the contact problem would be solved without the dense C. Always false so far:
-    /// the sparse contact path of issue #44 is not built yet (design §3.1).
+    /// Whether the contact problem is solved on the sparse path (no dense C; `solver.contact`,
+    /// or `auto` with at least 1,500 estimated pairs).
     pub sparse_contact: bool,
     /// Peak memory \[bytes\].
     pub bytes: f64,
@@ -73,7 +83,8 @@ impl From<CostRefusal> for WsmError {
 /// The cost of a direct solve of `scene`, from its polygons and size field (no meshing).
 pub fn estimate_solve_cost(scene: &Scene) -> Result<SolveCost, WsmError> {
     let count = crate::mesh::count(scene)?;
-    let (bytes, seconds) = model(count.nodes, count.contact_pairs);
+    let sparse_contact = takes_sparse_path(scene, count.contact_pairs);
+    let (bytes, seconds) = model(count.nodes, count.contact_pairs, sparse_contact);
     let size_field = count
         .shares
         .iter()
@@ -83,7 +94,7 @@ pub fn estimate_solve_cost(scene: &Scene) -> Result<SolveCost, WsmError> {
         triangles: count.triangles,
         unknowns: 2.0 * count.nodes,
         contact_pairs: count.contact_pairs,
-        sparse_contact: false,
+        sparse_contact,
         bytes,
         seconds,
         size_field,
@@ -91,10 +102,27 @@ pub fn estimate_solve_cost(scene: &Scene) -> Result<SolveCost, WsmError> {
     })
 }
 
-/// (peak bytes, seconds) of a dense-path solve with these nodes and contact pairs.
-fn model(nodes: f64, pairs: f64) -> (f64, f64) {
+/// Whether the direct solver takes the sparse contact path with about `pairs` pairs.
+fn takes_sparse_path(scene: &Scene, pairs: f64) -> bool {
+    match scene.solver.contact {
+        ContactMethod::Dense => false,
+        ContactMethod::Sparse => true,
+        ContactMethod::Auto => pairs >= crate::contact::sparse::AUTO_PAIRS as f64,
+    }
+}
+
+/// (peak bytes, seconds) of a direct solve with these nodes and contact pairs, on the sparse
+/// contact path or the dense one.
+fn model(nodes: f64, pairs: f64, sparse: bool) -> (f64, f64) {
     let (unknowns, m) = (2.0 * nodes, 2.0 * pairs);
-    let bytes = BASE_BYTES + BYTES_PER_UNKNOWN * unknowns + DENSE_COPIES * 8.0 * m * m;
+    let base = BASE_BYTES + BYTES_PER_UNKNOWN * unknowns;
+    if sparse {
+        return (
+            base + SPARSE_BYTES_PER_UNKNOWN * unknowns,
+            (SECONDS_PER_UNKNOWN + SPARSE_SECONDS_PER_UNKNOWN) * unknowns,
+        );
+    }
+    let bytes = base + DENSE_COPIES * 8.0 * m * m;
     let seconds = SECONDS_PER_UNKNOWN * unknowns + SECONDS_PER_M3 * m.powi(3);
     (bytes, seconds)
 }
@@ -133,7 +161,8 @@ impl SolveCost {
             let mut scene = self.scene.clone();
             set_size(&mut scene, &self.size_field, v);
             let count = crate::mesh::count(&scene).ok()?;
-            Some(model(count.nodes, count.contact_pairs).0)
+            let sparse = takes_sparse_path(&scene, count.contact_pairs);
+            Some(model(count.nodes, count.contact_pairs, sparse).0)
         };
         let (mut lo, mut hi) = (current, current);
         for _ in 0..30 {
@@ -294,11 +323,17 @@ mod tests {
         scene
     }
 
-    /// The probe's case of issue #44 (refine 0.0002, 23 GB before the OOM killer) is refused
-    /// under a 12 GB limit, naming the refinement, and the suggested size does fit.
+    fn dense(mut scene: Scene) -> Scene {
+        scene.solver.contact = ContactMethod::Dense;
+        scene
+    }
+
+    /// The probe's case of issue #44 (refine 0.0002, 23 GB before the OOM killer) on the dense
+    /// contact path is refused under a 12 GB limit, naming the refinement, and the suggested
+    /// size does fit.
     #[test]
     fn refusal_names_the_field_and_a_size_that_fits() {
-        let cost = estimate_solve_cost(&block_on_base(0.0002)).unwrap();
+        let cost = estimate_solve_cost(&dense(block_on_base(0.0002))).unwrap();
         let limit = 12e9;
         let refusal = cost.check(limit).expect_err("too big");
         assert_eq!(refusal.path, "mesh.refine[0].max_size");
@@ -315,12 +350,30 @@ mod tests {
             .and_then(|s| s.parse().ok())
             .expect("a suggested size");
         assert!(suggested > 0.0002, "{suggested}");
-        let fits = estimate_solve_cost(&block_on_base(suggested)).unwrap();
+        let fits = estimate_solve_cost(&dense(block_on_base(suggested))).unwrap();
         assert!(fits.bytes <= limit, "{} > {limit}", fits.bytes);
         assert!(fits.check(limit).is_ok());
         // Just below the suggestion (2 significant digits) no longer meets the margin.
-        let below = estimate_solve_cost(&block_on_base(0.9 * suggested)).unwrap();
+        let below = estimate_solve_cost(&dense(block_on_base(0.9 * suggested))).unwrap();
         assert!(below.bytes > FIT_MARGIN * limit * 0.999);
+    }
+
+    /// By default the probe's case takes the sparse contact path, whose estimate is the
+    /// measured peak (657 MB for 249,110 unknowns and 9,519 pairs, docs/benchmarks.md) within
+    /// 30 %; a far finer refinement is refused on it too.
+    #[test]
+    fn many_pairs_take_the_sparse_path_in_the_estimate() {
+        let cost = estimate_solve_cost(&block_on_base(0.0002)).unwrap();
+        assert!(cost.sparse_contact, "{} pairs", cost.contact_pairs);
+        assert!(
+            (cost.bytes / 657e6 - 1.0).abs() < 0.3,
+            "{} bytes estimated",
+            cost.bytes
+        );
+        let finer = estimate_solve_cost(&block_on_base(0.00002)).unwrap();
+        assert!(finer.sparse_contact);
+        let refusal = finer.check(12e9).expect_err("too big");
+        assert_eq!(refusal.path, "mesh.refine[0].max_size");
     }
 
     /// The global size dominates when the refinement is no finer than it.

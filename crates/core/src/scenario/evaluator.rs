@@ -160,9 +160,9 @@ impl<'a> ScenarioEvaluator<'a> {
     }
 
     /// Also compute the exact derivatives of the criteria along every uncertain datum at each
-    /// evaluation (off by default).
+    /// evaluation (off by default; never on the sparse contact path, which has none).
     pub fn with_derivatives(mut self, derivatives: bool) -> Self {
-        self.derivatives = derivatives;
+        self.derivatives = derivatives && !(self.problem.contact.is_sparse() && self.needs.elastic);
         self
     }
 
