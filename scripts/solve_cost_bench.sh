@@ -1,19 +1,27 @@
 #!/usr/bin/env bash
 # Solve-cost estimate against measurement (design §3.1, issue #44): for each case, the estimate
 # printed by a refusal under a 1-byte limit (triangles, pairs, bytes), then the real solve's mesh
-# counts, peak RSS (/usr/bin/time -v) and wall time. Not part of the test suite (minutes).
+# counts, peak RSS (/usr/bin/time -v) and wall time; the dense contact path forced where marked,
+# the sparse path taken from 1,500 pairs otherwise. Not part of the test suite (minutes).
 # Usage: scripts/solve_cost_bench.sh [path/to/wsm]   (prints a Markdown table)
 set -euo pipefail
 WSM=${1:-target/release/wsm}
 DIR=$(mktemp -d)
 trap 'rm -rf "$DIR"' EXIT
+DENSE='.solver = {"contact": "dense"}'
+BAND='.mesh = {"max_size": 0.25, "refine": [{"polygon": [[-0.3, -0.000228], [0.3, -0.000228], [0.3, 0.000228], [-0.3, 0.000228]], "max_size": 0.000114}]}'
 cases=(
   "block-on-base|.mesh.refine[0].max_size = 0.004"
   "block-on-base|.mesh.refine[0].max_size = 0.002"
-  "block-on-base|.mesh.refine[0].max_size = 0.001"
-  "block-on-base|.mesh.refine[0].max_size = 0.0007"
+  "block-on-base|.mesh.refine[0].max_size = 0.001 | $DENSE"
+  "block-on-base|.mesh.refine[0].max_size = 0.0007 | $DENSE"
   "hertz|.mesh.refine[0].max_size = 0.004"
+  "tunnel-fault|.mesh.refine[0].max_size = 0.05 | $DENSE"
+  # The sparse contact path (from 1,500 pairs by default):
   "tunnel-fault|.mesh.refine[0].max_size = 0.05"
+  "block-on-base|.mesh.refine[0].max_size = 0.0005"
+  "block-on-base|.mesh.refine[0].max_size = 0.0002"
+  "hertz|$BAND"
 )
 echo "| case | triangles est / real | pairs est / real | memory est / peak RSS | time est / real |"
 echo "|---|---|---|---|---|"
@@ -25,5 +33,5 @@ for c in "${cases[@]}"; do
   tri=$(jq .mesh.triangles "$DIR/out.json"); pairs=$(jq .mesh.contact_pairs "$DIR/out.json")
   rss=$(awk '/Maximum resident/ {printf "%.0f MB", $6/1024}' "$DIR/time.txt")
   wall=$(awk -F': ' '/Elapsed/ {print $2}' "$DIR/time.txt")
-  echo "| $name, $edit | $(sed -E 's/.*about ([0-9.,e]+) triangles.*/\1/' <<<"$est") / $tri | $(sed -E 's/.*and ([0-9.,e]+) contact pairs.*/\1/' <<<"$est") / $pairs | $(sed -E 's/.*need about ([0-9.]+ [MG]B).*/\1/' <<<"$est") / $rss | $(sed -E 's/.*of memory \(and about ([^)]*)\).*/\1/' <<<"$est") / $wall |"
+  echo "| $name, ${edit//|/;} | $(sed -E 's/.*about ([0-9.,e]+) triangles.*/\1/' <<<"$est") / $tri | $(sed -E 's/.*and ([0-9.,e]+) contact pairs.*/\1/' <<<"$est") / $pairs | $(sed -E 's/.*need about ([0-9.]+ [MG]B).*/\1/' <<<"$est") / $rss | $(sed -E 's/.*of memory \(and about ([^)]*)\).*/\1/' <<<"$est") / $wall |"
 done

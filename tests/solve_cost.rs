@@ -2,7 +2,7 @@
 //! with `mesh.refine[0].max_size = 0.0002` (23 GB and an OOM kill before) is refused before
 //! meshing on the dense contact path, in well under a second, with exit status 2 and the
 //! refinement named (by default it now takes the sparse path, 0.66 GB, and a ten times finer
-//! refinement is refused on it); a solve that fits goes through; a bad limit is refused naming
+//! refinement is refused on it under 4 GB); a solve that fits goes through; a bad limit is refused naming
 //! the flag.
 
 use std::io::Write;
@@ -42,14 +42,15 @@ fn wsm(args: &[&str], scene: &str) -> Output {
 
 #[test]
 fn probe_case_refused_before_meshing() {
-    for (command, scene) in [
-        ("solve", dense_probe_scene(0.0002)),
-        ("worst", dense_probe_scene(0.0002)),
-        ("evaluate", dense_probe_scene(0.0002)),
-        ("solve", probe_scene(0.00002)),
+    // The sparse path's case: about 2.1e6 triangles, 5.5 GB estimated, over a 4 GB limit.
+    for (command, scene, limit) in [
+        ("solve", dense_probe_scene(0.0002), "12G"),
+        ("worst", dense_probe_scene(0.0002), "12G"),
+        ("evaluate", dense_probe_scene(0.0002), "12G"),
+        ("solve", probe_scene(0.00002), "4G"),
     ] {
         let start = Instant::now();
-        let out = wsm(&[command, "--max-solve-memory", "12G"], &scene);
+        let out = wsm(&[command, "--max-solve-memory", limit], &scene);
         let seconds = start.elapsed().as_secs_f64();
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{command}: {stderr}");

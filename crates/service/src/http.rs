@@ -4,7 +4,8 @@
 //! process's file-descriptor limit, so that idle or slow clients can never take the descriptors
 //! the store and the workers need. Connections beyond the cap are answered 503 `busy` with
 //! `Retry-After` at once (up to [`OVERFLOW`] of them at a time; beyond those, closed unread) —
-//! a new client learns the server is full instead of hanging. The body read timeout and the
+//! a new client learns the server is full instead of hanging — except `GET /healthz`, which is
+//! answered as usual there, so a monitor sees the server alive while idle clients fill it. The body read timeout and the
 //! early 413 are the API's (`api::guard`), where the error bodies are made.
 //!
 //! `axum::serve` offers neither a header timeout (hyper's needs a timer it does not set) nor a
@@ -26,6 +27,7 @@ use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
+use tower::ServiceExt;
 
 /// Limits on connections.
 #[derive(Debug, Clone)]
@@ -121,7 +123,7 @@ pub async fn serve(
                 drop(permit);
             });
         } else if let Ok(permit) = refusing.clone().try_acquire_owned() {
-            tokio::spawn(refuse(stream, permit));
+            tokio::spawn(refuse(stream, app.clone(), permit));
         }
         // Else the stream is dropped here: closed unread.
     }
@@ -137,11 +139,18 @@ fn builder(header_timeout: Duration) -> http1::Builder {
     builder
 }
 
-/// Answer one request on a connection beyond the cap with 503 `busy` and close it; the head
-/// must come within a second.
-async fn refuse(stream: TcpStream, permit: OwnedSemaphorePermit) {
-    let busy = hyper::service::service_fn(|_: Request<Incoming>| async {
-        Ok::<_, Infallible>(busy_response())
+/// Answer one request on a connection beyond the cap — `/healthz` by `app`, anything else with
+/// 503 `busy` — and close it; the head must come within a second.
+async fn refuse(stream: TcpStream, app: Router, permit: OwnedSemaphorePermit) {
+    let busy = hyper::service::service_fn(move |request: Request<Incoming>| {
+        let app = app.clone();
+        async move {
+            if request.uri().path() != "/healthz" {
+                return Ok::<_, Infallible>(busy_response());
+            }
+            let response = app.oneshot(request.map(Body::new)).await;
+            Ok(response.unwrap_or_else(|never| match never {}))
+        }
     });
     let mut builder = builder(Duration::from_secs(1));
     builder.keep_alive(false);

@@ -532,8 +532,8 @@ fn merged_pattern(
     let mut raw: Vec<(u32, usize, usize, u32, u32, f64)> = Vec::new();
     for c in 0..n {
         let cc = coordinates(c);
-        for p in col_ptr[c]..col_ptr[c + 1] {
-            let r = row_idx[p];
+        let range = col_ptr[c]..col_ptr[c + 1];
+        for (p, &r) in range.clone().zip(&row_idx[range]) {
             if r == c {
                 for &(x, qx) in &cc {
                     for &(y, qy) in &cc {
