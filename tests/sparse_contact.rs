@@ -103,7 +103,7 @@ fn sparse_path_equals_dense_on_bundled_examples() {
 
 /// Hertz with a contact line refined to about 1,600 pairs: `auto` takes the sparse path, the
 /// floating cylinder is balanced to 1e-8, KKT at rounding level, the half-width and the peak
-/// pressure within 3 % of Hertz's, and a request for derivatives says plainly that there are none.
+/// pressure within 3 % of Hertz's, and exact derivatives given (by the forward tangent).
 #[test]
 fn many_pairs_take_the_sparse_path_and_meet_hertz() {
     let mut scene: Value =
@@ -165,12 +165,116 @@ fn many_pairs_take_the_sparse_path_and_meet_hertz() {
     let with = problem
         .solve_with_sensitivities(&problem.nominal, &options, &stencils)
         .unwrap();
-    assert!(
-        with.report
-            .warnings
-            .iter()
-            .any(|w| w.contains("sparse") && w.contains("solver.contact")),
+    assert_eq!(
+        with.sensitivities.len(),
+        params.len(),
         "{:?}",
         with.report.warnings
     );
+    // dΦ/dp of the pressure on the top: Φ6 (mean normal compression) grows with the load.
+    let d6 = with.sensitivities[0][5].expect("Φ6 derivative");
+    assert!(d6.right > 0.0 && d6.left > 0.0, "{d6:?}");
+}
+
+/// Exact derivatives on the sparse path equal the dense path's (forward tangent there too, and
+/// its default adjoint) at an interior point and at a vertex of every bundled Tresca or
+/// frictionless example with uncertain data: 1e-8 relative to the largest derivative of each
+/// criterion, left and right; Coulomb states have none on the sparse path and say so.
+#[test]
+fn sparse_derivatives_equal_dense_ones() {
+    use wsm_core::scene::params::apply;
+    let mut compared = 0;
+    for name in wsm_core::bundled::names() {
+        let text = wsm_core::bundled::example(name).unwrap();
+        let value: Value = serde_json::from_str(text).unwrap();
+        if value["contacts"].as_array().is_none_or(|c| c.is_empty())
+            || value["uncertain"].as_array().is_none_or(|u| u.is_empty())
+        {
+            continue;
+        }
+        let build = |method: ContactMethod| {
+            let mut scene = parse(text).unwrap();
+            scene.solver.kind = SolverKind::Direct;
+            scene.solver.contact = method;
+            StateProblem::new(scene).unwrap()
+        };
+        let (dense, sparse) = (build(ContactMethod::Dense), build(ContactMethod::Sparse));
+        let coulomb = dense.nominal.has_coulomb();
+        let params = parameters(&dense.scene).unwrap();
+        for vertex in [false, true] {
+            let theta: Vec<f64> = params
+                .iter()
+                .enumerate()
+                .map(|(i, p)| match (vertex, i % 2) {
+                    (false, _) => p.lo + 0.37 * (p.hi - p.lo),
+                    (true, 0) => p.lo,
+                    (true, _) => p.hi,
+                })
+                .collect();
+            let derivatives = |problem: &StateProblem| {
+                let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+                let stencils: Vec<_> = (0..params.len())
+                    .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                    .collect();
+                let options = SolveOptions {
+                    needs: Needs::all(&problem.scene),
+                    par: wsm_core::fem::Par::Seq,
+                    warm: None,
+                };
+                problem
+                    .solve_with_sensitivities(&data, &options, &stencils)
+                    .unwrap()
+            };
+            let (d, s) = (derivatives(&dense), derivatives(&sparse));
+            if coulomb {
+                assert!(
+                    s.sensitivities.is_empty(),
+                    "{name}: Coulomb on the sparse path"
+                );
+                assert!(
+                    s.report.warnings.iter().any(|w| w.contains("Coulomb")),
+                    "{name}: {:?}",
+                    s.report.warnings
+                );
+                continue;
+            }
+            assert_eq!(
+                d.sensitivities.len(),
+                params.len(),
+                "{name}: {:?}",
+                d.report.warnings
+            );
+            assert_eq!(
+                s.sensitivities.len(),
+                params.len(),
+                "{name}: {:?}",
+                s.report.warnings
+            );
+            let mut worst = 0.0_f64;
+            for phi in 0..6 {
+                let scale = d
+                    .sensitivities
+                    .iter()
+                    .filter_map(|row| row[phi].map(|o| o.right.abs().max(o.left.abs())))
+                    .fold(0.0, f64::max);
+                for (rd, rs) in d.sensitivities.iter().zip(&s.sensitivities) {
+                    match (rd[phi], rs[phi]) {
+                        (Some(a), Some(b)) => {
+                            let diff = (a.right - b.right).abs().max((a.left - b.left).abs());
+                            worst = worst.max(diff / scale.max(f64::MIN_POSITIVE));
+                        }
+                        (None, None) => {}
+                        other => panic!("{name}: Φ{} given on one path only: {other:?}", phi + 1),
+                    }
+                }
+            }
+            println!(
+                "{name} ({}): derivatives differ by {worst:.1e}",
+                if vertex { "vertex" } else { "interior" }
+            );
+            assert!(worst <= 1e-8, "{name}: derivatives differ by {worst:e}");
+            compared += 1;
+        }
+    }
+    assert!(compared >= 10, "only {compared} points compared");
 }

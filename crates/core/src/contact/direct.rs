@@ -25,6 +25,7 @@
 //! be reused ([`DirectContact::factor_with`]).
 
 mod adjoint;
+mod sparse_tangent;
 mod tangent;
 
 pub use adjoint::AdjointForms;

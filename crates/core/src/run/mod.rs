@@ -439,9 +439,10 @@ impl Run<'_> {
         if let Some(warning) = outcome.failures.warning(outcome.evaluations, &names) {
             outcome.warnings.insert(0, warning);
         }
-        if self.settings.derivatives && problem.contact.is_sparse() {
+        if self.settings.derivatives && problem.contact.is_sparse() && problem.nominal.has_coulomb()
+        {
             outcome.warnings.push(format!(
-                "exact derivatives are not available on the sparse contact path that this scene's {} contact pairs take (solver.contact: auto, from 1,500 pairs): the search ran on values alone; solver.contact = \"dense\" gives derivatives and local proofs at a memory cost that grows with the square of the pairs",
+                "exact derivatives of Coulomb states are not available on the sparse contact path that this scene's {} contact pairs take (solver.contact: auto, from 1,500 pairs): the search ran on values alone; solver.contact = \"dense\" gives derivatives and local proofs at a memory cost that grows with the square of the pairs",
                 problem.contact.geometry.pairs.len()
             ));
         }

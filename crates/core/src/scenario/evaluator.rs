@@ -160,9 +160,13 @@ impl<'a> ScenarioEvaluator<'a> {
     }
 
     /// Also compute the exact derivatives of the criteria along every uncertain datum at each
-    /// evaluation (off by default; never on the sparse contact path, which has none).
+    /// evaluation (off by default; never for a Coulomb state on the sparse contact path, which
+    /// has none).
     pub fn with_derivatives(mut self, derivatives: bool) -> Self {
-        self.derivatives = derivatives && !(self.problem.contact.is_sparse() && self.needs.elastic);
+        let coulomb_sparse = self.problem.contact.is_sparse()
+            && self.needs.elastic
+            && self.problem.nominal.has_coulomb();
+        self.derivatives = derivatives && !coulomb_sparse;
         self
     }
 

@@ -365,12 +365,6 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
-        if self.contact.is_sparse() && options.needs.elastic {
-            return Err(WsmError::contact(format!(
-                "exact derivatives need the dense contact path, and this scene's {} contact pairs take the sparse one (solver.contact: \"dense\" forces it, at a memory cost that grows with the square of the pairs)",
-                self.contact.geometry.pairs.len()
-            )));
-        }
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..

@@ -235,7 +235,9 @@ impl StateProblem {
                     .map(|p| state.data.friction[p.zone].filter(|_| !p.bilateral))
                     .collect();
                 let point = contact_point(el, &lo, &hi, &friction);
-                if route == DerivativeRoute::Adjoint {
+                // The adjoint is built on the dense path's C; the sparse path takes the forward
+                // tangents (design §3.1).
+                if route == DerivativeRoute::Adjoint && !self.contact.is_sparse() {
                     if let Some(adjoint) =
                         self.adjoint_criteria(state, el, &point, &forms, &needed)?
                     {

@@ -115,6 +115,9 @@ impl DirectContact {
         let Some(first) = directions.first() else {
             return Ok(Vec::new());
         };
+        if let Some(system) = &self.sparse {
+            return self.sparse_tangents(system, factor, state, directions);
+        }
         let n = first.residual.len();
         let motions = classify(state);
         let coulomb = state.friction.iter().any(Option::is_some);
@@ -203,22 +206,7 @@ impl DirectContact {
             .iter()
             .map(|row| row.dot(x0) + row.dot_fixed(fixed))
             .collect();
-        let (inf, ninf) = (f64::INFINITY, f64::NEG_INFINITY);
-        let (lo, hi): (Vec<f64>, Vec<f64>) = motions
-            .iter()
-            .enumerate()
-            .map(|(r, motion)| {
-                let (dl, du) = (sign * dd.lower[r], sign * dd.upper[r]);
-                match motion {
-                    RowMotion::Free => (ninf, inf),
-                    RowMotion::Lower => (dl, dl),
-                    RowMotion::Upper => (du, du),
-                    RowMotion::WeakLower => (dl, inf),
-                    RowMotion::WeakUpper => (ninf, du),
-                    RowMotion::Pinched => (dl.min(du), du.max(dl)),
-                }
-            })
-            .unzip();
+        let (lo, hi) = tangent_bounds(motions, dd, sign);
         let (g, e) = self.tangent_equilibrium(b);
         let start = WarmStart {
             x: lo
@@ -233,6 +221,31 @@ impl DirectContact {
             .map_err(|err| WsmError::contact(format!("sensitivity of the contact state: {err}")))?;
         Ok((sol.x, sol.alpha))
     }
+}
+
+/// The bounds of the multiplier derivatives along the signed direction (module doc): free rows
+/// unconstrained, strictly active ones following their bound, weakly active ones one-sided.
+pub(super) fn tangent_bounds(
+    motions: &[RowMotion],
+    dd: &DataDerivative,
+    sign: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let (inf, ninf) = (f64::INFINITY, f64::NEG_INFINITY);
+    motions
+        .iter()
+        .enumerate()
+        .map(|(r, motion)| {
+            let (dl, du) = (sign * dd.lower[r], sign * dd.upper[r]);
+            match motion {
+                RowMotion::Free => (ninf, inf),
+                RowMotion::Lower => (dl, dl),
+                RowMotion::Upper => (du, du),
+                RowMotion::WeakLower => (dl, inf),
+                RowMotion::WeakUpper => (ninf, du),
+                RowMotion::Pinched => (dl.min(du), du.max(dl)),
+            }
+        })
+        .unzip()
 }
 
 /// A Coulomb state is differentiable only on a strict active set: no weakly active row, no
