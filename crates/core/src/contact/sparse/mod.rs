@@ -110,121 +110,21 @@ pub fn solve(
     warm: Option<&WarmStart>,
     par: Par,
 ) -> Result<SparseOutcome, SparseFailure> {
-    let (m, k) = (p.geometry.dim(), p.modes.ncols());
-    let variable = |i: usize| system.variable(i);
+    let m = p.geometry.dim();
     let mut rows: Vec<Row> = (0..m)
-        .map(|i| initial_row(variable(i), p, i, warm))
+        .map(|i| initial_row(system.variable(i), p, i, warm))
         .collect();
-    let mode_rows: Vec<Vec<f64>> = (0..k)
-        .map(|j| {
-            p.geometry
-                .rows
-                .iter()
-                .map(|row| row.free.iter().map(|&(i, c)| c * p.modes[(i, j)]).sum())
-                .collect()
-        })
-        .collect();
-    let f_scale = p.rhs.iter().fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
     let mut seen = std::collections::HashSet::new();
     let mut changes = 0;
     for step in 1..=MAX_STEPS {
-        let free: Vec<bool> = rows.iter().map(|r| *r == Row::Free).collect();
-        let bound = |i: usize| match rows[i] {
-            Row::Lower => p.lower[i],
-            Row::Upper => p.upper[i],
-            Row::Free | Row::Zero => 0.0,
-        };
-        let mut loads = p.rhs.to_vec();
-        for (i, row) in p.geometry.rows.iter().enumerate() {
-            let l = bound(i);
-            if l != 0.0 {
-                row.free.iter().for_each(|&(d, c)| loads[d] -= c * l);
-            }
-        }
-        let mut set_loads = vec![SetLoad {
-            loads,
-            targets: p.offsets.iter().map(|o| -o).collect(),
-        }];
-        set_loads.extend(mode_rows.iter().map(|br| SetLoad {
-            loads: vec![0.0; p.rhs.len()],
-            targets: br.iter().map(|v| -v).collect(),
-        }));
-        let (solutions, accuracy) = system.solve_set(p.k_values, &free, &set_loads, par)?;
-        let (alpha, unbalance) = rigid_amplitudes(&solutions);
-        let mut u = solutions[0].u.clone();
-        let mut multipliers = solutions[0].multipliers.clone();
-        for (j, a) in alpha.iter().enumerate() {
-            let sol = &solutions[j + 1];
-            u.iter_mut()
-                .enumerate()
-                .for_each(|(i, ui)| *ui += a * (sol.u[i] + p.modes[(i, j)]));
-            multipliers
-                .iter_mut()
-                .zip(&sol.multipliers)
-                .for_each(|(l, s)| *l += a * s);
-        }
-        for (i, l) in multipliers.iter_mut().enumerate() {
-            if rows[i] != Row::Free {
-                *l = bound(i);
-            }
-        }
-        let w: Vec<f64> = p
-            .geometry
-            .rows
-            .iter()
-            .zip(p.offsets)
-            .map(|(row, o)| row.dot(&u) + o)
-            .collect();
-        let lambda_tol = SIGN_TOL
-            * multipliers
-                .iter()
-                .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
-        let u_scale = u
-            .iter()
-            .chain(p.offsets)
-            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
-        let w_tol = SIGN_TOL * u_scale;
-        let mut changed = 0;
-        for i in 0..m {
-            let next = match rows[i] {
-                Row::Free if multipliers[i] < p.lower[i] - lambda_tol => Row::Lower,
-                Row::Free if multipliers[i] > p.upper[i] + lambda_tol => Row::Upper,
-                Row::Lower if variable(i) && p.lower[i] < p.upper[i] && w[i] > w_tol => Row::Free,
-                Row::Upper if variable(i) && p.lower[i] < p.upper[i] && w[i] < -w_tol => Row::Free,
-                same => same,
-            };
-            if next != rows[i] {
-                rows[i] = next;
-                changed += 1;
-            }
-        }
+        let (mut states, accuracy) = solve_sets(system, &[p], &rows, par)?;
+        let state = states
+            .pop()
+            .ok_or_else(|| SparseFailure::NotConverged("the step gave no solution".into()))?;
+        let changed = update(system, p, &mut rows, &state);
         changes += changed;
         if changed == 0 {
-            // A free row dependent on others at a shared node was not imposed: it must hold.
-            if let Some(i) = (0..m).find(|&i| rows[i] == Row::Free && w[i].abs() > 1e3 * w_tol) {
-                return Err(SparseFailure::NotConverged(format!(
-                    "the contact conditions of zone {} at a node shared with another pair are inconsistent (residual {:.1e} m)",
-                    p.geometry.pairs[i / 2].zone,
-                    w[i].abs()
-                )));
-            }
-            if let Some((mode, residual)) = unbalance
-                .iter()
-                .enumerate()
-                .map(|(j, r)| (j, r.abs() / f_scale.max(lambda_tol / SIGN_TOL)))
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .filter(|(_, r)| *r > BALANCE_TOL)
-            {
-                return Err(SparseFailure::Unbalanced { mode, residual });
-            }
-            return Ok(SparseOutcome {
-                u,
-                multipliers,
-                rigid: alpha,
-                steps: step,
-                changes,
-                accuracy,
-            });
+            return finish(p, &rows, state, step, changes, accuracy);
         }
         if !seen.insert(rows.clone()) {
             return Err(SparseFailure::NotConverged(format!(
@@ -235,6 +135,234 @@ pub fn solve(
     Err(SparseFailure::NotConverged(format!(
         "no active set satisfied the contact conditions within {MAX_STEPS} steps"
     )))
+}
+
+/// Solve problems whose sets are known — every row with a free part either unbounded (free)
+/// or with equal bounds, the same rows free in all — with one factor for all of them (e.g. the
+/// tangents of a strict active set along every data direction). A problem whose set would
+/// change is an error.
+pub fn solve_fixed(
+    system: &SparseSystem,
+    problems: &[TrescaProblem],
+    par: Par,
+) -> Result<Vec<SparseOutcome>, SparseFailure> {
+    let Some(first) = problems.first() else {
+        return Ok(Vec::new());
+    };
+    let m = first.geometry.dim();
+    // Per row, whether it is free; None when a row could change its status.
+    let set_of = |p: &TrescaProblem| -> Option<Vec<bool>> {
+        (0..m)
+            .map(|i| {
+                let unbounded = p.lower[i] == f64::NEG_INFINITY && p.upper[i] == f64::INFINITY;
+                let movable = system.variable(i) && !unbounded && p.lower[i] != p.upper[i];
+                (!movable).then(|| initial_row(system.variable(i), p, i, None) == Row::Free)
+            })
+            .collect()
+    };
+    let first_set = set_of(first);
+    if first_set.is_none() || problems.iter().any(|p| set_of(p) != first_set) {
+        return Err(SparseFailure::NotConverged(
+            "the problems of a fixed set differ in their sets, or a row could move".into(),
+        ));
+    }
+    let rows: Vec<Row> = (0..m)
+        .map(|i| initial_row(system.variable(i), first, i, None))
+        .collect();
+    let refs: Vec<&TrescaProblem> = problems.iter().collect();
+    let (states, accuracy) = solve_sets(system, &refs, &rows, par)?;
+    problems
+        .iter()
+        .zip(states)
+        .map(|(p, state)| {
+            let mut own = rows.clone();
+            if update(system, p, &mut own, &state) != 0 {
+                return Err(SparseFailure::NotConverged(
+                    "a row of a fixed set left it".into(),
+                ));
+            }
+            finish(p, &own, state, 1, 0, accuracy)
+        })
+        .collect()
+}
+
+/// One problem's state after a step: displacement, multipliers, rigid amplitudes, the
+/// pinned DOFs' residual per rigid mode, and the gaps and slips.
+struct StepState {
+    u: Vec<f64>,
+    multipliers: Vec<f64>,
+    alpha: Vec<f64>,
+    unbalance: Vec<f64>,
+    w: Vec<f64>,
+}
+
+/// The multiplier of a row at a bound (0 for free and zero rows).
+fn bound_value(p: &TrescaProblem, row: Row, i: usize) -> f64 {
+    match row {
+        Row::Lower => p.lower[i],
+        Row::Upper => p.upper[i],
+        Row::Free | Row::Zero => 0.0,
+    }
+}
+
+/// Solve the set `rows` for every problem with one factor: per problem its loads (the bound
+/// multipliers' forces taken off) and one right-hand side per rigid mode, then α from the
+/// pinned DOFs' balance.
+fn solve_sets(
+    system: &SparseSystem,
+    problems: &[&TrescaProblem],
+    rows: &[Row],
+    par: Par,
+) -> Result<(Vec<StepState>, f64), SparseFailure> {
+    let Some(first) = problems.first() else {
+        return Ok((Vec::new(), 0.0));
+    };
+    let (geometry, modes) = (first.geometry, first.modes);
+    let k = modes.ncols();
+    let free: Vec<bool> = rows.iter().map(|r| *r == Row::Free).collect();
+    let mode_rows: Vec<Vec<f64>> = (0..k)
+        .map(|j| {
+            geometry
+                .rows
+                .iter()
+                .map(|row| row.free.iter().map(|&(i, c)| c * modes[(i, j)]).sum())
+                .collect()
+        })
+        .collect();
+    let mut set_loads = Vec::with_capacity(problems.len() * (k + 1));
+    for p in problems {
+        let mut loads = p.rhs.to_vec();
+        for (i, row) in geometry.rows.iter().enumerate() {
+            let l = bound_value(p, rows[i], i);
+            if l != 0.0 {
+                row.free.iter().for_each(|&(d, c)| loads[d] -= c * l);
+            }
+        }
+        set_loads.push(SetLoad {
+            loads,
+            targets: p.offsets.iter().map(|o| -o).collect(),
+        });
+        set_loads.extend(mode_rows.iter().map(|br| SetLoad {
+            loads: vec![0.0; p.rhs.len()],
+            targets: br.iter().map(|v| -v).collect(),
+        }));
+    }
+    let (solutions, accuracy) = system.solve_set(first.k_values, &free, &set_loads, par)?;
+    let states = problems
+        .iter()
+        .zip(solutions.chunks(k + 1))
+        .map(|(p, solutions)| {
+            let (alpha, unbalance) = rigid_amplitudes(solutions);
+            let mut u = solutions[0].u.clone();
+            let mut multipliers = solutions[0].multipliers.clone();
+            for (j, a) in alpha.iter().enumerate() {
+                let sol = &solutions[j + 1];
+                u.iter_mut()
+                    .enumerate()
+                    .for_each(|(i, ui)| *ui += a * (sol.u[i] + modes[(i, j)]));
+                multipliers
+                    .iter_mut()
+                    .zip(&sol.multipliers)
+                    .for_each(|(l, s)| *l += a * s);
+            }
+            for (i, l) in multipliers.iter_mut().enumerate() {
+                if rows[i] != Row::Free {
+                    *l = bound_value(p, rows[i], i);
+                }
+            }
+            let w = geometry
+                .rows
+                .iter()
+                .zip(p.offsets)
+                .map(|(row, o)| row.dot(&u) + o)
+                .collect();
+            StepState {
+                u,
+                multipliers,
+                alpha,
+                unbalance,
+                w,
+            }
+        })
+        .collect();
+    Ok((states, accuracy))
+}
+
+/// Tolerances of the sign tests: (multipliers, gaps and slips).
+fn tolerances(p: &TrescaProblem, state: &StepState) -> (f64, f64) {
+    let lambda = state
+        .multipliers
+        .iter()
+        .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+    let u_scale = state
+        .u
+        .iter()
+        .chain(p.offsets)
+        .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+    (SIGN_TOL * lambda, SIGN_TOL * u_scale)
+}
+
+/// The next set from a step's state (module doc); returns how many rows changed.
+fn update(system: &SparseSystem, p: &TrescaProblem, rows: &mut [Row], state: &StepState) -> usize {
+    let (lambda_tol, w_tol) = tolerances(p, state);
+    let (lambda, w) = (&state.multipliers, &state.w);
+    let mut changed = 0;
+    for (i, row) in rows.iter_mut().enumerate() {
+        let movable = system.variable(i) && p.lower[i] < p.upper[i];
+        let next = match *row {
+            Row::Free if lambda[i] < p.lower[i] - lambda_tol => Row::Lower,
+            Row::Free if lambda[i] > p.upper[i] + lambda_tol => Row::Upper,
+            Row::Lower if movable && w[i] > w_tol => Row::Free,
+            Row::Upper if movable && w[i] < -w_tol => Row::Free,
+            same => same,
+        };
+        if next != *row {
+            *row = next;
+            changed += 1;
+        }
+    }
+    changed
+}
+
+/// The outcome of a set that no longer changes, after the checks no sign test makes: a free row
+/// dependent on others must hold, and floating bodies must be balanced.
+fn finish(
+    p: &TrescaProblem,
+    rows: &[Row],
+    state: StepState,
+    steps: usize,
+    changes: usize,
+    accuracy: f64,
+) -> Result<SparseOutcome, SparseFailure> {
+    let (lambda_tol, w_tol) = tolerances(p, &state);
+    let w = &state.w;
+    // A free row dependent on others at a shared node was not imposed: it must hold.
+    if let Some(i) = (0..w.len()).find(|&i| rows[i] == Row::Free && w[i].abs() > 1e3 * w_tol) {
+        return Err(SparseFailure::NotConverged(format!(
+            "the contact conditions of zone {} at a node shared with another pair are inconsistent (residual {:.1e} m)",
+            p.geometry.pairs[i / 2].zone,
+            w[i].abs()
+        )));
+    }
+    let f_scale = p.rhs.iter().fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+    if let Some((mode, residual)) = state
+        .unbalance
+        .iter()
+        .enumerate()
+        .map(|(j, r)| (j, r.abs() / f_scale.max(lambda_tol / SIGN_TOL)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .filter(|(_, r)| *r > BALANCE_TOL)
+    {
+        return Err(SparseFailure::Unbalanced { mode, residual });
+    }
+    Ok(SparseOutcome {
+        u: state.u,
+        multipliers: state.multipliers,
+        rigid: state.alpha,
+        steps,
+        changes,
+        accuracy,
+    })
 }
 
 /// The first set: a warm start's, else every row with a free part free (bonded and closed).
