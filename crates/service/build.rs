@@ -1,5 +1,5 @@
-// The job store's migrations (the repository's `migrations/`) are embedded by `sqlx::migrate!`;
-// rebuild when one is added.
+//! The job store's migrations (the repository's `migrations/`) are embedded by `sqlx::migrate!`;
+//! rebuild when one is added.
 fn main() {
     println!("cargo:rerun-if-changed=../../migrations");
 }

@@ -19,8 +19,6 @@
 //! The crate depends on no service crate (tokio, axum, sqlx, tower, rust-embed): the service
 //! (`wsm-service`) and the studies (`wsm-study`) use it through its public items.
 
-#![warn(missing_docs)]
-
 pub mod bundled;
 pub mod contact;
 pub mod dd;

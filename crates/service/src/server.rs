@@ -18,13 +18,20 @@ use wsm_core::error::WsmError;
 /// Settings of `wsm serve`.
 #[derive(Debug, Clone)]
 pub struct ServeConfig {
+    /// The address the API listens on (`host:port`).
     pub addr: String,
     /// SQLite database file (created and migrated on start) or PostgreSQL URL.
     pub db: String,
+    /// Jobs this process coordinates at once (0: it only serves, `wsm worker` processes do
+    /// all the work).
     pub workers: usize,
+    /// Threads of each job's pool and of the task loop (`None`: all cores).
     pub threads_per_job: Option<usize>,
+    /// A job or task lease not renewed for this long is taken over \[s\].
     pub lease_seconds: f64,
+    /// Limits on what the API accepts.
     pub limits: Limits,
+    /// Limits on the HTTP connections: how many at once and how soon a request head must arrive.
     pub connections: ConnectionLimits,
     /// How long a store statement waits for another's lock before it fails.
     pub store_timeout: Duration,
@@ -45,6 +52,7 @@ pub struct WorkerConfig {
     pub threads: Option<usize>,
     /// Jobs coordinated at once.
     pub jobs: usize,
+    /// A job or task lease not renewed for this long is taken over \[s\].
     pub lease_seconds: f64,
     /// How long a store statement waits for another's lock before it fails.
     pub store_timeout: Duration,

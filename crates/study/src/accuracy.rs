@@ -29,17 +29,20 @@ use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 /// One solver configuration of the study.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct SolverChoice {
+    /// The solver: direct factorisation or domain decomposition.
     pub kind: SolverKind,
     /// The DD tolerance (`None` for the direct solver).
     pub tolerance: Option<f64>,
 }
 
 impl SolverChoice {
+    /// The direct solver (no tolerance); it always runs and defines the Richardson references.
     pub const DIRECT: SolverChoice = SolverChoice {
         kind: SolverKind::Direct,
         tolerance: None,
     };
 
+    /// The DD solver with the given relative stopping tolerance.
     pub fn dd(tolerance: f64) -> SolverChoice {
         SolverChoice {
             kind: SolverKind::Dd,
@@ -59,6 +62,7 @@ impl SolverChoice {
 /// What the study runs.
 #[derive(Debug, Clone)]
 pub struct AccuracyOptions {
+    /// The mesh ladder: size factor of the coarsest level, refinement ratio and number of levels.
     pub ladder: Ladder,
     /// The direct solver always runs (it defines the Richardson references); these are the DD
     /// tolerances (empty: no DD rows).
@@ -73,16 +77,23 @@ pub struct AccuracyOptions {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Analytic {
+    /// 2D Hertz contact of a cylinder on a flat: the exact contact half-width and peak pressure.
     Hertz(Hertz),
+    /// Lamé's thick-walled cylinder under internal pressure: the exact displacement field.
     Lame(LameCylinder),
 }
 
 /// A study case.
 #[derive(Debug, Clone)]
 pub enum Case {
+    /// A scene (a bundled example or a scene file), solved on scaled meshes of its own geometry.
     Scene {
+        /// The case's name in reports: the example's name or the scene's own name.
         name: String,
+        /// The parsed scene at size factor 1.
         scene: Box<Scene>,
+        /// The analytic reference, if any; otherwise errors are measured by Richardson
+        /// extrapolation.
         analytic: Option<Analytic>,
     },
     /// The manufactured solution on the unit square (structured, perturbed meshes; 16 cells a
@@ -137,6 +148,7 @@ impl Case {
         })
     }
 
+    /// The case's name in reports (`manufactured` for the manufactured case).
     pub fn name(&self) -> &str {
         match self {
             Case::Scene { name, .. } => name,
@@ -150,14 +162,22 @@ impl Case {
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum Reference {
     /// Against an analytic value.
-    Analytic { value: f64 },
+    Analytic {
+        /// The exact value of the quantity.
+        value: f64,
+    },
     /// Against the Richardson extrapolation of the direct solver's values.
     Richardson(Extrapolation),
     /// The measured value is already the relative error against an exact field.
     ExactField,
     /// The energy error (2 |J(u_h) − J*| / a(u, u))^½ from the extrapolated potential energy
     /// J* (and a(u, u) on the finest direct level).
-    PotentialEnergy { j_star: Extrapolation, norm2: f64 },
+    PotentialEnergy {
+        /// The Richardson extrapolation J* of the direct solver's potential energies.
+        j_star: Extrapolation,
+        /// The strain energy a(u_h, u_h) on the finest direct level (the norm's scale).
+        norm2: f64,
+    },
     /// No reference could be formed (too few successful levels).
     None,
 }
@@ -167,6 +187,7 @@ pub enum Reference {
 pub struct Quantity {
     /// `phi3`, `energy`, `half_width`, `L2`, ….
     pub name: String,
+    /// What the quantity's errors are measured against.
     pub reference: Reference,
     /// The observed order in h of the direct solver's errors (least-squares slope; h ∝
     /// unknowns^−½).
@@ -176,25 +197,38 @@ pub struct Quantity {
 /// DD iteration counts of a solve.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct DdIterations {
+    /// PCG1 iterations of the auxiliary problem S U⁰ = F.
     pub pcg1: usize,
+    /// Outer steps of the successive approximations.
     pub outer: usize,
+    /// PCG2 iterations summed over all outer steps.
     pub pcg2: usize,
 }
 
 /// One level × solver of the study.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Row {
+    /// The ladder level (0 is the coarsest).
     pub level: usize,
+    /// The mesh-size factor of the level (the scene's mesh sizes are multiplied by it).
     pub size_factor: f64,
+    /// Free displacement degrees of freedom of the level's mesh.
     pub unknowns: usize,
+    /// Triangles of the level's mesh.
     pub triangles: usize,
+    /// The solver's label ("direct" or "dd 1e-6"), see [`SolverChoice::label`].
     pub solver: String,
+    /// The DD tolerance (`None` for the direct solver).
     pub tolerance: Option<f64>,
     /// Meshing and operator set-up of the level \[s\].
     pub setup_seconds: f64,
     /// Median over the repeats of one cold solve \[s\].
     pub solve_seconds: f64,
+    /// Iterations of the contact QP reported by the last solve (semismooth Newton steps of the
+    /// direct solver, local contact iterations summed over the outer steps of the DD solver).
     pub qp_iterations: usize,
+    /// The DD iteration counts of the last solve (`None` for the direct solver or after a fallback
+    /// without a DD report).
     pub dd: Option<DdIterations>,
     /// The DD solver fell back to the direct one.
     pub fallback: bool,
@@ -210,14 +244,20 @@ pub struct Row {
 /// The cheapest row of a solver reaching an accuracy.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TimeToAccuracy {
+    /// The quantity's name (as in [`Quantity::name`]).
     pub quantity: String,
+    /// The solver's label ("direct" or "dd 1e-6").
     pub solver: String,
+    /// The relative error to reach (one of [`TARGETS`]).
     pub target: f64,
     /// The coarsest level from which on every level meets the target, with its solve time;
     /// `None` when no level does.
     pub level: Option<usize>,
+    /// Free degrees of freedom of that level.
     pub unknowns: Option<usize>,
+    /// Median time of one cold solve on that level \[s\].
     pub solve_seconds: Option<f64>,
+    /// Meshing and operator set-up of that level \[s\].
     pub setup_seconds: Option<f64>,
     /// The error there (or the smallest error seen when the target was not reached).
     pub error: Option<f64>,
@@ -229,13 +269,21 @@ pub struct TimeToAccuracy {
 /// The result of `wsm study accuracy`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AccuracyStudy {
+    /// The case's name.
     pub case: String,
+    /// Size factor of the ladder's coarsest level.
     pub ladder_coarsest: f64,
+    /// Refinement in h from one ladder level to the next.
     pub ladder_ratio: f64,
+    /// Threads of the study's pool.
     pub threads: usize,
+    /// Cold solves per row (the median time is reported).
     pub repeats: usize,
+    /// The measured quantities, in table order, with their references and observed orders.
     pub quantities: Vec<Quantity>,
+    /// One row per level and solver, levels from coarsest to finest.
     pub rows: Vec<Row>,
+    /// Per quantity, solver and target: the cheapest level meeting the target.
     pub time_to_accuracy: Vec<TimeToAccuracy>,
 }
 

@@ -57,6 +57,7 @@ pub fn points(mesh: &Mesh, t: usize) -> Vec<([f64; 2], [f64; 3], f64)> {
 
 /// An exact displacement field.
 pub trait ExactField {
+    /// The exact displacement (u1, u2) at the point x.
     fn u(&self, x: [f64; 2]) -> [f64; 2];
     /// [[∂x u1, ∂y u1], [∂x u2, ∂y u2]].
     fn grad(&self, x: [f64; 2]) -> [[f64; 2]; 2];
@@ -65,16 +66,22 @@ pub trait ExactField {
 /// Errors of a P1 field against an exact one, with the norms of the exact field.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct FieldErrors {
+    /// ‖u − u_h‖ in L².
     pub l2: f64,
+    /// ‖u − u_h‖ in the energy norm ‖v‖²_a = ∫ λ (div v)² + 2μ e(v):e(v).
     pub energy: f64,
+    /// ‖u‖ in L² of the exact field.
     pub l2_norm: f64,
+    /// ‖u‖_a, the energy norm of the exact field.
     pub energy_norm: f64,
 }
 
 impl FieldErrors {
+    /// The relative L² error ‖u − u_h‖ / ‖u‖.
     pub fn relative_l2(&self) -> f64 {
         self.l2 / self.l2_norm
     }
+    /// The relative energy-norm error ‖u − u_h‖_a / ‖u‖_a.
     pub fn relative_energy(&self) -> f64 {
         self.energy / self.energy_norm
     }
@@ -124,7 +131,9 @@ pub fn field_errors(
 /// f = −(λ + μ) ∇div u − μ Δu and u prescribed on the whole boundary.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Manufactured {
+    /// Lamé's first parameter λ of the (homogeneous, isotropic) material.
     pub lambda: f64,
+    /// The shear modulus μ of the material.
     pub mu: f64,
 }
 
@@ -151,6 +160,7 @@ impl ExactField for Manufactured {
 }
 
 impl Manufactured {
+    /// The body force f = −(λ + μ) ∇div u − μ Δu at (x, y) that makes u the exact solution.
     pub fn force(&self, [x, y]: [f64; 2]) -> [f64; 2] {
         let (l, m) = (self.lambda, self.mu);
         let s = (PI * x).cos() + (2.0 * PI * x).cos();
@@ -184,10 +194,15 @@ impl Manufactured {
 /// u_r = (1 + ν)/E · c ((1 − 2ν) r + b²/r), σ_θθ = c (1 + b²/r²), c = a² p / (b² − a²).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct LameCylinder {
+    /// The inner radius a.
     pub a: f64,
+    /// The outer radius b.
     pub b: f64,
+    /// The internal pressure p on the inner rim.
     pub p: f64,
+    /// Young's modulus E.
     pub e: f64,
+    /// Poisson's ratio ν.
     pub nu: f64,
 }
 
@@ -196,10 +211,12 @@ impl LameCylinder {
         self.a * self.a * self.p / (self.b * self.b - self.a * self.a)
     }
 
+    /// The radial displacement u_r at radius r.
     pub fn radial_displacement(&self, r: f64) -> f64 {
         (1.0 + self.nu) / self.e * self.c() * ((1.0 - 2.0 * self.nu) * r + self.b * self.b / r)
     }
 
+    /// The hoop stress σ_θθ at radius r.
     pub fn hoop_stress(&self, r: f64) -> f64 {
         self.c() * (1.0 + self.b * self.b / (r * r))
     }
@@ -253,18 +270,23 @@ impl ExactField for LameCylinder {
 /// a = 2 √(P R / (π E*)), p0 = 2P / (π a), 1/E* = (1 − ν1²)/E1 + (1 − ν2²)/E2.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct Hertz {
+    /// The cylinder's radius R (of the parabolic initial gap).
     pub radius: f64,
+    /// The combined modulus E* of the two bodies, 1/E* = (1 − ν1²)/E1 + (1 − ν2²)/E2.
     pub e_star: f64,
+    /// The load P per unit length pressing the bodies together.
     pub load: f64,
     /// The touching point of the parabolic gap.
     pub touch_at: [f64; 2],
 }
 
 impl Hertz {
+    /// The contact half-width a = 2 √(P R / (π E*)).
     pub fn half_width(&self) -> f64 {
         2.0 * (self.load * self.radius / (PI * self.e_star)).sqrt()
     }
 
+    /// The peak contact pressure p0 = 2P / (π a).
     pub fn peak_pressure(&self) -> f64 {
         2.0 * self.load / (PI * self.half_width())
     }

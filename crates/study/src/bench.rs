@@ -36,13 +36,22 @@ pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, W
 /// One row of the contact benchmark.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ContactRow {
+    /// Free displacement degrees of freedom of the scaled tunnel.
     pub unknowns: usize,
+    /// Contact node pairs of the scaled mesh.
     pub contact_pairs: usize,
+    /// Building the state problem (the size probe included): meshing, operators and contact
+    /// geometry \[s\].
     pub setup: f64,
+    /// Median numeric factorisation of K plus one solve, contact ignored \[s\].
     pub linear_factor_and_solve: f64,
+    /// Median cold contact solve: factorisation, condensed operator C, QP and recovery \[s\].
     pub contact_first_solve: f64,
+    /// Median warm-started contact re-solve after a 1 % change of pressures and slip limits \[s\].
     pub contact_warm_resolve: f64,
+    /// QP iterations of the last run's cold contact solve.
     pub qp_iterations_first: usize,
+    /// QP iterations of the last run's warm re-solve.
     pub qp_iterations_warm: usize,
 }
 
@@ -120,12 +129,18 @@ pub fn contact_benchmark(
 /// One row of the FEM pipeline benchmark (no contact: the linear elastic solve).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct FemRow {
+    /// Free displacement degrees of freedom of the scaled tunnel.
     pub unknowns: usize,
+    /// Median meshing time \[s\].
     pub mesh: f64,
     /// Per-zone matrices on the shared pattern, unit loads, DOF map (symbolic excluded).
     pub assembly: f64,
+    /// Median symbolic Cholesky analysis of the stiffness pattern (AMD ordering, elimination
+    /// tree) \[s\].
     pub symbolic: f64,
+    /// Median numeric factorisation of K for given (λ, μ) \[s\].
     pub numeric: f64,
+    /// Median forward and back substitution of one load vector \[s\].
     pub solve: f64,
 }
 
@@ -223,13 +238,20 @@ pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
 /// One row of the worst-scenario loop benchmark.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct WorstRow {
+    /// The inner solver: "direct" or "dd".
     pub solver: &'static str,
+    /// Free displacement degrees of freedom of the scaled tunnel.
     pub unknowns: usize,
+    /// New criterion evaluations (inner solves) of the run.
     pub evaluations: usize,
+    /// Wall-clock time of the whole run \[s\].
     pub wall: f64,
+    /// Evaluations per wall-clock second.
     pub evaluations_per_second: f64,
     /// Summed over threads \[s\]: the inner solves and their phases.
     pub solver_seconds: f64,
+    /// Time per phase of the inner solves (assembly, factorisation, contact, DD, post-processing),
+    /// summed over threads \[s\].
     pub phases: wsm_core::state::Timings,
     /// Local operators built: numeric factorisations of body blocks of K (direct solver and DD
     /// fallback) plus DD subdomain operators (factor, S, Neumann map).

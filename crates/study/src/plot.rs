@@ -8,6 +8,7 @@ use std::fmt::Write;
 /// One line of markers.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Series {
+    /// The legend entry; series with the same label share a colour across panels.
     pub label: String,
     /// (x, y) points; non-positive or non-finite ones are left out on a log scale.
     pub points: Vec<(f64, f64)>,
@@ -16,8 +17,11 @@ pub struct Series {
 /// One panel of the figure.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Panel {
+    /// The panel's heading.
     pub title: String,
+    /// The caption of the (logarithmic) x axis.
     pub x_label: String,
+    /// The caption of the (logarithmic) y axis.
     pub y_label: String,
     /// In legend order; the same label gets the same colour in every panel.
     pub series: Vec<Series>,

@@ -28,7 +28,10 @@ use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 pub enum Expect {
     /// Solved with every KKT residual ≤ `kkt`, with a warning containing `warning` if given.
     Solved {
+        /// The largest KKT residual allowed (raised to the rounding level 10 κ ε and, for the DD
+        /// solver, to 100 τ).
         kkt: f64,
+        /// A text one of the solve's warnings must contain (e.g. P1 locking), if any.
         warning: Option<&'static str>,
     },
     /// Refused; the reason contains every word.
@@ -52,21 +55,30 @@ enum Input {
 /// One case of the catalogue.
 #[derive(Debug, Clone)]
 pub struct Case {
+    /// The family of the case ("stiffness contrast", …), the first column of the table.
     pub group: &'static str,
+    /// The case within its group, e.g. its parameter value.
     pub name: String,
     input: Input,
+    /// What the case must do: be solved within tolerance or refused with a reason.
     pub expect: Expect,
 }
 
 /// The outcome of one case with one solver.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CaseResult {
+    /// The case's group.
     pub group: String,
+    /// The case's name within its group.
     pub name: String,
+    /// The solver: "direct" or "dd".
     pub solver: String,
     /// `solved` or `refused`.
     pub outcome: String,
+    /// The refusal's message, or what was wrong with a solved case (non-finite values, worst
+    /// scenario away from the expected vertex).
     pub reason: Option<String>,
+    /// The largest KKT residual of the solve (or of the run's inner solves).
     pub max_kkt: Option<f64>,
     /// QP iterations (direct) or PCG1 / outer / PCG2 (DD).
     pub iterations: String,
@@ -77,8 +89,11 @@ pub struct CaseResult {
     /// Max |u_dd − u_direct| / max |u_direct| (DD rows), or of the rescaled displacements
     /// (units cases).
     pub difference: Option<f64>,
+    /// The solve's or run's warnings.
     pub warnings: Vec<String>,
+    /// Wall-clock time of the case \[s\].
     pub seconds: f64,
+    /// The result meets the case's expectation (no failure).
     pub passed: bool,
     /// Why the case failed its expectation.
     pub failure: Option<String>,

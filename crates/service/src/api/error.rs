@@ -29,12 +29,16 @@ pub struct ErrorBody {
 /// An error response.
 #[derive(Debug, Clone)]
 pub struct ApiError {
+    /// The HTTP status of the answer.
     pub status: StatusCode,
+    /// The JSON body: stable code, detail and, where there is one, the field's path.
     pub body: ErrorBody,
+    /// Seconds sent in a `Retry-After` header (503 answers: the condition may pass).
     pub retry_after: Option<u32>,
 }
 
 impl ApiError {
+    /// An error with `status`, the stable code `error` and `detail`; no path, no `Retry-After`.
     pub fn new(status: StatusCode, error: &str, detail: impl Into<String>) -> ApiError {
         ApiError {
             status,
@@ -47,6 +51,7 @@ impl ApiError {
         }
     }
 
+    /// The same error naming `path`, the JSON path of the offending field.
     pub fn at(mut self, path: impl Into<String>) -> ApiError {
         self.body.path = Some(path.into());
         self
@@ -57,6 +62,7 @@ impl ApiError {
         ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_input", detail).at(path)
     }
 
+    /// 404 `not_found`: there is no `what` (a job, an example, …) with id `id`.
     pub fn not_found(what: &str, id: &str) -> ApiError {
         ApiError::new(
             StatusCode::NOT_FOUND,
@@ -65,6 +71,7 @@ impl ApiError {
         )
     }
 
+    /// 409 `conflict`: the request does not fit the current state (e.g. of a job).
     pub fn conflict(detail: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::CONFLICT, "conflict", detail)
     }

@@ -40,7 +40,9 @@ pub struct Limits {
     pub max_triangles: usize,
     /// Estimated triangles of a synchronous `POST /v1/solve`.
     pub max_solve_triangles: usize,
+    /// Uncertain parameters of a submitted job's scene; beyond, 422.
     pub max_parameters: usize,
+    /// Inner solves a job's search may spend (its budget); beyond, 422.
     pub max_budget: usize,
     /// Queued and running jobs at once; beyond, 503 with `Retry-After`.
     pub max_active_jobs: usize,
@@ -149,9 +151,13 @@ impl Access {
 /// What every handler shares.
 #[derive(Clone)]
 pub struct AppState {
+    /// The durable job store (SQLite or PostgreSQL).
     pub store: Arc<dyn JobStore>,
+    /// Jobs running in this process (their cancel flags), and whether it is stopping.
     pub live: Arc<Live>,
+    /// Limits on what the service accepts.
     pub limits: Arc<Limits>,
+    /// Who may do what: the API tokens and whether reads are open.
     pub access: Arc<Access>,
     /// Whether the store takes writes (probed in the background).
     pub health: Arc<StoreHealth>,

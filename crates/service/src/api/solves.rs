@@ -29,6 +29,7 @@ pub struct SolveSlots {
 pub type SolvePlace = OwnedSemaphorePermit;
 
 impl SolveSlots {
+    /// Room for `count` synchronous solves at once.
     pub fn new(count: usize) -> SolveSlots {
         SolveSlots {
             places: Arc::new(Semaphore::new(count)),

@@ -47,10 +47,15 @@ type Fanned<T> = Option<(Vec<T>, Vec<bool>)>;
 
 /// The batches of one job (one lease attempt) as tasks.
 pub struct StoreDispatch {
+    /// The job store the tasks are posted to and their results read back from.
     pub store: Arc<dyn JobStore>,
+    /// The runtime's handle, through which the search's blocking thread calls the store.
     pub runtime: tokio::runtime::Handle,
+    /// The job's id.
     pub job: String,
+    /// This process's name in leases: the coordinator holding the job's lease.
     pub owner: String,
+    /// The job's lease attempt; its tasks carry it, so an earlier coordinator's are told apart.
     pub attempt: u32,
     /// Evaluation threads of this process's job pool.
     pub own_threads: usize,
@@ -69,6 +74,8 @@ pub struct StoreDispatch {
 }
 
 impl StoreDispatch {
+    /// A dispatch of the batches of job `job` in lease attempt `attempt`, held by `owner`;
+    /// batches are numbered from 0.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         store: Arc<dyn JobStore>,

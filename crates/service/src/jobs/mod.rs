@@ -29,14 +29,20 @@ use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues, WorstOutcome, Wors
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum JobState {
+    /// Waiting for a worker: new, or given back by a process shutting down.
     Queued,
+    /// Leased by a worker, which coordinates the search and renews the lease by heartbeat.
     Running,
+    /// The search ran to an outcome (completed, out of budget or out of time).
     Succeeded,
+    /// Ended with an error (see the record's `error` and `error_kind`).
     Failed,
+    /// Stopped on request; the partial outcome, if any, is kept.
     Cancelled,
 }
 
 impl JobState {
+    /// The state's name as stored in the database and shown by the API (`queued`, …).
     pub fn as_str(self) -> &'static str {
         match self {
             JobState::Queued => "queued",
@@ -47,6 +53,7 @@ impl JobState {
         }
     }
 
+    /// The state named `text` (as written by [`JobState::as_str`]); `None` for an unknown name.
     pub fn parse(text: &str) -> Option<JobState> {
         [
             JobState::Queued,
@@ -59,6 +66,7 @@ impl JobState {
         .find(|s| s.as_str() == text)
     }
 
+    /// Whether the job has ended: succeeded, failed or cancelled.
     pub fn is_finished(self) -> bool {
         matches!(
             self,
@@ -70,36 +78,62 @@ impl JobState {
 /// A job to store: the validated scene and settings.
 #[derive(Debug, Clone)]
 pub struct NewJob {
+    /// The job's id (a fresh UUID v4).
     pub id: String,
     /// The scene document (JSON text).
     pub scene: String,
+    /// The search settings as submitted (resolved against the scene when the job runs).
     pub settings: WorstRequest,
+    /// The scene's `name`, shown in listings.
     pub scene_name: String,
+    /// Names of the criteria searched (`phi3`, …).
     pub criteria: Vec<String>,
+    /// The most inner solves the search may spend.
     pub budget: usize,
+    /// The run hash of the scene, criteria and target error (`wsm_core::run::hash::run_hash`),
+    /// which ties stored evaluations and tasks to this run.
     pub run_hash: String,
 }
 
 /// A stored job.
 #[derive(Debug, Clone)]
 pub struct JobRecord {
+    /// The job's id (a UUID v4).
     pub id: String,
+    /// Where the job is in its life.
     pub state: JobState,
+    /// The scene document (JSON text); empty in listings, which do not read it.
     pub scene: String,
+    /// The search settings as submitted.
     pub settings: WorstRequest,
+    /// The scene's `name`.
     pub scene_name: String,
+    /// Names of the criteria searched.
     pub criteria: Vec<String>,
+    /// The most inner solves the search may spend.
     pub budget: usize,
+    /// The run hash of the scene, criteria and target error.
     pub run_hash: String,
+    /// When the job was submitted (Unix seconds, database clock).
     pub created_at: f64,
+    /// When it was first leased (Unix seconds, database clock); `None` until then.
     pub started_at: Option<f64>,
+    /// When it ended (Unix seconds, database clock); `None` until then.
     pub finished_at: Option<f64>,
+    /// Leases taken so far (more than 1: the job was resumed by another lease).
     pub attempts: u32,
+    /// A cancel was requested; the running job's coordinator sees it at its next heartbeat.
     pub cancel_requested: bool,
+    /// The last progress event its coordinator stored.
     pub progress: Option<ProgressEvent>,
+    /// Evaluations stored so far.
     pub evaluations: usize,
+    /// The outcome of a succeeded job, or the partial outcome of a cancelled one.
     pub result: Option<WorstOutcome>,
+    /// Why a failed job failed, for a person.
     pub error: Option<String>,
+    /// The failure's class: `bad_input`, `unsolvable`, `solver`, `io`, `panic`,
+    /// `attempts_exhausted`, …
     pub error_kind: Option<String>,
     /// When the current lease ends (Unix seconds, database clock); `None` unless running.
     pub lease_expires_at: Option<f64>,
@@ -114,8 +148,11 @@ pub enum JobEnd {
     Succeeded(WorstOutcome),
     /// Cancelled: the partial outcome.
     Cancelled(Option<WorstOutcome>),
+    /// The job failed; it is not retried.
     Failed {
+        /// The failure's class (`bad_input`, `solver`, `panic`, …), stored as `error_kind`.
         kind: String,
+        /// What went wrong, for a person.
         error: String,
     },
 }
@@ -124,7 +161,10 @@ pub enum JobEnd {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Lease {
     /// Still `owner`'s; whether a cancel was requested.
-    Held { cancel_requested: bool },
+    Held {
+        /// A cancel of the job was requested.
+        cancel_requested: bool,
+    },
     /// Taken over by another worker, or the job ended.
     Lost,
 }
@@ -132,17 +172,22 @@ pub enum Lease {
 /// A page of a listing.
 #[derive(Debug, Clone, Copy)]
 pub struct Page {
+    /// At most this many items.
     pub limit: usize,
+    /// Items skipped from the start of the listing.
     pub offset: usize,
 }
 
 /// A task: some points of one evaluation batch of a job.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct TaskKey {
+    /// The job whose batch the task belongs to.
     pub job_id: String,
     /// The job's lease attempt whose coordinator posted it.
     pub attempt: u32,
+    /// The batch's number within the coordinator's lease attempt (from 0, in posting order).
     pub batch: u64,
+    /// The part's index within the batch (results are read back in part order).
     pub part: u32,
 }
 
@@ -155,8 +200,11 @@ pub enum TaskScope<'a> {
     /// The tasks of one batch (its coordinator taking over a part nobody has started or whose
     /// worker died).
     Batch {
+        /// The job's id.
         job: &'a str,
+        /// The lease attempt of the coordinator that posted the batch.
         attempt: u32,
+        /// The batch's number within that attempt.
         batch: u64,
     },
 }
@@ -191,18 +239,24 @@ impl TaskKind {
 /// A leased task.
 #[derive(Debug, Clone)]
 pub struct TaskRecord {
+    /// Which task: job, attempt, batch and part.
     pub key: TaskKey,
+    /// Search evaluations or refined solves of the accuracy statement.
     pub kind: TaskKind,
     /// Physical parameter points, in the order their evaluations must be returned.
     pub points: Vec<Vec<f64>>,
+    /// The job's run hash, which the worker's prepared model must match.
     pub run_hash: String,
 }
 
 /// What a worker needs to evaluate a job's points: the scene and the search settings.
 #[derive(Debug, Clone)]
 pub struct JobInput {
+    /// The scene document (JSON text).
     pub scene: String,
+    /// The search settings as submitted.
     pub settings: WorstRequest,
+    /// The job's run hash.
     pub run_hash: String,
     /// The scene its coordinator chose for the target error, once it has (JSON).
     pub chosen_scene: Option<String>,
@@ -214,7 +268,9 @@ pub struct JobInput {
 #[derive(Debug, Clone, thiserror::Error)]
 #[error("job store: {message}")]
 pub struct StoreError {
+    /// What failed, naming the operation.
     pub message: String,
+    /// The database itself failed, which may pass (API 503, job retried), rather than the data.
     pub unavailable: bool,
 }
 
@@ -236,6 +292,7 @@ impl StoreError {
     }
 }
 
+/// The result of a job-store operation.
 pub type StoreResult<T> = Result<T, StoreError>;
 
 /// Where jobs, their evaluations and results live.
@@ -245,6 +302,7 @@ pub trait JobStore: Send + Sync + 'static {
     /// inserted). The count and the insert are one transaction: concurrent submissions cannot
     /// pass the limit together.
     async fn insert(&self, job: NewJob, max_active: usize) -> StoreResult<bool>;
+    /// The job `id` with its scene document (`None`: no such job).
     async fn get(&self, id: &str) -> StoreResult<Option<JobRecord>>;
     /// Jobs, newest first, optionally in one state; without their scene documents (`scene` is
     /// empty: a listing reads only what a status shows).
@@ -267,6 +325,7 @@ pub trait JobStore: Send + Sync + 'static {
     ) -> StoreResult<Option<JobRecord>>;
     /// Extend the lease and read the job's cancel flag.
     async fn renew(&self, id: &str, owner: &str, lease_seconds: f64) -> StoreResult<Lease>;
+    /// Store a running job's latest progress event (ignored once the job is no longer running).
     async fn set_progress(&self, id: &str, progress: &ProgressEvent) -> StoreResult<()>;
     /// Store evaluations in order, in one transaction; the 1-based sequence number of the last.
     async fn append_evaluations(
@@ -277,6 +336,8 @@ pub trait JobStore: Send + Sync + 'static {
     ) -> StoreResult<usize>;
     /// Evaluations of a job in order (`page` of them).
     async fn evaluations(&self, id: &str, page: Option<Page>) -> StoreResult<Vec<Evaluation>>;
+    /// Record how job `id` ended (state, outcome or error, finish time) and release its lease,
+    /// provided `owner` still holds it; the job's tasks are dropped.
     async fn finish(&self, id: &str, owner: &str, end: JobEnd) -> StoreResult<()>;
     /// Ask a job to stop: a queued job is cancelled at once (true), a running one is flagged.
     async fn request_cancel(&self, id: &str) -> StoreResult<bool>;

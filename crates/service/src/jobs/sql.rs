@@ -28,7 +28,9 @@ use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues};
 /// The database behind the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Backend {
+    /// A SQLite file: the embedded default, shared at most by processes on one machine.
     Sqlite,
+    /// A PostgreSQL server: shared by workers on several machines (scale-out), with notifications.
     Postgres,
 }
 
@@ -331,6 +333,7 @@ impl SqlStore {
         Ok(store)
     }
 
+    /// The database behind this store.
     pub fn backend(&self) -> Backend {
         self.backend
     }
