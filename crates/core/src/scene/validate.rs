@@ -168,14 +168,11 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
                     range(ParamTarget::Young(index), e),
                     range(ParamTarget::Poisson(index), nu),
                 );
-                let lame = |e: f64, nu: f64| {
-                    (
-                        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-                        e / (2.0 * (1.0 + nu)),
-                    )
-                };
                 let corners = [(e.0, nu.0), (e.0, nu.1), (e.1, nu.0), (e.1, nu.1)];
-                (corners.map(|(e, nu)| lame(e, nu)).to_vec(), "E")
+                (
+                    corners.map(|(e, nu)| law::lame_from_young(e, nu)).to_vec(),
+                    "E",
+                )
             }
             (_, _, Some(l), Some(mu)) => {
                 let (l, mu) = (
