@@ -71,7 +71,7 @@ pub(crate) fn pair_of_row(r: usize) -> usize {
 
 /// Whether row r of B is a normal row (even r).
 pub(crate) fn is_normal_row(r: usize) -> bool {
-    r % 2 == 0
+    r.is_multiple_of(2)
 }
 
 /// Whether row r of B is a tangential row (odd r).
