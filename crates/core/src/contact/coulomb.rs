@@ -39,7 +39,7 @@
 use serde::Serialize;
 
 use super::anderson::Anderson;
-use super::pairs::ContactGeometry;
+use super::pairs::{is_tangential_row, normal_row, pair_of_row, ContactGeometry};
 use crate::scene::Data;
 
 /// Relative change of the multipliers at which the fixed point has converged whatever the
@@ -159,7 +159,7 @@ pub fn solve<S, E>(
     // A tangential row that the prescribed displacements alone decide has no stiffness: bonded,
     // its multiplier would be unbounded; it starts at 0 instead.
     for (r, row) in geometry.rows.iter().enumerate() {
-        if upper[r].is_infinite() && r % 2 == 1 && row.free.is_empty() {
+        if upper[r].is_infinite() && is_tangential_row(r) && row.free.is_empty() {
             (lower[r], upper[r]) = (0.0, 0.0);
         }
     }
@@ -175,7 +175,7 @@ pub fn solve<S, E>(
         .iter()
         .enumerate()
         .filter(|(_, p)| !p.bilateral && data.friction.get(p.zone).copied().flatten().is_some())
-        .map(|(m, _)| 2 * m)
+        .map(|(m, _)| normal_row(m))
         .collect();
     let mut mixer = Anderson::new(anderson_depth);
     let mut input = multipliers(&state).to_vec();
@@ -234,7 +234,7 @@ pub fn solve<S, E>(
             stopping.verdict(change, || rounding_level(&next).max(rounding_level(&state)));
         report.rounding_level = stopping.rounding_level;
         state = next;
-        let zone = geometry.pairs.get(worst / 2).map_or(0, |p| p.zone);
+        let zone = geometry.pairs.get(pair_of_row(worst)).map_or(0, |p| p.zone);
         let why = match verdict {
             Verdict::Converged => return Ok((state, Some(report))),
             Verdict::Stalled => format!("the change has not decreased over {STALL_WINDOW} steps"),

@@ -41,7 +41,7 @@ use super::bodies::{body_blocks, BodyBlock, BodyFactor};
 use super::condition;
 use super::coulomb::{self, CoulombReport};
 use super::feasibility::Feasibility;
-use super::pairs::{ContactGeometry, ContactRow};
+use super::pairs::{is_normal_row, pair_of_row, ContactGeometry, ContactRow};
 use super::qp::{solve_box_qp, BoxQp, QpError, QpOptions, QpSolution, WarmStart};
 use super::sparse::system::SparseSystem;
 use super::sparse::{self, SparseFailure, TrescaProblem};
@@ -784,8 +784,8 @@ impl DirectContact {
     /// Add B_d u_d − g0 (prescribed values on contact nodes, initial gaps on normal rows).
     fn add_offsets(&self, fixed: &[f64], v: &mut [f64]) {
         for (r, (row, vr)) in self.geometry.rows.iter().zip(v.iter_mut()).enumerate() {
-            let gap = if r % 2 == 0 {
-                self.geometry.pairs[r / 2].gap
+            let gap = if is_normal_row(r) {
+                self.geometry.pairs[pair_of_row(r)].gap
             } else {
                 0.0
             };

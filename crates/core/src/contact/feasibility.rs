@@ -21,7 +21,7 @@
 //! at the end matching the sign of `a_ms`: [`Feasibility::check_box`] decides the whole
 //! admissible set without enumerating vertices, and suggests the largest feasible interval.
 
-use super::pairs::ContactGeometry;
+use super::pairs::{normal_row, ContactGeometry};
 use crate::fem::DofMap;
 use crate::mesh::Mesh;
 use crate::scene::{BoundaryValue, Data, Scene, SceneError};
@@ -92,7 +92,11 @@ impl Feasibility {
             .iter()
             .enumerate()
             .filter(|&(m, _)| {
-                let free: f64 = geometry.rows[2 * m].free.iter().map(|(_, c)| c.abs()).sum();
+                let free: f64 = geometry.rows[normal_row(m)]
+                    .free
+                    .iter()
+                    .map(|(_, c)| c.abs())
+                    .sum();
                 free <= 1e-12
             })
             .map(|(m, pair)| {

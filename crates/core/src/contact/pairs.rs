@@ -3,6 +3,9 @@
 //! nodal share w_m of the contact length (friction lumped at nodes: j_h(v) = Σ g(s_m) w_m
 //! |t_m·(v^k_m − v^l_m)|), the initial gap g0_m, and the rows of the contact operator B on the
 //! reduced (free, rotated) DOFs: (B u)_{2m} = n_m·(u^k_m − u^l_m), (B u)_{2m+1} = t_m·(u^k_m − u^l_m).
+//! That layout of rows (and multipliers) is read through `normal_row`, `tangential_row`,
+//! `pair_of_row`, `is_normal_row` and `is_tangential_row` (the `sparse` path does not use them
+//! yet).
 //! On a Coulomb zone the nodal friction bound is F λ_n,m instead of g(s_m) w_m (design §3.4).
 
 use std::collections::HashMap;
@@ -51,11 +54,36 @@ impl ContactRow {
     }
 }
 
+/// The row of B (and the multiplier) of pair m's normal constraint: 2m.
+pub(crate) fn normal_row(m: usize) -> usize {
+    2 * m
+}
+
+/// The row of B (and the multiplier) of pair m's tangential constraint: 2m + 1.
+pub(crate) fn tangential_row(m: usize) -> usize {
+    2 * m + 1
+}
+
+/// The pair of row r of B: r / 2.
+pub(crate) fn pair_of_row(r: usize) -> usize {
+    r / 2
+}
+
+/// Whether row r of B is a normal row (even r).
+pub(crate) fn is_normal_row(r: usize) -> bool {
+    r.is_multiple_of(2)
+}
+
+/// Whether row r of B is a tangential row (odd r).
+pub(crate) fn is_tangential_row(r: usize) -> bool {
+    r % 2 == 1
+}
+
 /// All contact pairs of a scene and their B rows.
 #[derive(Debug, Clone, Default)]
 pub struct ContactGeometry {
     pub pairs: Vec<ContactPair>,
-    /// 2 rows per pair: normal, tangential.
+    /// 2 rows per pair: normal, tangential ([`normal_row`], [`tangential_row`]).
     pub rows: Vec<ContactRow>,
 }
 
@@ -117,7 +145,7 @@ impl ContactGeometry {
                 continue;
             }
             let bound = match (data.friction.get(p.zone).copied().flatten(), state) {
-                (Some(f), Some(lambda)) => f * lambda[2 * m].max(0.0),
+                (Some(f), Some(lambda)) => f * lambda[normal_row(m)].max(0.0),
                 (Some(_), None) => f64::INFINITY,
                 (None, _) => {
                     let slip = &data.slip[p.zone];

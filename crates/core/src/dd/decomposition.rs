@@ -13,6 +13,7 @@ use super::subdomain::{
     assemble, rigid_candidates, BlockOperators, Csr, LinearBlock, OperatorCache,
 };
 use super::{ContactRow, DdError, DdProblem};
+use crate::contact::pairs::is_normal_row;
 
 const NONE: usize = usize::MAX;
 
@@ -385,7 +386,7 @@ fn build_cluster(
         cand.subrows(0, ni),
     )?;
     let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
-    let (tied, full_stick) = match cluster.tied(|r| r % 2 == 0, rho_gamma.clone(), cand.as_ref()) {
+    let (tied, full_stick) = match cluster.tied(is_normal_row, rho_gamma.clone(), cand.as_ref()) {
         Ok(t) => (t, false),
         Err(first) => match cluster.tied(|_| true, rho_gamma, cand.as_ref()) {
             Ok(t) => (t, true),

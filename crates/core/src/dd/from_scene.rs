@@ -17,7 +17,7 @@ use super::successive::{solve, DdSolution, Fallback};
 use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
 use crate::contact::coulomb;
 use crate::contact::direct::{ContactSolution, DirectContact};
-use crate::contact::pairs::ContactGeometry;
+use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
 use crate::fem::{ElasticCoefficients, ElasticProblem};
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
@@ -110,8 +110,8 @@ pub fn contact_pairs(
             };
             DdContactPair {
                 nodes: p.nodes,
-                normal: row(2 * m, p.gap),
-                tangent: row(2 * m + 1, 0.0),
+                normal: row(normal_row(m), p.gap),
+                tangent: row(tangential_row(m), 0.0),
             }
         })
         .collect()

@@ -38,6 +38,7 @@ use super::pcg::pcg;
 use super::report::{DdReport, Times};
 use super::subdomain::rigid_candidates;
 use super::{DdError, DdProblem};
+use crate::contact::pairs::{normal_row, tangential_row};
 use crate::contact::qp::WarmStart;
 
 /// The answer of a direct solver: reduced displacement and per-pair (normal, tangential)
@@ -617,7 +618,7 @@ fn recover(
             full[d] = v;
         }
         for (i, &p) in dec.cluster_pairs[c].iter().enumerate() {
-            multipliers[p] = [state.qp.x[2 * i], state.qp.x[2 * i + 1]];
+            multipliers[p] = [state.qp.x[normal_row(i)], state.qp.x[tangential_row(i)]];
         }
         report.floating_modes += state.qp.alpha.len();
     }

@@ -9,6 +9,7 @@
 //! Which DOFs are constrained is topology (fixed per mesh and scene); the prescribed values are
 //! data and are re-read by [`DofMap::fixed_values`].
 
+use crate::mesh::geom::{cross, dot};
 use crate::mesh::Mesh;
 use crate::scene::{BoundaryData, BoundaryValue};
 
@@ -237,14 +238,6 @@ impl DofMap {
             .map(|(_, e)| e)
             .collect()
     }
-}
-
-fn dot(a: [f64; 2], b: [f64; 2]) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-
-fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
 }
 
 /// All constraints of every node, in boundary-condition order.

@@ -1,17 +1,13 @@
 //! Small planar geometry helpers shared by the mesher, the Gmsh import and the criteria weights:
 //! polygon areas and point location, point–segment and segment–segment distances, and arc-length
-//! projection onto polylines.
+//! projection onto polylines. The difference, cross product and orientation of points are the
+//! scene's (`scene::planar`), shared with its validation.
 
 /// A point `[x, y]`.
 pub(crate) type P = [f64; 2];
 
-pub(crate) fn sub(a: P, b: P) -> P {
-    [a[0] - b[0], a[1] - b[1]]
-}
-
-pub(crate) fn cross(a: P, b: P) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
-}
+use crate::scene::signed_area2;
+pub(crate) use crate::scene::{cross, orient, sub};
 
 pub(crate) fn dot(a: P, b: P) -> f64 {
     a[0] * b[0] + a[1] * b[1]
@@ -26,18 +22,9 @@ pub(crate) fn lerp(a: P, b: P, t: f64) -> P {
     [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])]
 }
 
-/// Twice the signed area of triangle (a, b, c): positive when counter-clockwise.
-pub(crate) fn orient(a: P, b: P, c: P) -> f64 {
-    cross(sub(b, a), sub(c, a))
-}
-
 /// Signed area of a closed ring (the last point connects to the first); positive when CCW.
 pub(crate) fn signed_area(ring: &[P]) -> f64 {
-    let n = ring.len();
-    (0..n)
-        .map(|i| cross(ring[i], ring[(i + 1) % n]))
-        .sum::<f64>()
-        * 0.5
+    signed_area2(ring) * 0.5
 }
 
 /// Signed area and first moments (∫x, ∫y) of a closed ring by a fan of signed triangles; exact

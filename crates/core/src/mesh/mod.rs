@@ -89,8 +89,7 @@ impl Mesh {
     /// Signed area of triangle `t` (positive for counter-clockwise).
     pub fn triangle_area(&self, t: usize) -> f64 {
         let [a, b, c] = self.triangles[t];
-        let (pa, pb, pc) = (self.nodes[a], self.nodes[b], self.nodes[c]);
-        0.5 * ((pb[0] - pa[0]) * (pc[1] - pa[1]) - (pc[0] - pa[0]) * (pb[1] - pa[1]))
+        0.5 * geom::orient(self.nodes[a], self.nodes[b], self.nodes[c])
     }
 
     /// Index of the segment with this name.

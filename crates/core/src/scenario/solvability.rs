@@ -20,6 +20,7 @@
 use faer::Mat;
 
 use crate::contact::feasibility::UncertainDisplacement;
+use crate::contact::pairs::{normal_row, tangential_row};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
 use crate::scene::params::{apply, least_slip_limits, ParamTarget, Parameter};
@@ -264,7 +265,7 @@ impl<'a> Balance<'a> {
             if pair.bilateral {
                 continue;
             }
-            let (n, t) = (2 * m, 2 * m + 1);
+            let (n, t) = (normal_row(m), tangential_row(m));
             for row in 0..g.nrows() {
                 let (gn, gt) = (g[(row, n)], g[(row, t)]);
                 g[(row, n)] = gn + f * gt;

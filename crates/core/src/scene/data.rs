@@ -5,7 +5,7 @@
 //! between evaluations. Indices follow the scene: materials in name order (the `BTreeMap` order),
 //! boundary conditions and contacts in list order, segments in name order.
 
-use super::law::{Orthotropic, PlaneStrainLaw};
+use super::law::{lame_from_young, Orthotropic, PlaneStrainLaw};
 use super::model::{BoundaryCondition, Conductivity, Material, Scene, SlipLimit, ThermalStress};
 
 /// Elastic constants as the user gave them; converted to the plane-strain law on use.
@@ -33,7 +33,7 @@ pub enum Elastic {
 
 impl Elastic {
     /// The plane-strain law (FGCS 2.7′); `None` when orthotropic constants have a singular
-    /// compliance. Isotropic: λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)).
+    /// compliance. Isotropic: λ, μ by [`lame_from_young`] when E, ν are given.
     pub fn law(&self) -> Option<PlaneStrainLaw> {
         match self {
             Elastic::Young { .. } | Elastic::Lame { .. } => {
@@ -48,10 +48,7 @@ impl Elastic {
     /// (λ, μ) of an isotropic material, `None` otherwise.
     fn lame(&self) -> Option<(f64, f64)> {
         match *self {
-            Elastic::Young { e, nu } => Some((
-                e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-                e / (2.0 * (1.0 + nu)),
-            )),
+            Elastic::Young { e, nu } => Some(lame_from_young(e, nu)),
             Elastic::Lame { lambda, mu } => Some((lambda, mu)),
             Elastic::Orthotropic(_) | Elastic::Matrix(_) => None,
         }

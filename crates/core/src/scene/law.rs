@@ -25,6 +25,16 @@ pub struct PlaneStrainLaw {
 /// [`PlaneStrainLaw::coefficients`]: d11, d12, d13, d22, d23, d33.
 pub const ENTRIES: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
 
+/// The Lamé coefficients (λ, μ) \[Pa\] of an isotropic material of Young's modulus E \[Pa\] and
+/// Poisson's ratio ν: λ = Eν/((1+ν)(1−2ν)), μ = E/(2(1+ν)). The one place this conversion is
+/// written (the resolved data, the validation's stiffness corners and the tests use it).
+pub fn lame_from_young(e: f64, nu: f64) -> (f64, f64) {
+    (
+        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+        e / (2.0 * (1.0 + nu)),
+    )
+}
+
 impl PlaneStrainLaw {
     /// Isotropic plane strain: D = λ m mᵀ + μ diag(2, 2, 1), c = (λ, λ, 0).
     pub fn isotropic(lambda: f64, mu: f64) -> PlaneStrainLaw {
@@ -237,15 +247,13 @@ mod tests {
     #[test]
     fn orthotropic_with_isotropic_constants_is_isotropic() {
         let (e, nu) = (2e9, 0.3);
-        let iso = PlaneStrainLaw::isotropic(
-            e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-            e / (2.0 * (1.0 + nu)),
-        );
+        let (lambda, mu) = lame_from_young(e, nu);
+        let iso = PlaneStrainLaw::isotropic(lambda, mu);
         for angle in [0.0, 37.0, 90.0] {
             let o = Orthotropic {
                 young: [e; 3],
                 poisson: [nu; 3],
-                shear: e / (2.0 * (1.0 + nu)),
+                shear: mu,
                 angle,
             };
             let law = o.law().unwrap();

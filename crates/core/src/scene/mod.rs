@@ -4,7 +4,8 @@
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
 //! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
 //! `law` builds the plane-strain law of a material (FGCS 2.7′) and checks interval
-//! matrices (FGCS 4.6, 4.8), `rules` holds the sign and range rules (materials, slip limit) both of them check,
+//! matrices (FGCS 4.6, 4.8), `planar` holds the orientation and signed-area primitives the
+//! validation and the mesher share, `rules` holds the sign and range rules (materials, slip limit) both of them check,
 //! and `warnings` lists what a valid scene holds that is probably not meant (implausible
 //! magnitudes, uncertain data addressed by the index of a named entry).
 
@@ -12,6 +13,7 @@ mod data;
 pub mod law;
 mod model;
 pub mod params;
+mod planar;
 mod rules;
 mod shape;
 mod validate;
@@ -26,6 +28,7 @@ pub use model::{
     Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit,
     SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
 };
+pub(crate) use planar::{cross, orient, signed_area2, sub};
 pub use shape::{objects_where_objects, plain_message};
 pub(crate) use validate::touching_tolerance;
 pub use validate::{check_criteria_list, parse, validate, MAX_COORDINATE, MAX_NAME, MAX_TEXT};

@@ -5,6 +5,7 @@
 use super::law;
 use super::model::*;
 use super::params::{check_interval_matrices, resolve_all, unaddressable, ParamTarget, Parameter};
+use super::planar::{orient, signed_area2};
 use super::rules::Constant;
 use super::shape::{array_read_as_object, objects_where_objects, plain_message};
 use super::SceneError;
@@ -168,14 +169,11 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
                     range(ParamTarget::Young(index), e),
                     range(ParamTarget::Poisson(index), nu),
                 );
-                let lame = |e: f64, nu: f64| {
-                    (
-                        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
-                        e / (2.0 * (1.0 + nu)),
-                    )
-                };
                 let corners = [(e.0, nu.0), (e.0, nu.1), (e.1, nu.0), (e.1, nu.1)];
-                (corners.map(|(e, nu)| lame(e, nu)).to_vec(), "E")
+                (
+                    corners.map(|(e, nu)| law::lame_from_young(e, nu)).to_vec(),
+                    "E",
+                )
             }
             (_, _, Some(l), Some(mu)) => {
                 let (l, mu) = (
@@ -356,20 +354,6 @@ fn check_point(path: &str, p: Point) -> Result<(), SceneError> {
             ),
         ))
     }
-}
-
-/// Twice the signed area of a closed polygon.
-pub(crate) fn signed_area2(pts: &[Point]) -> f64 {
-    (0..pts.len())
-        .map(|i| {
-            let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
-            a[0] * b[1] - b[0] * a[1]
-        })
-        .sum()
-}
-
-fn orient(a: Point, b: Point, c: Point) -> f64 {
-    (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
 
 /// Whether closed segments [a, b] and [c, d] intersect (touching counts).

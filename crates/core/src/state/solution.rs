@@ -5,7 +5,7 @@ use serde::Serialize;
 
 use crate::contact::coulomb::CoulombReport;
 use crate::contact::direct::ContactSolution;
-use crate::contact::pairs::ContactGeometry;
+use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
 use crate::contact::qp::WarmStart;
 use crate::fem::ElementStress;
 use crate::scene::{Contact, ContactKind, Data};
@@ -245,9 +245,10 @@ pub(crate) fn contact_results(
     // for the direct solver, the steps' accuracy for DD).
     let normal_accuracy = sol.coulomb.map_or(0.0, |c| c.residual) * force_scale;
     for (m, p) in geometry.pairs.iter().enumerate() {
-        let (ln, lt) = (lam[2 * m], lam[2 * m + 1]);
-        let (wn, wt) = (sol.gaps[2 * m], sol.gaps[2 * m + 1]);
-        let bound = upper[2 * m + 1];
+        let (n, t) = (normal_row(m), tangential_row(m));
+        let (ln, lt) = (lam[n], lam[t]);
+        let (wn, wt) = (sol.gaps[n], sol.gaps[t]);
+        let bound = upper[t];
         let coefficient = data.friction.get(p.zone).copied().flatten().unwrap_or(0.0);
         let sticking = lt.abs() < bound * (1.0 - 1e-9) - coefficient * normal_accuracy;
         if !p.bilateral {

@@ -35,6 +35,7 @@
 //! given for it.
 
 use super::{DirectContact, StiffnessFactor};
+use crate::contact::pairs::{is_tangential_row, normal_row, pair_of_row};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
 use crate::error::WsmError;
 use crate::fem::rigid::remove_components;
@@ -264,7 +265,7 @@ fn check_differentiable(
             return Err(WsmError::contact(format!(
                 "the Coulomb contact state is not differentiable: contact pair {} is at a \
                  transition (grazing, or between stick and slip), so no derivative is given",
-                r / 2
+                pair_of_row(r)
             )));
         }
     }
@@ -332,11 +333,11 @@ impl DirectContact {
             a[(r, r)] = 1.0;
             rhs[r] = bound.0;
             // A slipping Coulomb row follows F λ_n: dλ_t − (±F) dλ_n = ±dF λ_n.
-            let tangential = r % 2 == 1;
+            let tangential = is_tangential_row(r);
             if let (true, Some(f), RowMotion::Lower | RowMotion::Upper) =
-                (tangential, state.friction[r / 2], motion)
+                (tangential, state.friction[pair_of_row(r)], motion)
             {
-                a[(r, r - 1)] = -bound.1 * f;
+                a[(r, normal_row(pair_of_row(r)))] = -bound.1 * f;
             }
         }
         for i in 0..k {
