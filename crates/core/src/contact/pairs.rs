@@ -4,8 +4,7 @@
 //! |t_m·(v^k_m − v^l_m)|), the initial gap g0_m, and the rows of the contact operator B on the
 //! reduced (free, rotated) DOFs: (B u)_{2m} = n_m·(u^k_m − u^l_m), (B u)_{2m+1} = t_m·(u^k_m − u^l_m).
 //! That layout of rows (and multipliers) is read through `normal_row`, `tangential_row`,
-//! `pair_of_row`, `is_normal_row` and `is_tangential_row` (the `sparse` path does not use them
-//! yet).
+//! `pair_of_row`, `is_normal_row` and `is_tangential_row`.
 //! On a Coulomb zone the nodal friction bound is F λ_n,m instead of g(s_m) w_m (design §3.4).
 
 use std::collections::HashMap;

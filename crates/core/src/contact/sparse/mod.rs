@@ -22,7 +22,7 @@ pub(crate) mod system;
 
 use faer::{MatRef, Par};
 
-use super::pairs::ContactGeometry;
+use super::pairs::{pair_of_row, ContactGeometry};
 use super::qp::WarmStart;
 use crate::error::WsmError;
 use system::{SetLoad, SparseSystem};
@@ -340,7 +340,7 @@ fn finish(
     if let Some(i) = (0..w.len()).find(|&i| rows[i] == Row::Free && w[i].abs() > 1e3 * w_tol) {
         return Err(SparseFailure::NotConverged(format!(
             "the contact conditions of zone {} at a node shared with another pair are inconsistent (residual {:.1e} m)",
-            p.geometry.pairs[i / 2].zone,
+            p.geometry.pairs[pair_of_row(i)].zone,
             w[i].abs()
         )));
     }

@@ -18,7 +18,7 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMat, SymbolicSparseColMatRe
 use faer::{Mat, Par};
 
 use crate::contact::bodies::pin;
-use crate::contact::pairs::ContactGeometry;
+use crate::contact::pairs::{normal_row, pair_of_row, tangential_row, ContactGeometry};
 use crate::error::WsmError;
 use crate::fem::{Factor, Symbolic};
 
@@ -294,7 +294,7 @@ fn blocks_of_pairs(
     let mut owner = vec![NONE; n];
     for (i, row) in geometry.rows.iter().enumerate() {
         for &(d, _) in &row.free {
-            let m = i / 2;
+            let m = pair_of_row(i);
             if owner[d] == NONE {
                 owner[d] = m;
             } else {
@@ -319,7 +319,7 @@ fn blocks_of_pairs(
     for pairs_in in members {
         let mut dofs: Vec<usize> = pairs_in
             .iter()
-            .flat_map(|&m| [2 * m, 2 * m + 1])
+            .flat_map(|&m| [normal_row(m), tangential_row(m)])
             .flat_map(|i| geometry.rows[i].free.iter().map(|&(d, _)| d))
             .collect();
         dofs.sort_unstable();
@@ -336,7 +336,7 @@ fn blocks_of_pairs(
         }
         let rows = pairs_in
             .iter()
-            .flat_map(|&m| [2 * m, 2 * m + 1])
+            .flat_map(|&m| [normal_row(m), tangential_row(m)])
             .filter(|&i| !geometry.rows[i].free.is_empty())
             .map(|i| {
                 let mut c = vec![0.0; dofs.len()];
