@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Bounded black-box fuzz of `wsm serve` from its own OpenAPI document (issue #23), run by .ci/run:
-# schemathesis (PyPI, in a virtual environment) generates requests for every operation —
-# MAX_EXAMPLES each, plus its coverage and stateful phases — against a fresh server on a free
-# loopback port, and fails on any 5xx or an answer slower than 20 s; /healthz must answer
-# afterwards. Usage: scripts/fuzz_openapi.sh [WSM_BINARY] [MAX_EXAMPLES]
+# Bounded black-box fuzz of `wsm serve` from its own OpenAPI document (design §5.3; docs/service.md,
+# "Fuzzing"), run by .ci/run: schemathesis (PyPI, in a virtual environment) generates requests for
+# every operation — MAX_EXAMPLES each, plus its coverage and stateful phases — against a fresh
+# server on a free loopback port, and fails on any 5xx or an answer slower than 20 s; /healthz must
+# answer afterwards. Usage: scripts/fuzz_openapi.sh [WSM_BINARY] [MAX_EXAMPLES]
 # Needs python3 with venv; installs schemathesis 4 from PyPI (no browser, no Docker).
 set -euo pipefail
 wsm=${1:-target/release/wsm}

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Generate the bundled knee scenes of the papers (issue #26) from one parametric model.
+"""Generate the bundled knee scenes of the papers (docs/verification.md, "The papers' knee models")
+from one parametric model.
 
     python3 scripts/knee_scenes.py          # writes scenes/knee-*.json
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# Re-measures the counts of the independent probe of issue #44 against a fresh `wsm serve`
-# (loopback only; bounded: a few hundred requests, at most 2,000 idle connections, under two
-# minutes), for the issue's closing note and docs/service.md:
+# Re-measures the counts of the independent probe (docs/service.md, "Robustness") against a
+# fresh `wsm serve` (loopback only; bounded: a few hundred requests, at most 2,000 idle
+# connections, under two minutes), for docs/service.md ("Re-measured: scripts/probe_rerun.sh"):
 #  1. hostile inputs: every value of the block-on-base scene replaced by 6 hostile values, plus
 #     the probe's corpus (tests/data/hostile_corpus.json) → how many 4xx name their field, 5xx;
 #  2. load: 8 threads of mixed GETs (status, list, events-free reads, /healthz) for LOAD_SECONDS

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Scale-out benchmark (issue #14; not part of the test suite): evaluations per second of one
-# worst-scenario job on the tunnel (`tunnel-fault`, its mesh sizes multiplied by SCALE) with
-# 1, 2, ... `wsm worker` processes of one thread each on a PostgreSQL store, beside the same run
-# in one process without a store (`wsm worst --threads 1` and `--threads 2`).
+# Scale-out benchmark (docs/scale-out.md, "Benchmark"; not part of the test suite): evaluations per
+# second of one worst-scenario job on the tunnel (`tunnel-fault`, its mesh sizes multiplied by
+# SCALE) with 1, 2, ... `wsm worker` processes of one thread each on a PostgreSQL store, beside the
+# same run in one process without a store (`wsm worst --threads 1` and `--threads 2`).
 #
 # Usage: scripts/scale_bench.sh [WORKER_COUNTS (default "1 2")]
 # Environment: WSM_BIN (default target/release/wsm), PG_URL (default

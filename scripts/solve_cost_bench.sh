@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Solve-cost estimate against measurement (design §3.1, issue #44): for each case, the estimate
-# printed by a refusal under a 1-byte limit (triangles, pairs, bytes), then the real solve's mesh
-# counts, peak RSS (/usr/bin/time -v) and wall time; the dense contact path forced where marked,
-# the sparse path taken from 1,500 pairs otherwise. Not part of the test suite (minutes).
+# Solve-cost estimate against measurement (design §3.1, "Cost before solving"; docs/benchmarks.md,
+# "Solve cost estimate against measurement"): for each case, the estimate printed by a refusal under
+# a 1-byte limit (triangles, pairs, bytes), then the real solve's mesh counts, peak RSS
+# (/usr/bin/time -v) and wall time; the dense contact path forced where marked, the sparse path
+# taken from 1,500 pairs otherwise. Not part of the test suite (minutes).
 # Usage: scripts/solve_cost_bench.sh [path/to/wsm]   (prints a Markdown table)
 set -euo pipefail
 WSM=${1:-target/release/wsm}

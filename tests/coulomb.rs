@@ -1,4 +1,4 @@
-//! Coulomb friction (issue #26, design §3.4): the friction coefficient F on a contact zone,
+//! Coulomb friction (design §3.4): the friction coefficient F on a contact zone,
 //! solved as the fixed point of Tresca problems g = F |λ_n|. Checked against the statics of a
 //! block on a base (gross slip exactly when Q > F N), the limits F → 0 (frictionless) and large
 //! F (bonded), the Tresca problem with the converged slip bound, the Cattaneo–Mindlin stick zone
@@ -554,7 +554,7 @@ fn non_convergence_is_reported() {
 /// A 30 m concrete gravity dam on a rock foundation with a Coulomb joint of coefficient `f`
 /// under its own weight and the reservoir's pressure (upstream face in seven steps, reservoir
 /// bed), the joint meshed at 7.5 cm and the dam at 25 cm: 75,700 unknowns, 589 contact pairs
-/// (issue #43).
+/// (the dam of design §3.4, "Rounding level").
 fn gravity_dam(f: f64) -> Value {
     let mut segments = json!({
         "rock_bottom": {"body": "rock", "from": [-60, -40], "to": [84, -40]},
@@ -597,11 +597,11 @@ fn gravity_dam(f: f64) -> Value {
     })
 }
 
-/// Issue #43: on the fine dam with the ordinary F = 0.5 the changes of the fixed point contract
-/// by about 0.1 a step down to 6e-12 and then stay at rounding noise, 1.1e-12–2.2e-12 (the
-/// condition of C, κ∞ ≈ 6e3, times the QP's residual, 2e-15): a test at 1e-12 alone ran 200
-/// steps and blamed F. Within the steps' rounding level (about 1e-11) a change that no longer
-/// halves ends it; the state returned satisfies Coulomb's law to rounding.
+/// Design §3.4, "Rounding level": on the fine dam with the ordinary F = 0.5 the changes of the
+/// fixed point contract by about 0.1 a step down to 6e-12 and then stay at rounding noise,
+/// 1.1e-12–2.2e-12 (the condition of C, κ∞ ≈ 6e3, times the QP's residual, 2e-15): a test at 1e-12
+/// alone ran 200 steps and blamed F. Within the steps' rounding level (about 1e-11) a change that
+/// no longer halves ends it; the state returned satisfies Coulomb's law to rounding.
 #[test]
 fn the_rounding_level_ends_the_fixed_point_on_a_fine_mesh() {
     let f = 0.5;

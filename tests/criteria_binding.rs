@@ -1,4 +1,4 @@
-//! Criteria bound to one region (issue #43 item 5, design §4.2): `phi3@crest` is the mean over the
+//! Criteria bound to one region (design §4.2, "Which region"): `phi3@crest` is the mean over the
 //! area `crest`, where `phi3` is the largest mean over all of Φ3's areas. Its value is that
 //! region's value in the solve's `region_values`, its exact derivative matches central
 //! differences whether or not the region is the one attaining the maximum, a worst-scenario run

@@ -1,9 +1,10 @@
-//! A new user's first model (issue #43): a gravity dam on rock with a Coulomb joint, three
-//! uncertain data (`tests/data/dam-coulomb-3data.json`). Its data are checked for what they mean:
-//! a datum addressed by name stays on its entry when entries are inserted (an index moves), an
-//! index to a named entry is answered with a warning first in `wsm solve`'s and `wsm worst`'s
-//! warnings, a nominal value outside its own interval is refused by every front door, and the
-//! crest piece (4 m, as long as an element or shorter on coarse meshes) is measured on any mesh.
+//! A new user's first model (docs/verification.md, "A user's data"; design §4.1): a gravity dam on
+//! rock with a Coulomb joint, three uncertain data (`tests/data/dam-coulomb-3data.json`). Its data
+//! are checked for what they mean: a datum addressed by name stays on its entry when entries are
+//! inserted (an index moves), an index to a named entry is answered with a warning first in
+//! `wsm solve`'s and `wsm worst`'s warnings, a nominal value outside its own interval is refused by
+//! every front door, and the crest piece (4 m, as long as an element or shorter on coarse meshes)
+//! is measured on any mesh.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -62,10 +63,11 @@ fn wsm(args: &[&str]) -> (i32, String, String) {
     )
 }
 
-/// The bug of issue #43: inserting a boundary entry moved `boundary[4].pressure` from `up1`
-/// onto `reservoir_bed`, still inside its interval, and the run answered other numbers without
-/// a word. By name the datum stays on `up1`: the same results, bit for bit (the inserted entry
-/// is a zero pressure, which adds nothing).
+/// The bug recalled in design §4.1 ("a user's dam run once answered for another segment"):
+/// inserting a boundary entry moved `boundary[4].pressure` from `up1` onto `reservoir_bed`, still
+/// inside its interval, and the run answered other numbers without a word. By name the datum stays
+/// on `up1`: the same results, bit for bit (the inserted entry is a zero pressure, which adds
+/// nothing).
 #[test]
 fn a_named_datum_stays_on_its_entry_when_entries_are_inserted() {
     let mut by_name = named_dam();

@@ -87,9 +87,9 @@ fn anisotropic_examples_dd_equal_direct() {
     }
 }
 
-/// The papers' knees (issue #26): each condyle sits in a groove of two contact zones that
-/// share the groove's bottom node, so the tied auxiliary problem has two rows on one node pair
-/// (eliminated one after the other).
+/// The papers' knees (docs/verification.md, "The papers' knee models"; design §3.2, PCG1): each
+/// condyle sits in a groove of two contact zones that share the groove's bottom node, so the tied
+/// auxiliary problem has two rows on one node pair (eliminated one after the other).
 #[test]
 fn papers_knees_dd_equal_direct() {
     for name in ["knee-d05", "knee-cut-7"] {

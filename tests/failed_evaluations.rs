@@ -1,13 +1,14 @@
-//! Failed evaluations are part of the answer (issue #22): with an injected fault that makes the
-//! solver fail in one corner of the box, a run lists the failures in its result with the region
-//! they cover and a plain warning, marks the extrema next to them unsettled, writes them to the
-//! log and the CSV table, and a resumed run replays them as failures without recomputing; a run
-//! in which most evaluations fail ends with an error instead of an empty-looking success.
+//! Failed evaluations are part of the answer (design §4.3, "Failed evaluations"): with an injected
+//! fault that makes the solver fail in one corner of the box, a run lists the failures in its
+//! result with the region they cover and a plain warning, marks the extrema next to them unsettled,
+//! writes them to the log and the CSV table, and a resumed run replays them as failures without
+//! recomputing; a run in which most evaluations fail ends with an error instead of an empty-looking
+//! success.
 //!
-//! No failure is hidden beyond the search either (issue #43): a failed refined solve of the
-//! accuracy statement is listed, warned about and makes the statement incomplete, and a mesh of
-//! the target-error ladder that fails is warned about while the run goes on with those that
-//! solved.
+//! No failure is hidden beyond the search either (design §6, "No failure hidden"): a failed refined
+//! solve of the accuracy statement is listed, warned about and makes the statement incomplete, and
+//! a mesh of the target-error ladder that fails is warned about while the run goes on with those
+//! that solved.
 
 use std::path::PathBuf;
 use std::sync::Arc;

@@ -1,10 +1,10 @@
-//! The global question (issue #43, design §4.3): a worst-scenario run spends its budget on other
-//! local optima and says what it found. On the dam of a new user's first model (three data; Φ5
-//! is not monotone in the joint's friction coefficient F, so both ends of F's interval are local
-//! maxima) every extremum is at least as extreme as all vertices and many random points solved
-//! independently, the better of the two maxima is reported with the other as its runner-up, and
-//! the rule that stopped the search is met; on the small bundled examples every extremum beats an
-//! independent vertex screening, and an extremum never says its rule was met without the rule's
+//! The global question (design §4.3, "The global question"): a worst-scenario run spends its budget
+//! on other local optima and says what it found. On the dam of a new user's first model (three
+//! data; Φ5 is not monotone in the joint's friction coefficient F, so both ends of F's interval are
+//! local maxima) every extremum is at least as extreme as all vertices and many random points
+//! solved independently, the better of the two maxima is reported with the other as its runner-up,
+//! and the rule that stopped the search is met; on the small bundled examples every extremum beats
+//! an independent vertex screening, and an extremum never says its rule was met without the rule's
 //! conditions.
 
 use wsm_core::run::{self, RunControl, WorstOutcome, WorstRequest};

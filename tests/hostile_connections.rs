@@ -1,9 +1,10 @@
-//! Slow and idle clients (issue #44, item 4) against a real `wsm serve` on loopback: a
-//! half-sent request line is closed after the header timeout; a body that stalls gets 408 after
-//! the body timeout; a `Content-Length` beyond the body limit gets 413 before any body is sent;
-//! with the connection cap at 20 and 70 idle connections, a new client never hangs — `/healthz`
-//! is answered 200 throughout, other requests a quick 503 — the idle ones are closed after the
-//! header timeout and `/healthz` answers 200 again while their clients still hold them open.
+//! Slow and idle clients (docs/service.md, "Robustness": timeouts and the connection cap) against a
+//! real `wsm serve` on loopback: a half-sent request line is closed after the header timeout; a
+//! body that stalls gets 408 after the body timeout; a `Content-Length` beyond the body limit gets
+//! 413 before any body is sent; with the connection cap at 20 and 70 idle connections, a new client
+//! never hangs — `/healthz` is answered 200 throughout, other requests a quick 503 — the idle ones
+//! are closed after the header timeout and `/healthz` answers 200 again while their clients still
+//! hold them open.
 
 mod common;
 

@@ -1,11 +1,12 @@
-//! A bounded black-box fuzz of `wsm serve` (issue #23): every number, string, list and object
-//! of a bundled scene replaced in turn by hostile values (huge, tiny, negative, zero, wrong
-//! types, empty and oversized lists, long strings), each member removed, plus the corpus of
-//! bad requests found by the independent probe (`tests/data/hostile_corpus.json`). Every
-//! answer must be below 500, no larger than [`MAX_REPLY`], within [`MAX_SECONDS`], and a 4xx
-//! about a field must name it in plain words (no Rust type names); `/healthz` must answer after
-//! every request; issue #44's cases (`#44:` in the corpus) must be refused with a path. The counts are
-//! printed (kinds tried / 4xx with a path / 5xx / hangs).
+//! A bounded black-box fuzz of `wsm serve` (design §5.3; docs/service.md, "Hostile requests"):
+//! every number, string, list and object of a bundled scene replaced in turn by hostile values
+//! (huge, tiny, negative, zero, wrong types, empty and oversized lists, long strings), each member
+//! removed, plus the corpus of bad requests found by the independent probe
+//! (`tests/data/hostile_corpus.json`). Every answer must be below 500, no larger than
+//! [`MAX_REPLY`], within [`MAX_SECONDS`], and a 4xx about a field must name it in plain words (no
+//! Rust type names); `/healthz` must answer after every request; the corpus cases named `#44: …`
+//! (jobs a solve would refuse, design §5.2) must be refused with a path. The counts are printed
+//! (kinds tried / 4xx with a path / 5xx / hangs).
 
 mod common;
 
@@ -33,7 +34,7 @@ fn hostile_values() -> Vec<Value> {
         json!({}),
         json!(true),
         json!(vec![0.5; 20_000]),
-        // An object's members by position (issue #44 item 7) and a vanishing number.
+        // An object's members by position (strict bodies, design §5.3) and a vanishing number.
         json!([1e10, 0.25]),
         json!(1e-300),
     ]
@@ -84,7 +85,7 @@ struct Tally {
     server_errors: Vec<String>,
     hangs: Vec<String>,
     oversized: Vec<String>,
-    /// 4xx answers whose message names a Rust type (issue #44 item 7).
+    /// 4xx answers whose message names a Rust type (a message speaks of the scene, not the code).
     rust_words: Vec<String>,
 }
 
@@ -212,7 +213,7 @@ fn hostile_requests_get_clear_4xx_answers_and_the_server_keeps_answering() {
         };
         let name = case["name"].as_str().unwrap();
         let (status, path) = tally.send(addr, name, "POST", case["path"].as_str().unwrap(), &body);
-        // Issue #44's cases: a job is refused at submission as a solve would be, with the path.
+        // The `#44:` cases: a job is refused at submission as a solve would be, with the path.
         if name.starts_with("#44:") {
             assert_eq!(status, 422, "{name}");
             assert!(path.is_some(), "{name}");
@@ -221,7 +222,8 @@ fn hostile_requests_get_clear_4xx_answers_and_the_server_keeps_answering() {
     // Listings stay small however many jobs were accepted.
     let listing = get(addr, "/v1/jobs?limit=500");
     assert_eq!(listing.status, 200);
-    // Query parameters (issue #44): a bad value is refused naming its parameter.
+    // Query parameters (docs/service.md, "Robustness"): a bad value is refused naming its
+    // parameter.
     let id = listing.json()[0]["id"].as_str().unwrap().to_string();
     let bad = [
         "abc",

@@ -1,4 +1,4 @@
-//! One validation for jobs and solves (issue #23, defect 3): data that only the mesh or the
+//! One validation for jobs and solves (design §5.2, last paragraph): data that only the mesh or the
 //! assembled problem can refuse — a segment off its body's boundary, contact zones of different
 //! lengths, overlapping bodies, a hole outside its polygon, a criteria region outside the mesh,
 //! an unbalanced floating body — answers `POST /v1/jobs` with the same 422 and path as
@@ -726,10 +726,10 @@ fn worst_cli(scene: &Value, name: &str) -> (i32, String) {
     )
 }
 
-/// Issue #44 items 6–8: what a solve refuses, a job refuses at submission — the nominal data
-/// included — with the same 422 and path, and `wsm worst` with the matching exit code (2 bad
-/// input, 3 unsolvable, as `wsm solve`); arrays where objects belong and oversized coordinates
-/// are refused with their path, in plain words.
+/// One validation (design §5.2; nominal data §4.1, exit codes §5.1): what a solve refuses, a job
+/// refuses at submission — the nominal data included — with the same 422 and path, and `wsm worst`
+/// with the matching exit code (2 bad input, 3 unsolvable, as `wsm solve`); arrays where objects
+/// belong and oversized coordinates are refused with their path, in plain words.
 #[test]
 fn jobs_refuse_what_a_solve_refuses_nominal_data_included() {
     let db = temp_db("hostile-nominal.db");

@@ -1,7 +1,8 @@
-//! Inconsistent data is refused at once with the reason (issue #22): prescribed displacements that
-//! make two bodies overlap where both nodes of a contact pair are fixed — the bundled tunnel's
-//! fault starts at (20, 0), a node of both bodies' fixed bottoms — on one solve, on an admissible
-//! set, from the command line and over HTTP; a feasible interval of the same datum solves.
+//! Inconsistent data is refused at once with the reason (design §3.1, "Feasibility before
+//! solving"): prescribed displacements that make two bodies overlap where both nodes of a contact
+//! pair are fixed — the bundled tunnel's fault starts at (20, 0), a node of both bodies' fixed
+//! bottoms — on one solve, on an admissible set, from the command line and over HTTP; a feasible
+//! interval of the same datum solves.
 
 mod common;
 

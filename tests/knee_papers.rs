@@ -1,10 +1,10 @@
-//! The papers' knee models as bundled examples (issue #26, `scripts/knee_scenes.py`): the knee
-//! of D05 §8.2 (Tresca, g = 1e5 Pa), the MCS 2007 knee (the fibula its own body, Coulomb
-//! friction) and the ICCSA 2004 femoral-cut study (3°, 5°, 7°, frictionless). Each solves with
-//! small KKT residuals and balanced contact resultants, DD = direct on the Coulomb knee, and the
-//! stress extremes grow with the cut angle as the ICCSA paper reports (docs/verification.md
-//! compares the numbers; they depend on the paper's X-ray geometry and mesh, which were not
-//! published, so only the trend and the order of magnitude are asserted).
+//! The papers' knee models as bundled examples (docs/verification.md, "The papers' knee models";
+//! `scripts/knee_scenes.py`): the knee of D05 §8.2 (Tresca, g = 1e5 Pa), the MCS 2007 knee (the
+//! fibula its own body, Coulomb friction) and the ICCSA 2004 femoral-cut study (3°, 5°, 7°,
+//! frictionless). Each solves with small KKT residuals and balanced contact resultants, DD = direct
+//! on the Coulomb knee, and the stress extremes grow with the cut angle as the ICCSA paper reports
+//! (docs/verification.md compares the numbers; they depend on the paper's X-ray geometry and mesh,
+//! which were not published, so only the trend and the order of magnitude are asserted).
 
 mod solves;
 

@@ -1,9 +1,9 @@
-//! Scale-out with real processes on PostgreSQL (issue #14): a `wsm serve` that only serves and
-//! three `wsm worker` processes on one database. A job's evaluations are spread over the workers
-//! (each evaluation records who computed it); SIGKILL of a worker holding a task, or of the
-//! process coordinating the job, loses nothing: the job finishes with the result of a
-//! single-process `wsm worst`, bit for bit (its accuracy statement too, whose refined solves
-//! are dealt out as well), with every evaluation stored exactly once.
+//! Scale-out with real processes on PostgreSQL (docs/scale-out.md, "Design" and "Tests"): a
+//! `wsm serve` that only serves and three `wsm worker` processes on one database. A job's
+//! evaluations are spread over the workers (each evaluation records who computed it); SIGKILL of a
+//! worker holding a task, or of the process coordinating the job, loses nothing: the job finishes
+//! with the result of a single-process `wsm worst`, bit for bit (its accuracy statement too, whose
+//! refined solves are dealt out as well), with every evaluation stored exactly once.
 //!
 //! Needs `WSM_TEST_POSTGRES_URL` (set by `.ci/run`); without it the test says so and passes.
 

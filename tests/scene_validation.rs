@@ -735,7 +735,7 @@ fn implausible_magnitudes_are_warned_about_with_path_and_value() {
     }
 }
 
-// ---------- issue #44: shapes, plain messages, names, coordinates, angles ----------
+// ---------- design §5.2: shapes, plain messages, names, coordinates, angles ----------
 
 /// The error of the block-on-base example after `edit`.
 fn refusal_after(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {

@@ -1,4 +1,4 @@
-//! Exact sensitivities against finite differences (issue #24): at random interior points of
+//! Exact sensitivities against finite differences (design §4.4): at random interior points of
 //! every bundled example (coarsened), dΦ_i/dθ_j from the tangent of one solve equals the central
 //! difference of two whole solves to 1e-6 relative, for every criterion and parameter; and a
 //! property test over random points of a block on a base with every kind of datum uncertain.

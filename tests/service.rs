@@ -141,7 +141,7 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         .any(|j| j["id"] == long.as_str()));
 }
 
-/// No failure hidden (issue #43): on a server whose search evaluations fail above one traction
+/// No failure hidden (design §6): on a server whose search evaluations fail above one traction
 /// and whose accuracy statements' refined solves all fail (`--inject-failures`), the job list
 /// and the job's status count the result's warnings and the statement's failed solves, apart
 /// from the search's failed evaluations.

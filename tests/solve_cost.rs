@@ -1,9 +1,9 @@
-//! The solve-cost limit of the command line (design §3.1, issue #44): the probe's block-on-base
-//! with `mesh.refine[0].max_size = 0.0002` (23 GB and an OOM kill before) is refused before
-//! meshing on the dense contact path, in well under a second, with exit status 2 and the
+//! The solve-cost limit of the command line (design §3.1, "Cost before solving"): the probe's
+//! block-on-base with `mesh.refine[0].max_size = 0.0002` (23 GB and an OOM kill before) is refused
+//! before meshing on the dense contact path, in well under a second, with exit status 2 and the
 //! refinement named (by default it now takes the sparse path, 0.66 GB, and a ten times finer
-//! refinement is refused on it under 4 GB); a solve that fits goes through; a bad limit is refused naming
-//! the flag.
+//! refinement is refused on it under 4 GB); a solve that fits goes through; a bad limit is refused
+//! naming the flag.
 
 use std::io::Write;
 use std::process::{Command, Output, Stdio};

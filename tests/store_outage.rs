@@ -1,9 +1,10 @@
-//! A store that refuses writes while the server runs (issue #44, item 3): another connection
-//! holds the SQLite database's write lock (`BEGIN EXCLUSIVE`) past the server's store timeout.
-//! `/healthz` turns 503 "degraded" within a few seconds and back to 200 "ok" after the lock is
-//! released, without a restart; submissions during the outage get 503 `store_unavailable`
-//! (never 500) and afterwards 202; the job running through the outage and those accepted after
-//! it all end `succeeded` — none is failed by the outage.
+//! A store that refuses writes while the server runs (docs/service.md, "Robustness": the store
+//! heals; unavailable, not failed): another connection holds the SQLite database's write lock
+//! (`BEGIN EXCLUSIVE`) past the server's store timeout. `/healthz` turns 503 "degraded" within a
+//! few seconds and back to 200 "ok" after the lock is released, without a restart; submissions
+//! during the outage get 503 `store_unavailable` (never 500) and afterwards 202; the job running
+//! through the outage and those accepted after it all end `succeeded` — none is failed by the
+//! outage.
 
 mod common;
 

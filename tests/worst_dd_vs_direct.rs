@@ -1,9 +1,9 @@
-//! The worst-scenario loop with the DD solver against the direct one (issue #15), on coarse
-//! versions of the tunnel, the knee and the heated plate (a thermal scene): the same worst and
-//! best values (to 1e-8 relative) at the same data, independent of the thread count; and the
-//! value at a point does not depend on what was evaluated before it in the process (cached
-//! factorisations give the same bits as fresh ones; a warm-started solve equals a cold one to
-//! the solver tolerance).
+//! The worst-scenario loop with the DD solver against the direct one (docs/benchmarks.md,
+//! "Inner-loop speed"; design §3.2), on coarse versions of the tunnel, the knee and the heated
+//! plate (a thermal scene): the same worst and best values (to 1e-8 relative) at the same data,
+//! independent of the thread count; and the value at a point does not depend on what was evaluated
+//! before it in the process (cached factorisations give the same bits as fresh ones; a warm-started
+//! solve equals a cold one to the solver tolerance).
 
 use wsm_core::run::{self, RunControl, WorstOutcome, WorstRequest};
 use wsm_core::scenario::evaluator::ScenarioEvaluator;

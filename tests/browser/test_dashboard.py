@@ -251,8 +251,9 @@ def test_download_result(page):
 
 
 def test_coulomb_friction_in_the_form_and_the_mesh_view(page):
-    """Issue #26: the friction law and coefficient in the form's hint, the mesh facts and the
-    fields API; the friction utilisation |τ_t| / bound colours the contact (1 where it slips)."""
+    """Coulomb friction (design §3.4) on the dashboard (§5.5): the friction law and coefficient in
+    the form's hint, the mesh facts and the fields API; the friction utilisation |τ_t| / bound
+    colours the contact (1 where it slips)."""
     page.goto(BASE + "/#/")
     page.get_by_label("Bundled example").check()
     page.get_by_label("Example", exact=True).select_option("knee-mcs2007-coulomb")
@@ -398,7 +399,7 @@ def test_failed_evaluations_are_shown(page):
 
 
 def test_failed_refined_solves_are_shown(page):
-    """No failure hidden (issue #43): on the failure-injecting server every refined solve of the
+    """No failure hidden (design §6): on the failure-injecting server every refined solve of the
     accuracy statement fails. The job list flags the result's warnings, the job page opens with
     a banner listing them, and the failures section counts the statement's failed solves apart
     from the search's failed evaluations."""
@@ -489,9 +490,9 @@ def test_no_console_errors(page):
 
 
 def test_a_criterion_bound_to_one_region(page):
-    """Issue #43: a criterion bound to one region (`phi6@G1`) from the form's text field; its
-    table and value name the region it comes from, and a binding to a region that does not exist
-    is refused next to the criteria."""
+    """Bound criteria (design §4.2, "Which region"): a criterion bound to one region (`phi6@G1`)
+    from the form's text field; its table and value name the region it comes from, and a binding
+    to a region that does not exist is refused next to the criteria."""
     page.goto(BASE + "/#/")
     page.get_by_label("Bundled example").check()
     page.get_by_label("Example", exact=True).select_option("block-on-base")

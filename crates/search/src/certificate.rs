@@ -1,9 +1,9 @@
-//! First-order optimality certificates of an extremum from the exact one-sided derivatives
-//! (issue #24 item 3). In unit coordinates u_j ∈ [0, 1] of the free data and with the score
-//! s = ±Φ (larger is better), a point is a first-order maximiser of s over the box when every
-//! feasible direction decreases s: at a lower bound the right derivative is ≤ 0, at an upper
-//! bound the left derivative is ≥ 0, strictly inside both hold (both vanish where s is
-//! differentiable — the projected gradient is zero). The residual is the largest violation
+//! First-order optimality certificates of an extremum from the exact one-sided derivatives (design
+//! §4.3: status `locally_certified`, and the kink check). In unit coordinates u_j ∈ [0, 1] of the
+//! free data and with the score s = ±Φ (larger is better), a point is a first-order maximiser of s
+//! over the box when every feasible direction decreases s: at a lower bound the right derivative is
+//! ≤ 0, at an upper bound the left derivative is ≥ 0, strictly inside both hold (both vanish where
+//! s is differentiable — the projected gradient is zero). The residual is the largest violation
 //! relative to |Φ|; the point is certified when it is below [`CERTIFY_TOL`]. Each bound the point
 //! sits on is proven by the sign of ∂Φ/∂θ into the box, reported as a rate.
 

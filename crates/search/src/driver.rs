@@ -1,5 +1,6 @@
-//! The search driver (design §4.3, issue #24): validates the problem, runs the phases in order and
-//! splits the budget B between them. With k free parameters and m objectives:
+//! The search driver (design §4.3, with the exact derivatives of §4.4): validates the problem, runs
+//! the phases in order and splits the budget B between them. With k free parameters and m
+//! objectives:
 //!
 //! - with derivatives from the evaluator, the vertex walk comes first; the objectives it settles
 //!   (certified at a vertex, monotone along the walk) are done, and only the others — the

@@ -1,12 +1,13 @@
-//! The connections of `wsm serve` (issue #44, item 4): HTTP/1.1 by hyper with a header read
-//! timeout (a client that has not sent a whole request head within it — a half-sent request
-//! line, or an idle keep-alive connection — is closed), and a cap on open connections below the
-//! process's file-descriptor limit, so that idle or slow clients can never take the descriptors
-//! the store and the workers need. Connections beyond the cap are answered 503 `busy` with
-//! `Retry-After` at once (up to [`OVERFLOW`] of them at a time; beyond those, closed unread) —
-//! a new client learns the server is full instead of hanging — except `GET /healthz`, which is
-//! answered as usual there, so a monitor sees the server alive while idle clients fill it. The body read timeout and the
-//! early 413 are the API's (`api::guard`), where the error bodies are made.
+//! The connections of `wsm serve` (docs/service.md, "Robustness": timeouts and the connection cap):
+//! HTTP/1.1 by hyper with a header read timeout (a client that has not sent a whole request head
+//! within it — a half-sent request line, or an idle keep-alive connection — is closed), and a cap
+//! on open connections below the process's file-descriptor limit, so that idle or slow clients can
+//! never take the descriptors the store and the workers need. Connections beyond the cap are
+//! answered 503 `busy` with `Retry-After` at once (up to [`OVERFLOW`] of them at a time; beyond
+//! those, closed unread) — a new client learns the server is full instead of hanging — except
+//! `GET /healthz`, which is answered as usual there, so a monitor sees the server alive while idle
+//! clients fill it. The body read timeout and the early 413 are the API's (`api::guard`), where the
+//! error bodies are made.
 //!
 //! `axum::serve` offers neither a header timeout (hyper's needs a timer it does not set) nor a
 //! connection cap, hence this loop over hyper's own connection builder and hyper-util's

@@ -323,12 +323,13 @@ pub fn worst_benchmark(
     })
 }
 
-/// `wsm bench --gradients`: per size, the median time of one evaluation of the tunnel's criteria
-/// at `runs` fixed interior points of its box (new λ, μ: the stiffness is factorised), and of
-/// the same solve once the factor is cached, without and with the exact derivatives of all
-/// criteria along all uncertain data — by the adjoint (the product's route) and by the forward
-/// tangent. The ratio is that of an evaluation with derivatives to one without, 1 + (with −
-/// without, factor cached) / evaluation (issue #24: at most 1.5 at 10^4 unknowns).
+/// `wsm bench --gradients`: per size, the median time of one evaluation of the tunnel's criteria at
+/// `runs` fixed interior points of its box (new λ, μ: the stiffness is factorised), and of the same
+/// solve once the factor is cached, without and with the exact derivatives of all criteria along
+/// all uncertain data — by the adjoint (the product's route) and by the forward tangent. The ratio
+/// is that of an evaluation with derivatives to one without, 1 + (with − without, factor cached) /
+/// evaluation (the aim: at most 1.5 at 10^4 unknowns; measured in design §4.4 and
+/// docs/benchmarks.md, "Search with exact derivatives").
 pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
     let mut out = String::from(
         "Exact derivatives on the tunnel (all criteria along all uncertain data; one thread per solve):\n\n| unknowns | uncertain data | criteria | evaluation [s] | solve, factor cached [s] | with derivatives: adjoint [s] | ratio | forward tangent [s] | ratio |\n|---|---|---|---|---|---|---|---|---|\n",

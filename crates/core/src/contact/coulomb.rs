@@ -305,8 +305,9 @@ mod tests {
             })
     }
 
-    /// The changes of the 75,700-unknown dam with F = 0.5 (issue #43; direct solver, Anderson):
-    /// contraction by about 0.1 a step down to 6e-12, then rounding noise at 1.1e-12–2.2e-12.
+    /// The changes of the 75,700-unknown dam with F = 0.5 (design §3.4, "Rounding level"; direct
+    /// solver, Anderson): contraction by about 0.1 a step down to 6e-12, then rounding noise at
+    /// 1.1e-12–2.2e-12.
     const DAM: [f64; 24] = [
         7.8e-1, 3.0e-1, 1.5e-1, 1.5e-2, 1.6e-3, 1.3e-4, 1.4e-5, 2.3e-6, 7.0e-7, 3.5e-8, 3.2e-9,
         9.2e-10, 7.1e-11, 6.2e-12, 1.35e-12, 1.29e-12, 1.40e-12, 2.2e-12, 1.50e-12, 1.51e-12,

@@ -5,9 +5,10 @@
 //!   blocks may enter S only (the tied clusters under the reduced PCG1 preconditioner,
 //!   [`Balancing::new`]);
 //! - injections D_s = diag(ρ_s / Σ_{t ∋ dof} ρ_t) over the preconditioning blocks (D05 5.5–5.8);
-//!   over the non-contact subdomains only this is the reduced D̊ of D05 6.4–6.6 with the
-//!   cross-point fix of the reference notes (weight 1 where one non-contact subdomain carries a
-//!   contact-pair interface DOF). Σ D_s R_s = I is checked
+//!   over the non-contact subdomains only this is the reduced D̊ of D05 6.4–6.6 (weight 1 on a
+//!   contact-pair interface DOF), except at a cross point: where several non-contact subdomains
+//!   share such a DOF, weight 1 each would break the partition of unity, so the weight stays
+//!   ρ_s over the sum of theirs (1 where only one carries it). Σ D_s R_s = I is checked
 //!   ([`Balancing::partition_of_unity_error`]);
 //! - coarse space V_H = span{D_s γ z : z ∈ Ker A_s} (D05 5.11 / 6.7), optionally enriched with the
 //!   weighted rigid-motion traces of every preconditioning block (dependent enrichment dropped),

@@ -1,5 +1,6 @@
 //! Domain decomposition solver for multibody contact with Tresca friction: the papers' method
-//! (D03, D05 §4–7, FGCS §3; design §3.2), in the matrix form of the reference notes §2.11.
+//! (D03, D05 §4–7, FGCS §3; design §3.2), written with matrices: Schur complements of local
+//! stiffness matrices and Boolean interface restrictions (D05 4.24, 4.29–4.34).
 //!
 //! - `partition`: bodies → subdomains (automatic, or fixed by the scene); interfaces never cut a
 //!   contact zone (D05 4.4), each contact zone's two subdomains form one nonlinear cluster (D05

@@ -5,9 +5,10 @@
 //!   cluster's interface, min ½u_IᵀK_IIu_I − u_Iᵀ(f_I − K_IΓ y) + Σ σ_\[l,u\](B u_I − e). Condensed
 //!   on the contact multipliers once per factorisation, C = B K_II⁺ Bᵀ, and solved per evaluation
 //!   by [`solve_box_qp`] with warm start; the interface reaction K_ΓI u_I + K_ΓΓ y is the cluster's
-//!   part of S_CON(y) + (its part of F) (reference notes §2.11). A floating member without
-//!   interface (a whole floating body) leaves a kernel R in K_II: then u_I = K_II⁺(…) + Rα and the
-//!   QP carries the equilibrium rows (BR)ᵀλ = Rᵀ(f_I − K_IΓ y) (D05 Thm 2.1 locally).
+//!   part of S_CON(y) + (its part of F) (D05 4.27, 4.31, 4.34 written with matrices). A floating
+//!   member without interface (a whole floating body) leaves a kernel R in K_II: then
+//!   u_I = K_II⁺(…) + Rα and the QP carries the equilibrium rows (BR)ᵀλ = Rᵀ(f_I − K_IΓ y) (D05
+//!   Thm 2.1 locally).
 //! - Tied auxiliary problem (D05 4.35–4.46, FGCS 3.18–3.24): the normal rows become equalities
 //!   B_n u = e_n, eliminated master/slave (one DOF of each row expressed by the others), which
 //!   gives an ordinary [`LinearBlock`] with matrix TᵀKT. If the tie leaves the interior floating

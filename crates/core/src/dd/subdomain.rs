@@ -1,4 +1,4 @@
-//! Subdomain linear algebra (D05 §4.3, §5.1; reference notes §2.11).
+//! Subdomain linear algebra (D05 §4.3, §5.1; design §3.2, "Local operators").
 //!
 //! A [`LinearBlock`] is a subdomain (or a tied contact cluster) with its local stiffness ordered
 //! interior first, A = [Å B; Bᵀ Ā] = [K_II K_IΓ; K_ΓI K_ΓΓ] (D05 4.24). It provides

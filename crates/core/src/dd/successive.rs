@@ -5,8 +5,10 @@
 //!   S U⁰ = F (tied, PCG1);    S0 U^k = F − S_CON(U^{k−1}) =: T-step (PCG2, warm start U^{k−1})
 //! ```
 //!
-//! with S0 = Σ_{T} R_sᵀ S_s R_s (4.33) and F − S_CON(U) = F0 − Σ_c R_cᵀ (K_ΓI u_I(U) + K_ΓΓ U)
-//! over the contact clusters (reference notes §2.11; F0 = f_Γ + Σ_T R_sᵀ g_s).
+//! with S0 = Σ_{T} R_sᵀ S_s R_s (4.33) and F − S_CON(U) = F0 − Σ_c R_cᵀ (K_ΓI u_I(U) + K_ΓΓ U) over
+//! the contact clusters (D05 4.29–4.34 written with matrices, design §3.2; F0 = f_Γ + Σ_T R_sᵀ
+//! g_s). F − S_CON does not depend on how the contact subdomains' interface data are extended
+//! inside them, though F and S_CON each do.
 //!
 //! PCG2 is warm-started from U^{k−1} and inexact: its relative tolerance follows the outer
 //! residual (Eisenstat–Walker forcing, [`FORCING`]); convergence is only accepted after a T(U)

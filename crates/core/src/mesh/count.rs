@@ -244,9 +244,9 @@ mod tests {
         }
     }
 
-    /// Triangles within 20 % (contact pairs within 30 %) of the mesher on every bundled example and on the probe's block-on-base
-    /// cases of issue #44 (refine 0.0005: 93,103 triangles, 3,799 pairs; max_size = refine =
-    /// 0.0042: 432,721 triangles).
+    /// Triangles within 20 % (contact pairs within 30 %) of the mesher on every bundled example and
+    /// on the independent probe's block-on-base cases (design §3.1, "Cost before solving"; refine
+    /// 0.0005: 93,103 triangles, 3,799 pairs; max_size = refine = 0.0042: 432,721 triangles).
     #[test]
     fn estimate_within_20_percent_of_the_mesher() {
         let mut scenes: Vec<(String, Scene)> = crate::bundled::EXAMPLES

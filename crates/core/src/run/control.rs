@@ -27,7 +27,7 @@ pub enum RunPhase {
     /// The solve at the nominal data (the warm start of every evaluation).
     NominalSolve,
     /// With exact derivatives: the centre of the box and the vertices the gradients point to
-    /// (issue #24).
+    /// (design §4.3, with the exact derivatives of §4.4).
     VertexWalk,
     /// The screening shared by all objectives: vertices and centre of the box when cheap, then
     /// a Latin hypercube (design §4.3 item 1).

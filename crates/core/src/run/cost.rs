@@ -1,9 +1,8 @@
-//! What a direct solve of a scene will cost, before meshing it (design §3.1, cost estimate;
-//! issue #44): triangles, unknowns and contact pairs from the size field
-//! ([`crate::mesh::count`]), peak memory and time from a model of the direct contact solver
-//! calibrated on measured peak RSS and wall time (docs/benchmarks.md, "Solve cost"), and the
-//! refusal of a solve beyond a memory limit, naming the size field that dominates and the value
-//! of it that fits.
+//! What a direct solve of a scene will cost, before meshing it (design §3.1, "Cost before
+//! solving"): triangles, unknowns and contact pairs from the size field ([`crate::mesh::count`]),
+//! peak memory and time from a model of the direct contact solver calibrated on measured peak RSS
+//! and wall time (docs/benchmarks.md, "Solve cost"), and the refusal of a solve beyond a memory
+//! limit, naming the size field that dominates and the value of it that fits.
 //!
 //! Memory model of the dense contact path: the dual Hessian C = B K⁺ Bᵀ is m × m with
 //! m = 2 × pairs, and the solve holds about [`DENSE_COPIES`] matrices of that size at its peak
@@ -328,9 +327,9 @@ mod tests {
         scene
     }
 
-    /// The probe's case of issue #44 (refine 0.0002, 23 GB before the OOM killer) on the dense
-    /// contact path is refused under a 12 GB limit, naming the refinement, and the suggested
-    /// size does fit.
+    /// The independent probe's block-on-base case (refine 0.0002, 23 GB before the OOM killer;
+    /// design §3.1, "Cost before solving") on the dense contact path is refused under a 12 GB
+    /// limit, naming the refinement, and the suggested size does fit.
     #[test]
     fn refusal_names_the_field_and_a_size_that_fits() {
         let cost = estimate_solve_cost(&dense(block_on_base(0.0002))).unwrap();

@@ -1,9 +1,9 @@
-//! What every request passes before a handler sees it (issue #44, items 4 and 9): at most one
-//! `Authorization` header (400: with two, which one decides would be up to the reader), a
-//! declared `Content-Length` within the body limit (413 before any of the body is read), and
-//! the whole body read within the body timeout (408: a client that sends its body slowly holds
-//! its connection no longer than that). Refusals close the connection: the rest of the body is
-//! never read.
+//! What every request passes before a handler sees it (docs/service.md, "Robustness": timeouts and
+//! the connection cap): at most one `Authorization` header (400: with two, which one decides would
+//! be up to the reader), a declared `Content-Length` within the body limit (413 before any of the
+//! body is read), and the whole body read within the body timeout (408: a client that sends its
+//! body slowly holds its connection no longer than that). Refusals close the connection: the rest
+//! of the body is never read.
 
 use std::time::Duration;
 

@@ -1,11 +1,12 @@
-//! The cap on synchronous solves (issue #44, item 2): `POST /v1/solve` and a job's fields solve
-//! on the request's behalf, each on a blocking thread with the memory of its mesh; beyond
-//! `Limits::max_concurrent_solves` at once a request is answered 503 `busy` with `Retry-After`
-//! instead of queuing more solves than the machine holds. The place is held by the solve
-//! itself (it moves into the blocking task), so a client that hangs up does not free it early.
+//! The cap on synchronous solves (docs/service.md, "Robustness": caps on synchronous work):
+//! `POST /v1/solve` and a job's fields solve on the request's behalf, each on a blocking thread
+//! with the memory of its mesh; beyond `Limits::max_concurrent_solves` at once a request is
+//! answered 503 `busy` with `Retry-After` instead of queuing more solves than the machine holds.
+//! The place is held by the solve itself (it moves into the blocking task), so a client that hangs
+//! up does not free it early.
 //!
-//! The fields of a solve cost about 0.75 kB of JSON per triangle (item 9: a 1.8 kB request
-//! answered with 71 MB); a response carries them only for meshes up to
+//! The fields of a solve cost about 0.75 kB of JSON per triangle (the independent probe had a
+//! 1.8 kB request answered with 71 MB); a response carries them only for meshes up to
 //! `Limits::max_field_triangles`. Beyond, the request is refused with 422 naming the option —
 //! not answered with decimated fields, which would show a coarser solution than the one the
 //! summary's numbers come from.

@@ -1,12 +1,16 @@
-//! A coordinator's evaluation batches as tasks in the job store (the second level of
-//! distribution, issue #14). When other worker processes share the store, each chunk of a batch
-//! is dealt round robin to the live evaluation threads: this process's share is computed at once
-//! in the job's own pool and stored by one append that runs while the search goes on (awaited
-//! before the next append and by `flush`), the others' shares are posted as tasks, one per
-//! remote thread. Once its share is done the coordinator takes over any task of
-//! the batch that nobody has started or whose worker died, then reads the evaluations back and
-//! returns them in input order. Alone (no other live worker), a batch is declined and evaluated
-//! in-process as usual.
+//! The coordinator's side of fanning out (the second level of distribution: docs/scale-out.md,
+//! "Design"): [`StoreDispatch`] hands a job's evaluation batches, as the search produces them, to
+//! the other worker processes as tasks in the job store and collects the results. It runs in the
+//! process that holds the job's lease and only ever serves that one job; the other processes pick
+//! the tasks up in their task loops ([`super::tasks`]), which never post tasks themselves.
+//!
+//! When other worker processes share the store, each chunk of a batch is dealt round robin to the
+//! live evaluation threads: this process's share is computed at once in the job's own pool and
+//! stored by one append that runs while the search goes on (awaited before the next append and by
+//! `flush`), the others' shares are posted as tasks, one per remote thread. Once its share is done
+//! the coordinator takes over any task of the batch that nobody has started or whose worker died,
+//! then reads the evaluations back and returns them in input order. Alone (no other live worker), a
+//! batch is declined and evaluated in-process as usual.
 //!
 //! The accuracy statement's refined solves go out the same way, as tasks of their own kind: each
 //! process solves its share on the refined level it builds itself, and the values come back in

@@ -1,16 +1,27 @@
 //! The job queue of the service (design §5.4): worst-scenario jobs stored durably with their
-//! lease, progress, every evaluation (stored chunk by chunk) and the outcome, behind the [`JobStore`]
-//! trait (`sql`: SQLite, the embedded default, or PostgreSQL for scale-out), and the processes
-//! that work on them (`runner`: job coordinators; `tasks`: evaluation of fanned-out batches;
-//! `dispatch`: a coordinator's batches as tasks).
+//! lease, progress, every evaluation (stored chunk by chunk) and the outcome, behind the
+//! [`JobStore`] trait, and the processes that work on them. The modules:
+//!
+//! - `sql`: the store, one sqlx implementation for SQLite (the embedded default) and PostgreSQL
+//!   (scale-out);
+//! - `health`: the background write probe behind `/healthz` (does the store still take writes?);
+//! - `runner`: a worker process (`wsm serve`, `wsm worker`) — job slots that lease whole jobs and
+//!   coordinate them (run the search), beside them the task loop of `tasks` and the heartbeat
+//!   that announces the process;
+//! - `batch_tasks`: the coordinator's side of fanning out — a job's evaluation batches (and its
+//!   accuracy statement's refined solves) posted as tasks, the coordinator's own share solved at
+//!   once, abandoned tasks taken over, the results read back in input order;
+//! - `tasks`: the other side — the task loop of every worker process, which leases the tasks
+//!   that other processes' coordinators posted, solves their points on a prepared model of the
+//!   job and stores the results.
 //!
 //! A job's life: `queued` → `running` (leased by a worker, lease renewed by heartbeat) →
 //! `succeeded` | `failed` | `cancelled`. A running job whose lease expired (its process died) is
 //! leased again and resumed from its stored evaluations: none lost, none recomputed.
 //!
-//! Two levels of distribution (issue #14): a whole job goes to any free worker process, which
-//! coordinates it (runs the search); when the store is shared by several processes, the
-//! coordinator posts each evaluation batch as tasks that every worker leases, so one large job
+//! Two levels of distribution (docs/scale-out.md, "Design"): a whole job goes to any free worker
+//! process, which coordinates it (runs the search); when the store is shared by several processes,
+//! the coordinator posts each evaluation batch as tasks that every worker leases, so one large job
 //! uses all of them. Leases of jobs and tasks are renewed by heartbeat and expire by the database
 //! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
 

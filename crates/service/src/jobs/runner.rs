@@ -1,10 +1,10 @@
-//! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job
-//! from the store and coordinates it — runs it through the front door (`run::worst`) on a
-//! blocking thread (never on the async runtime), with its batches fanned out as tasks when other
-//! workers share the store (`dispatch`), stores the evaluations it computes chunk by chunk,
-//! renews the lease by heartbeat, passes cancel requests on, publishes progress, and stores how
-//! the job ended. A panic inside a job fails that job with the reason; the worker goes on. Beside
-//! the job slots run the task loop (`tasks`) and the heartbeat that announces the process.
+//! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job from
+//! the store and coordinates it — runs it through the front door (`run::worst`) on a blocking
+//! thread (never on the async runtime), with its batches fanned out as tasks when other workers
+//! share the store (`batch_tasks`), stores the evaluations it computes chunk by chunk, renews the
+//! lease by heartbeat, passes cancel requests on, publishes progress, and stores how the job ended.
+//! A panic inside a job fails that job with the reason; the worker goes on. Beside the job slots
+//! run the task loop (`tasks`) and the heartbeat that announces the process.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};

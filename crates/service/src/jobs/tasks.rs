@@ -1,9 +1,12 @@
-//! The evaluation side of a worker process: lease a task (some points of one batch of a job that
-//! another process coordinates — a coordinator computes its own share in the job's pool),
-//! evaluate its points with the job's prepared model, and store the evaluations with the task's
-//! completion in one transaction. The lease is renewed by heartbeat while the points are solved;
-//! a task whose worker died is leased again by another once its lease expires, so a killed worker
-//! loses at most the task it held.
+//! The worker's side of fanning out: the task loop ([`serve_tasks`]) that every worker process runs
+//! beside its job slots. It serves any job but coordinates none: it leases a task (some points of
+//! one batch of a job that another process coordinates; a coordinator computes its own share in the
+//! job's pool and never leases its own job's tasks here), evaluates its points with the job's
+//! prepared model, and stores the evaluations with the task's completion in one transaction. The
+//! tasks are posted, taken over when abandoned and read back by the job's coordinator
+//! ([`super::batch_tasks`]). The lease is renewed by heartbeat while the points are solved; a task
+//! whose worker died is leased again by another once its lease expires, so a killed worker loses at
+//! most the task it held.
 //!
 //! A prepared model (mesh, per-zone operators, symbolic factorisations, the nominal solve that
 //! warm-starts every contact solve) is kept per run hash, so a task costs only its solves. A
