@@ -87,7 +87,7 @@ fn slow_clients_are_cut_off_after_the_timeouts_and_a_huge_length_is_refused_up_f
     assert!(reply.starts_with("HTTP/1.1 413"), "{reply}");
     assert!(reply.contains("too_large"), "{reply}");
     assert!(
-        start.elapsed() < Duration::from_secs(1),
+        start.elapsed() < Duration::from_secs(3),
         "{:?}",
         start.elapsed()
     );
@@ -136,7 +136,8 @@ fn idle_connections_beyond_the_cap_never_make_health_hang_and_are_closed() {
     let start = Instant::now();
     let reply = get(addr, "/healthz");
     let took = start.elapsed();
-    assert!(took < Duration::from_secs(1), "{took:?}");
+    // At once (a hang would be the header timeout or longer); room for a loaded machine.
+    assert!(took < Duration::from_secs(2), "{took:?}");
     assert_eq!(
         reply.status,
         200,
@@ -163,7 +164,7 @@ fn idle_connections_beyond_the_cap_never_make_health_hang_and_are_closed() {
         "{}",
         String::from_utf8_lossy(&reply.body)
     );
-    assert!(start.elapsed() < Duration::from_secs(1));
+    assert!(start.elapsed() < Duration::from_secs(2));
     let mut closed = 0;
     for mut stream in idle {
         stream
