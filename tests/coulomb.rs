@@ -12,7 +12,7 @@ use wsm_core::contact::coulomb::TOLERANCE;
 use wsm_core::error::WsmError;
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, SolverUsed, StateProblem};
 
 fn options(problem: &StateProblem) -> SolveOptions {
     SolveOptions {
@@ -318,7 +318,7 @@ fn dd_equals_direct_with_coulomb_friction() {
     };
     let direct = solve(SolverKind::Direct);
     let dd = solve(SolverKind::Dd);
-    assert_eq!(dd.report.solver, "dd", "{:?}", dd.report.warnings);
+    assert_eq!(dd.report.solver, SolverUsed::Dd, "{:?}", dd.report.warnings);
     let rel = relative_difference(&direct, &dd);
     let (cd, cdd) = (direct.report.coulomb.unwrap(), dd.report.coulomb.unwrap());
     println!(

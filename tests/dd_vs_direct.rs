@@ -7,12 +7,12 @@ mod solves;
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
 use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::state::{Needs, SolveOptions, SolverUsed, StateProblem};
 
 fn compare(name: &str, scene: Value) {
     let (_, direct) = solve(&scene, SolverKind::Direct);
     let (_, dd) = solve(&scene, SolverKind::Dd);
-    assert_eq!(dd.report.solver, "dd");
+    assert_eq!(dd.report.solver, SolverUsed::Dd);
     let report = serde_json::to_value(dd.report.dd.as_ref().expect("DD report")).unwrap();
     assert!(
         report["fallback"].is_null(),

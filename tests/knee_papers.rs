@@ -9,7 +9,7 @@
 mod solves;
 
 use wsm_core::scene::SolverKind;
-use wsm_core::state::{Solution, StateProblem};
+use wsm_core::state::{Solution, SolverUsed, StateProblem};
 
 fn solve(name: &str, kind: SolverKind) -> (StateProblem, Solution) {
     let scene = serde_json::from_str(wsm_core::bundled::find(name).unwrap()).unwrap();
@@ -121,7 +121,7 @@ fn mcs2007_fibula_carries_a_small_share_through_coulomb_contact() {
 fn mcs2007_knee_dd_equals_direct() {
     let (problem, direct) = solve("knee-mcs2007-coulomb", SolverKind::Direct);
     let (_, dd) = solve("knee-mcs2007-coulomb", SolverKind::Dd);
-    assert_eq!(dd.report.solver, "dd", "{:?}", dd.report.warnings);
+    assert_eq!(dd.report.solver, SolverUsed::Dd, "{:?}", dd.report.warnings);
     let report = dd.report.dd.as_ref().expect("a DD report");
     assert!(report.fallback.is_none(), "{:?}", report.fallback);
     let relative = solves::relative_difference(&direct, &dd);

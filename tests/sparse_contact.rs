@@ -6,7 +6,7 @@
 use serde_json::Value;
 use wsm_core::scene::params::{parameters, stencil};
 use wsm_core::scene::{parse, ContactMethod, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::state::{Needs, Solution, SolveOptions, SolverUsed, StateProblem};
 
 fn solve_with(text: &str, method: ContactMethod) -> Result<Solution, String> {
     let mut scene = parse(text).map_err(|e| e.to_string())?;
@@ -124,7 +124,7 @@ fn many_pairs_take_the_sparse_path_and_meet_hertz() {
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();
-    assert_eq!(sol.report.solver, "direct (sparse contact)");
+    assert_eq!(sol.report.solver, SolverUsed::DirectSparse);
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
     let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
     let (r, load) = (0.5, 4.0 * 2.5e8);

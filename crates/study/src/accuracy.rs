@@ -686,7 +686,7 @@ impl<'a> LevelProblem<'a> {
             pcg2: d.pcg2_iterations,
         });
         let fallback = report.dd.as_ref().is_some_and(|d| d.fallback.is_some())
-            || (solver.kind == SolverKind::Dd && report.solver != "dd");
+            || (solver.kind == SolverKind::Dd && report.solver != wsm_core::state::SolverUsed::Dd);
         Ok(Measurement {
             seconds: times[times.len() / 2],
             qp_iterations: report.qp_iterations,
@@ -816,7 +816,7 @@ fn manufactured_solve(
                 None,
             )
             .map_err(|e| WsmError::contact(format!("domain decomposition: {e}")))?;
-            solution.report.solver = "dd".into();
+            solution.report.solver = wsm_core::state::SolverUsed::Dd;
             solution.report.dd = Some(Box::new(dd.report));
             sol.u_free
         }

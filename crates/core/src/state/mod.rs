@@ -19,7 +19,7 @@ pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
     piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
-    Timings, ZoneSummary,
+    SolverUsed, Timings, ZoneSummary,
 };
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -280,7 +280,7 @@ impl StateProblem {
         let start = Instant::now();
         let mesh = self.mesh();
         let mut report = SolveReport {
-            solver: "direct".into(),
+            solver: SolverUsed::Direct,
             nodes: mesh.nodes.len(),
             triangles: mesh.triangles.len(),
             unknowns: self.elastic.dofs().n_free(),
@@ -451,8 +451,8 @@ impl StateProblem {
             report.undetermined_modes = qp.undetermined_modes;
         }
         if let Some(sparse) = &sol.sparse {
-            if report.solver == "direct" {
-                report.solver = "direct (sparse contact)".into();
+            if report.solver == SolverUsed::Direct {
+                report.solver = SolverUsed::DirectSparse;
             }
             report.sparse_steps = sparse.steps;
             report.active_set_changes = sparse.changes;
@@ -584,7 +584,7 @@ impl StateProblem {
                 );
             }
         };
-        report.solver = "dd".into();
+        report.solver = SolverUsed::Dd;
         let times = &dd.report.times;
         report.timings.contact = times.total;
         report.timings.dd_setup = times.setup;
@@ -610,7 +610,7 @@ impl StateProblem {
         options: &SolveOptions,
         report: &mut SolveReport,
     ) -> Result<ContactSolution, WsmError> {
-        report.solver = "direct (DD unavailable)".into();
+        report.solver = SolverUsed::DirectDdUnavailable;
         report.warnings.push(format!(
             "domain decomposition: {reason}; solved by the direct solver"
         ));

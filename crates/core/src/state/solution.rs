@@ -136,12 +136,47 @@ impl Timings {
     }
 }
 
+/// The inner solver that answered a solve (serialised as the readable names of the reports).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub enum SolverUsed {
+    /// The direct solver on its dense contact path (design §3.1).
+    #[default]
+    #[serde(rename = "direct")]
+    Direct,
+    /// The direct solver on its sparse contact path (design §3.1).
+    #[serde(rename = "direct (sparse contact)")]
+    DirectSparse,
+    /// The domain-decomposition solver (design §3.2).
+    #[serde(rename = "dd")]
+    Dd,
+    /// The direct solver because DD could not answer (the report's warning says why).
+    #[serde(rename = "direct (DD unavailable)")]
+    DirectDdUnavailable,
+}
+
+impl SolverUsed {
+    /// The name in reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SolverUsed::Direct => "direct",
+            SolverUsed::DirectSparse => "direct (sparse contact)",
+            SolverUsed::Dd => "dd",
+            SolverUsed::DirectDdUnavailable => "direct (DD unavailable)",
+        }
+    }
+}
+
+impl std::fmt::Display for SolverUsed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
 /// The solver report of one solve.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct SolveReport {
-    /// The solver that answered: `direct`, `direct (sparse contact)` on the direct solver's
-    /// sparse path, `dd`, or `direct (DD unavailable)` when DD failed.
-    pub solver: String,
+    /// The solver that answered.
+    pub solver: SolverUsed,
     /// Mesh nodes (a contact node counted once per body).
     pub nodes: usize,
     /// Mesh triangles.
