@@ -523,11 +523,12 @@ impl Run<'_> {
             }
         }
         let mut warnings: Vec<String> = Vec::new();
+        let mut zones_warned: Vec<usize> = Vec::new();
         for d in &data {
             let coefficients = problem.elastic.coefficients(d)?;
-            for w in locking_warnings(&coefficients, problem.mesh()) {
-                let zone = w.split(':').next().unwrap_or_default().to_string();
-                if !warnings.iter().any(|v| v.starts_with(&zone)) {
+            for (zone, w) in locking_warnings(&coefficients, problem.mesh()) {
+                if !zones_warned.contains(&zone) {
+                    zones_warned.push(zone);
                     warnings.push(w);
                 }
             }

@@ -402,9 +402,11 @@ impl StateProblem {
             .feasibility
             .check(&self.scene, self.mesh(), &self.contact.geometry, data)?;
         let coefficients = elastic.coefficients(data)?;
-        report
-            .warnings
-            .extend(locking_warnings(&coefficients, elastic.mesh()));
+        report.warnings.extend(
+            locking_warnings(&coefficients, elastic.mesh())
+                .into_iter()
+                .map(|(_, w)| w),
+        );
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
@@ -687,19 +689,21 @@ const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
 
 /// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49, with ν = (K − G)/(2K)
 /// from the plane-strain bulk and shear moduli of D ([`crate::scene::law::bulk_and_shear`];
-/// isotropic: λ/(2(λ + μ)), Poisson's ratio).
-pub fn locking_warnings(coefficients: &[ElasticCoefficients], mesh: &Mesh) -> Vec<String> {
+/// isotropic: λ/(2(λ + μ)), Poisson's ratio). One (zone index, message) per zone that locks.
+pub fn locking_warnings(coefficients: &[ElasticCoefficients], mesh: &Mesh) -> Vec<(usize, String)> {
     coefficients
         .iter()
         .zip(&mesh.zones)
-        .filter_map(|(c, zone)| {
+        .enumerate()
+        .filter_map(|(index, (c, zone))| {
             let (bulk, shear) = crate::scene::law::bulk_and_shear(c);
             let nu = (bulk - shear) / (2.0 * bulk);
             (nu >= 0.49).then(|| {
-                format!(
+                let message = format!(
                     "zone '{}': Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)",
                     zone.name
-                )
+                );
+                (index, message)
             })
         })
         .collect()
