@@ -486,11 +486,7 @@ impl TryFrom<&AccuracyArgs> for AccuracyOptions {
 
     fn try_from(args: &AccuracyArgs) -> Result<AccuracyOptions, WsmError> {
         Ok(AccuracyOptions {
-            ladder: wsm_core::estimate::ladder::Ladder::new(
-                args.coarsest,
-                args.ratio,
-                args.levels,
-            )?,
+            ladder: wsm_core::run::Ladder::new(args.coarsest, args.ratio, args.levels)?,
             dd_tolerances: if args.direct_only {
                 Vec::new()
             } else {

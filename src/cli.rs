@@ -47,7 +47,7 @@ pub fn load_affordable_scene(
 fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {
         (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
-        (None, Some(name)) => wsm_core::bundled::find(name)?.to_string(),
+        (None, Some(name)) => wsm_core::run::find_example(name)?.to_string(),
         _ => {
             return Err(
                 SceneError::new("SCENE", "give a scene file or --example NAME (not both)").into(),
@@ -190,8 +190,10 @@ fn without_histories(mut outcome: WorstOutcome) -> WorstOutcome {
 /// `wsm example`: a scene's JSON, or the list of names.
 pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     match (name, list) {
-        (Some(n), false) => Ok(wsm_core::bundled::find(n)?.to_string()),
-        _ => Ok(wsm_core::bundled::names().collect::<Vec<_>>().join("\n")),
+        (Some(n), false) => Ok(wsm_core::run::find_example(n)?.to_string()),
+        _ => Ok(wsm_core::run::example_names()
+            .collect::<Vec<_>>()
+            .join("\n")),
     }
 }
 

@@ -417,3 +417,67 @@ fn the_command_line_writes_the_table_and_refuses_a_foreign_log() {
     assert_eq!(output.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&output.stderr).contains("'nope'"));
 }
+
+/// The service and the binary reach the engine only through its front door: `wsm_core::run`
+/// (requests, outcomes, examples, cost), `wsm_core::scene` (the document they pass in) and
+/// `wsm_core::error` (what comes back) — no path into a pipeline stage (design §5). Every
+/// `wsm_core::` path in `src/` and `crates/service/src/` is checked.
+#[test]
+fn service_and_binary_use_only_the_front_door() {
+    const DOOR: [&str; 3] = ["run", "scene", "error"];
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    let mut stack = vec![root.join("src"), root.join("crates/service/src")];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                files.push(path);
+            }
+        }
+    }
+    assert!(files.len() > 10, "{} files", files.len());
+    let mut violations = Vec::new();
+    for file in &files {
+        let text = std::fs::read_to_string(file).unwrap();
+        for (line_no, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(at) = rest.find("wsm_core::") {
+                rest = &rest[at + "wsm_core::".len()..];
+                let module: String = rest
+                    .chars()
+                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_' || *c == '{')
+                    .collect();
+                // `wsm_core::{run, scene}` lists are checked item by item.
+                let names: Vec<String> = if module.starts_with('{') {
+                    rest.trim_start_matches('{')
+                        .split('}')
+                        .next()
+                        .unwrap_or_default()
+                        .split(',')
+                        .map(|n| n.trim().split("::").next().unwrap_or_default().to_string())
+                        .filter(|n| !n.is_empty())
+                        .collect()
+                } else {
+                    vec![module]
+                };
+                for name in names {
+                    if !DOOR.contains(&name.as_str()) {
+                        violations.push(format!(
+                            "{}:{}: wsm_core::{name}",
+                            file.display(),
+                            line_no + 1
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "past the front door:\n{}",
+        violations.join("\n")
+    );
+}

@@ -32,6 +32,8 @@ pub use request::{SolveRequest, WorstRequest};
 pub use summary::summary;
 pub use table::{columns as table_columns, write_csv};
 
+pub use crate::bundled::{find as find_example, names as example_names, EXAMPLES};
+pub use crate::estimate::ladder::Ladder;
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::estimate::statement::{
     CriterionAccuracy, ExtremumAccuracy, RefinedDispatch, RefinedFailure, RefinedLevel,

@@ -26,7 +26,7 @@ pub struct ExampleInfo {
     responses((status = 200, body = Vec<ExampleInfo>)))]
 pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
     Json(
-        wsm_core::bundled::EXAMPLES
+        wsm_core::run::EXAMPLES
             .iter()
             .filter_map(|(name, text)| {
                 let scene = wsm_core::scene::parse(text).ok()?;
@@ -46,7 +46,8 @@ pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
     responses((status = 200, description = "The scene document", body = Object),
         (status = 404, body = ErrorBody)))]
 pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiError> {
-    let text = wsm_core::bundled::find(&name).map_err(|_| ApiError::not_found("example", &name))?;
+    let text =
+        wsm_core::run::find_example(&name).map_err(|_| ApiError::not_found("example", &name))?;
     serde_json::from_str(text)
         .map(Json)
         .map_err(|e| ApiError::engine(wsm_core::error::WsmError::io("example", e), ""))

@@ -97,7 +97,7 @@ fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, Str
 }
 
 fn run_example(name: &str) -> Result<String, ApiError> {
-    wsm_core::bundled::find(name)
+    wsm_core::run::find_example(name)
         .map(str::to_string)
         .map_err(|e| ApiError::invalid("example", e.to_string()))
 }
