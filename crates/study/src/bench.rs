@@ -35,7 +35,7 @@ pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, W
 
 /// One row of the contact benchmark.
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct ContactRow {
+pub struct ContactBenchRow {
     /// Free displacement degrees of freedom of the scaled tunnel.
     pub unknowns: usize,
     /// Contact node pairs of the scaled mesh.
@@ -61,7 +61,7 @@ pub fn contact_benchmark(
     example: &str,
     unknowns: usize,
     runs: usize,
-) -> Result<ContactRow, WsmError> {
+) -> Result<ContactBenchRow, WsmError> {
     let (problem, setup) = time(|| problem_of_size(example, unknowns));
     let problem = problem?;
     let elastic = &problem.elastic;
@@ -114,7 +114,7 @@ pub fn contact_benchmark(
         it_warm = sol2?.report.qp_iterations;
         warm.push(t_warm);
     }
-    Ok(ContactRow {
+    Ok(ContactBenchRow {
         unknowns: elastic.dofs().n_free(),
         contact_pairs: problem.contact.geometry.pairs.len(),
         setup,

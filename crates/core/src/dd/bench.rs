@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
 use super::successive::solve;
-use super::{ContactRow, DdContactPair, DdError, DdProblem, PartitionRequest};
+use super::{DdContactPair, DdContactRow, DdError, DdProblem, PartitionRequest};
 use crate::fem::{ElasticProblem, Slot};
 use crate::mesh::structured::stacked_blocks;
 use crate::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
@@ -80,7 +80,7 @@ pub fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> Result<DdProble
                 }
             }
         }
-        ContactRow {
+        DdContactRow {
             entries,
             value: 0.0,
             lower,

@@ -12,7 +12,7 @@ use std::sync::Arc;
 use super::subdomain::{
     assemble, rigid_candidates, BlockOperators, Csr, LinearBlock, OperatorCache,
 };
-use super::{ContactRow, DdError, DdProblem};
+use super::{DdContactRow, DdError, DdProblem};
 use crate::contact::pairs::is_normal_row;
 
 const NONE: usize = usize::MAX;
@@ -304,7 +304,7 @@ fn build_clusters(
         .collect::<Result<_, _>>()
 }
 
-fn local_row(row: &ContactRow, local: &[usize], n_interior: usize) -> Result<LocalRow, String> {
+fn local_row(row: &DdContactRow, local: &[usize], n_interior: usize) -> Result<LocalRow, String> {
     let entries = row
         .entries
         .iter()

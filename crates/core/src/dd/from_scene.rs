@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use super::options::{DdOptions, PCG1_TOL};
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdSolution, Fallback};
-use super::{ContactRow, DdContactPair, DdError, DdProblem, Partition, PartitionRequest};
+use super::{DdContactPair, DdContactRow, DdError, DdProblem, Partition, PartitionRequest};
 use crate::contact::coulomb;
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
@@ -102,7 +102,7 @@ pub fn contact_pairs(
         .iter()
         .enumerate()
         .map(|(m, p)| {
-            let row = |r: usize, gap: f64| ContactRow {
+            let row = |r: usize, gap: f64| DdContactRow {
                 entries: geometry.rows[r].free.clone(),
                 value: gap - geometry.rows[r].dot_fixed(fixed),
                 lower: lower[r],

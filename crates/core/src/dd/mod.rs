@@ -80,7 +80,7 @@ pub struct DdElement {
 /// normal ([0, ∞): Σ a_j u_j ≤ value), a Tresca tangential ([−g w, g w]: g w |Σ a_j u_j − value|),
 /// a bilateral normal ((−∞, ∞)) or a frictionless tangential ([0, 0]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct ContactRow {
+pub struct DdContactRow {
     /// (reduced DOF, coefficient).
     pub entries: Vec<(usize, f64)>,
     /// Right-hand side of the row \[m\]: the initial gap g0 (0 for a tangential row) minus the
@@ -100,9 +100,9 @@ pub struct DdContactPair {
     /// The paired mesh nodes: `[node of body k, node of body l]`.
     pub nodes: [usize; 2],
     /// Normal row n·(u^k − u^l) with the non-penetration (or bilateral tie) bounds.
-    pub normal: ContactRow,
+    pub normal: DdContactRow,
     /// Tangential row t·(u^k − u^l) with the Tresca bounds ±g w.
-    pub tangent: ContactRow,
+    pub tangent: DdContactRow,
 }
 
 /// The discrete contact problem min ½uᵀKu − fᵀu + Σ_rows σ(B_r u − e_r), K = Σ_e K_e.

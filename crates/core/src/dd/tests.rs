@@ -26,7 +26,7 @@ pub(crate) fn direct(problem: &DdProblem) -> DirectAnswer {
     let k = subdomain::Csr::from_triplets(n, trips);
     let none = Mat::<f64>::zeros(n, 0);
     let factor = subdomain::KernelFactor::new(&k, n, none.as_ref()).expect("K SPD");
-    let rows: Vec<&ContactRow> = problem
+    let rows: Vec<&DdContactRow> = problem
         .pairs
         .iter()
         .flat_map(|p| [&p.normal, &p.tangent])
@@ -41,7 +41,7 @@ pub(crate) fn direct(problem: &DdProblem) -> DirectAnswer {
             .sum()
     });
     let x = factor.solve_mat(bt.as_ref());
-    let dot = |r: &ContactRow, v: &dyn Fn(usize) -> f64| -> f64 {
+    let dot = |r: &DdContactRow, v: &dyn Fn(usize) -> f64| -> f64 {
         r.entries.iter().map(|&(i, a)| a * v(i)).sum()
     };
     let c = Mat::from_fn(m, m, |i, j| {
