@@ -1003,3 +1003,34 @@ fn the_command_line_refuses_a_repeated_key() {
         "error: materials.rock.nu: the key 'nu' appears more than once in its object"
     );
 }
+
+#[test]
+fn the_built_in_mesher_needs_a_mesh_size() {
+    for mesh in [json!({}), json!({ "max_size": null }), json!({ "min_angle": 25 })] {
+        let mut scene = base();
+        scene["mesh"] = mesh;
+        let err = parse(&scene.to_string()).unwrap_err();
+        assert_eq!(err.path, "mesh.max_size", "{err}");
+        assert!(
+            err.reason.starts_with("missing: the built-in mesher needs")
+                && err.reason.contains("mesh.gmsh_file"),
+            "{err}"
+        );
+    }
+}
+
+/// An imported Gmsh mesh has its own sizes: no `max_size` is asked for (one given is still
+/// checked), and the scene written back has none either.
+#[test]
+fn a_gmsh_scene_needs_no_mesh_size() {
+    let mut scene = base();
+    scene["mesh"] = json!({ "gmsh_file": "blocks.msh" });
+    let parsed = parse(&scene.to_string()).unwrap();
+    assert_eq!(parsed.mesh.max_size, None);
+    let written = serde_json::to_value(&parsed).unwrap();
+    assert_eq!(written["mesh"], json!({ "min_angle": 28.0, "gmsh_file": "blocks.msh" }));
+    refused(
+        |s| s["mesh"] = json!({ "gmsh_file": "blocks.msh", "max_size": -1.0 }),
+        "mesh.max_size",
+    );
+}

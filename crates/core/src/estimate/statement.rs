@@ -582,7 +582,7 @@ mod tests {
     fn block() -> (StateProblem, Vec<Parameter>, Extrema) {
         let mut scene =
             crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap();
-        scene.mesh.max_size = 0.2;
+        scene.mesh.max_size = Some(0.2);
         scene.mesh.refine.clear();
         let params = crate::scene::params::parameters(&scene).unwrap();
         let problem = StateProblem::new(scene).unwrap();

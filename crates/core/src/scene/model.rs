@@ -364,8 +364,10 @@ pub struct Thermal {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshControls {
-    /// Maximal element edge length \[m\].
-    pub max_size: f64,
+    /// Maximal element edge length \[m\] of the built-in mesher: required unless `gmsh_file` is
+    /// given (an imported mesh has its own sizes, and `max_size` is then not used).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_size: Option<f64>,
     /// Local refinement near segments or inside polygons.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<Refinement>,

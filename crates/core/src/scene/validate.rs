@@ -965,9 +965,26 @@ fn check_knots(path: &str, knots: &[f64], values: &[f64]) -> Result<(), SceneErr
     Ok(())
 }
 
+impl MeshControls {
+    /// `max_size` for the built-in mesher, or the error that it is missing (naming
+    /// `mesh.max_size`).
+    pub fn built_in_max_size(&self) -> Result<f64, SceneError> {
+        self.max_size.ok_or_else(|| {
+            SceneError::new(
+                "mesh.max_size",
+                "missing: the built-in mesher needs the maximal element edge length in metres \
+                 (or import a Gmsh mesh with mesh.gmsh_file)",
+            )
+        })
+    }
+}
+
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
-    if finite("mesh.max_size", mesh.max_size)? <= 0.0 {
-        return Err(SceneError::new("mesh.max_size", "must be > 0"));
+    // An imported mesh needs no max_size (a given one is checked all the same).
+    if mesh.max_size.is_some() || mesh.gmsh_file.is_none() {
+        if finite("mesh.max_size", mesh.built_in_max_size()?)? <= 0.0 {
+            return Err(SceneError::new("mesh.max_size", "must be > 0"));
+        }
     }
     if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {
         return Err(SceneError::new(
