@@ -986,10 +986,9 @@ fn the_command_line_refuses_a_repeated_key() {
     let dir = std::env::temp_dir().join(format!("wsm-scene-validation-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("repeated.json");
-    let text = base().to_string().replace(
-        "\"nu\":0.25",
-        "\"nu\":0.25,\"nu\":0.3",
-    );
+    let text = base()
+        .to_string()
+        .replace("\"nu\":0.25", "\"nu\":0.25,\"nu\":0.3");
     std::fs::write(&file, text).unwrap();
     let output = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"))
         .args(["solve", file.to_str().unwrap()])
@@ -1006,7 +1005,11 @@ fn the_command_line_refuses_a_repeated_key() {
 
 #[test]
 fn the_built_in_mesher_needs_a_mesh_size() {
-    for mesh in [json!({}), json!({ "max_size": null }), json!({ "min_angle": 25 })] {
+    for mesh in [
+        json!({}),
+        json!({ "max_size": null }),
+        json!({ "min_angle": 25 }),
+    ] {
         let mut scene = base();
         scene["mesh"] = mesh;
         let err = parse(&scene.to_string()).unwrap_err();
@@ -1028,7 +1031,10 @@ fn a_gmsh_scene_needs_no_mesh_size() {
     let parsed = parse(&scene.to_string()).unwrap();
     assert_eq!(parsed.mesh.max_size, None);
     let written = serde_json::to_value(&parsed).unwrap();
-    assert_eq!(written["mesh"], json!({ "min_angle": 28.0, "gmsh_file": "blocks.msh" }));
+    assert_eq!(
+        written["mesh"],
+        json!({ "min_angle": 28.0, "gmsh_file": "blocks.msh" })
+    );
     refused(
         |s| s["mesh"] = json!({ "gmsh_file": "blocks.msh", "max_size": -1.0 }),
         "mesh.max_size",
