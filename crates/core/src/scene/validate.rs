@@ -981,10 +981,10 @@ impl MeshControls {
 
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
     // An imported mesh needs no max_size (a given one is checked all the same).
-    if mesh.max_size.is_some() || mesh.gmsh_file.is_none() {
-        if finite("mesh.max_size", mesh.built_in_max_size()?)? <= 0.0 {
-            return Err(SceneError::new("mesh.max_size", "must be > 0"));
-        }
+    if (mesh.max_size.is_some() || mesh.gmsh_file.is_none())
+        && finite("mesh.max_size", mesh.built_in_max_size()?)? <= 0.0
+    {
+        return Err(SceneError::new("mesh.max_size", "must be > 0"));
     }
     if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {
         return Err(SceneError::new(
