@@ -157,7 +157,7 @@ pub struct WorstArgs {
     #[arg(long)]
     pub threads: Option<usize>,
     /// Refined meshes of the accuracy statement: 0, 1 or 2 (default: 2 for small meshes,
-    /// else 1).
+    /// else 1; an imported Gmsh mesh is not refined, and 1 or 2 are refused for it).
     #[arg(long)]
     pub accuracy_refinements: Option<usize>,
     /// Relative error (e.g. 0.01) the mesh must meet: the run takes the coarsest of the

@@ -43,7 +43,9 @@ pub fn load_affordable_scene(
     Ok(scene)
 }
 
-/// Read and validate a scene from a file or a bundled example.
+/// Read and validate a scene from a file or a bundled example. A relative `mesh.gmsh_file` of a
+/// scene file names a file beside it (in the scene file's directory), whatever the working
+/// directory.
 fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {
         (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
@@ -54,7 +56,26 @@ fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmEr
             )
         }
     };
-    Ok(parse(&text)?)
+    let mut scene = parse(&text)?;
+    if let (Some(p), Some(file)) = (path, scene.mesh.gmsh_file.as_mut()) {
+        *file = beside(p, file)?;
+    }
+    Ok(scene)
+}
+
+/// `file` (a path written in the scene file `scene_file`) relative to the scene file's
+/// directory; an absolute path, or a scene file in the working directory, leaves it as it is.
+fn beside(scene_file: &Path, file: &str) -> Result<String, SceneError> {
+    let dir = match scene_file.parent() {
+        Some(dir) if Path::new(file).is_relative() && !dir.as_os_str().is_empty() => dir,
+        _ => return Ok(file.to_string()),
+    };
+    dir.join(file).into_os_string().into_string().map_err(|_| {
+        SceneError::new(
+            "mesh.gmsh_file",
+            "the scene file's directory is not valid UTF-8: give the mesh file's absolute path",
+        )
+    })
 }
 
 /// Pretty JSON of a result; an encoding failure is an error.

@@ -247,12 +247,14 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
         rows[0],
         "id,materials.rock.E,boundary[2].traction[0],contacts[joint].slip_limit,phi3,phi6,max_kkt_residual,solve_seconds,error,\
          d(phi3)/d(materials.rock.E),d(phi3)/d(boundary[2].traction[0]),d(phi3)/d(contacts[joint].slip_limit),\
-         d(phi6)/d(materials.rock.E),d(phi6)/d(boundary[2].traction[0]),d(phi6)/d(contacts[joint].slip_limit)"
+         d(phi6)/d(materials.rock.E),d(phi6)/d(boundary[2].traction[0]),d(phi6)/d(contacts[joint].slip_limit),\
+         d(phi3)/d(materials.rock.E):left,d(phi3)/d(boundary[2].traction[0]):left,d(phi3)/d(contacts[joint].slip_limit):left,\
+         d(phi6)/d(materials.rock.E):left,d(phi6)/d(boundary[2].traction[0]):left,d(phi6)/d(contacts[joint].slip_limit):left"
     );
     assert_eq!(rows.len(), 1 + evaluations.len());
     for (i, row) in rows[1..].iter().enumerate() {
         let cells: Vec<&str> = row.split(',').collect();
-        assert_eq!(cells.len(), 15, "{row}");
+        assert_eq!(cells.len(), 21, "{row}");
         assert_eq!(cells[0], (i + 1).to_string());
         let e = &evaluations[i];
         for (k, x) in e.point.iter().enumerate() {
@@ -260,13 +262,17 @@ fn the_table_has_one_row_per_evaluation_with_the_right_columns() {
         }
         let phi3: f64 = cells[4].parse().unwrap();
         assert_eq!(phi3, e.values.as_ref().unwrap()[0]);
-        // ∂Φ6/∂g, exact (one number where both sides agree).
-        let slope = e.gradient[1][2];
-        let cell = cells[14];
-        if slope.right == slope.left {
-            assert_eq!(cell.parse::<f64>().unwrap(), slope.right, "{row}");
-        } else {
-            assert_eq!(cell, format!("{:e}/{:e}", slope.left, slope.right));
+        // ∂Φ/∂θ exact and numeric: the right derivative, and the left one only where it
+        // differs.
+        for (k, j) in [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)] {
+            let slope = e.gradient[k][j];
+            let (right, left) = (cells[9 + 3 * k + j], cells[15 + 3 * k + j]);
+            assert_eq!(right.parse::<f64>().unwrap(), slope.right, "{row}");
+            if slope.left == slope.right {
+                assert_eq!(left, "", "{row}");
+            } else {
+                assert_eq!(left.parse::<f64>().unwrap(), slope.left, "{row}");
+            }
         }
         assert!(
             cells[6].parse::<f64>().unwrap() < 1e-8,

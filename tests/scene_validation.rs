@@ -963,3 +963,80 @@ fn a_segment_component_is_prescribed_once() {
         .push(json!({"segment": "bottom", "displacement": [null, 0.0]}));
     parse(&scene.to_string()).expect("x by one condition, y by another");
 }
+
+#[test]
+fn a_repeated_key_is_refused_naming_its_path() {
+    let text = base()
+        .to_string()
+        .replace("\"max_size\":0.05", "\"max_size\":0.05,\"max_size\":0.5");
+    let err = parse(&text).unwrap_err();
+    assert_eq!(err.path, "mesh.max_size", "{err}");
+    assert_eq!(
+        err.reason,
+        "the key 'max_size' appears more than once in its object"
+    );
+    let text = base().to_string().replacen("{", "{\"version\":1,", 1);
+    assert_eq!(parse(&text).unwrap_err().path, "version");
+}
+
+/// The command line reads a scene file as the service reads a request body: a repeated key is
+/// bad input (exit status 2) naming the key's path, not the last value silently.
+#[test]
+fn the_command_line_refuses_a_repeated_key() {
+    let dir = std::env::temp_dir().join(format!("wsm-scene-validation-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("repeated.json");
+    let text = base()
+        .to_string()
+        .replace("\"nu\":0.25", "\"nu\":0.25,\"nu\":0.3");
+    std::fs::write(&file, text).unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .args(["solve", file.to_str().unwrap()])
+        .output()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(
+        stderr.trim(),
+        "error: materials.rock.nu: the key 'nu' appears more than once in its object"
+    );
+}
+
+#[test]
+fn the_built_in_mesher_needs_a_mesh_size() {
+    for mesh in [
+        json!({}),
+        json!({ "max_size": null }),
+        json!({ "min_angle": 25 }),
+    ] {
+        let mut scene = base();
+        scene["mesh"] = mesh;
+        let err = parse(&scene.to_string()).unwrap_err();
+        assert_eq!(err.path, "mesh.max_size", "{err}");
+        assert!(
+            err.reason.starts_with("missing: the built-in mesher needs")
+                && err.reason.contains("mesh.gmsh_file"),
+            "{err}"
+        );
+    }
+}
+
+/// An imported Gmsh mesh has its own sizes: no `max_size` is asked for (one given is still
+/// checked), and the scene written back has none either.
+#[test]
+fn a_gmsh_scene_needs_no_mesh_size() {
+    let mut scene = base();
+    scene["mesh"] = json!({ "gmsh_file": "blocks.msh" });
+    let parsed = parse(&scene.to_string()).unwrap();
+    assert_eq!(parsed.mesh.max_size, None);
+    let written = serde_json::to_value(&parsed).unwrap();
+    assert_eq!(
+        written["mesh"],
+        json!({ "min_angle": 28.0, "gmsh_file": "blocks.msh" })
+    );
+    refused(
+        |s| s["mesh"] = json!({ "gmsh_file": "blocks.msh", "max_size": -1.0 }),
+        "mesh.max_size",
+    );
+}

@@ -27,7 +27,9 @@ pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
         .into());
     }
     let mut out = scene.clone();
-    out.mesh.max_size *= factor;
+    if let Some(h) = &mut out.mesh.max_size {
+        *h *= factor;
+    }
     for r in &mut out.mesh.refine {
         r.max_size *= factor;
     }

@@ -364,7 +364,7 @@ mod tests {
         );
         assert_eq!(
             loose_scene.mesh.max_size,
-            scene.mesh.max_size * loose.size_factor
+            scene.mesh.max_size.map(|h| h * loose.size_factor)
         );
         // Deterministic: the same choice, bit for bit.
         assert_eq!(

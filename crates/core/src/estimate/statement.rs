@@ -17,6 +17,10 @@
 //! be built — is listed in `failures` with the extrema at its data, the extremum's entry keeps
 //! the error, [`AccuracyStatement::warnings`] says in plain words which value's discretisation
 //! error is therefore unknown, and `complete` is false, as it is for a statement cut short.
+//!
+//! wsm cannot refine an imported mesh (`mesh.gmsh_file`): the statement of such a run builds no
+//! refined level and makes no refined solve, says why in `unrefinable`, is not `complete`, and
+//! its one warning says what would give an estimate.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
@@ -121,6 +125,11 @@ pub struct AccuracyStatement {
     /// The refined solves that failed, by refinement, then in the order of the extrema.
     #[serde(default)]
     pub failures: Vec<RefinedFailure>,
+    /// Why no refined mesh was made although refinements were asked for: the run's mesh is
+    /// imported (`mesh.gmsh_file`) and wsm cannot refine it. The statement then has the run's
+    /// mesh alone and no estimates, and `complete` is false.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unrefinable: Option<String>,
     /// How the estimates were made, in words (which data, which meshes, which estimate).
     pub method: String,
 }
@@ -271,6 +280,7 @@ pub struct StatementControl<'a> {
 /// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
 /// refined meshes, run as `control` says. Every refinement is tried unless `control.stop` says
 /// stop; a refined solve that fails (or a mesh that cannot be built) is a [`RefinedFailure`].
+/// An imported mesh is not refined at all (see `unrefinable`).
 pub fn statement(
     problem: &StateProblem,
     params: &[Parameter],
@@ -298,7 +308,14 @@ pub fn statement(
     // values[level - 1][point][criterion]
     let mut values: Vec<Vec<RefinedValues>> = Vec::new();
     let mut cut_short = refinements == 0;
-    for level in 1..=refinements as u32 {
+    let unrefinable =
+        (refinements > 0 && problem.scene.mesh.gmsh_file.is_some()).then(|| IMPORTED.to_string());
+    let levels = if unrefinable.is_some() {
+        0
+    } else {
+        refinements
+    };
+    for level in 1..=levels as u32 {
         if (control.stop)() {
             cut_short = true;
             break;
@@ -366,16 +383,26 @@ pub fn statement(
             best: accuracy(k, best),
         })
         .collect();
+    let method: String = if unrefinable.is_some() {
+        "none: no refined mesh of an imported mesh, so no estimate".into()
+    } else {
+        "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into()
+    };
     Ok(AccuracyStatement {
         meshes,
         criteria,
         points: points.len(),
         seconds: start.elapsed().as_secs_f64(),
-        complete: !cut_short && failures.is_empty(),
+        complete: !cut_short && unrefinable.is_none() && failures.is_empty(),
         failures,
-        method: "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into(),
+        unrefinable,
+        method,
     })
 }
+
+/// Why the statement of a run on an imported mesh has no refined meshes.
+const IMPORTED: &str =
+    "the run's mesh is imported from Gmsh (mesh.gmsh_file) and wsm cannot refine it";
 
 /// The solves of `points` on one refined level, dealt out through the dispatch when there is
 /// one; `None` when `control.stop` stopped them.
@@ -443,8 +470,17 @@ impl AccuracyStatement {
     /// mesh that could not be built; one per data whose refined solves failed (which extrema,
     /// which refinement and mesh, the error, and that the discretisation error of those values
     /// rests on fewer meshes or is unknown); one when fewer than the `asked` refinements were
-    /// made (a cancel or the time limit).
+    /// made (a cancel or the time limit); for a mesh that cannot be refined, that one alone.
     pub fn warnings(&self, asked: usize) -> Vec<String> {
+        if let Some(why) = &self.unrefinable {
+            return vec![format!(
+                "accuracy statement: {why}, so no refined solve was made and the discretisation \
+                 error of every worst and best value is unknown. The accuracy statement needs \
+                 refinable meshes: run the scene again with the mesh made finer in Gmsh (every \
+                 size halved) and compare the values, or draw the bodies as polygons for the \
+                 built-in mesher."
+            )];
+        }
         let built = |f: &&RefinedFailure| self.meshes[f.level as usize].unknowns > 0;
         let mut warnings = Vec::new();
         let mut unbuilt: Vec<u32> = Vec::new();
@@ -582,7 +618,7 @@ mod tests {
     fn block() -> (StateProblem, Vec<Parameter>, Extrema) {
         let mut scene =
             crate::scene::parse(crate::bundled::find("block-on-base").unwrap()).unwrap();
-        scene.mesh.max_size = 0.2;
+        scene.mesh.max_size = Some(0.2);
         scene.mesh.refine.clear();
         let params = crate::scene::params::parameters(&scene).unwrap();
         let problem = StateProblem::new(scene).unwrap();
@@ -618,10 +654,11 @@ mod tests {
     #[test]
     fn a_refined_mesh_that_cannot_be_built_fails_its_solves_in_one_warning() {
         let (mut problem, params, extrema) = block();
-        // An imported mesh cannot be refined: every refined level fails to build.
-        problem.scene.mesh.gmsh_file = Some("imported.msh".into());
+        // Sizes far too small for the domain: every refined level fails to build.
+        problem.scene.mesh.max_size = Some(1e-6);
         let a = run(&problem, &params, &extrema, 2, &|| false);
         assert!(!a.complete);
+        assert!(a.unrefinable.is_none());
         assert_eq!(a.meshes.len(), 3, "both refinements were tried");
         assert!(a.meshes[1..].iter().all(|m| m.unknowns == 0));
         assert_eq!(
@@ -630,10 +667,9 @@ mod tests {
             "2 points × 2 levels: {:#?}",
             a.failures
         );
-        assert!(a
-            .failures
-            .iter()
-            .all(|f| f.error.contains("mesh.gmsh_file")));
+        assert!(a.failures.iter().all(|f| f
+            .error
+            .starts_with("mesh.max_size: too small for the domain")));
         assert_eq!(
             a.failures[0].worst_of,
             vec![CriterionSpec::from(Criterion::Phi3)]
@@ -648,20 +684,52 @@ mod tests {
         assert!(worst.estimate.is_none());
         let failure = worst.failure.as_ref().unwrap();
         assert!(
-            failure.starts_with("refinement 1: mesh.gmsh_file"),
+            failure.starts_with("refinement 1: mesh.max_size"),
             "{failure}"
         );
         assert!(
-            failure.contains("; refinement 2: mesh.gmsh_file"),
+            failure.contains("; refinement 2: mesh.max_size"),
             "{failure}"
         );
         let warnings = a.warnings(2);
         assert_eq!(warnings.len(), 2, "one per unbuilt mesh: {warnings:#?}");
         assert!(warnings[0].starts_with(
             "accuracy statement: the mesh of refinement 1 (sizes × 0.5) could not be built: \
-             mesh.gmsh_file"
+             mesh.max_size"
         ));
         assert!(warnings[1].contains("refinement 2 (sizes × 0.25)"));
+    }
+
+    #[test]
+    fn an_imported_mesh_is_not_refined_and_the_statement_says_so_once() {
+        let (mut problem, params, extrema) = block();
+        // The run's mesh stands for an imported one (the file is never opened: nothing is
+        // refined).
+        problem.scene.mesh.gmsh_file = Some("imported.msh".into());
+        let a = run(&problem, &params, &extrema, 2, &|| false);
+        assert!(!a.complete);
+        assert_eq!(a.meshes.len(), 1, "no refined mesh: {:#?}", a.meshes);
+        assert!(a.failures.is_empty(), "{:#?}", a.failures);
+        assert!(a.unrefinable.as_ref().unwrap().contains("mesh.gmsh_file"));
+        assert!(a.method.starts_with("none"), "{}", a.method);
+        let worst = a.criteria[0].worst.as_ref().unwrap();
+        assert_eq!((worst.value, &worst.refined), (2.0, &vec![]));
+        assert!(worst.estimate.is_none() && worst.failure.is_none());
+        let warnings = a.warnings(2);
+        assert_eq!(warnings.len(), 1, "{warnings:#?}");
+        assert!(
+            warnings[0].starts_with(
+                "accuracy statement: the run's mesh is imported from Gmsh (mesh.gmsh_file) and \
+                 wsm cannot refine it, so no refined solve was made"
+            ) && warnings[0].contains("needs refinable meshes"),
+            "{}",
+            warnings[0]
+        );
+        // A refined statement is written without the field, as before it existed.
+        problem.scene.mesh.gmsh_file = None;
+        let whole = run(&problem, &params, &extrema, 1, &|| false);
+        let written = serde_json::to_value(&whole).unwrap();
+        assert!(written.get("unrefinable").is_none(), "{written}");
     }
 
     #[test]

@@ -47,7 +47,7 @@ pub struct MeshCount {
     /// Contact node pairs over all contact zones.
     pub contact_pairs: f64,
     /// Triangles per size source: (JSON path of its `max_size`, triangles where it sets h),
-    /// `mesh.max_size` first.
+    /// `mesh.max_size` first; for an imported mesh its file, `mesh.gmsh_file`, alone.
     pub shares: Vec<(String, f64)>,
 }
 
@@ -61,7 +61,7 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
             triangles: mesh.triangles.len() as f64,
             nodes: mesh.nodes.len() as f64,
             contact_pairs: pairs as f64,
-            shares: vec![("mesh.max_size".into(), mesh.triangles.len() as f64)],
+            shares: vec![("mesh.gmsh_file".into(), mesh.triangles.len() as f64)],
         });
     }
     let geo = input::geometry(scene)?;
@@ -227,7 +227,7 @@ mod tests {
             crate::scene::parse(crate::bundled::example("block-on-base").unwrap()).expect("parses");
         scene.mesh.refine[0].max_size = refine;
         if let Some(h) = global {
-            scene.mesh.max_size = h;
+            scene.mesh.max_size = Some(h);
         }
         scene
     }

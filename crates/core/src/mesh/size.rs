@@ -43,7 +43,7 @@ fn positive(x: f64, path: &str) -> Result<f64, SceneError> {
 impl SizeField {
     /// Reads and checks `mesh.max_size` and `mesh.refine`.
     pub fn from_scene(scene: &Scene) -> Result<SizeField, SceneError> {
-        let global = positive(scene.mesh.max_size, "mesh.max_size")?;
+        let global = positive(scene.mesh.built_in_max_size()?, "mesh.max_size")?;
         let mut sources = Vec::new();
         for (i, r) in scene.mesh.refine.iter().enumerate() {
             let path = format!("mesh.refine[{i}]");

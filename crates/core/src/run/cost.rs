@@ -58,7 +58,7 @@ pub struct SolveCost {
     /// Wall time of one solve \[s\] (order of magnitude; machine dependent).
     pub seconds: f64,
     /// JSON path of the size that accounts for most triangles (`mesh.max_size` or
-    /// `mesh.refine[i].max_size`).
+    /// `mesh.refine[i].max_size`; `mesh.gmsh_file` for an imported mesh).
     pub size_field: String,
     #[serde(skip)]
     scene: Scene,
@@ -144,6 +144,9 @@ impl SolveCost {
         );
         match self.fitting_size(FIT_MARGIN * max_bytes) {
             Some(size) => message += &format!("; a max_size of at least {size} fits"),
+            None if self.size_field == "mesh.gmsh_file" => {
+                message += "; make a coarser mesh in Gmsh"
+            }
             None => message += "; no value of this field alone fits: coarsen the others too",
         }
         Err(CostRefusal {
@@ -186,18 +189,20 @@ impl SolveCost {
     }
 }
 
-/// The value of `mesh.max_size` or `mesh.refine[i].max_size`.
+/// The value of `mesh.max_size` or `mesh.refine[i].max_size` (`None` for an imported mesh's
+/// `mesh.gmsh_file`: no size of wsm's changes it).
 fn size_at(scene: &Scene, path: &str) -> Option<f64> {
     match refine_index(path) {
         Some(i) => scene.mesh.refine.get(i).map(|r| r.max_size),
-        None => Some(scene.mesh.max_size),
+        None if path == "mesh.gmsh_file" => None,
+        None => scene.mesh.max_size,
     }
 }
 
 fn set_size(scene: &mut Scene, path: &str, value: f64) {
     match refine_index(path) {
         Some(i) => scene.mesh.refine[i].max_size = value,
-        None => scene.mesh.max_size = value,
+        None => scene.mesh.max_size = Some(value),
     }
 }
 
@@ -379,7 +384,7 @@ mod tests {
     #[test]
     fn global_size_named_when_it_dominates() {
         let mut scene = block_on_base(0.0042);
-        scene.mesh.max_size = 0.0042;
+        scene.mesh.max_size = Some(0.0042);
         let cost = estimate_solve_cost(&scene).unwrap();
         assert_eq!(cost.size_field, "mesh.max_size");
         let refusal = cost.check(cost.bytes / 2.0).expect_err("over half");

@@ -130,7 +130,7 @@ mod tests {
         let stored = serde_json::to_string(&chosen_scene).unwrap();
         // What is stored is used as it is (another mesh than any choice, to tell them apart).
         let mut other = chosen_scene.clone();
-        other.mesh.max_size *= 3.0;
+        other.mesh.max_size = other.mesh.max_size.map(|h| h * 3.0);
         let other_text = serde_json::to_string(&other).unwrap();
         let used = PreparedModel::for_job(text, &request, Some(&other_text)).unwrap();
         assert_eq!(used.problem().scene.mesh.max_size, other.mesh.max_size);

@@ -42,7 +42,8 @@ pub struct WorstRequest {
     #[serde(default)]
     pub threads: Option<usize>,
     /// Refined meshes of the accuracy statement (0, 1 or 2; default: 2 for small meshes, else
-    /// 1 — see the outcome's `accuracy`).
+    /// 1 — see the outcome's `accuracy`). An imported Gmsh mesh is not refined: by default its
+    /// statement says so, and 1 or 2 are refused.
     #[serde(default)]
     pub accuracy_refinements: Option<usize>,
     /// Relative error (0 < REL < 1) the run's mesh must meet: the run takes the coarsest mesh of
@@ -102,6 +103,14 @@ impl WorstRequest {
                 return Err(SceneError::new(
                     "accuracy_refinements",
                     format!("0, 1 or 2 refined meshes (got {r})"),
+                )
+                .into());
+            }
+            if r > 0 && scene.mesh.gmsh_file.is_some() {
+                return Err(SceneError::new(
+                    "accuracy_refinements",
+                    "an imported Gmsh mesh (mesh.gmsh_file) cannot be refined by wsm (make the \
+                     finer meshes in Gmsh): give 0, or leave it out",
                 )
                 .into());
             }

@@ -6,6 +6,7 @@
 //! `law` builds the plane-strain law of a material (FGCS 2.7′) and checks interval
 //! matrices (FGCS 4.6, 4.8), `planar` holds the orientation and signed-area primitives the
 //! validation and the mesher share, `rules` holds the sign and range rules (materials, slip limit) both of them check,
+//! `strict` reads JSON refusing repeated keys (the scene files and the service's bodies),
 //! and `warnings` lists what a valid scene holds that is probably not meant (implausible
 //! magnitudes, uncertain data addressed by the index of a named entry).
 
@@ -16,6 +17,7 @@ pub mod params;
 mod planar;
 mod rules;
 mod shape;
+mod strict;
 mod validate;
 mod warnings;
 
@@ -30,6 +32,7 @@ pub use model::{
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};
 pub use shape::{objects_where_objects, plain_message};
+pub use strict::{strict_value, StrictError};
 pub(crate) use validate::touching_tolerance;
 pub use validate::{check_criteria_list, parse, validate, MAX_COORDINATE, MAX_NAME, MAX_TEXT};
 pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};

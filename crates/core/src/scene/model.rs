@@ -364,8 +364,10 @@ pub struct Thermal {
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshControls {
-    /// Maximal element edge length \[m\].
-    pub max_size: f64,
+    /// Maximal element edge length \[m\] of the built-in mesher: required unless `gmsh_file` is
+    /// given (an imported mesh has its own sizes, and `max_size` is then not used).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_size: Option<f64>,
     /// Local refinement near segments or inside polygons.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<Refinement>,
@@ -373,7 +375,9 @@ pub struct MeshControls {
     #[serde(default = "default_min_angle")]
     pub min_angle: f64,
     /// Import a Gmsh .msh 4.1 (ASCII) file instead of meshing the polygons. Physical names of
-    /// 2D entities map to zone names, of 1D entities to segment names.
+    /// 2D entities map to zone names, of 1D entities to segment names. The command line reads a
+    /// relative path from the scene file's directory (`wsm` resolves it when it reads the file);
+    /// the library opens the path as it stands.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gmsh_file: Option<String>,
 }

@@ -8,10 +8,12 @@ use super::params::{check_interval_matrices, resolve_all, unaddressable, ParamTa
 use super::planar::{orient, signed_area2};
 use super::rules::Constant;
 use super::shape::{array_read_as_object, objects_where_objects, plain_message};
+use super::strict::{strict_value, StrictError};
 use super::SceneError;
 use std::collections::BTreeSet;
 
-/// Parse a scene from JSON text; parse errors carry the JSON path.
+/// Parse a scene from JSON text; parse errors carry the JSON path, and an object that repeats a
+/// key is refused naming it (as the service refuses it, [`strict_value`]).
 pub fn parse(text: &str) -> Result<Scene, SceneError> {
     let located = |e: serde_path_to_error::Error<serde_json::Error>| {
         let path = e.path().to_string();
@@ -19,7 +21,10 @@ pub fn parse(text: &str) -> Result<Scene, SceneError> {
         SceneError::new(path, plain_message(&e.into_inner().to_string()))
     };
     let de = &mut serde_json::Deserializer::from_str(text);
-    let value: serde_json::Value = serde_path_to_error::deserialize(de).map_err(located)?;
+    let value = strict_value(de).map_err(|e| match e {
+        StrictError::Syntax { path, message } => SceneError::new(path, plain_message(&message)),
+        repeated => SceneError::new(repeated.path(), repeated.reason()),
+    })?;
     check_sizes(&value, &mut String::new())?;
     let scene: Scene = serde_path_to_error::deserialize(value.clone()).map_err(|e| {
         array_read_as_object::<Scene>(&value, e.path()).unwrap_or_else(|| located(e))
@@ -960,8 +965,25 @@ fn check_knots(path: &str, knots: &[f64], values: &[f64]) -> Result<(), SceneErr
     Ok(())
 }
 
+impl MeshControls {
+    /// `max_size` for the built-in mesher, or the error that it is missing (naming
+    /// `mesh.max_size`).
+    pub fn built_in_max_size(&self) -> Result<f64, SceneError> {
+        self.max_size.ok_or_else(|| {
+            SceneError::new(
+                "mesh.max_size",
+                "missing: the built-in mesher needs the maximal element edge length in metres \
+                 (or import a Gmsh mesh with mesh.gmsh_file)",
+            )
+        })
+    }
+}
+
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
-    if finite("mesh.max_size", mesh.max_size)? <= 0.0 {
+    // An imported mesh needs no max_size (a given one is checked all the same).
+    if (mesh.max_size.is_some() || mesh.gmsh_file.is_none())
+        && finite("mesh.max_size", mesh.built_in_max_size()?)? <= 0.0
+    {
         return Err(SceneError::new("mesh.max_size", "must be > 0"));
     }
     if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {

@@ -4,17 +4,14 @@
 //! would read a struct from an array by position), and every field must fit its type (422 with
 //! the field's JSON path, in JSON words: `expected a number`, never a Rust type name).
 
-use std::fmt;
-
 use axum::body::Bytes;
 use axum::extract::rejection::BytesRejection;
 use axum::http::{header, HeaderMap, StatusCode};
-use serde::de::{self, DeserializeOwned, Deserializer, MapAccess, SeqAccess, Visitor};
-use serde::Deserialize;
-use serde_json::{Map, Value};
+use serde::de::DeserializeOwned;
+use serde_json::Value;
 
-use super::error::{join_path, ApiError};
-use wsm_core::scene::plain_message;
+use super::error::ApiError;
+use wsm_core::scene::{plain_message, strict_value, StrictError};
 
 /// Members of a submission that must be JSON objects when given.
 const OBJECT_MEMBERS: [&str; 2] = ["scene", "settings"];
@@ -41,7 +38,7 @@ pub fn parse_body<T: DeserializeOwned>(
         }
     })?;
     check_media_type(headers)?;
-    let value = strict_value(&bytes)?;
+    let value = strict_body(&bytes)?;
     let Value::Object(members) = &value else {
         return Err(ApiError::invalid("$", "the body must be a JSON object"));
     };
@@ -89,9 +86,10 @@ fn check_media_type(headers: &HeaderMap) -> Result<(), ApiError> {
     ))
 }
 
-/// The body as a JSON value; 400 when it is not JSON, 422 (with the object's path) when an
-/// object repeats a key.
-fn strict_value(bytes: &[u8]) -> Result<Value, ApiError> {
+/// The body as a JSON value; 400 when it is not JSON, 422 (with the key's path) when an object
+/// repeats a key — the scene reader's strict JSON ([`strict_value`]), so a scene file and a
+/// request body are refused alike.
+fn strict_body(bytes: &[u8]) -> Result<Value, ApiError> {
     let not_json = |message: String| {
         ApiError::new(
             StatusCode::BAD_REQUEST,
@@ -100,93 +98,12 @@ fn strict_value(bytes: &[u8]) -> Result<Value, ApiError> {
         )
     };
     let mut reader = serde_json::Deserializer::from_slice(bytes);
-    let Strict(value) = serde_path_to_error::deserialize(&mut reader).map_err(|e| {
-        let message = e.inner().to_string();
-        match message.strip_prefix(REPEATED) {
-            Some(rest) => {
-                let key = rest.split('\'').next().unwrap_or("");
-                let parent = e.path().to_string();
-                let parent = if parent == "." { "" } else { parent.as_str() };
-                ApiError::invalid(
-                    join_path(parent, key),
-                    format!("the key '{key}' appears more than once in its object"),
-                )
-            }
-            None => not_json(message),
-        }
+    let value = strict_value(&mut reader).map_err(|e| match e {
+        StrictError::Syntax { message, .. } => not_json(message),
+        repeated => ApiError::invalid(repeated.path(), repeated.reason()),
     })?;
     reader.end().map_err(|e| not_json(e.to_string()))?;
     Ok(value)
-}
-
-/// The start of the error a repeated key raises (recognised by [`strict_value`]).
-const REPEATED: &str = "repeated key '";
-
-/// A JSON value whose objects have no repeated keys.
-struct Strict(Value);
-
-impl<'de> Deserialize<'de> for Strict {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Strict, D::Error> {
-        deserializer.deserialize_any(StrictVisitor).map(Strict)
-    }
-}
-
-struct StrictVisitor;
-
-impl<'de> Visitor<'de> for StrictVisitor {
-    type Value = Value;
-
-    fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-        f.write_str("a JSON value")
-    }
-
-    fn visit_bool<E>(self, v: bool) -> Result<Value, E> {
-        Ok(Value::Bool(v))
-    }
-
-    fn visit_i64<E>(self, v: i64) -> Result<Value, E> {
-        Ok(Value::from(v))
-    }
-
-    fn visit_u64<E>(self, v: u64) -> Result<Value, E> {
-        Ok(Value::from(v))
-    }
-
-    fn visit_f64<E>(self, v: f64) -> Result<Value, E> {
-        Ok(Value::from(v))
-    }
-
-    fn visit_str<E>(self, v: &str) -> Result<Value, E> {
-        Ok(Value::String(v.to_string()))
-    }
-
-    fn visit_string<E>(self, v: String) -> Result<Value, E> {
-        Ok(Value::String(v))
-    }
-
-    fn visit_unit<E>(self) -> Result<Value, E> {
-        Ok(Value::Null)
-    }
-
-    fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Value, A::Error> {
-        let mut items = Vec::new();
-        while let Some(Strict(item)) = seq.next_element()? {
-            items.push(item);
-        }
-        Ok(Value::Array(items))
-    }
-
-    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Value, A::Error> {
-        let mut members = Map::new();
-        while let Some(key) = map.next_key::<String>()? {
-            if members.contains_key(&key) {
-                return Err(de::Error::custom(format!("{REPEATED}{key}'")));
-            }
-            let Strict(value) = map.next_value()?;
-            members.insert(key, value);
-        }
-        Ok(Value::Object(members))
-    }
 }
 
 #[cfg(test)]
