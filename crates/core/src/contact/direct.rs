@@ -716,7 +716,15 @@ impl DirectContact {
             lower,
             upper,
         };
-        let outcome = sparse::solve(system, &problem, warm, Par::Seq).map_err(|e| match e {
+        // A warm start from other data may lead the iteration into a cycle that the bonded,
+        // closed start avoids: try that before giving up.
+        let outcome = match sparse::solve(system, &problem, warm, Par::Seq) {
+            Err(SparseFailure::NotConverged(_)) if warm.is_some() => {
+                sparse::solve(system, &problem, None, Par::Seq)
+            }
+            other => other,
+        };
+        let outcome = outcome.map_err(|e| match e {
             SparseFailure::Unbalanced { mode, residual } => self.explain(QpError::Infeasible {
                 equality_rows: vec![mode],
                 residuals: vec![residual],
