@@ -215,6 +215,26 @@ impl Symbolic {
     }
 }
 
+/// y = A x for a symmetric A given by its lower triangle: `pattern` and its `values`.
+pub fn symmetric_apply(
+    pattern: SymbolicSparseColMatRef<'_, usize>,
+    values: &[f64],
+    x: &[f64],
+) -> Vec<f64> {
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    let mut y = vec![0.0; x.len()];
+    for c in 0..pattern.ncols() {
+        for p in col_ptr[c]..col_ptr[c + 1] {
+            let r = row_idx[p];
+            y[r] += values[p] * x[c];
+            if r != c {
+                y[c] += values[p] * x[r];
+            }
+        }
+    }
+    y
+}
+
 /// The AMD order (new → old) of the symmetric matrix with lower-triangular `pattern`.
 fn amd_order(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, FemError> {
     let n = pattern.ncols();

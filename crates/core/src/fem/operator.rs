@@ -231,18 +231,7 @@ impl<const NC: usize> ZonedOperator<NC> {
 
     /// y = K_ff x with K_ff given by its lower-triangular `values`.
     pub fn apply(&self, values: &[f64], x: &[f64]) -> Vec<f64> {
-        let mut y = vec![0.0; x.len()];
-        let (col_ptr, row_idx) = (self.pattern.col_ptr(), self.pattern.row_idx());
-        for c in 0..self.n_free() {
-            for p in col_ptr[c]..col_ptr[c + 1] {
-                let r = row_idx[p];
-                y[r] += values[p] * x[c];
-                if r != c {
-                    y[c] += values[p] * x[r];
-                }
-            }
-        }
-        y
+        super::linear::symmetric_apply(self.pattern.as_ref(), values, x)
     }
 
     /// rhs −= K_fd(c) u_d: lift the prescribed values `fixed` to the right-hand side.

@@ -20,7 +20,7 @@ use faer::{Mat, Par};
 use crate::contact::bodies::pin;
 use crate::contact::pairs::{normal_row, pair_of_row, tangential_row, ContactGeometry};
 use crate::error::WsmError;
-use crate::fem::{Factor, Symbolic};
+use crate::fem::{symmetric_apply, Factor, Symbolic};
 
 /// No block on this DOF.
 const NONE: usize = usize::MAX;
@@ -455,22 +455,6 @@ fn transform_block(dofs: &[usize], q: &[f64], v: &mut [f64], transpose: bool) {
             })
             .sum();
     }
-}
-
-/// y = A x for a symmetric A stored as its lower triangle.
-fn symmetric_apply(pattern: SymbolicSparseColMatRef<'_, usize>, a: &[f64], x: &[f64]) -> Vec<f64> {
-    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-    let mut y = vec![0.0; x.len()];
-    for c in 0..pattern.ncols() {
-        for p in col_ptr[c]..col_ptr[c + 1] {
-            let r = row_idx[p];
-            y[r] += a[p] * x[c];
-            if r != c {
-                y[c] += a[p] * x[r];
-            }
-        }
-    }
-    y
 }
 
 /// One step of iterative refinement of A y = rhs; returns the relative size of the correction.
