@@ -1,6 +1,8 @@
 //! Contact verification (design §6, issue "Contact"): 2D Hertz, the contact patch test, Tresca
 //! limits, stick/slip thresholds, and KKT residuals of every example.
 
+mod solves;
+
 use serde_json::{json, Value};
 use wsm_core::scene::{parse, Data, Scene};
 use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
@@ -177,37 +179,19 @@ fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
 #[test]
 fn hertz_half_width_and_peak_pressure() {
     let base: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
-    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
-    let (r, load) = (0.5, 4.0 * 2.5e8);
-    let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
-    let p0_exact = 2.0 * load / (std::f64::consts::PI * a_exact);
     let mut errors = Vec::new();
     for h in [0.016, 0.008, 0.004] {
         let mut scene = base.clone();
         scene["mesh"]["refine"][0]["max_size"] = json!(h);
         let (problem, sol) = solve_value(&scene).unwrap();
         // Total normal force: Σ λ_n = load exactly (the cylinder floats in y).
-        let pairs = &problem.contact.geometry.pairs;
-        let forces: Vec<f64> = sol
-            .contact
-            .iter()
-            .zip(pairs)
-            .map(|(c, p)| c.pressure * p.weight)
-            .collect();
-        let total: f64 = forces.iter().sum();
+        let hertz = solves::hertz_measures(&problem, &sol);
+        let ((a_exact, p0_exact), load, total) = (hertz.exact, hertz.load, hertz.total);
         assert!(
             (total - load).abs() <= 1e-8 * load,
             "total {total} vs {load}"
         );
-        // Half-width from the second moment of the pressure: ∫x²p = p0 π a³/8, ∫p = π a p0/2.
-        let m2: f64 = sol
-            .contact
-            .iter()
-            .zip(&forces)
-            .map(|(c, f)| c.position[0].powi(2) * f)
-            .sum();
-        let a = (4.0 * m2 / total).sqrt();
-        let p0 = sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max);
+        let (a, p0) = (hertz.half_width, hertz.peak);
         let (ea, ep) = (
             (a - a_exact).abs() / a_exact,
             (p0 - p0_exact).abs() / p0_exact,

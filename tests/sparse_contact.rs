@@ -3,6 +3,8 @@
 //! displacement and contact forces to 1e-10 relative, the same contact states, KKT at rounding
 //! level; the automatic choice by pair count; refusals named.
 
+mod solves;
+
 use serde_json::Value;
 use wsm_core::scene::params::{parameters, stencil};
 use wsm_core::scene::{parse, ContactMethod, SolverKind};
@@ -126,29 +128,13 @@ fn many_pairs_take_the_sparse_path_and_meet_hertz() {
     let sol = problem.solve(&problem.nominal, &options).unwrap();
     assert_eq!(sol.report.solver, SolverUsed::DirectSparse);
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
-    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
-    let (r, load) = (0.5, 4.0 * 2.5e8);
-    let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
-    let p0_exact = 2.0 * load / (std::f64::consts::PI * a_exact);
-    let forces: Vec<f64> = sol
-        .contact
-        .iter()
-        .zip(pairs)
-        .map(|(c, p)| c.pressure * p.weight)
-        .collect();
-    let total: f64 = forces.iter().sum();
+    let hertz = solves::hertz_measures(&problem, &sol);
+    let ((a_exact, p0_exact), load, total) = (hertz.exact, hertz.load, hertz.total);
     assert!(
         (total - load).abs() <= 1e-8 * load,
         "total {total} vs {load}"
     );
-    let m2: f64 = sol
-        .contact
-        .iter()
-        .zip(&forces)
-        .map(|(c, f)| c.position[0].powi(2) * f)
-        .sum();
-    let a = (4.0 * m2 / total).sqrt();
-    let p0 = sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max);
+    let (a, p0) = (hertz.half_width, hertz.peak);
     println!(
         "{} pairs, {} unknowns, {} steps: a = {a:.5} (Hertz {a_exact:.5}), p0 = {p0:.4e} (Hertz {p0_exact:.4e})",
         pairs.len(),

@@ -39,3 +39,45 @@ pub fn relative_difference(a: &Solution, b: &Solution) -> f64 {
         .sqrt();
     diff / norm
 }
+
+/// The bundled Hertz scene's analytic answer and what a solve gives for it.
+pub struct HertzMeasures {
+    /// Hertz's half-width a = 2 √(P R / (π E*)) and peak pressure p0 = 2P / (π a).
+    pub exact: (f64, f64),
+    /// The applied load P [N/m].
+    pub load: f64,
+    /// Σ λ_n over the pairs (the cylinder floats in y: equal to P).
+    pub total: f64,
+    /// Half-width from the second moment of the pressure: ∫x²p = p0 π a³/8, ∫p = π a p0/2.
+    pub half_width: f64,
+    /// Largest nodal pressure.
+    pub peak: f64,
+}
+
+/// Measure a solve of the bundled Hertz scene (R = 0.5 m, P = 4 m × 2.5e8 Pa, steel).
+pub fn hertz_measures(problem: &StateProblem, sol: &Solution) -> HertzMeasures {
+    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
+    let (r, load) = (0.5, 4.0 * 2.5e8);
+    let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
+    let p0_exact = 2.0 * load / (std::f64::consts::PI * a_exact);
+    let forces: Vec<f64> = sol
+        .contact
+        .iter()
+        .zip(&problem.contact.geometry.pairs)
+        .map(|(c, p)| c.pressure * p.weight)
+        .collect();
+    let total: f64 = forces.iter().sum();
+    let m2: f64 = sol
+        .contact
+        .iter()
+        .zip(&forces)
+        .map(|(c, f)| c.position[0].powi(2) * f)
+        .sum();
+    HertzMeasures {
+        exact: (a_exact, p0_exact),
+        load,
+        total,
+        half_width: (4.0 * m2 / total).sqrt(),
+        peak: sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max),
+    }
+}
