@@ -24,6 +24,7 @@ fi
 export WSM_BIN
 WSM_BIN=$(cd "$(dirname "$WSM")" && pwd)/$(basename "$WSM")
 
+export PATH="$VENV/bin:$PATH"
 stamp=$(sha256sum "$REQUIREMENTS" | cut -c1-16)
 if [[ ! -x $VENV/bin/python || $(cat "$VENV/.requirements" 2>/dev/null) != "$stamp" ]]; then
     echo "python_tests: preparing the Python environment in $VENV"

@@ -8,23 +8,16 @@ use std::sync::Arc;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use wsm_core::error::{ErrorKind, WsmError};
+use wsm_core::error::WsmError;
 use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
-    SolveRequest, WorstOutcome, WorstRequest,
+    SolveRequest, WorstRequest,
 };
 use wsm_core::scene::{parse, Scene, SceneError};
 
-/// Exit status of an error: 2 bad input or unknown name, 3 unsolvable, 4 solver failure,
-/// 5 files and logs, 6 cancelled.
+/// Exit status of an error ([`wsm_core::error::ErrorKind::exit_code`]).
 pub fn exit_code(error: &WsmError) -> ExitCode {
-    ExitCode::from(match error.kind() {
-        ErrorKind::BadInput | ErrorKind::NotFound => 2,
-        ErrorKind::Unsolvable => 3,
-        ErrorKind::Solver => 4,
-        ErrorKind::Io => 5,
-        ErrorKind::Cancelled => 6,
-    })
+    ExitCode::from(error.kind().exit_code())
 }
 
 /// Read and validate the scene a command names (a file or a bundled example).
@@ -196,16 +189,7 @@ pub fn worst(
             &evaluations,
         )?;
     }
-    to_json(&without_histories(outcome))
-}
-
-/// The outcome as printed: the convergence histories are left to `--out`.
-fn without_histories(mut outcome: WorstOutcome) -> WorstOutcome {
-    for c in &mut outcome.criteria {
-        c.worst.history.clear();
-        c.best.history.clear();
-    }
-    outcome
+    to_json(&outcome.without_histories())
 }
 
 /// `wsm example`: a scene's JSON, or the list of names.

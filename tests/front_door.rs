@@ -424,16 +424,21 @@ fn the_command_line_writes_the_table_and_refuses_a_foreign_log() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("'nope'"));
 }
 
-/// The service and the binary reach the engine only through its front door: `wsm_core::run`
-/// (requests, outcomes, examples, cost), `wsm_core::scene` (the document they pass in) and
-/// `wsm_core::error` (what comes back) — no path into a pipeline stage (design §5). Every
-/// `wsm_core::` path in `src/` and `crates/service/src/` is checked.
+/// The service, the binary and the Python package reach the engine only through its front door:
+/// `wsm_core::run` (requests, outcomes, examples, cost), `wsm_core::scene` (the document they
+/// pass in) and `wsm_core::error` (what comes back) — no path into a pipeline stage (design
+/// §5). Every `wsm_core::` path in `src/`, `crates/service/src/` and `crates/python/src/` is
+/// checked.
 #[test]
 fn service_and_binary_use_only_the_front_door() {
     const DOOR: [&str; 3] = ["run", "scene", "error"];
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut files = Vec::new();
-    let mut stack = vec![root.join("src"), root.join("crates/service/src")];
+    let mut stack = vec![
+        root.join("src"),
+        root.join("crates/service/src"),
+        root.join("crates/python/src"),
+    ];
     while let Some(dir) = stack.pop() {
         for entry in std::fs::read_dir(&dir).unwrap() {
             let path = entry.unwrap().path();

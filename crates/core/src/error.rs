@@ -125,6 +125,33 @@ pub enum ErrorKind {
     Io,
 }
 
+impl ErrorKind {
+    /// The command line's exit status of an error of this kind: 2 bad input or unknown name,
+    /// 3 unsolvable, 4 solver failure, 5 files and logs, 6 cancelled (the Python package
+    /// carries the same number on its exceptions).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            ErrorKind::BadInput | ErrorKind::NotFound => 2,
+            ErrorKind::Unsolvable => 3,
+            ErrorKind::Solver => 4,
+            ErrorKind::Io => 5,
+            ErrorKind::Cancelled => 6,
+        }
+    }
+
+    /// The kind's name in snake case (`bad_input`, `unsolvable`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            ErrorKind::BadInput => "bad_input",
+            ErrorKind::Unsolvable => "unsolvable",
+            ErrorKind::Solver => "solver",
+            ErrorKind::Cancelled => "cancelled",
+            ErrorKind::NotFound => "not_found",
+            ErrorKind::Io => "io",
+        }
+    }
+}
+
 impl WsmError {
     /// The error's class, from which callers derive the HTTP status and the exit code.
     pub fn kind(&self) -> ErrorKind {

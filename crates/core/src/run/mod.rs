@@ -26,7 +26,7 @@ pub use cost::{
 pub use hash::{canonical_json, run_hash};
 pub use log::{EvaluationLog, JsonLinesLog, LogHeader, LogMode, MemoryLog};
 pub use model::{check_admissible_set, parameter_info, PreparedModel};
-pub use points::evaluate_points;
+pub use points::{evaluate_points, PointAnswer, PointEvaluator};
 pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use request::{SolveRequest, WorstRequest};
 pub use summary::summary;

@@ -6,6 +6,7 @@
 
 use super::request::WorstRequest;
 use super::run_scene;
+use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
 use crate::estimate::statement::RefinedLevel;
 use crate::scenario::evaluator::ScenarioEvaluator;
@@ -97,6 +98,18 @@ impl PreparedModel {
     pub fn evaluator(&self) -> Result<ScenarioEvaluator<'_>, WsmError> {
         Ok(
             ScenarioEvaluator::new(&self.problem, &self.params, &self.criteria)?
+                .with_derivatives(self.derivatives),
+        )
+    }
+
+    /// An evaluator of this model warm-started from `warm` (an earlier evaluator's
+    /// [`ScenarioEvaluator::warm_start`]): no nominal solve.
+    pub fn warmed_evaluator(
+        &self,
+        warm: Option<WarmStart>,
+    ) -> Result<ScenarioEvaluator<'_>, WsmError> {
+        Ok(
+            ScenarioEvaluator::warmed(&self.problem, &self.params, &self.criteria, warm)?
                 .with_derivatives(self.derivatives),
         )
     }

@@ -14,11 +14,13 @@
 use std::collections::BTreeMap;
 use std::io::{BufRead, Write};
 
+use rayon::prelude::*;
 use serde::Serialize;
 use serde_json::Value;
 
 use super::model::PreparedModel;
 use super::request::WorstRequest;
+use crate::contact::qp::WarmStart;
 use crate::error::WsmError;
 use crate::scenario::evaluator::{Evaluation, ScenarioEvaluator};
 use crate::scenario::worst::ParameterInfo;
@@ -34,17 +36,93 @@ struct Header<'a> {
     derivatives: bool,
 }
 
-/// One answer line.
-#[derive(Debug, Default, Serialize)]
-struct Answer {
+/// The answer at one point: the criteria by name, their one-sided derivatives by criterion and
+/// field, the solve's largest KKT residual — or why there is none.
+#[derive(Debug, Default, Clone, PartialEq, Serialize)]
+pub struct PointAnswer {
+    /// Each requested criterion's value (units of the criterion).
     #[serde(skip_serializing_if = "Option::is_none")]
-    values: Option<BTreeMap<String, f64>>,
+    pub values: Option<BTreeMap<String, f64>>,
+    /// Per criterion, per uncertain datum's field: the one-sided derivatives (empty without
+    /// derivatives).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
-    gradient: BTreeMap<String, BTreeMap<String, OneSided>>,
+    pub gradient: BTreeMap<String, BTreeMap<String, OneSided>>,
+    /// The contact solve's largest KKT residual (with contact).
     #[serde(skip_serializing_if = "Option::is_none")]
-    max_kkt_residual: Option<f64>,
+    pub max_kkt_residual: Option<f64>,
+    /// Why the point has no values: outside its interval, or the solve failed.
     #[serde(skip_serializing_if = "Option::is_none")]
-    error: Option<String>,
+    pub error: Option<String>,
+}
+
+impl PointAnswer {
+    fn refused(reason: String) -> PointAnswer {
+        PointAnswer {
+            error: Some(reason),
+            ..PointAnswer::default()
+        }
+    }
+}
+
+/// A scene prepared for evaluations at points its caller chooses (`wsm evaluate`, the Python
+/// package's `Evaluator`): meshed and assembled once, solved at the nominal data once — the
+/// warm start of every point — then one solve per point. Answers depend on the point alone, not
+/// on the batch it came in or the threads that solved it.
+pub struct PointEvaluator {
+    model: PreparedModel,
+    parameters: Vec<ParameterInfo>,
+    criteria: Vec<CriterionSpec>,
+    derivatives: bool,
+    warm: Option<WarmStart>,
+}
+
+impl PointEvaluator {
+    /// Prepare `scene` for the criteria and derivatives of `request` (its other settings are
+    /// unused). Errors of the scene or the request name their field.
+    pub fn new(scene: Scene, request: &WorstRequest) -> Result<PointEvaluator, WsmError> {
+        let settings = request.settings(&scene)?;
+        let params = parameters(&scene)?;
+        let parameters = ParameterInfo::list(&scene, &params);
+        let model = PreparedModel::new(scene, params, settings.criteria.clone())?
+            .with_derivatives(settings.derivatives);
+        let warm = model.evaluator()?.warm_start().cloned();
+        Ok(PointEvaluator {
+            model,
+            parameters,
+            criteria: settings.criteria,
+            derivatives: settings.derivatives,
+            warm,
+        })
+    }
+
+    /// The uncertain data a point is made of, in order: name, field and interval.
+    pub fn parameters(&self) -> &[ParameterInfo] {
+        &self.parameters
+    }
+
+    /// The names of the criteria each answer holds, in order.
+    pub fn criteria(&self) -> Vec<String> {
+        self.criteria.iter().map(|c| c.name()).collect()
+    }
+
+    /// Whether answers carry exact derivatives.
+    pub fn derivatives(&self) -> bool {
+        self.derivatives
+    }
+
+    /// The answers at `points` (physical values in the order of [`Self::parameters`]), solved
+    /// in parallel in the current rayon pool, in input order. A point of the wrong length, with a
+    /// value that is not finite or outside its interval, is answered with an error.
+    pub fn answer(&self, points: &[Vec<f64>]) -> Result<Vec<PointAnswer>, WsmError> {
+        let evaluator = self.model.warmed_evaluator(self.warm.clone())?;
+        Ok(points
+            .par_iter()
+            .map(|point| match check_point(point, &self.parameters) {
+                Ok(()) => answer(&evaluator, &self.criteria, &self.parameters, point),
+                Err(reason) => PointAnswer::refused(reason),
+            })
+            .collect())
+    }
 }
 
 /// Evaluate every point read from `input` on `scene` with the criteria and derivatives of
@@ -57,16 +135,11 @@ pub fn evaluate_points(
     input: &mut dyn BufRead,
     output: &mut dyn Write,
 ) -> Result<usize, WsmError> {
-    let settings = request.settings(&scene)?;
-    let params = parameters(&scene)?;
-    let info = ParameterInfo::list(&scene, &params);
-    let model = PreparedModel::new(scene, params, settings.criteria.clone())?
-        .with_derivatives(settings.derivatives);
-    let evaluator = model.evaluator()?;
+    let evaluator = PointEvaluator::new(scene, request)?;
     let header = Header {
-        parameters: &info,
-        criteria: settings.criteria.iter().map(|c| c.name()).collect(),
-        derivatives: settings.derivatives,
+        parameters: evaluator.parameters(),
+        criteria: evaluator.criteria(),
+        derivatives: evaluator.derivatives(),
     };
     write_line(output, &header)?;
     let mut count = 0;
@@ -75,12 +148,9 @@ pub fn evaluate_points(
         if line.trim().is_empty() {
             continue;
         }
-        let answer = match read_point(&line, &info) {
-            Ok(point) => answer(&evaluator, &settings.criteria, &info, &point),
-            Err(reason) => Answer {
-                error: Some(format!("line {}: {reason}", n + 1)),
-                ..Answer::default()
-            },
+        let answer = match read_point(&line, evaluator.parameters()) {
+            Ok(point) => evaluator.answer(&[point])?.remove(0),
+            Err(reason) => PointAnswer::refused(format!("line {}: {reason}", n + 1)),
         };
         write_line(output, &answer)?;
         count += 1;
@@ -99,20 +169,11 @@ fn write_line(output: &mut dyn Write, value: &impl Serialize) -> Result<(), WsmE
 fn read_point(line: &str, info: &[ParameterInfo]) -> Result<Vec<f64>, String> {
     let value: Value = serde_json::from_str(line).map_err(|e| format!("not JSON: {e}"))?;
     let point: Vec<f64> = match value {
-        Value::Array(items) => {
-            if items.len() != info.len() {
-                return Err(format!(
-                    "{} values for {} uncertain parameters",
-                    items.len(),
-                    info.len()
-                ));
-            }
-            items
-                .iter()
-                .zip(info)
-                .map(|(v, p)| number(v, &p.field))
-                .collect::<Result<_, _>>()?
-        }
+        Value::Array(items) => items
+            .iter()
+            .enumerate()
+            .map(|(i, v)| number(v, info.get(i).map_or("value", |p| p.field.as_str())))
+            .collect::<Result<_, _>>()?,
         Value::Object(map) => {
             if let Some(key) = map
                 .keys()
@@ -132,8 +193,24 @@ fn read_point(line: &str, info: &[ParameterInfo]) -> Result<Vec<f64>, String> {
         }
         _ => return Err("give an array of values or an object of field: value".into()),
     };
+    check_point(&point, info)?;
+    Ok(point)
+}
+
+/// Whether `point` is a point of the box: one finite value per datum, each in its interval.
+fn check_point(point: &[f64], info: &[ParameterInfo]) -> Result<(), String> {
+    if point.len() != info.len() {
+        return Err(format!(
+            "{} values for {} uncertain parameters",
+            point.len(),
+            info.len()
+        ));
+    }
     for (v, p) in point.iter().zip(info) {
         let [lo, hi] = p.interval;
+        if !v.is_finite() {
+            return Err(format!("'{}' must be a finite number, got {v}", p.field));
+        }
         if !(lo..=hi).contains(v) {
             return Err(format!(
                 "'{}' = {v} is outside its interval [{lo}, {hi}]",
@@ -141,7 +218,7 @@ fn read_point(line: &str, info: &[ParameterInfo]) -> Result<Vec<f64>, String> {
             ));
         }
     }
-    Ok(point)
+    Ok(())
 }
 
 fn number(value: &Value, field: &str) -> Result<f64, String> {
@@ -157,7 +234,7 @@ fn answer(
     criteria: &[CriterionSpec],
     info: &[ParameterInfo],
     point: &[f64],
-) -> Answer {
+) -> PointAnswer {
     let Evaluation {
         values,
         error,
@@ -166,7 +243,7 @@ fn answer(
         ..
     } = evaluator.evaluate_one(point);
     let names = || criteria.iter().map(|c| c.name());
-    Answer {
+    PointAnswer {
         values: values.map(|v| names().zip(v).collect()),
         gradient: names()
             .zip(gradient)

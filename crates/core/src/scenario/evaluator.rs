@@ -125,25 +125,41 @@ impl<'a> ScenarioEvaluator<'a> {
         params: &'a [Parameter],
         criteria: &'a [CriterionSpec],
     ) -> Result<ScenarioEvaluator<'a>, WsmError> {
-        let targets = problem.targets(criteria)?;
-        let needs = Needs::for_targets(&problem.scene, &targets);
-        let mut evaluator = ScenarioEvaluator {
-            problem,
-            params,
-            criteria,
-            targets,
-            needs,
-            warm: None,
-            stats: InnerStats::default(),
-            observer: None,
-            fault: None,
-            derivatives: false,
-        };
+        let mut evaluator = ScenarioEvaluator::warmed(problem, params, criteria, None)?;
         if evaluator.needs.elastic && problem.contact.geometry.dim() > 0 {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
             evaluator.warm = nominal.warm_start;
         }
         Ok(evaluator)
+    }
+
+    /// [`Self::new`] with the warm start given ([`Self::warm_start`] of an earlier evaluator of
+    /// the same problem and criteria): no nominal solve here.
+    pub fn warmed(
+        problem: &'a StateProblem,
+        params: &'a [Parameter],
+        criteria: &'a [CriterionSpec],
+        warm: Option<WarmStart>,
+    ) -> Result<ScenarioEvaluator<'a>, WsmError> {
+        let targets = problem.targets(criteria)?;
+        let needs = Needs::for_targets(&problem.scene, &targets);
+        Ok(ScenarioEvaluator {
+            problem,
+            params,
+            criteria,
+            targets,
+            needs,
+            warm,
+            stats: InnerStats::default(),
+            observer: None,
+            fault: None,
+            derivatives: false,
+        })
+    }
+
+    /// The warm start of every contact solve: the nominal contact state.
+    pub fn warm_start(&self) -> Option<&WarmStart> {
+        self.warm.as_ref()
     }
 
     /// Call `observer` with the evaluations of every batch, in input order, once it is done.

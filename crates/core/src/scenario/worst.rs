@@ -158,6 +158,16 @@ pub struct WorstOutcome {
 }
 
 impl WorstOutcome {
+    /// The outcome as `wsm worst` prints it: the convergence histories are left out (they stay
+    /// in the full outcome, `--out`).
+    pub fn without_histories(mut self) -> WorstOutcome {
+        for c in &mut self.criteria {
+            c.worst.history.clear();
+            c.best.history.clear();
+        }
+        self
+    }
+
     /// A run that stopped (cancel or time limit) before its search began: no values yet.
     pub fn unstarted(
         scene: &Scene,

@@ -1,0 +1,152 @@
+"""Results as Python objects: a state solve (`Solution`) and a worst-scenario run
+(`WorstResult`), from the same JSON the command line prints."""
+
+from __future__ import annotations
+
+import io
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+
+class Solution:
+    """One state solve. `summary` is the dict ``wsm solve`` prints; `criteria` the criteria
+    defined for the scene (Φ1–Φ6 by name); `fields` the mesh and fields as NumPy arrays;
+    `contact` one row per contact node pair."""
+
+    def __init__(self, output: dict):
+        self.summary: dict = output["summary"]
+        self.criteria: dict[str, float] = {
+            k: v for k, v in self.summary["criteria"].items() if v is not None
+        }
+        raw = output.get("fields")
+        self.fields: dict[str, np.ndarray] = _field_arrays(raw) if raw else {}
+        self.contact: pd.DataFrame = _contact_frame(raw["contact"] if raw else [])
+        self.warnings: list[str] = list(self.summary.get("report", {}).get("warnings", []))
+
+    def __repr__(self) -> str:
+        values = ", ".join(f"{k}={v:.6g}" for k, v in self.criteria.items())
+        mesh = self.summary["mesh"]
+        return f"<wsm.Solution {self.summary['scene']!r}: {mesh['nodes']} nodes; {values}>"
+
+    def to_meshio(self):
+        """The mesh and fields as a `meshio.Mesh` (points in 3D with z = 0; displacement as a
+        3-vector; per triangle: the stresses τ11, τ22, τ12, τ33, I2² and the zone index)."""
+        import meshio
+
+        f = self._require_fields()
+        points = np.column_stack([f["nodes"], np.zeros(len(f["nodes"]))])
+        point_data = {}
+        if "displacement" in f:
+            d = f["displacement"]
+            point_data["displacement"] = np.column_stack([d, np.zeros(len(d))])
+        if "temperature" in f:
+            point_data["temperature"] = f["temperature"]
+        cell_data = {"zone": [f["triangle_zone"]]}
+        if "stress" in f:
+            for k, name in enumerate(["tau11", "tau22", "tau12", "tau33"]):
+                cell_data[name] = [f["stress"][:, k]]
+            cell_data["i2_squared"] = [f["i2_squared"]]
+        return meshio.Mesh(points, [("triangle", f["triangles"])], point_data=point_data, cell_data=cell_data)
+
+    def to_pyvista(self):
+        """The mesh and fields as a PyVista grid (needs pyvista)."""
+        import pyvista
+
+        return pyvista.from_meshio(self.to_meshio())
+
+    def _require_fields(self) -> dict:
+        if not self.fields:
+            raise ValueError("this solution has no fields: solve with fields=True")
+        return self.fields
+
+
+def _field_arrays(raw: dict) -> dict[str, np.ndarray]:
+    arrays = {
+        "nodes": np.asarray(raw["nodes"], dtype=float).reshape(-1, 2),
+        "triangles": np.asarray(raw["triangles"], dtype=np.int64).reshape(-1, 3),
+        "triangle_zone": np.asarray(raw["triangle_zone"], dtype=np.int64),
+    }
+    if raw.get("displacement"):
+        arrays["displacement"] = np.asarray(raw["displacement"], dtype=float).reshape(-1, 2)
+    if raw.get("temperature") is not None:
+        arrays["temperature"] = np.asarray(raw["temperature"], dtype=float)
+    if raw.get("stress"):
+        arrays["stress"] = np.asarray(raw["stress"], dtype=float).reshape(-1, 4)
+        arrays["i2_squared"] = np.asarray(raw["i2_squared"], dtype=float)
+    return arrays
+
+
+_CONTACT_COLUMNS = ["zone", "x", "y", "pressure", "shear", "gap", "slip", "bound", "state"]
+
+
+def _contact_frame(nodes: list[dict]) -> pd.DataFrame:
+    rows = [
+        {
+            "zone": n["zone"],
+            "x": n["position"][0],
+            "y": n["position"][1],
+            **{k: n[k] for k in ("pressure", "shear", "gap", "slip", "bound", "state")},
+        }
+        for n in nodes
+    ]
+    return pd.DataFrame(rows, columns=_CONTACT_COLUMNS)
+
+
+class WorstResult:
+    """A worst-scenario run. `json` is exactly what ``wsm worst`` prints; `outcome` the full
+    outcome (with the convergence histories, as ``--out`` writes it); `extrema` one row per
+    criterion and sense with the value, its status and the data; `evaluations` one row per
+    evaluation with the columns of ``wsm worst --table``; `warnings` the run's warnings."""
+
+    def __init__(self, outcome: dict, printed: str, table: str | None, summary: str | None = None):
+        self.outcome = outcome
+        self.json = printed
+        self.warnings: list[str] = list(outcome.get("warnings", []))
+        self.status: str = outcome["status"]
+        self.parameters = pd.DataFrame(
+            [
+                {"name": p["name"], "field": p["field"], "lo": p["interval"][0], "hi": p["interval"][1]}
+                for p in outcome["parameters"]
+            ],
+            columns=["name", "field", "lo", "hi"],
+        )
+        self.extrema = _extrema_frame(outcome)
+        self.evaluations = (
+            pd.read_csv(io.StringIO(table)) if table else pd.DataFrame()
+        )
+        self._summary = summary
+
+    def __repr__(self) -> str:
+        return f"<wsm.WorstResult {self.outcome['scene']!r}: {self.status}, {self.outcome['evaluations']} evaluations>"
+
+    def __str__(self) -> str:
+        return self._summary or self.extrema.to_string(index=False)
+
+    def extremum(self, criterion: str, sense: str = "max") -> dict:
+        """The outcome's entry of one criterion's worst (`max`) or best (`min`) scenario."""
+        for c in self.outcome["criteria"]:
+            if c["criterion"] == criterion:
+                return c["worst" if sense == "max" else "best"]
+        names = [c["criterion"] for c in self.outcome["criteria"]]
+        raise KeyError(f"{criterion!r} is not a criterion of this run ({', '.join(names)})")
+
+
+def _extrema_frame(outcome: dict) -> pd.DataFrame:
+    names = [p["name"] for p in outcome["parameters"]]
+    rows = []
+    for c in outcome["criteria"]:
+        for key in ("worst", "best"):
+            e = c[key]
+            row: dict[str, Any] = {
+                "criterion": c["criterion"],
+                "sense": e["sense"],
+                "value": e.get("value"),
+                "status": e.get("status"),
+                "region": e.get("region"),
+            }
+            point = e.get("point") or [None] * len(names)
+            row.update(zip(names, point))
+            rows.append(row)
+    return pd.DataFrame(rows, columns=["criterion", "sense", "value", "status", "region", *names])
