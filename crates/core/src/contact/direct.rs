@@ -243,6 +243,17 @@ pub struct SparseReport {
     pub factor_nnz: usize,
 }
 
+/// What every Tresca problem of one contact solve shares (a Coulomb solve makes several, with
+/// other multiplier bounds): the factor of K, the elastic problem, the reduced right-hand side
+/// (loads and lifting) and the prescribed values.
+#[derive(Clone, Copy)]
+struct TrescaInputs<'a> {
+    factor: &'a StiffnessFactor,
+    elastic: &'a ElasticProblem,
+    rhs: &'a [f64],
+    fixed: &'a [f64],
+}
+
 impl DirectContact {
     /// Pairs, B rows and the floating-body kernel. Refuses a floating body without contact.
     pub fn new(
@@ -557,6 +568,12 @@ impl DirectContact {
         data: &Data,
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
+        let inputs = TrescaInputs {
+            factor,
+            elastic,
+            rhs,
+            fixed,
+        };
         let mut qp_seconds = 0.0;
         let mut sparse_steps = (0, 0);
         let tresca = |lower: &[f64], upper: &[f64], previous: Option<&ContactSolution>| {
@@ -566,10 +583,8 @@ impl DirectContact {
             });
             let start = start.as_ref().or(warm);
             let sol = match &self.sparse {
-                Some(system) => self.solve_tresca_sparse(
-                    system, factor, elastic, rhs, fixed, lower, upper, start,
-                )?,
-                None => self.solve_tresca(factor, elastic, rhs, fixed, lower, upper, start)?,
+                Some(system) => self.solve_tresca_sparse(system, &inputs, lower, upper, start)?,
+                None => self.solve_tresca(&inputs, lower, upper, start)?,
             };
             qp_seconds += sol.qp_seconds;
             if let Some(r) = &sol.sparse {
@@ -608,17 +623,19 @@ impl DirectContact {
     }
 
     /// Solve the contact problem with the multiplier bounds `lower`, `upper` (a Tresca problem).
-    #[allow(clippy::too_many_arguments)]
     fn solve_tresca(
         &self,
-        factor: &StiffnessFactor,
-        elastic: &ElasticProblem,
-        rhs: &[f64],
-        fixed: &[f64],
+        inputs: &TrescaInputs,
         lower: &[f64],
         upper: &[f64],
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
+        let TrescaInputs {
+            factor,
+            elastic,
+            rhs,
+            fixed,
+        } = *inputs;
         let geometry = &self.geometry;
         let m = geometry.dim();
         let mut x0 = rhs.to_vec();
@@ -692,18 +709,20 @@ impl DirectContact {
 
     /// [`Self::solve_tresca`] on the sparse path ([`super::sparse`]): the active-set iteration
     /// on the primal, then the dense path's normal form (no component along free motions).
-    #[allow(clippy::too_many_arguments)]
     fn solve_tresca_sparse(
         &self,
         system: &SparseSystem,
-        factor: &StiffnessFactor,
-        elastic: &ElasticProblem,
-        rhs: &[f64],
-        fixed: &[f64],
+        inputs: &TrescaInputs,
         lower: &[f64],
         upper: &[f64],
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
+        let TrescaInputs {
+            factor,
+            elastic,
+            rhs,
+            fixed,
+        } = *inputs;
         let start = std::time::Instant::now();
         let mut offsets = vec![0.0; self.geometry.dim()];
         self.add_offsets(fixed, &mut offsets);

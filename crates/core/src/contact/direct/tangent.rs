@@ -93,6 +93,21 @@ pub struct DataDerivative<'a> {
     pub upper: &'a [f64],
 }
 
+/// One data derivative taken along +ε (`sign` 1) or −ε (`sign` −1), with its right-hand
+/// sides signed: what a tangent problem of one direction is solved for.
+struct SignedDirection<'a> {
+    /// The derivative of the data.
+    derivative: &'a DataDerivative<'a>,
+    /// +1 or −1.
+    sign: f64,
+    /// sign · P K⁺ P b.
+    x0: Vec<f64>,
+    /// sign · b.
+    b: Vec<f64>,
+    /// sign · du_d.
+    fixed: Vec<f64>,
+}
+
 /// The derivative of the displacement on the free DOFs along +ε and, when the state is only
 /// one-sided differentiable, along −ε.
 pub struct TangentDisplacement {
@@ -140,16 +155,20 @@ impl DirectContact {
         let signed = |v: &[f64], sign: f64| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
         // (b, dλ, dα) of one direction and sign.
         let multipliers = |j: usize, sign: f64| -> Result<[Vec<f64>; 3], WsmError> {
-            let dd = &directions[j];
-            let b = signed(dd.residual, sign);
-            let x0 = signed(x0.get(j).copied().unwrap_or(&[]), sign);
-            let fixed = signed(dd.fixed, sign);
-            let (dlambda, dalpha) = if coulomb {
-                self.coulomb_tangent(factor, &motions, state, &x0, &b, &fixed, sign, dd)?
-            } else {
-                self.tangent_multipliers(factor, &motions, &x0, &b, &fixed, sign, dd)?
+            let derivative = &directions[j];
+            let direction = SignedDirection {
+                derivative,
+                sign,
+                x0: signed(x0.get(j).copied().unwrap_or(&[]), sign),
+                b: signed(derivative.residual, sign),
+                fixed: signed(derivative.fixed, sign),
             };
-            Ok([b, dlambda, dalpha])
+            let (dlambda, dalpha) = if coulomb {
+                self.coulomb_tangent(factor, &motions, state, &direction)?
+            } else {
+                self.tangent_multipliers(factor, &motions, &direction)?
+            };
+            Ok([direction.b, dlambda, dalpha])
         };
         let recover = |states: &[[Vec<f64>; 3]]| -> Vec<Vec<f64>> {
             let views: Vec<(&[f64], &[f64], &[f64])> = states
@@ -186,17 +205,20 @@ impl DirectContact {
     }
 
     /// (dλ, dα) of the tangent QP for the signed data derivative (`x0` = P K⁺ P b).
-    #[allow(clippy::too_many_arguments)]
     fn tangent_multipliers(
         &self,
         factor: &StiffnessFactor,
         motions: &[RowMotion],
-        x0: &[f64],
-        b: &[f64],
-        fixed: &[f64],
-        sign: f64,
-        dd: &DataDerivative,
+        direction: &SignedDirection,
     ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
+        let SignedDirection {
+            derivative: dd,
+            sign,
+            x0,
+            b,
+            fixed,
+        } = direction;
+        let sign = *sign;
         let m = self.geometry.dim();
         if m == 0 && self.kernel_dim() == 0 {
             return Ok((Vec::new(), Vec::new()));
@@ -293,18 +315,21 @@ impl DirectContact {
 
     /// (dλ, dα) of a Coulomb state on its strict active set: the linear system of the module
     /// doc, solved by a pseudo-inverse of the row-equilibrated matrix.
-    #[allow(clippy::too_many_arguments)]
     fn coulomb_tangent(
         &self,
         factor: &StiffnessFactor,
         motions: &[RowMotion],
         state: &ContactPoint,
-        x0: &[f64],
-        b: &[f64],
-        fixed: &[f64],
-        sign: f64,
-        dd: &DataDerivative,
+        direction: &SignedDirection,
     ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
+        let SignedDirection {
+            derivative: dd,
+            sign,
+            x0,
+            b,
+            fixed,
+        } = direction;
+        let sign = *sign;
         let m = self.geometry.dim();
         let (g, e) = self.tangent_equilibrium(b);
         let k = e.len();
