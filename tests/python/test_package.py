@@ -20,8 +20,9 @@ import pytest
 wsm = pytest.importorskip("wsm", reason="the wsm package is not installed (pip install crates/python)")
 
 # Keys whose values are wall-clock measurements, or counts that depend on which thread took
-# which point (`reused_factorisations`): they differ between any two runs of the CLI itself.
-TIMING = ("seconds", "per_second", "time_share", "reused_factorisations")
+# which point (`factorisations`, `reused_factorisations`): they differ between any two runs of
+# the CLI itself.
+TIMING = ("seconds", "per_second", "time_share", "factorisations")
 
 
 def without_timings(value):
