@@ -209,6 +209,11 @@ pub fn openapi() -> Result<String, WsmError> {
         .map_err(|e| WsmError::io("OpenAPI document", e))
 }
 
+/// `wsm schema`: the JSON Schema of the scene document (design §5.2).
+pub fn schema() -> String {
+    wsm_core::scene::scene_schema_json().trim_end().to_string()
+}
+
 /// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop, or with
 /// `--gradients` the cost of the exact derivatives.
 pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {

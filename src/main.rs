@@ -44,6 +44,8 @@ enum Command {
     Worker(WorkerArgs),
     /// Print the OpenAPI 3.1 document of the HTTP API.
     Openapi,
+    /// Print the JSON Schema (2020-12) of the scene document, for editors and validators.
+    Schema,
     /// Timing benchmarks of the inner solvers (not part of the test suite).
     Bench(BenchArgs),
     /// Accuracy against run time, and numerical stability on stiff and extreme cases.
@@ -76,6 +78,7 @@ fn main() -> ExitCode {
         Command::Serve(a) => cli::serve(a.into()),
         Command::Worker(a) => cli::worker(a.into()),
         Command::Openapi => cli::openapi(),
+        Command::Schema => Ok(cli::schema()),
         Command::Bench(a) => cli::bench(&a),
         Command::Example(a) => cli::example(a.name.as_deref(), a.list),
         Command::Study { study } => match study {

@@ -615,6 +615,69 @@ fn the_bearer_token_guards_job_endpoints_when_set() {
     assert_eq!(read.status, 200);
 }
 
+/// The scene's JSON Schema (design §5.2) is one document wherever it appears: derived from the
+/// model, printed by `wsm schema`, checked in as openapi/scene.schema.json, served without a
+/// token at /v1/schema/scene, and carried by the OpenAPI document where the scene is a body.
+#[test]
+fn the_scene_schema_is_the_derived_one_everywhere() {
+    let derived = wsm_core::scene::scene_schema();
+    assert_eq!(
+        derived["$schema"], "https://json-schema.org/draft/2020-12/schema",
+        "the schema declares JSON Schema 2020-12"
+    );
+    let printed = std::process::Command::new(env!("CARGO_BIN_EXE_wsm"))
+        .arg("schema")
+        .output()
+        .unwrap();
+    assert!(printed.status.success());
+    assert_eq!(
+        serde_json::from_slice::<Value>(&printed.stdout).unwrap(),
+        derived
+    );
+    let file: Value = serde_json::from_str(
+        &std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/openapi/scene.schema.json"
+        ))
+        .expect("openapi/scene.schema.json"),
+    )
+    .unwrap();
+    assert_eq!(
+        file, derived,
+        "regenerate with `cargo run --release -- schema > openapi/scene.schema.json`"
+    );
+
+    let db = temp_db("scene-schema.db");
+    let (server, _) = Server::start_with_token(&db, &[], Some("s3cret-token"));
+    let served = get(&server.addr, "/v1/schema/scene");
+    assert_eq!(served.status, 200, "open without the token");
+    assert_eq!(served.json(), derived);
+
+    let openapi = get(&server.addr, "/openapi.json").json();
+    let schemas = &openapi["components"]["schemas"];
+    for body in ["JobSubmission", "SolveSubmission"] {
+        let scene = schemas[body]["properties"]["scene"].to_string();
+        assert!(
+            scene.contains(r##""$ref":"#/components/schemas/Scene""##),
+            "{body}.scene: {scene}"
+        );
+    }
+    assert_eq!(schemas["Scene"]["properties"], {
+        let mut root = derived["properties"].to_string();
+        root = root.replace("#/$defs/", "#/components/schemas/Scene.");
+        serde_json::from_str::<Value>(&root).unwrap()
+    });
+    for (name, def) in derived["$defs"].as_object().unwrap() {
+        let def = def
+            .to_string()
+            .replace("#/$defs/", "#/components/schemas/Scene.");
+        assert_eq!(
+            schemas[format!("Scene.{name}")],
+            serde_json::from_str::<Value>(&def).unwrap()
+        );
+    }
+}
+
 #[test]
 fn the_served_openapi_document_is_the_checked_in_one() {
     let db = temp_db("openapi.db");

@@ -204,7 +204,17 @@ pub struct SearchProblem {
 /// When a search with exact derivatives may stop before its budget is spent (`search.stop`).
 /// Without derivatives the search always spends its budget.
 #[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, utoipa::ToSchema,
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    utoipa::ToSchema,
+    schemars::JsonSchema,
 )]
 #[serde(rename_all = "snake_case")]
 pub enum StopRule {

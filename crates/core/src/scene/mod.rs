@@ -7,8 +7,9 @@
 //! matrices (FGCS 4.6, 4.8), `planar` holds the orientation and signed-area primitives the
 //! validation and the mesher share, `rules` holds the sign and range rules (materials, slip limit) both of them check,
 //! `strict` reads JSON refusing repeated keys (the scene files and the service's bodies),
-//! and `warnings` lists what a valid scene holds that is probably not meant (implausible
-//! magnitudes, uncertain data addressed by the index of a named entry).
+//! `warnings` lists what a valid scene holds that is probably not meant (implausible
+//! magnitudes, uncertain data addressed by the index of a named entry), and `schema` derives
+//! the JSON Schema of the document from `model`.
 
 mod data;
 pub mod law;
@@ -16,6 +17,7 @@ mod model;
 pub mod params;
 mod planar;
 mod rules;
+mod schema;
 mod shape;
 mod strict;
 mod validate;
@@ -31,6 +33,7 @@ pub use model::{
     SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};
+pub use schema::{scene_schema, scene_schema_json, SCENE_SCHEMA_DIALECT};
 pub use shape::{objects_where_objects, plain_message};
 pub use strict::{strict_value, StrictError};
 pub(crate) use validate::touching_tolerance;

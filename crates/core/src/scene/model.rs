@@ -6,6 +6,10 @@
 //! of uncertain data and the search settings. All quantities are SI (m, Pa, N/m³, K, W/m³, W/m²).
 //! This module only describes the shape of the document; `validate` checks its meaning.
 
+use super::rules::{
+    MAX_ANGLE, MAX_CONDUCTIVITY, MAX_FRICTION, MAX_STRESS, MIN_CONDUCTIVITY, MIN_MODULUS,
+};
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 pub use wsm_search::StopRule;
@@ -13,11 +17,17 @@ pub use wsm_search::StopRule;
 /// A point `[x, y]` in metres.
 pub type Point = [f64; 2];
 
-/// The whole scene document.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+/// The whole scene document: format version 1, all quantities SI (m, Pa, N/m³, K, W/(m K),
+/// W/m³, W/m²).
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
+    /// The JSON Schema the document declares for editors (`"$schema"`, e.g. the path of
+    /// `openapi/scene.schema.json`); wsm reads and ignores it (design §5.2).
+    #[serde(rename = "$schema", default, skip_serializing)]
+    pub schema: Option<String>,
     /// Format version; only `1` exists.
+    #[schemars(range(equal = 1))]
     pub version: u32,
     /// Human-readable name.
     #[serde(default)]
@@ -58,7 +68,7 @@ pub struct Scene {
 }
 
 /// One elastic body.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Body {
     /// Body name, unique in the scene; segments refer to the body by it.
@@ -68,7 +78,7 @@ pub struct Body {
 }
 
 /// A material zone: a simple polygon (either orientation) with optional holes.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Zone {
     /// Zone name, unique in the scene (with `gmsh_file`: the physical name of the 2D entities).
@@ -87,7 +97,7 @@ pub struct Zone {
 ///
 /// Either `from`/`to` (a straight piece) or `path` (a polyline, `closed` for a whole loop such as
 /// the rim of a hole) must be given.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Segment {
     /// Name of the body on whose boundary the segment lies.
@@ -127,29 +137,36 @@ impl Segment {
 /// (`E1`, `E2`, `E3`, `nu12`, `nu13`, `nu23`, `G12`, optional `angle`); or the plane-strain
 /// matrix itself (`matrix`, `out_of_plane`). Voigt order (e11, e22, γ12) with engineering shear
 /// γ12 = 2 e12 (design §2.1).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Material {
-    /// Young's modulus \[Pa\].
+    /// Isotropic: Young's modulus E \[Pa\] (with `nu`).
     #[serde(rename = "E", default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub young: Option<f64>,
-    /// Poisson's ratio [-].
+    /// Isotropic: Poisson's ratio ν [-] (with `E`), in (−1, ½).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = -1.0, "exclusiveMaximum" = 0.5))]
     pub nu: Option<f64>,
-    /// Lamé's first parameter λ \[Pa\].
+    /// Isotropic: Lamé's first parameter λ \[Pa\] (with `mu`): 0 or in \[1e-3, 1e15\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 0.0, max = MAX_STRESS))]
     pub lambda: Option<f64>,
-    /// Shear modulus μ \[Pa\].
+    /// Isotropic: shear modulus μ \[Pa\] (with `lambda`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub mu: Option<f64>,
     /// Orthotropic: Young's modulus E1 \[Pa\] along material axis 1 (in the plane, at `angle`).
     #[serde(rename = "E1", default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub e1: Option<f64>,
     /// Orthotropic: Young's modulus E2 \[Pa\] along material axis 2 (in the plane).
     #[serde(rename = "E2", default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub e2: Option<f64>,
     /// Orthotropic: Young's modulus E3 \[Pa\] out of the plane.
     #[serde(rename = "E3", default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub e3: Option<f64>,
     /// Orthotropic: Poisson's ratio ν12 [-] (−ε2/ε1 under stress along axis 1).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -162,10 +179,12 @@ pub struct Material {
     pub nu23: Option<f64>,
     /// Orthotropic: in-plane shear modulus G12 \[Pa\].
     #[serde(rename = "G12", default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = MIN_MODULUS, max = MAX_STRESS))]
     pub g12: Option<f64>,
     /// Orthotropic: angle of material axis 1 from the x axis, counter-clockwise \[deg\]
     /// (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = -MAX_ANGLE, max = MAX_ANGLE))]
     pub angle: Option<f64>,
     /// The plane-strain in-plane stiffness D \[Pa\]: a symmetric positive definite 3×3 matrix
     /// acting on (e11, e22, γ12) and giving (τ11, τ22, τ12).
@@ -177,8 +196,9 @@ pub struct Material {
     pub out_of_plane: Option<[f64; 3]>,
     /// Specific weight ρg [N/m³]: body force (0, −specific_weight).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = -MAX_STRESS, max = MAX_STRESS))]
     pub specific_weight: Option<f64>,
-    /// Body force [N/m³], added to the specific weight.
+    /// Body force `[fx, fy]` [N/m³], added to the specific weight.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub body_force: Option<[f64; 2]>,
     /// Thermal conductivity κ [W/(m K)]: a scalar, or a symmetric positive definite 2×2 matrix
@@ -199,20 +219,20 @@ pub struct Material {
 }
 
 /// A conductivity: a scalar or a symmetric 2×2 matrix.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(
     untagged,
     expecting = "a conductivity: a number, or a 2×2 matrix [[k11, k12], [k21, k22]]"
 )]
 pub enum Conductivity {
     /// Isotropic κ [W/(m K)].
-    Scalar(f64),
+    Scalar(#[schemars(range(min = MIN_CONDUCTIVITY, max = MAX_CONDUCTIVITY))] f64),
     /// `[[κ11, κ12], [κ21, κ22]]` [W/(m K)], symmetric positive definite.
     Matrix([[f64; 2]; 2]),
 }
 
 /// A thermal stress coefficient: a scalar β or the Voigt vector.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(
     untagged,
     expecting = "a thermal stress coefficient: a number, or [beta11, beta22, beta12, beta33]"
@@ -225,7 +245,7 @@ pub enum ThermalStress {
 }
 
 /// One boundary condition on a named segment. Exactly one of the condition fields is set.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryCondition {
     /// Optional name, unique among the boundary conditions: uncertain data refer to the
@@ -243,6 +263,7 @@ pub struct BoundaryCondition {
     pub traction: Option<[f64; 2]>,
     /// Normal pressure \[Pa\]: traction −p·n with n the outward normal.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = -MAX_STRESS, max = MAX_STRESS))]
     pub pressure: Option<f64>,
     /// Bilateral contact with a rigid foundation (Γo): u·d = 0, zero tangential traction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -256,7 +277,7 @@ pub struct BoundaryCondition {
 }
 
 /// Roller direction: `{}` uses the segment's outward normal, `{"direction": [dx, dy]}` a given one.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Roller {
     /// Constrained direction d of u·d = 0 (any nonzero length); absent: the segment's averaged
@@ -266,7 +287,7 @@ pub struct Roller {
 }
 
 /// Contact kind on Γ^kl.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactKind {
     /// Signorini contact with Tresca friction.
@@ -277,7 +298,7 @@ pub enum ContactKind {
 }
 
 /// A contact zone between a segment of body k and a segment of body l (zero initial gap).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Contact {
     /// Name of the contact zone, unique among the contact zones; used in results and reports, and
@@ -295,6 +316,7 @@ pub struct Contact {
     /// Coulomb friction coefficient F [-] (≥ 0): |τ_t| ≤ F |τ_n| on the zone instead of a
     /// given slip limit (design §3.4). Exclusive with a non-zero `slip_limit`; unilateral only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 0.0, max = MAX_FRICTION))]
     pub friction_coefficient: Option<f64>,
     /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
     /// flat contact line model curved surfaces, e.g. the 2D Hertz setting.
@@ -303,13 +325,14 @@ pub struct Contact {
 }
 
 /// Initial normal gap of a contact zone.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, rename_all = "snake_case")]
 pub enum InitialGap {
     /// g0 = d²/(2R), d the distance from the touching point (a cylinder of radius R on a flat,
     /// or two cylinders with 1/R = 1/R1 + 1/R2).
     Parabola {
         /// Radius R \[m\] (> 0).
+        #[schemars(extend("exclusiveMinimum" = 0.0))]
         radius: f64,
         /// The touching point `[x, y]` \[m\] on the contact line, where g0 = 0.
         touch_at: Point,
@@ -325,14 +348,15 @@ pub enum InitialGap {
 }
 
 /// Slip limit: a constant, or piecewise linear on knots given as fractions of the zone length.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(
-    untagged,
-    expecting = "a slip limit: a number, or an object {\"knots\": [...], \"values\": [...], \"max_slope\": optional number}"
-)]
+// Read by hand (below) rather than as a serde untagged enum, which would silently drop an
+// unknown member of the object form (a misspelt `max_slope`); the schema says the same
+// (`deny_unknown_fields` for schemars only).
+#[derive(Debug, Clone, Serialize, JsonSchema)]
+#[serde(untagged)]
+#[schemars(deny_unknown_fields)]
 pub enum SlipLimit {
     /// One slip limit g \[Pa\] along the whole zone (≥ 0).
-    Constant(f64),
+    Constant(#[schemars(range(min = 0.0, max = MAX_STRESS))] f64),
     /// g piecewise linear in the arc-length fraction along the zone, optionally with a slope bound.
     PiecewiseLinear {
         /// Knot positions, fractions 0..1 of the arc length along body k's segment, increasing.
@@ -345,6 +369,41 @@ pub enum SlipLimit {
     },
 }
 
+impl<'de> Deserialize<'de> for SlipLimit {
+    /// A number, or the object form with no member but `knots`, `values` and `max_slope`.
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        /// The object form.
+        #[derive(Deserialize)]
+        #[serde(deny_unknown_fields)]
+        struct Piecewise {
+            knots: Vec<f64>,
+            values: Vec<f64>,
+            #[serde(default)]
+            max_slope: Option<f64>,
+        }
+        let expected = || {
+            serde::de::Error::custom(
+                "a slip limit: a number, or an object {\"knots\": [...], \"values\": [...], \
+                 \"max_slope\": optional number}",
+            )
+        };
+        match serde_json::Value::deserialize(deserializer)? {
+            serde_json::Value::Number(g) => {
+                g.as_f64().map(SlipLimit::Constant).ok_or_else(expected)
+            }
+            object @ serde_json::Value::Object(_) => {
+                let p = Piecewise::deserialize(object).map_err(serde::de::Error::custom)?;
+                Ok(SlipLimit::PiecewiseLinear {
+                    knots: p.knots,
+                    values: p.values,
+                    max_slope: p.max_slope,
+                })
+            }
+            _ => Err(expected()),
+        }
+    }
+}
+
 impl Default for SlipLimit {
     fn default() -> Self {
         SlipLimit::Constant(0.0)
@@ -352,7 +411,7 @@ impl Default for SlipLimit {
 }
 
 /// Stationary heat problem settings.
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Thermal {
     /// Reference temperature T0 \[K\] of the stress-free state.
@@ -361,18 +420,20 @@ pub struct Thermal {
 }
 
 /// Mesh controls.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MeshControls {
     /// Maximal element edge length \[m\] of the built-in mesher: required unless `gmsh_file` is
     /// given (an imported mesh has its own sizes, and `max_size` is then not used).
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_size: Option<f64>,
     /// Local refinement near segments or inside polygons.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub refine: Vec<Refinement>,
     /// Minimal angle of the quality refinement \[deg\] (≤ 30).
     #[serde(default = "default_min_angle")]
+    #[schemars(extend("exclusiveMinimum" = 0.0), range(max = 30.0))]
     pub min_angle: f64,
     /// Import a Gmsh .msh 4.1 (ASCII) file instead of meshing the polygons. Physical names of
     /// 2D entities map to zone names, of 1D entities to segment names. The command line reads a
@@ -387,7 +448,7 @@ fn default_min_angle() -> f64 {
 }
 
 /// A local refinement: along the given segments and/or inside a polygon.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Refinement {
     /// Names of segments along which the size is lowered.
@@ -398,11 +459,12 @@ pub struct Refinement {
     pub polygon: Option<Vec<Point>>,
     /// Local maximal element edge length \[m\] (> 0); away from the refined places the size grows
     /// linearly back to `mesh.max_size`.
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_size: f64,
 }
 
 /// Criteria regions (FGCS 4.29–4.34).
-#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CriteriaRegions {
     /// Small areas G_r.
@@ -414,7 +476,7 @@ pub struct CriteriaRegions {
 }
 
 /// An area G_r with the point X_r whose outward normal is used by Φ3 and Φ6.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CriterionRegion {
     /// Region name, unique among the regions and boundary pieces.
@@ -430,7 +492,7 @@ pub struct CriterionRegion {
 }
 
 /// A boundary piece G'_r: the part of a segment between two points.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct BoundaryPiece {
     /// Piece name, unique among the regions and boundary pieces.
@@ -449,7 +511,7 @@ pub struct BoundaryPiece {
 }
 
 /// One uncertain datum: the scene field it varies and its interval.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Uncertain {
     /// Path of a scene number, e.g. `materials.rock.E`, `boundary[2].traction[0]`,
@@ -481,6 +543,7 @@ pub struct Uncertain {
     Serialize,
     Deserialize,
     utoipa::ToSchema,
+    JsonSchema,
 )]
 #[serde(rename_all = "lowercase")]
 pub enum Criterion {
@@ -682,8 +745,45 @@ impl utoipa::PartialSchema for CriterionSpec {
 
 impl utoipa::ToSchema for CriterionSpec {}
 
+impl JsonSchema for CriterionSpec {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "CriterionSpec".into()
+    }
+
+    /// What [`CriterionSpec`]'s reader accepts: the text form — `phi1` … `phi6` in any case,
+    /// blanks around it ignored, optionally `@` and a region that is not blank — or the object
+    /// form with the criterion's exact name.
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        schemars::json_schema!({
+            "description": "A criterion: `phi1` … `phi6` (the largest mean over its regions), or \
+                bound to one area or boundary piece as `phi3@NAME` or \
+                `{\"criterion\": \"phi3\", \"region\": \"NAME\"}` (its mean there).",
+            "anyOf": [
+                {
+                    "type": "string",
+                    "pattern": "^\\s*[pP][hH][iI][1-6]\\s*(@[\\s\\S]*\\S[\\s\\S]*)?$",
+                    "examples": ["phi5", "phi3@crest"]
+                },
+                {
+                    "type": "object",
+                    "properties": {
+                        "criterion": generator.subschema_for::<Criterion>(),
+                        "region": {
+                            "description": "The area or boundary piece, by name (not blank).",
+                            "type": ["string", "null"],
+                            "pattern": "\\S"
+                        }
+                    },
+                    "required": ["criterion"],
+                    "additionalProperties": false
+                }
+            ]
+        })
+    }
+}
+
 /// Worst-scenario search settings (design §4.3).
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SearchSettings {
     /// The criteria to search, e.g. `["phi3", "phi5@heel"]`; each gets a maximum and a minimum. A
@@ -699,8 +799,9 @@ pub struct SearchSettings {
     /// thread count.
     #[serde(default = "default_seed")]
     pub seed: u64,
-    /// Wall-time limit \[s\].
+    /// Wall-time limit \[s\] (> 0); absent: none.
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
     pub max_seconds: Option<f64>,
     /// Exact derivatives on every evaluation (default true): they drive the search and certify
     /// its extrema; `false` searches without them.
@@ -750,7 +851,9 @@ impl Default for SearchSettings {
 }
 
 /// Which inner solver runs the state problem.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, utoipa::ToSchema)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, utoipa::ToSchema, JsonSchema,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum SolverKind {
     /// The direct reference solver: a Cholesky factor per body and the condensed contact QP (design
@@ -762,7 +865,7 @@ pub enum SolverKind {
 }
 
 /// Inner solver settings.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSettings {
     /// Which inner solver runs the state problem (default `direct`).
@@ -772,8 +875,9 @@ pub struct SolverSettings {
     /// elements each).
     #[serde(default)]
     pub subdomains: usize,
-    /// Relative tolerance of the DD iterations.
+    /// Relative tolerance [-] of the DD iterations, in (0, 1) (default 1e-10).
     #[serde(default = "default_tolerance")]
+    #[schemars(extend("exclusiveMinimum" = 0.0, "exclusiveMaximum" = 1.0))]
     pub tolerance: f64,
     /// An explicit DD partition instead of the automatic one: every element goes to the first
     /// polygon that contains its centroid (one subdomain per polygon and body), the elements in
@@ -792,7 +896,7 @@ pub struct SolverSettings {
 }
 
 /// How the direct solver treats the contact (design §3.1).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum ContactMethod {
     /// The sparse path from 1,500 pairs on, else the dense one.
@@ -812,7 +916,7 @@ impl ContactMethod {
 }
 
 /// Acceleration of the Coulomb fixed point (design §3.4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum CoulombAcceleration {
     /// Anderson mixing of depth 3 on the normal forces of the Coulomb pairs.
@@ -846,5 +950,36 @@ impl Default for SolverSettings {
             coulomb_acceleration: CoulombAcceleration::default(),
             contact: ContactMethod::default(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_slip_limit_is_a_number_or_an_object_with_known_members() {
+        let read = |text: &str| serde_json::from_str::<SlipLimit>(text);
+        assert!(matches!(read("3e5").unwrap(), SlipLimit::Constant(g) if g == 3e5));
+        let SlipLimit::PiecewiseLinear {
+            knots,
+            values,
+            max_slope,
+        } = read(r#"{"knots": [0, 1], "values": [1, 2], "max_slope": 5}"#).unwrap()
+        else {
+            panic!("the object form")
+        };
+        assert_eq!(
+            (knots, values, max_slope),
+            (vec![0.0, 1.0], vec![1.0, 2.0], Some(5.0))
+        );
+        let e = read(r#"{"knots": [0, 1], "values": [1, 2], "max_slop": 5}"#).unwrap_err();
+        assert!(e.to_string().contains("unknown field `max_slop`"), "{e}");
+        let e = read(r#""abc""#).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("a slip limit: a number, or an object"),
+            "{e}"
+        );
     }
 }

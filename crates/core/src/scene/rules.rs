@@ -36,17 +36,21 @@ pub(crate) enum Constant {
 }
 
 /// Largest modulus, load or slip limit \[Pa, N/m³\].
-const MAX_STRESS: f64 = 1e15;
+pub(crate) const MAX_STRESS: f64 = 1e15;
 /// Smallest positive modulus \[Pa\].
-const MIN_MODULUS: f64 = 1e-3;
+pub(crate) const MIN_MODULUS: f64 = 1e-3;
 /// Largest prescribed displacement \[m\].
 const MAX_DISPLACEMENT: f64 = 1e3;
 /// Largest orientation angle in magnitude \[deg\]: a full turn either way; beyond, the angle
 /// is no orientation a user means (and 1e308° has no accurate sine).
-const MAX_ANGLE: f64 = 360.0;
+pub(crate) const MAX_ANGLE: f64 = 360.0;
 /// Largest friction coefficient [-] (measured coefficients are below 2; far beyond that the
 /// Coulomb problem has no unique solution and the fixed point cannot converge).
-const MAX_FRICTION: f64 = 100.0;
+pub(crate) const MAX_FRICTION: f64 = 100.0;
+/// Smallest conductivity \[W/(m K)\].
+pub(crate) const MIN_CONDUCTIVITY: f64 = 1e-9;
+/// Largest conductivity \[W/(m K)\].
+pub(crate) const MAX_CONDUCTIVITY: f64 = 1e9;
 
 impl Constant {
     /// Whether `v` is admissible (false for NaN).
@@ -54,7 +58,7 @@ impl Constant {
         match self {
             Constant::Young | Constant::Mu => (MIN_MODULUS..=MAX_STRESS).contains(&v),
             Constant::Lambda => v == 0.0 || (MIN_MODULUS..=MAX_STRESS).contains(&v),
-            Constant::Conductivity => (1e-9..=1e9).contains(&v),
+            Constant::Conductivity => (MIN_CONDUCTIVITY..=MAX_CONDUCTIVITY).contains(&v),
             Constant::OrthotropicPoisson => v.is_finite(),
             Constant::MatrixEntry => v.abs() <= MAX_STRESS,
             Constant::SlipLimit => (0.0..=MAX_STRESS).contains(&v),

@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
 use super::error::{ApiError, ErrorBody};
+use super::schema::SceneDocument;
 use super::{query, AppState};
 use crate::jobs::{now, JobRecord, JobState, Page};
 use wsm_core::run::{
@@ -150,7 +151,7 @@ async fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
 /// The scene document of a job, as submitted (for drawing its regions and contact zones).
 #[utoipa::path(get, path = "/v1/jobs/{id}/scene", tag = "jobs",
     params(("id" = String, Path, description = "Job id")),
-    responses((status = 200, description = "The scene document", body = Object),
+    responses((status = 200, description = "The scene document", body = SceneDocument),
         (status = 401, description = "Token required", body = ErrorBody),
         (status = 404, body = ErrorBody)))]
 pub async fn job_scene(

@@ -8,6 +8,7 @@ use serde_json::Value;
 use utoipa::ToSchema;
 
 use super::error::{ApiError, ErrorBody};
+use super::schema::SceneDocument;
 use super::AppState;
 
 /// A bundled example scene.
@@ -43,7 +44,7 @@ pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
 /// One bundled example scene (a starting point for your own).
 #[utoipa::path(get, path = "/v1/examples/{name}", tag = "examples",
     params(("name" = String, Path, description = "Example name")),
-    responses((status = 200, description = "The scene document", body = Object),
+    responses((status = 200, description = "The scene document", body = SceneDocument),
         (status = 404, body = ErrorBody)))]
 pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiError> {
     let text =

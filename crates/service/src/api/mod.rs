@@ -1,6 +1,6 @@
 //! The HTTP API of `wsm serve` (design §5.3): axum routes over the job store and the front door,
 //! documented as OpenAPI 3.1 by utoipa (served at `/openapi.json`, checked in as
-//! `openapi/openapi.json`). Request bodies are parsed here so that every bad field answers 422
+//! `openapi/openapi.json`, the scene's JSON Schema among its components). Request bodies are parsed here so that every bad field answers 422
 //! with its JSON path; job endpoints require the bearer token when one is configured
 //! ([`Access`]).
 
@@ -10,6 +10,7 @@ mod guard;
 mod jobs;
 mod misc;
 mod query;
+mod schema;
 mod solves;
 mod submit;
 
@@ -191,18 +192,20 @@ fn routes() -> OpenApiRouter<AppState> {
         .routes(routes!(misc::list_examples))
         .routes(routes!(misc::get_example))
         .routes(routes!(misc::health))
+        .routes(routes!(schema::scene_schema))
 }
 
 /// The service's router: the API, `/openapi.json`, and the body-size limit.
 pub fn router(state: AppState) -> Router {
     let body_limit = state.limits.max_body_bytes;
     let (router, api) = routes().with_state(state).split_for_parts();
+    let document = Arc::new(document(&api));
     router
         .route(
             "/openapi.json",
             axum::routing::get(move || {
-                let api = api.clone();
-                async move { axum::Json(api) }
+                let document = Arc::clone(&document);
+                async move { axum::Json(document.as_ref().clone()) }
             }),
         )
         .layer(DefaultBodyLimit::max(body_limit))
@@ -217,8 +220,14 @@ pub fn guarded(app: Router, limits: &Limits) -> Router {
     app.layer(axum::middleware::from_fn_with_state(body, guard::guard))
 }
 
+/// The OpenAPI document of `api` with the scene's JSON Schema among its components.
+fn document(api: &utoipa::openapi::OpenApi) -> serde_json::Value {
+    let document = serde_json::to_value(api).expect("the OpenAPI document is JSON");
+    schema::with_scene_components(document)
+}
+
 /// The OpenAPI document as served and as checked in (`openapi/openapi.json`).
 pub fn openapi_json() -> Result<String, serde_json::Error> {
     let (_, api) = routes().split_for_parts();
-    api.to_pretty_json().map(|text| text + "\n")
+    serde_json::to_string_pretty(&document(&api)).map(|text| text + "\n")
 }

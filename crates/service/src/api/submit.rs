@@ -15,6 +15,7 @@ use utoipa::ToSchema;
 
 use super::body::parse_body;
 use super::error::{join_path, ApiError, ErrorBody};
+use super::schema::SceneDocument;
 use super::{AppState, Limits};
 use crate::jobs::{JobState, NewJob};
 use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
@@ -24,9 +25,9 @@ use wsm_core::scene::Scene;
 #[derive(Debug, Clone, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct JobSubmission {
-    /// The scene document (see the README's scene format; SI units throughout). Give this or
-    /// `example`.
-    #[schema(value_type = Object)]
+    /// The scene document (the README's scene format, its JSON Schema `GET /v1/schema/scene`; SI
+    /// units throughout). Give this or `example`.
+    #[schema(value_type = Option<SceneDocument>)]
     #[serde(default)]
     pub scene: Option<Value>,
     /// The name of a bundled example scene (`GET /v1/examples`).
@@ -42,7 +43,7 @@ pub struct JobSubmission {
 #[serde(deny_unknown_fields)]
 pub struct SolveSubmission {
     /// The scene document. Give this or `example`.
-    #[schema(value_type = Object)]
+    #[schema(value_type = Option<SceneDocument>)]
     #[serde(default)]
     pub scene: Option<Value>,
     /// The name of a bundled example scene.
