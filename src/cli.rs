@@ -175,6 +175,7 @@ pub fn worst(
     } else if let Some(log) = &memory_log {
         control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
     }
+    let fields_scene = files.fields.as_ref().map(|_| scene.clone());
     let outcome = run::worst(scene, &request, &control)?;
     bar.finish_and_clear();
     eprint!("{}", run::summary(&outcome));
@@ -196,7 +197,29 @@ pub fn worst(
             &evaluations,
         )?;
     }
+    if let (Some(dir), Some(scene)) = (&files.fields, fields_scene) {
+        write_scenario_fields(dir, scene, &outcome)?;
+    }
     to_json(&without_histories(outcome))
+}
+
+/// `wsm worst --fields DIR`: a VTU per scenario (nominal, worst and best of every criterion)
+/// and their index `scenarios.pvd` in `dir`; scenarios without data are named on stderr.
+fn write_scenario_fields(dir: &Path, scene: Scene, outcome: &WorstOutcome) -> Result<(), WsmError> {
+    let (series, skipped) = run::scenario_series(scene, outcome, &SolveRequest::default())?;
+    for reason in skipped {
+        eprintln!("warning: --fields: {reason}; its file is left out");
+    }
+    for s in &series {
+        write_in(dir, &s.file, s.output.vtu.as_deref().unwrap_or_default())?;
+    }
+    write_in(dir, "scenarios.pvd", &run::series_index(&series))?;
+    eprintln!(
+        "fields of {} scenarios written to {}",
+        series.len(),
+        dir.join("scenarios.pvd").display()
+    );
+    Ok(())
 }
 
 /// The outcome as printed: the convergence histories are left to `--out`.
