@@ -120,7 +120,8 @@ pub struct SolveArgs {
     /// Write the full result (fields, contact results) as JSON.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a ParaView VTU file.
+    /// Write a VTU file (binary) for ParaView, PyVista and meshio: fields, stress tensor and
+    /// measures, contact zones as line cells, the scenario in its field data.
     #[arg(long)]
     pub vtu: Option<PathBuf>,
 }

@@ -263,3 +263,27 @@ pub fn series_index(series: &[ScenarioFields]) -> String {
         .collect();
     write_pvd(&entries)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Criterion;
+
+    #[test]
+    fn titles_and_file_stems() {
+        let bound = CriterionSpec {
+            criterion: Criterion::Phi3,
+            region: Some("crest/left side".into()),
+        };
+        let free = CriterionSpec {
+            criterion: Criterion::Phi5,
+            region: None,
+        };
+        assert_eq!(Scenario::Nominal.title(), "nominal");
+        assert_eq!(Scenario::Nominal.file_stem(), "nominal");
+        assert_eq!(Scenario::Best(free).file_stem(), "best-phi5");
+        let worst = Scenario::Worst(bound);
+        assert_eq!(worst.title(), "worst phi3@crest/left side");
+        assert_eq!(worst.file_stem(), "worst-phi3-at-crest_left_side");
+    }
+}
