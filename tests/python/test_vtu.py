@@ -249,3 +249,18 @@ def test_vtk_reads_the_tensor_as_paraview_does(run_wsm, tmp_path):
     wsm_sigma = np.sort(np.stack([triangles.cell_data[f"principal_stress_{k}"] for k in (1, 2, 3)], 1), 1)
     np.testing.assert_allclose(vtk_sigma, wsm_sigma, rtol=1e-9, atol=1e-9 * np.abs(wsm_sigma).max())
     assert bytes(grid.field_data["scenario"]).decode() == "nominal"
+
+
+def test_fields_are_on_the_mesh_the_run_chose(run_wsm, tmp_path):
+    """With a target error the run solves on a mesh of its ladder; its fields are on that mesh."""
+    out, fields = tmp_path / "worst.json", tmp_path / "fields"
+    run_wsm(
+        "worst", "--example", "block-on-base", "--budget", "10", "--target-error", "0.05",
+        "--accuracy-refinements", "0", "--out", out, "--fields", fields,
+    )
+    choice = json.loads(out.read_text())["mesh_choice"]
+    chosen = next(c for c in choice["candidates"] if c["size_factor"] == choice["size_factor"])
+    default = json.loads(run_wsm("solve", "--example", "block-on-base").stdout)["mesh"]["triangles"]
+    assert chosen["triangles"] != default
+    for path in fields.glob("*.vtu"):
+        assert len(meshio.read(path).cells_dict["triangle"]) == chosen["triangles"], path.name
