@@ -120,7 +120,8 @@ pub struct SolveArgs {
     /// Write the full result (fields, contact results) as JSON.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Write a ParaView VTU file.
+    /// Write a VTU file (binary) for ParaView, PyVista and meshio: fields, stress tensor and
+    /// measures, contact zones as line cells, the scenario in its field data.
     #[arg(long)]
     pub vtu: Option<PathBuf>,
 }
@@ -185,6 +186,10 @@ pub struct WorstArgs {
     /// Write one CSV row per evaluation (parameters, criteria, KKT residual, time).
     #[arg(long)]
     pub table: Option<PathBuf>,
+    /// Write the fields of the nominal, worst and best scenarios of every criterion into this
+    /// directory: one binary VTU each and `scenarios.pvd`, the series for ParaView.
+    #[arg(long, value_name = "DIR")]
+    pub fields: Option<PathBuf>,
 }
 
 impl TryFrom<&WorstArgs> for WorstRequest {
@@ -212,6 +217,7 @@ impl From<&WorstArgs> for WorstFiles {
             log: args.log.clone(),
             resume: args.resume.clone(),
             table: args.table.clone(),
+            fields: args.fields.clone(),
         }
     }
 }
@@ -528,4 +534,5 @@ pub struct WorstFiles {
     pub log: Option<PathBuf>,
     pub resume: Option<PathBuf>,
     pub table: Option<PathBuf>,
+    pub fields: Option<PathBuf>,
 }

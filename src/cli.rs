@@ -11,7 +11,7 @@ use serde::Serialize;
 use wsm_core::error::WsmError;
 use wsm_core::run::{
     self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
-    SolveRequest, WorstRequest,
+    SolveRequest, WorstOutcome, WorstRequest,
 };
 use wsm_core::scene::{parse, Scene, SceneError};
 
@@ -168,6 +168,7 @@ pub fn worst(
     } else if let Some(log) = &memory_log {
         control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
     }
+    let fields_scene = files.fields.as_ref().map(|_| scene.clone());
     let outcome = run::worst(scene, &request, &control)?;
     bar.finish_and_clear();
     eprint!("{}", run::summary(&outcome));
@@ -189,7 +190,29 @@ pub fn worst(
             &evaluations,
         )?;
     }
+    if let (Some(dir), Some(scene)) = (&files.fields, fields_scene) {
+        write_scenario_fields(dir, scene, &outcome)?;
+    }
     to_json(&outcome.without_histories())
+}
+
+/// `wsm worst --fields DIR`: a VTU per scenario (nominal, worst and best of every criterion)
+/// and their index `scenarios.pvd` in `dir`; scenarios without data are named on stderr.
+fn write_scenario_fields(dir: &Path, scene: Scene, outcome: &WorstOutcome) -> Result<(), WsmError> {
+    let (series, skipped) = run::scenario_series(scene, outcome, &SolveRequest::default())?;
+    for reason in skipped {
+        eprintln!("warning: --fields: {reason}; its file is left out");
+    }
+    for s in &series {
+        write_in(dir, &s.file, s.output.vtu.as_deref().unwrap_or_default())?;
+    }
+    write_in(dir, "scenarios.pvd", &run::series_index(&series))?;
+    eprintln!(
+        "fields of {} scenarios written to {}",
+        series.len(),
+        dir.join("scenarios.pvd").display()
+    );
+    Ok(())
 }
 
 /// `wsm example`: a scene's JSON, or the list of names.

@@ -104,6 +104,25 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         &format!("/v1/jobs/{id}/fields?criterion=phi3&format=vtu"),
     );
     assert!(String::from_utf8_lossy(&vtu.body).contains("<VTKFile"));
+    assert!(vtu
+        .header("content-disposition")
+        .is_some_and(|d| d.contains(&format!("{id}-worst-phi3.vtu"))));
+    // The nominal scenario: the summary of a plain solve of the scene, a VTU without criterion.
+    let nominal = get(addr, &format!("/v1/jobs/{id}/fields?scenario=nominal")).json();
+    let solved = post(addr, "/v1/solve", &json!({ "example": "block-on-base" })).json();
+    assert_eq!(
+        nominal["summary"]["criteria"],
+        solved["summary"]["criteria"]
+    );
+    let vtu = get(
+        addr,
+        &format!("/v1/jobs/{id}/fields?scenario=nominal&format=vtu"),
+    );
+    let text = String::from_utf8_lossy(&vtu.body);
+    assert!(text.contains("Name=\"scenario\"") && !text.contains("Name=\"criterion\""));
+    let bad = get(addr, &format!("/v1/jobs/{id}/fields?scenario=sideways"));
+    assert_eq!(bad.status, 422);
+    assert_eq!(bad.json()["path"], "scenario");
     // SSE of a finished job: one status event, then the stream ends.
     let events = get(addr, &format!("/v1/jobs/{id}/events"));
     assert_eq!(events.header("content-type"), Some("text/event-stream"));

@@ -1,5 +1,5 @@
 //! `wsm._native`: the engine's front door (`wsm_core::run`) for the Python package (README
-//! "Python", design §5.6). Scenes, requests and results cross as JSON text through the same
+//! "Python", design §5.7). Scenes, requests and results cross as JSON text through the same
 //! serde types the command line and the service use, so a result's JSON here is the CLI's, bit
 //! for bit; the pure-Python layer (`crates/python/python/wsm/`) turns it into dicts, NumPy
 //! arrays and DataFrames.

@@ -1,16 +1,15 @@
 //! Typed renderings of a state solution: a short summary (criteria, mesh sizes, contact zones,
 //! solver report) and the full result (nodal and element fields, contact results), both plain
-//! serde types, and VTU files for ParaView.
+//! serde types.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::vtu::{write_vtu, Field};
 use crate::scene::{Criterion, Data};
 use crate::state::{
-    piece_pressures, region_name, zone_summaries, ContactNode, ContactState, Solution, SolveReport,
-    StateProblem, ZoneSummary,
+    piece_pressures, region_name, zone_summaries, ContactNode, Solution, SolveReport, StateProblem,
+    ZoneSummary,
 };
 
 /// Φ1–Φ6 of one solve (`None`: not requested, or the scene has no region for it).
@@ -183,90 +182,4 @@ pub fn fields(problem: &StateProblem, solution: &Solution) -> SolveFields {
         i2_squared: solution.stresses.iter().map(|s| s.i2_squared()).collect(),
         contact: solution.contact.clone(),
     }
-}
-
-/// A VTU file with displacement, temperature, stresses, I2², zones and contact results.
-pub fn vtu(problem: &StateProblem, solution: &Solution) -> String {
-    let mesh = problem.mesh();
-    let n = mesh.nodes.len();
-    let mut points = Vec::new();
-    if !solution.displacement.is_empty() {
-        points.push(Field {
-            name: "displacement",
-            components: 3,
-            values: solution
-                .displacement
-                .iter()
-                .flat_map(|u| [u[0], u[1], 0.0])
-                .collect(),
-        });
-    }
-    if let Some(t) = &solution.temperature {
-        points.push(Field {
-            name: "temperature",
-            components: 1,
-            values: t.clone(),
-        });
-    }
-    if !solution.contact.is_empty() {
-        let mut pressure = vec![0.0; n];
-        let mut shear = vec![0.0; n];
-        let mut gap = vec![0.0; n];
-        let mut state = vec![-1.0; n];
-        for (c, pair) in solution.contact.iter().zip(&problem.contact.geometry.pairs) {
-            for node in pair.nodes {
-                pressure[node] = c.pressure;
-                shear[node] = c.shear;
-                gap[node] = c.gap;
-                state[node] = match c.state {
-                    ContactState::Open => 0.0,
-                    ContactState::Stick => 1.0,
-                    ContactState::Slip => 2.0,
-                };
-            }
-        }
-        points.push(Field {
-            name: "contact_pressure",
-            components: 1,
-            values: pressure,
-        });
-        points.push(Field {
-            name: "contact_shear",
-            components: 1,
-            values: shear,
-        });
-        points.push(Field {
-            name: "contact_gap",
-            components: 1,
-            values: gap,
-        });
-        points.push(Field {
-            name: "contact_state",
-            components: 1,
-            values: state,
-        });
-    }
-    let mut cells = vec![Field {
-        name: "zone",
-        components: 1,
-        values: mesh.triangle_zone.iter().map(|&z| z as f64).collect(),
-    }];
-    if !solution.stresses.is_empty() {
-        for (k, name) in ["stress_xx", "stress_yy", "stress_xy", "stress_zz"]
-            .into_iter()
-            .enumerate()
-        {
-            cells.push(Field {
-                name,
-                components: 1,
-                values: solution.stresses.iter().map(|s| s.stress[k]).collect(),
-            });
-        }
-        cells.push(Field {
-            name: "i2_squared",
-            components: 1,
-            values: solution.stresses.iter().map(|s| s.i2_squared()).collect(),
-        });
-    }
-    write_vtu(mesh, &points, &cells)
 }

@@ -16,6 +16,7 @@ mod model;
 mod points;
 mod remote;
 mod request;
+mod scenarios;
 mod summary;
 mod table;
 
@@ -29,6 +30,9 @@ pub use model::{check_admissible_set, parameter_info, PreparedModel};
 pub use points::{evaluate_points, PointAnswer, PointEvaluator};
 pub use remote::{BatchDispatch, DispatchedBatch, LocalEvaluate};
 pub use request::{SolveRequest, WorstRequest};
+pub use scenarios::{
+    scenario_series, scenario_solve, series_index, Scenario, ScenarioFields, ScenarioMissing,
+};
 pub use summary::summary;
 pub use table::{columns as table_columns, write_csv};
 
@@ -59,10 +63,12 @@ use crate::estimate::statement::{
     default_refinements, refinement_factor, statement, AccuracyStatement, StatementControl,
 };
 use crate::fem::Par;
+use crate::output::solution_grid::{solution_grid, ScenarioLabel};
+use crate::output::vtu::write_vtu;
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::check_admissible_box;
 use crate::scenario::worst::{self as engine, WorstSettings};
-use crate::scene::params::{apply, parameters, Parameter};
+use crate::scene::params::{applied_values, apply, parameters, values, Parameter};
 use crate::scene::Scene;
 use crate::state::{locking_warnings, Needs, SolveOptions, StateProblem};
 use control::{best_so_far, phase_objective};
@@ -77,7 +83,8 @@ pub struct SolveOutput {
     /// The fields, when requested.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fields: Option<SolveFields>,
-    /// The solution as a VTU document for ParaView, when fields were requested.
+    /// The solution as a VTU document (binary, design §5.6) for ParaView, PyVista and meshio,
+    /// when fields were requested.
     #[serde(skip)]
     pub vtu: Option<String>,
 }
@@ -100,32 +107,61 @@ pub fn solve(scene: Scene, request: &SolveRequest) -> Result<SolveOutput, WsmErr
 
 /// One state solve at given values of the uncertain parameters (in the order of the scene's
 /// `uncertain` list; `None`: the nominal data) — e.g. the worst scenario of a criterion. The
-/// scene's warnings (`crate::scene::warnings`) come first in the report's warnings.
+/// scene's warnings (`crate::scene::warnings`) come first in the report's warnings. The VTU
+/// names the scenario `nominal`, or `data` at a given point.
 pub fn solve_at(
-    mut scene: Scene,
+    scene: Scene,
     point: Option<&[f64]>,
     request: &SolveRequest,
 ) -> Result<SolveOutput, WsmError> {
+    let scene = with_solver(scene, request);
+    let params = parameters(&scene)?;
+    if let Some(p) = point {
+        check_point(p, &params)?;
+    }
+    let problem = StateProblem::new(scene)?;
+    let (data, solution) = solve_point(&problem, &params, point)?;
+    let label = scenario_label(
+        &problem,
+        &params,
+        point,
+        if point.is_some() { "data" } else { "nominal" },
+    );
+    Ok(solve_output(&problem, &data, &solution, &label, request))
+}
+
+/// `scene` with the request's inner solver, if it names one.
+fn with_solver(mut scene: Scene, request: &SolveRequest) -> Scene {
     if let Some(kind) = request.solver {
         scene.solver.kind = kind;
     }
-    let params = parameters(&scene)?;
-    if let Some(p) = point {
-        if p.len() != params.len() {
-            return Err(crate::scene::SceneError::new(
-                "point",
-                format!(
-                    "{} values for {} uncertain parameters",
-                    p.len(),
-                    params.len()
-                ),
-            )
-            .into());
-        }
+    scene
+}
+
+/// A point must give one value per uncertain parameter.
+fn check_point(point: &[f64], params: &[Parameter]) -> Result<(), WsmError> {
+    if point.len() == params.len() {
+        return Ok(());
     }
-    let problem = StateProblem::new(scene)?;
+    Err(crate::scene::SceneError::new(
+        "point",
+        format!(
+            "{} values for {} uncertain parameters",
+            point.len(),
+            params.len()
+        ),
+    )
+    .into())
+}
+
+/// The data of `point` (`None`: nominal) and its solution with every field.
+fn solve_point(
+    problem: &StateProblem,
+    params: &[Parameter],
+    point: Option<&[f64]>,
+) -> Result<(crate::scene::Data, crate::state::Solution), WsmError> {
     let data = match point {
-        Some(p) => apply(&problem.scene, &problem.nominal, &params, p),
+        Some(p) => apply(&problem.scene, &problem.nominal, params, p),
         None => problem.nominal.clone(),
     };
     let options = SolveOptions {
@@ -134,22 +170,55 @@ pub fn solve_at(
         warm: None,
     };
     let solution = problem.solve(&data, &options)?;
-    let mut summary = crate::output::result::summary(&problem, &data, &solution);
+    Ok((data, solution))
+}
+
+/// The label of the solve of `point` (`None`: nominal) as scenario `scenario`, with the value of
+/// every uncertain parameter in its data.
+fn scenario_label(
+    problem: &StateProblem,
+    params: &[Parameter],
+    point: Option<&[f64]>,
+    scenario: &str,
+) -> ScenarioLabel {
+    let values = match point {
+        Some(p) => applied_values(&problem.scene, &problem.nominal, params, p),
+        None => values(&problem.nominal, params),
+    };
+    ScenarioLabel {
+        scenario: scenario.to_string(),
+        criterion: None,
+        criterion_value: None,
+        data: params.iter().map(|p| p.name.clone()).zip(values).collect(),
+    }
+}
+
+/// The output of a solve: its summary (the scene's warnings first), and the fields and the VTU
+/// labelled `label` when the request asks for fields.
+fn solve_output(
+    problem: &StateProblem,
+    data: &crate::scene::Data,
+    solution: &crate::state::Solution,
+    label: &ScenarioLabel,
+    request: &SolveRequest,
+) -> SolveOutput {
+    let mut summary = crate::output::result::summary(problem, data, solution);
     let scene_warnings = crate::scene::warnings(&problem.scene);
     summary.report.warnings.splice(0..0, scene_warnings);
     let (fields, vtu) = if request.fields {
+        let grid = solution_grid(problem, solution, label);
         (
-            Some(crate::output::result::fields(&problem, &solution)),
-            Some(crate::output::result::vtu(&problem, &solution)),
+            Some(crate::output::result::fields(problem, solution)),
+            Some(write_vtu(&grid)),
         )
     } else {
         (None, None)
     };
-    Ok(SolveOutput {
+    SolveOutput {
         summary,
         fields,
         vtu,
-    })
+    }
 }
 
 /// The log header of a run: its hash, scene, criteria and parameter fields.

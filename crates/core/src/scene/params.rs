@@ -663,6 +663,11 @@ pub fn applied_values(
         .collect()
 }
 
+/// The value each parameter's datum takes in `data` (e.g. the nominal data).
+pub fn values(data: &Data, params: &[Parameter]) -> Vec<f64> {
+    params.iter().map(|p| value(data, p.target)).collect()
+}
+
 /// Set the slope-limited slip limits of `data` to the least elements of their sets.
 pub fn least_slip_limits(scene: &Scene, params: &[Parameter], data: &mut Data) {
     for set in slope_sets(scene, params) {

@@ -19,8 +19,8 @@ use super::schema::SceneDocument;
 use super::{query, AppState};
 use crate::jobs::{now, JobRecord, JobState, Page};
 use wsm_core::run::{
-    self, BestSoFar, CriterionOutcome, ParameterInfo, RunPhase, SolveOutput, SolveRequest,
-    WorstOutcome,
+    self, BestSoFar, CriterionOutcome, ParameterInfo, RunPhase, Scenario, ScenarioMissing,
+    SolveOutput, SolveRequest, WorstOutcome,
 };
 use wsm_core::scene::{CriterionSpec, Scene};
 
@@ -456,16 +456,19 @@ pub async fn cancel_job(
 #[derive(Debug, Deserialize, IntoParams)]
 #[into_params(parameter_in = Query)]
 pub struct FieldsQuery {
-    /// `worst` (default) or `best`.
+    /// `worst` (default), `best` or `nominal` (the scene's own data).
     pub scenario: Option<String>,
-    /// The criterion whose worst or best data to use (default: the first requested).
+    /// The criterion whose worst or best data to use (default: the first requested; not used
+    /// for `nominal`).
     pub criterion: Option<String>,
-    /// `json` (default: mesh, fields and summary) or `vtu` (a ParaView file).
+    /// `json` (default: mesh, fields and summary) or `vtu` (a binary VTU file for ParaView,
+    /// PyVista and meshio, naming the scenario and its data in its field data).
     pub format: Option<String>,
 }
 
 /// The mesh and fields (displacement \[m\], temperature \[K\], stresses \[Pa\], I2² \[Pa²\],
-/// contact pressure \[Pa\] and slip \[m\]) of a job's worst or best scenario.
+/// contact pressure \[Pa\] and slip \[m\]) of a job's nominal, worst or best scenario, solved on
+/// the job's mesh.
 #[utoipa::path(get, path = "/v1/jobs/{id}/fields", tag = "jobs",
     params(("id" = String, Path, description = "Job id"), FieldsQuery),
     responses((status = 200, body = SolveOutput),
@@ -480,40 +483,34 @@ pub async fn job_fields(
     state.access.authorize_read(&headers)?;
     let q: FieldsQuery = query::parse(raw)?;
     let (job, outcome) = outcome(&state, &id).await?;
-    let criterion = match &q.criterion {
-        Some(name) => {
-            CriterionSpec::parse(name).map_err(|why| ApiError::invalid("criterion", why))?
+    let scenario_name = q.scenario.as_deref().unwrap_or("worst");
+    let criterion = || -> Result<CriterionSpec, ApiError> {
+        match &q.criterion {
+            Some(name) => {
+                CriterionSpec::parse(name).map_err(|why| ApiError::invalid("criterion", why))
+            }
+            None => outcome
+                .criteria
+                .first()
+                .map(|c| c.criterion.clone())
+                .ok_or_else(|| ApiError::conflict("the job has no criteria")),
         }
-        None => outcome
-            .criteria
-            .first()
-            .map(|c| c.criterion.clone())
-            .ok_or_else(|| ApiError::conflict("the job has no criteria"))?,
     };
-    let c = outcome
-        .criteria
-        .iter()
-        .find(|c| c.criterion == criterion)
-        .ok_or_else(|| {
-            ApiError::invalid(
-                "criterion",
-                format!("the job did not search {}", criterion.name()),
-            )
-        })?;
-    let extremum = match q.scenario.as_deref().unwrap_or("worst") {
-        "worst" => &c.worst,
-        "best" => &c.best,
+    let scenario = match scenario_name {
+        "nominal" => Scenario::Nominal,
+        "worst" => Scenario::Worst(criterion()?),
+        "best" => Scenario::Best(criterion()?),
         other => {
             return Err(ApiError::invalid(
                 "scenario",
-                format!("'{other}' is not worst or best"),
+                format!("'{other}' is not nominal, worst or best"),
             ))
         }
     };
-    let point = extremum
-        .point
-        .clone()
-        .ok_or_else(|| ApiError::conflict("no feasible point was found for this criterion"))?;
+    scenario.point(&outcome).map_err(|missing| match missing {
+        ScenarioMissing::NotSearched(_) => ApiError::invalid("criterion", missing.to_string()),
+        ScenarioMissing::NoPoint(_) => ApiError::conflict(missing.to_string()),
+    })?;
     let vtu = match q.format.as_deref().unwrap_or("json") {
         "json" => false,
         "vtu" => true,
@@ -530,25 +527,21 @@ pub async fn job_fields(
         fields: true,
     };
     let place = state.solves.take()?;
+    let file = format!("{id}-{}.vtu", scenario.file_stem());
     let output = tokio::task::spawn_blocking(move || {
         let _place = place;
-        run::solve_at(scene, Some(&point), &request)
+        run::scenario_solve(scene, &outcome, &scenario, &request)
     })
     .await
     .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
     .map_err(|e| ApiError::engine(e, "scene"))?;
     if vtu {
-        let name = format!(
-            "{id}-{}-{}.vtu",
-            q.scenario.as_deref().unwrap_or("worst"),
-            criterion.name()
-        );
         Ok((
             [
                 (header::CONTENT_TYPE, "application/xml".to_string()),
                 (
                     header::CONTENT_DISPOSITION,
-                    format!("attachment; filename=\"{name}\""),
+                    format!("attachment; filename=\"{file}\""),
                 ),
             ],
             output.vtu.unwrap_or_default(),

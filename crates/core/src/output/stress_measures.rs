@@ -1,0 +1,93 @@
+//! Derived stress measures of the written fields (design §5.6): the symmetric tensor in
+//! ParaView's component order, the von Mises stress and the principal stresses of a
+//! plane-strain stress (τ11, τ22, τ12, τ33), τ33 = σ_zz being the out-of-plane stress.
+
+use crate::fem::stress::i2_squared;
+
+/// The six components in ParaView's symmetric-tensor order (XX, YY, ZZ, XY, YZ, XZ);
+/// YZ = XZ = 0 in plane strain.
+pub fn tensor6([s11, s22, s12, s33]: [f64; 4]) -> [f64; 6] {
+    [s11, s22, s33, s12, 0.0, 0.0]
+}
+
+/// The von Mises stress √(3/2 I2²) = √(½[(σ11−σ22)² + (σ22−σ33)² + (σ33−σ11)²] + 3σ12²)
+/// \[Pa\], with I2² = τᴰ:τᴰ the invariant of the criterion Φ5 (design §4.2).
+pub fn von_mises(stress: [f64; 4]) -> f64 {
+    (1.5 * i2_squared(stress)).max(0.0).sqrt()
+}
+
+/// The principal stresses of a plane-strain stress and the direction of the first.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Principal {
+    /// The larger in-plane principal stress σ1 \[Pa\].
+    pub sigma1: f64,
+    /// The smaller in-plane principal stress σ2 ≤ σ1 \[Pa\].
+    pub sigma2: f64,
+    /// The out-of-plane principal stress σ3 = σ_zz \[Pa\] (not ordered against σ1, σ2).
+    pub sigma3: f64,
+    /// The unit direction (cos θ, sin θ, 0) of σ1, θ ∈ (−90°, 90°] from the x axis.
+    pub direction: [f64; 3],
+}
+
+/// The principal stresses of (τ11, τ22, τ12, τ33): σ1,2 = c ± √(d² + τ12²) with
+/// c = (τ11 + τ22)/2, d = (τ11 − τ22)/2, and θ = ½ atan2(τ12, d) the angle of σ1.
+pub fn principal([s11, s22, s12, s33]: [f64; 4]) -> Principal {
+    let centre = 0.5 * (s11 + s22);
+    let half_difference = 0.5 * (s11 - s22);
+    let radius = half_difference.hypot(s12);
+    let theta = 0.5 * s12.atan2(half_difference);
+    Principal {
+        sigma1: centre + radius,
+        sigma2: centre - radius,
+        sigma3: s33,
+        direction: [theta.cos(), theta.sin(), 0.0],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const STRESS: [f64; 4] = [50.0, -30.0, 30.0, 10.0];
+
+    #[test]
+    fn von_mises_of_a_known_stress() {
+        // ½[(50+30)² + (−30−10)² + (10−50)²] + 3·30² = ½(6400+1600+1600) + 2700 = 7500.
+        assert!((von_mises(STRESS) - 7500f64.sqrt()).abs() < 1e-12);
+        // Uniaxial tension: von Mises is the tension itself.
+        assert!((von_mises([7.0, 0.0, 0.0, 0.0]) - 7.0).abs() < 1e-12);
+        // Hydrostatic: zero.
+        assert!(von_mises([-3.0, -3.0, 0.0, -3.0]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn principal_stresses_of_a_known_stress() {
+        // Mohr's circle: centre 10, radius √(40² + 30²) = 50; 2θ = atan2(30, 40).
+        let p = principal(STRESS);
+        assert!((p.sigma1 - 60.0).abs() < 1e-12 && (p.sigma2 + 40.0).abs() < 1e-12);
+        assert_eq!(p.sigma3, 10.0);
+        let theta = 0.5 * (0.75f64).atan();
+        assert!((p.direction[0] - theta.cos()).abs() < 1e-12);
+        assert!((p.direction[1] - theta.sin()).abs() < 1e-12);
+        // σ1 acts along its direction: σ·d = σ1 d.
+        let [c, s, _] = p.direction;
+        assert!((STRESS[0] * c + STRESS[2] * s - p.sigma1 * c).abs() < 1e-12);
+        assert!((STRESS[2] * c + STRESS[1] * s - p.sigma1 * s).abs() < 1e-12);
+        // The von Mises stress of the principal stresses is the same.
+        let diagonal = [p.sigma1, p.sigma2, 0.0, p.sigma3];
+        assert!((von_mises(diagonal) - von_mises(STRESS)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn pure_shear_and_the_tensor_order() {
+        let p = principal([0.0, 0.0, 5.0, 0.0]);
+        assert!((p.sigma1 - 5.0).abs() < 1e-12 && (p.sigma2 + 5.0).abs() < 1e-12);
+        let diagonal = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((p.direction[0] - diagonal).abs() < 1e-12);
+        assert!((p.direction[1] - diagonal).abs() < 1e-12);
+        assert_eq!(
+            tensor6([1.0, 2.0, 3.0, 4.0]),
+            [1.0, 2.0, 4.0, 3.0, 0.0, 0.0]
+        );
+    }
+}
