@@ -75,14 +75,15 @@ fn check_scene(scene: &str) -> PyResult<()> {
     parse(scene).map(drop).map_err(|e| raise(e.into()))
 }
 
-/// One state solve: the JSON of the summary and, with `fields`, the fields.
+/// One state solve: the JSON of the summary and, with `fields`, the fields; and with fields
+/// the VTU document `wsm solve --vtu` writes.
 #[pyfunction]
 #[pyo3(signature = (scene, request))]
-fn solve(py: Python<'_>, scene: &str, request: &str) -> PyResult<String> {
+fn solve(py: Python<'_>, scene: &str, request: &str) -> PyResult<(String, Option<String>)> {
     let scene = parse(scene).map_err(|e| raise(e.into()))?;
     let request: SolveRequest = serde_json::from_str(request).map_err(|e| bad_json("solver", e))?;
     let output = py.detach(|| run::solve(scene, &request)).map_err(raise)?;
-    to_json(&output)
+    Ok((to_json(&output)?, output.vtu))
 }
 
 /// A worst-scenario run: `(outcome, printed, table, summary)` — the full outcome's JSON, the

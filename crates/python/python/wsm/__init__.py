@@ -58,8 +58,8 @@ def solve(scene, solver: str | None = None, fields: bool = True) -> Solution:
     """One state solve of `scene` (a dict, JSON text or a scene file) at its nominal data, as
     ``wsm solve``. `solver`: ``"direct"`` or ``"dd"`` (default: the scene's ``solver.kind``).
     With `fields` (default) the solution carries the mesh and fields."""
-    output = _native.solve(scene_text(scene), request_json(solver=solver, fields=fields))
-    return Solution(json.loads(output))
+    output, vtu = _native.solve(scene_text(scene), request_json(solver=solver, fields=fields))
+    return Solution(json.loads(output), vtu=vtu)
 
 
 @translated

@@ -138,8 +138,12 @@ class Client:
     def fields(self, job: str, scenario: str = "worst", criterion: str | None = None) -> Solution:
         """The solve of the job's `worst` or `best` scenario of `criterion` (default: its
         first), with fields."""
-        output = self._json("GET", f"/v1/jobs/{job}/fields", query={"scenario": scenario, "criterion": criterion})
-        return Solution(output)
+        query = {"scenario": scenario, "criterion": criterion}
+        output = self._json("GET", f"/v1/jobs/{job}/fields", query=query)
+        fetch_vtu = lambda: self._request(  # noqa: E731 — fetched when first used
+            "GET", f"/v1/jobs/{job}/fields", query={**query, "format": "vtu"}
+        ).decode()
+        return Solution(output, vtu_loader=fetch_vtu)
 
     def worst(self, scene=None, *, progress: bool = True, **settings: Any) -> WorstResult:
         """Submit, wait (a Ctrl-C cancels the job) and fetch the result."""

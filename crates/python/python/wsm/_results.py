@@ -4,7 +4,10 @@
 from __future__ import annotations
 
 import io
-from typing import Any
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 import pandas as pd
@@ -13,9 +16,11 @@ import pandas as pd
 class Solution:
     """One state solve. `summary` is the dict ``wsm solve`` prints; `criteria` the criteria
     defined for the scene (Φ1–Φ6 by name); `fields` the mesh and fields as NumPy arrays;
-    `contact` one row per contact node pair."""
+    `contact` one row per contact node pair. `write_vtu`, `to_meshio` and `to_pyvista` give the
+    VTU document ``wsm solve --vtu`` writes (README "Results in ParaView"): the stress tensor,
+    von Mises and principal stresses, zone and body ids, the contact zones as line cells."""
 
-    def __init__(self, output: dict):
+    def __init__(self, output: dict, vtu: str | None = None, vtu_loader: Callable[[], str] | None = None):
         self.summary: dict = output["summary"]
         self.criteria: dict[str, float] = {
             k: v for k, v in self.summary["criteria"].items() if v is not None
@@ -24,42 +29,45 @@ class Solution:
         self.fields: dict[str, np.ndarray] = _field_arrays(raw) if raw else {}
         self.contact: pd.DataFrame = _contact_frame(raw["contact"] if raw else [])
         self.warnings: list[str] = list(self.summary.get("report", {}).get("warnings", []))
+        self._vtu = vtu
+        self._vtu_loader = vtu_loader
 
     def __repr__(self) -> str:
         values = ", ".join(f"{k}={v:.6g}" for k, v in self.criteria.items())
         mesh = self.summary["mesh"]
         return f"<wsm.Solution {self.summary['scene']!r}: {mesh['nodes']} nodes; {values}>"
 
+    @property
+    def vtu(self) -> str:
+        """The VTU document (XML with base64 binary arrays)."""
+        if self._vtu is None and self._vtu_loader is not None:
+            self._vtu = self._vtu_loader()
+        if self._vtu is None:
+            raise ValueError(
+                "this solution has no VTU: solve with fields=True (a server's synchronous solve "
+                "returns none; a job's fields do)"
+            )
+        return self._vtu
+
+    def write_vtu(self, path: str | os.PathLike) -> Path:
+        """Write the VTU file (open it in ParaView); its path."""
+        path = Path(path)
+        path.write_text(self.vtu, encoding="utf-8")
+        return path
+
     def to_meshio(self):
-        """The mesh and fields as a `meshio.Mesh` (points in 3D with z = 0; displacement as a
-        3-vector; per triangle: the stresses τ11, τ22, τ12, τ33, I2² and the zone index)."""
+        """The VTU as a `meshio.Mesh`: triangles and contact lines, point, cell and field data."""
         import meshio
 
-        f = self._require_fields()
-        points = np.column_stack([f["nodes"], np.zeros(len(f["nodes"]))])
-        point_data = {}
-        if "displacement" in f:
-            d = f["displacement"]
-            point_data["displacement"] = np.column_stack([d, np.zeros(len(d))])
-        if "temperature" in f:
-            point_data["temperature"] = f["temperature"]
-        cell_data = {"zone": [f["triangle_zone"]]}
-        if "stress" in f:
-            for k, name in enumerate(["tau11", "tau22", "tau12", "tau33"]):
-                cell_data[name] = [f["stress"][:, k]]
-            cell_data["i2_squared"] = [f["i2_squared"]]
-        return meshio.Mesh(points, [("triangle", f["triangles"])], point_data=point_data, cell_data=cell_data)
+        with tempfile.TemporaryDirectory() as tmp:
+            return meshio.read(self.write_vtu(Path(tmp) / "solution.vtu"))
 
     def to_pyvista(self):
-        """The mesh and fields as a PyVista grid (needs pyvista)."""
+        """The VTU as a PyVista unstructured grid (needs pyvista)."""
         import pyvista
 
-        return pyvista.from_meshio(self.to_meshio())
-
-    def _require_fields(self) -> dict:
-        if not self.fields:
-            raise ValueError("this solution has no fields: solve with fields=True")
-        return self.fields
+        with tempfile.TemporaryDirectory() as tmp:
+            return pyvista.read(self.write_vtu(Path(tmp) / "solution.vtu"))
 
 
 def _field_arrays(raw: dict) -> dict[str, np.ndarray]:
