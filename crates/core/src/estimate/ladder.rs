@@ -2,22 +2,43 @@
 //! local `mesh.refine[].max_size`) multiplied by one factor. Level k of a ladder has the factor
 //! `coarsest · ratio^(−k)`, so each level refines the previous one by `ratio` in h (about
 //! `ratio²` in unknowns). The meshes are not nested: the Delaunay mesher meshes each level anew.
+//! An imported mesh has no sizes to scale: its levels are uniform subdivisions (factor 1/2 each,
+//! nested), so only factors 1/2^k exist for it.
 //! [`DirectLevel`] is one level set up for cold, thread-count-independent direct solves of
 //! chosen criteria (the accuracy statement's refined meshes, the target-error ladder).
 
 use crate::error::WsmError;
 use crate::fem::Par;
-use crate::scene::{CriterionSpec, Data, Scene, SceneError, SolverKind};
+use crate::scene::{CriterionSpec, Data, Scene, SceneError, SolverKind, MAX_SUBDIVIDE};
 use crate::state::{Needs, SolveOptions, StateProblem, Target};
 
-/// The scene with all mesh sizes multiplied by `factor` (> 0). A Gmsh mesh cannot be rescaled.
+/// The scene with all mesh sizes multiplied by `factor` (> 0). An imported mesh (design §2.5) is
+/// refined by uniform subdivision, which halves h: its factor must be 1/2^k (k more
+/// subdivisions); it cannot be coarsened.
 pub fn scaled(scene: &Scene, factor: f64) -> Result<Scene, WsmError> {
-    if scene.mesh.gmsh_file.is_some() {
-        return Err(SceneError::new(
-            "mesh.gmsh_file",
-            "an imported Gmsh mesh cannot be refined by wsm (make the finer meshes in Gmsh)",
-        )
-        .into());
+    if let Some(path) = scene.mesh.imported() {
+        let halvings = -factor.log2();
+        let k = halvings.round();
+        if !(factor.is_finite() && factor > 0.0 && k >= 0.0 && halvings == k) {
+            return Err(SceneError::new(
+                path,
+                format!(
+                    "an imported mesh is only refined by uniform subdivision, which halves the \
+                     element size: no mesh with sizes × {factor}"
+                ),
+            )
+            .into());
+        }
+        let mut out = scene.clone();
+        out.mesh.subdivide += k as u32;
+        if out.mesh.subdivide > MAX_SUBDIVIDE {
+            return Err(SceneError::new(
+                "mesh.subdivide",
+                format!("more than {MAX_SUBDIVIDE} subdivisions of the imported mesh"),
+            )
+            .into());
+        }
+        return Ok(out);
     }
     if !(factor.is_finite() && factor > 0.0) {
         return Err(SceneError::new(
