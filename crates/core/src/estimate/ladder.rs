@@ -147,3 +147,38 @@ impl Ladder {
         self.coarsest * self.ratio.powi(-(level as i32))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::InlineMesh;
+
+    #[test]
+    fn an_imported_mesh_is_scaled_by_subdivision_only() {
+        let mut scene = crate::mesh::tests::scene(serde_json::json!({
+            "version": 1,
+            "bodies": [{ "name": "b", "zones": [{ "name": "z", "material": "m", "polygon": [] }] }],
+            "materials": { "m": { "E": 1.0, "nu": 0.3 } },
+            "mesh": {}
+        }));
+        scene.mesh.inline = Some(InlineMesh {
+            nodes: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            triangles: vec![[0, 1, 2]],
+            zones: vec!["z".into()],
+            triangle_zones: vec![0],
+            segments: Default::default(),
+        });
+        assert_eq!(scaled(&scene, 0.25).unwrap().mesh.subdivide, 2);
+        assert_eq!(scaled(&scene, 1.0).unwrap().mesh.subdivide, 0);
+        for factor in [2.0, 0.3, 0.0, f64::NAN] {
+            let e = scaled(&scene, factor).err().unwrap().to_string();
+            assert!(
+                e.starts_with("mesh.inline: an imported mesh is only refined"),
+                "{e}"
+            );
+        }
+        scene.mesh.subdivide = MAX_SUBDIVIDE;
+        let e = scaled(&scene, 0.5).err().unwrap().to_string();
+        assert!(e.starts_with("mesh.subdivide: more than"), "{e}");
+    }
+}

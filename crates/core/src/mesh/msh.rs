@@ -120,7 +120,7 @@ fn nodes_per(kind: i64) -> Result<usize, String> {
         2 => return Ok(3),
         15 => return Ok(1),
         3 => "4-node quadrangles (turn recombination off)",
-        8 | 9 | 21 | 23 | 25 => "second- or higher-order elements (mesh with element order 1)",
+        8 | 9 | 21 | 23 | 25 => "second-order or higher-order elements (mesh with element order 1)",
         4..=7 | 11..=14 | 17..=19 => "3D elements (wsm is plane: mesh a 2D geometry)",
         _ => "an element type wsm does not use",
     };
@@ -275,7 +275,7 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<Msh<'_>, SceneError> {
         };
         let name = name.to_string();
         match (name.as_str(), version) {
-            ("MeshFormat", _) => version = Some(format(&mut c, at)?),
+            ("MeshFormat", _) => version = Some(format(&mut c)?),
             (_, None) => {
                 return Err(SceneError::new(
                     PATH,
@@ -331,7 +331,9 @@ fn skip_section(c: &mut Cursor, name: &str, at: usize) -> Result<(), SceneError>
     Ok(())
 }
 
-fn format(c: &mut Cursor, at: usize) -> Result<Version, SceneError> {
+fn format(c: &mut Cursor) -> Result<Version, SceneError> {
+    c.skip_space();
+    let at = c.pos;
     let version: String = c.token("the format version")?;
     let file_type: u32 = c.token("the file type")?;
     let data_size: u32 = c.token("the data size")?;
