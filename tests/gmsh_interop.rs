@@ -6,7 +6,12 @@
 //! one mesh with one solve, and `wsm inline-mesh` turns its scene into an inline one with the
 //! same results.
 
+mod common;
+
 use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use common::{extrema, post, temp_db, wait_finished, Server};
 use std::process::{Command, Output};
 
 use serde_json::{json, Value};
@@ -329,5 +334,93 @@ fn an_inlined_gmsh_scene_gives_the_same_worst_scenario() {
         "{}",
         stderr(&output)
     );
+    std::fs::remove_dir_all(&root).unwrap();
+}
+
+/// The acceptance of imported meshes in the service: the Gmsh block-on-base scene given inline
+/// through `POST /v1/jobs` gives the result of `wsm worst` on the Gmsh scene, number for number
+/// (extrema and accuracy statement, refined by subdivision); a scene naming a Gmsh file is
+/// refused with the way to inline it; an inline mesh beyond the body limit or the memory limit
+/// is refused cleanly.
+#[test]
+fn the_service_takes_an_inline_mesh_and_gives_the_cli_result() {
+    let root = block_case("service", "4.1-binary");
+    let output = wsm(&root, &["inline-mesh", "scene.json"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    let inline: Value = serde_json::from_slice(&output.stdout).unwrap();
+    let cli = wsm(&root, &["worst", "scene.json", "--threads", "1"]);
+    assert!(cli.status.success(), "{}", stderr(&cli));
+    let cli: Value = serde_json::from_slice(&cli.stdout).unwrap();
+    let numbers = |outcome: &Value| {
+        let mut accuracy = outcome["accuracy"].clone();
+        for m in accuracy["meshes"].as_array_mut().unwrap() {
+            m["seconds"] = json!(0);
+        }
+        accuracy["seconds"] = json!(0);
+        (extrema(outcome), accuracy)
+    };
+
+    let db = temp_db("gmsh-inline.db");
+    let server = Server::start(&db, &["--workers", "1"]);
+    let addr = &server.addr;
+    let reply = post(addr, "/v1/jobs", &json!({ "scene": inline }));
+    assert_eq!(
+        reply.status,
+        202,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    let id = reply.json()["id"].as_str().unwrap().to_string();
+    let status = wait_finished(addr, &id, Duration::from_secs(300));
+    assert_eq!(status["state"], "succeeded", "{status}");
+    let result = common::get(addr, &format!("/v1/jobs/{id}/result")).json();
+    assert_eq!(
+        result["accuracy"]["complete"],
+        json!(true),
+        "{}",
+        result["accuracy"]
+    );
+    assert_eq!(
+        numbers(&result),
+        numbers(&cli),
+        "service (inline) = wsm worst (Gmsh file)"
+    );
+
+    // A Gmsh file is refused, saying how to inline it.
+    let gmsh: Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("scene.json")).unwrap()).unwrap();
+    let reply = post(addr, "/v1/jobs", &json!({ "scene": gmsh }));
+    assert_eq!(reply.status, 422);
+    let error = reply.json();
+    assert_eq!(error["path"], json!("scene.mesh.gmsh_file"), "{error}");
+    assert!(error.to_string().contains("wsm inline-mesh"), "{error}");
+
+    drop(server);
+
+    // On a server with small limits: a mesh beyond the memory limit of solves is refused naming
+    // the inline mesh, and a body beyond the body limit before it is read.
+    let db = temp_db("gmsh-inline-limits.db");
+    let limits = [
+        "--workers",
+        "1",
+        "--max-solve-memory",
+        "1000",
+        "--max-body-bytes",
+        "200000",
+    ];
+    let server = Server::start(&db, &limits);
+    let reply = post(&server.addr, "/v1/jobs", &json!({ "scene": inline }));
+    assert_eq!(
+        reply.status,
+        422,
+        "{}",
+        String::from_utf8_lossy(&reply.body)
+    );
+    let error = reply.json();
+    assert_eq!(error["path"], json!("scene.mesh.inline"), "{error}");
+    let mut huge = inline.clone();
+    huge["mesh"]["inline"]["nodes"] = json!(vec![[0.123456789, 0.987654321]; 10_000]);
+    let reply = post(&server.addr, "/v1/jobs", &json!({ "scene": huge }));
+    assert_eq!(reply.status, 413);
     std::fs::remove_dir_all(&root).unwrap();
 }
