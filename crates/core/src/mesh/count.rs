@@ -53,7 +53,7 @@ pub struct MeshCount {
 }
 
 /// Estimated counts for the scene's polygons and size field (no meshing). An imported mesh is
-/// read and counted exactly, its subdivisions by [`subdivided`].
+/// read and counted exactly, its uniform subdivisions (`mesh.subdivide`) by exact recurrences.
 pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
     if let Some(path) = scene.mesh.imported() {
         let mut unrefined = scene.clone();

@@ -590,7 +590,7 @@ fn gmsh_import_refuses_broken_meshes_naming_the_elements() {
     let reason = |nodes: &[(usize, f64, f64)],
                   tris: &[(usize, [usize; 3])],
                   lines: &[(usize, [usize; 2])]| {
-        let e = import_gmsh(&square_msh(nodes, tris, lines), &sc).unwrap_err();
+        let e = import_gmsh(square_msh(nodes, tris, lines), &sc).unwrap_err();
         assert_eq!(e.path, "mesh.gmsh_file", "{e}");
         e.reason
     };
@@ -644,7 +644,7 @@ fn gmsh_import_refuses_broken_meshes_naming_the_elements() {
     );
     // The same file with conforming elements imports.
     assert!(import_gmsh(
-        &square_msh(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 4])], &bottom),
+        square_msh(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 4])], &bottom),
         &sc
     )
     .is_ok());
