@@ -449,6 +449,13 @@ pub struct ExampleArgs {
     pub list: bool,
 }
 
+/// `wsm inline-mesh`.
+#[derive(Args)]
+pub struct InlineMeshArgs {
+    /// Scene file (JSON) with `mesh.gmsh_file` (a relative path is read beside the scene file).
+    pub scene: PathBuf,
+}
+
 /// `wsm study accuracy`.
 #[derive(Args)]
 pub struct AccuracyArgs {

@@ -225,6 +225,12 @@ pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     }
 }
 
+/// `wsm inline-mesh`: the scene file with its Gmsh mesh given inline (`mesh.inline`), as JSON.
+pub fn inline_mesh(scene: &Path) -> Result<String, WsmError> {
+    let scene = read_scene(Some(scene), None)?;
+    to_json(&wsm_core::run::with_inline_mesh(&scene)?)
+}
+
 /// `wsm openapi`: the OpenAPI document of the HTTP API.
 pub fn openapi() -> Result<String, WsmError> {
     wsm_service::api::openapi_json()

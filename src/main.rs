@@ -12,8 +12,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 use args::{
-    AccuracyArgs, BenchArgs, EvaluateArgs, ExampleArgs, ServeArgs, SolveArgs, StabilityArgs,
-    WorkerArgs, WorstArgs,
+    AccuracyArgs, BenchArgs, EvaluateArgs, ExampleArgs, InlineMeshArgs, ServeArgs, SolveArgs,
+    StabilityArgs, WorkerArgs, WorstArgs,
 };
 
 #[derive(Parser)]
@@ -55,6 +55,9 @@ enum Command {
     },
     /// Print a bundled example scene, or list them.
     Example(ExampleArgs),
+    /// Print the scene with its Gmsh mesh (mesh.gmsh_file) given inline (mesh.inline), as the
+    /// HTTP service takes it: `wsm inline-mesh scene.json > inline.json`.
+    InlineMesh(InlineMeshArgs),
 }
 
 #[derive(Subcommand)]
@@ -81,6 +84,7 @@ fn main() -> ExitCode {
         Command::Schema => Ok(cli::schema()),
         Command::Bench(a) => cli::bench(&a),
         Command::Example(a) => cli::example(a.name.as_deref(), a.list),
+        Command::InlineMesh(a) => cli::inline_mesh(&a.scene),
         Command::Study { study } => match study {
             StudyCommand::Accuracy(a) => cli::study_case(
                 a.scene.as_deref(),

@@ -1040,3 +1040,38 @@ fn a_gmsh_scene_needs_no_mesh_size() {
         "mesh.max_size",
     );
 }
+
+/// An inline mesh needs no `max_size` either and is written back as given; it excludes a Gmsh
+/// file, and `mesh.subdivide` applies to imported meshes only, up to its limit.
+#[test]
+fn inline_meshes_and_subdivisions_are_checked_in_the_mesh_section() {
+    let inline = json!({
+        "nodes": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+        "triangles": [[0, 1, 2]],
+        "zones": ["z"],
+        "triangle_zones": [0]
+    });
+    let mut scene = base();
+    scene["mesh"] = json!({ "inline": inline.clone(), "subdivide": 2 });
+    let parsed = parse(&scene.to_string()).unwrap();
+    assert_eq!(parsed.mesh.max_size, None);
+    assert_eq!(parsed.mesh.subdivide, 2);
+    let written = serde_json::to_value(&parsed).unwrap();
+    assert_eq!(written["mesh"]["inline"], inline);
+    refused(
+        |s| s["mesh"] = json!({ "inline": inline.clone(), "gmsh_file": "blocks.msh" }),
+        "mesh.inline",
+    );
+    refused(
+        |s| s["mesh"] = json!({ "max_size": 0.1, "subdivide": 1 }),
+        "mesh.subdivide",
+    );
+    refused(
+        |s| s["mesh"] = json!({ "gmsh_file": "blocks.msh", "subdivide": 9 }),
+        "mesh.subdivide",
+    );
+    refused(
+        |s| s["mesh"] = json!({ "inline": { "nodes": [], "triangles": [], "zones": [], "triangle_zones": [], "edges": {} } }),
+        "mesh.inline",
+    );
+}

@@ -84,10 +84,14 @@ pub fn check_target(scene: &Scene, target: f64) -> Result<(), WsmError> {
         )
         .into());
     }
-    if scene.mesh.gmsh_file.is_some() {
+    if let Some(path) = scene.mesh.imported() {
         return Err(SceneError::new(
             "target_error",
-            "an imported Gmsh mesh cannot be coarsened or refined by wsm: leave target_error out",
+            format!(
+                "an imported mesh ({path}) cannot be coarsened by wsm, and the ladder starts at \
+                 4 × the scene's sizes: leave target_error out (the accuracy statement still \
+                 refines the mesh by subdivision)"
+            ),
         )
         .into());
     }

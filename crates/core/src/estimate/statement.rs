@@ -18,9 +18,10 @@
 //! the error, [`AccuracyStatement::warnings`] says in plain words which value's discretisation
 //! error is therefore unknown, and `complete` is false, as it is for a statement cut short.
 //!
-//! wsm cannot refine an imported mesh (`mesh.gmsh_file`): the statement of such a run builds no
-//! refined level and makes no refined solve, says why in `unrefinable`, is not `complete`, and
-//! its one warning says what would give an estimate.
+//! An imported mesh (`mesh.gmsh_file`, `mesh.inline`; design §2.5) is refined by uniform
+//! subdivision (`mesh.subdivide` one higher per level), which halves h exactly as halving the
+//! sizes of the built-in mesher does; a level that cannot be made (more subdivisions than
+//! allowed) fails like any mesh that cannot be built.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
@@ -125,11 +126,6 @@ pub struct AccuracyStatement {
     /// The refined solves that failed, by refinement, then in the order of the extrema.
     #[serde(default)]
     pub failures: Vec<RefinedFailure>,
-    /// Why no refined mesh was made although refinements were asked for: the run's mesh is
-    /// imported (`mesh.gmsh_file`) and wsm cannot refine it. The statement then has the run's
-    /// mesh alone and no estimates, and `complete` is false.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub unrefinable: Option<String>,
     /// How the estimates were made, in words (which data, which meshes, which estimate).
     pub method: String,
 }
@@ -280,7 +276,6 @@ pub struct StatementControl<'a> {
 /// The statement for `extrema` of `criteria` found on `problem`'s mesh, with `refinements`
 /// refined meshes, run as `control` says. Every refinement is tried unless `control.stop` says
 /// stop; a refined solve that fails (or a mesh that cannot be built) is a [`RefinedFailure`].
-/// An imported mesh is not refined at all (see `unrefinable`).
 pub fn statement(
     problem: &StateProblem,
     params: &[Parameter],
@@ -308,14 +303,7 @@ pub fn statement(
     // values[level - 1][point][criterion]
     let mut values: Vec<Vec<RefinedValues>> = Vec::new();
     let mut cut_short = refinements == 0;
-    let unrefinable =
-        (refinements > 0 && problem.scene.mesh.gmsh_file.is_some()).then(|| IMPORTED.to_string());
-    let levels = if unrefinable.is_some() {
-        0
-    } else {
-        refinements
-    };
-    for level in 1..=levels as u32 {
+    for level in 1..=refinements as u32 {
         if (control.stop)() {
             cut_short = true;
             break;
@@ -383,8 +371,8 @@ pub fn statement(
             best: accuracy(k, best),
         })
         .collect();
-    let method: String = if unrefinable.is_some() {
-        "none: no refined mesh of an imported mesh, so no estimate".into()
+    let method: String = if problem.scene.mesh.imported().is_some() {
+        "the worst and best data of each criterion re-solved (direct solver, cold) on the run's imported mesh subdivided uniformly (every triangle into four, h halved; and subdivided again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into()
     } else {
         "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into()
     };
@@ -393,16 +381,11 @@ pub fn statement(
         criteria,
         points: points.len(),
         seconds: start.elapsed().as_secs_f64(),
-        complete: !cut_short && unrefinable.is_none() && failures.is_empty(),
+        complete: !cut_short && failures.is_empty(),
         failures,
-        unrefinable,
         method,
     })
 }
-
-/// Why the statement of a run on an imported mesh has no refined meshes.
-const IMPORTED: &str =
-    "the run's mesh is imported from Gmsh (mesh.gmsh_file) and wsm cannot refine it";
 
 /// The solves of `points` on one refined level, dealt out through the dispatch when there is
 /// one; `None` when `control.stop` stopped them.
@@ -470,17 +453,8 @@ impl AccuracyStatement {
     /// mesh that could not be built; one per data whose refined solves failed (which extrema,
     /// which refinement and mesh, the error, and that the discretisation error of those values
     /// rests on fewer meshes or is unknown); one when fewer than the `asked` refinements were
-    /// made (a cancel or the time limit); for a mesh that cannot be refined, that one alone.
+    /// made (a cancel or the time limit).
     pub fn warnings(&self, asked: usize) -> Vec<String> {
-        if let Some(why) = &self.unrefinable {
-            return vec![format!(
-                "accuracy statement: {why}, so no refined solve was made and the discretisation \
-                 error of every worst and best value is unknown. The accuracy statement needs \
-                 refinable meshes: run the scene again with the mesh made finer in Gmsh (every \
-                 size halved) and compare the values, or draw the bodies as polygons for the \
-                 built-in mesher."
-            )];
-        }
         let built = |f: &&RefinedFailure| self.meshes[f.level as usize].unknowns > 0;
         let mut warnings = Vec::new();
         let mut unbuilt: Vec<u32> = Vec::new();
@@ -658,7 +632,6 @@ mod tests {
         problem.scene.mesh.max_size = Some(1e-6);
         let a = run(&problem, &params, &extrema, 2, &|| false);
         assert!(!a.complete);
-        assert!(a.unrefinable.is_none());
         assert_eq!(a.meshes.len(), 3, "both refinements were tried");
         assert!(a.meshes[1..].iter().all(|m| m.unknowns == 0));
         assert_eq!(
@@ -698,38 +671,6 @@ mod tests {
              mesh.max_size"
         ));
         assert!(warnings[1].contains("refinement 2 (sizes × 0.25)"));
-    }
-
-    #[test]
-    fn an_imported_mesh_is_not_refined_and_the_statement_says_so_once() {
-        let (mut problem, params, extrema) = block();
-        // The run's mesh stands for an imported one (the file is never opened: nothing is
-        // refined).
-        problem.scene.mesh.gmsh_file = Some("imported.msh".into());
-        let a = run(&problem, &params, &extrema, 2, &|| false);
-        assert!(!a.complete);
-        assert_eq!(a.meshes.len(), 1, "no refined mesh: {:#?}", a.meshes);
-        assert!(a.failures.is_empty(), "{:#?}", a.failures);
-        assert!(a.unrefinable.as_ref().unwrap().contains("mesh.gmsh_file"));
-        assert!(a.method.starts_with("none"), "{}", a.method);
-        let worst = a.criteria[0].worst.as_ref().unwrap();
-        assert_eq!((worst.value, &worst.refined), (2.0, &vec![]));
-        assert!(worst.estimate.is_none() && worst.failure.is_none());
-        let warnings = a.warnings(2);
-        assert_eq!(warnings.len(), 1, "{warnings:#?}");
-        assert!(
-            warnings[0].starts_with(
-                "accuracy statement: the run's mesh is imported from Gmsh (mesh.gmsh_file) and \
-                 wsm cannot refine it, so no refined solve was made"
-            ) && warnings[0].contains("needs refinable meshes"),
-            "{}",
-            warnings[0]
-        );
-        // A refined statement is written without the field, as before it existed.
-        problem.scene.mesh.gmsh_file = None;
-        let whole = run(&problem, &params, &extrema, 1, &|| false);
-        let written = serde_json::to_value(&whole).unwrap();
-        assert!(written.get("unrefinable").is_none(), "{written}");
     }
 
     #[test]

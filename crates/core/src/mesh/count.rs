@@ -47,21 +47,38 @@ pub struct MeshCount {
     /// Contact node pairs over all contact zones.
     pub contact_pairs: f64,
     /// Triangles per size source: (JSON path of its `max_size`, triangles where it sets h),
-    /// `mesh.max_size` first; for an imported mesh its file, `mesh.gmsh_file`, alone.
+    /// `mesh.max_size` first; for an imported mesh its path, `mesh.gmsh_file` or `mesh.inline`,
+    /// alone.
     pub shares: Vec<(String, f64)>,
 }
 
-/// Estimated counts for the scene's polygons and size field (no meshing). A scene that imports
-/// a Gmsh file is read and counted exactly.
+/// Estimated counts for the scene's polygons and size field (no meshing). An imported mesh is
+/// read and counted exactly, its uniform subdivisions (`mesh.subdivide`) by exact recurrences.
 pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
-    if scene.mesh.gmsh_file.is_some() {
-        let mesh = super::generate(scene)?;
+    if let Some(path) = scene.mesh.imported() {
+        let mut unrefined = scene.clone();
+        unrefined.mesh.subdivide = 0;
+        let mesh = super::generate(&unrefined)?;
+        let boundary: usize = super::assemble::boundary_edges(&mesh)
+            .iter()
+            .map(Vec::len)
+            .sum();
         let pairs: usize = mesh.contacts.iter().map(|c| c.pairs.len()).sum();
+        let (triangles, nodes, contact_pairs) = subdivided(
+            [
+                mesh.triangles.len() as f64,
+                mesh.nodes.len() as f64,
+                (3 * mesh.triangles.len() + boundary) as f64 / 2.0,
+                pairs as f64,
+                mesh.contacts.len() as f64,
+            ],
+            scene.mesh.subdivide,
+        );
         return Ok(MeshCount {
-            triangles: mesh.triangles.len() as f64,
-            nodes: mesh.nodes.len() as f64,
-            contact_pairs: pairs as f64,
-            shares: vec![("mesh.gmsh_file".into(), mesh.triangles.len() as f64)],
+            triangles,
+            nodes,
+            contact_pairs,
+            shares: vec![(path.into(), triangles)],
         });
     }
     let geo = input::geometry(scene)?;
@@ -134,6 +151,22 @@ pub fn count(scene: &Scene) -> Result<MeshCount, SceneError> {
         contact_pairs,
         shares,
     })
+}
+
+/// Triangles, nodes and contact pairs of a mesh of `[triangles, nodes, edges, contact pairs,
+/// contact zones]` after `times` uniform subdivisions: each adds a node on every edge, splits
+/// every triangle into four and every edge into two (and adds 3 inner edges per triangle), and
+/// adds a pair between every two consecutive pairs of a contact zone. Exact: the counts of the
+/// split mesh (edges counted per body, as its nodes are).
+fn subdivided(counts: [f64; 5], times: u32) -> (f64, f64, f64) {
+    let [mut t, mut n, mut e, mut p, zones] = counts;
+    for _ in 0..times {
+        n += e;
+        e = 2.0 * e + 3.0 * t;
+        t *= 4.0;
+        p = 2.0 * p - zones;
+    }
+    (t, n, p)
 }
 
 /// Vertices the mesher puts on a closed ring.

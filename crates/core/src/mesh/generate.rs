@@ -2,8 +2,8 @@
 //! bodies together, copied into flat arrays (`tri`), classified into zones (by triangle
 //! centroids, one test per region enclosed by constraint edges), Delaunay-refined on the
 //! domain's triangles only (`refine`) to the minimum angle and to the local target size h(x),
-//! checked (`check`), and handed to `assemble` for node splitting, segments and contacts. When the scene names a Gmsh file, that mesh is imported
-//! instead.
+//! checked (`check`), and handed to `assemble` for node splitting, segments and contacts. When the scene names a Gmsh file or gives an inline mesh, that
+//! mesh is imported instead (`import`).
 
 use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
@@ -12,6 +12,7 @@ use super::assemble::{finish, mesh_zones, RawMesh};
 use super::check;
 use super::geom::{bbox, dist, P};
 use super::gmsh::import_gmsh;
+use super::inline::import_inline;
 use super::input::{self, zone_label, Geometry, Pslg};
 use super::refine::Refiner;
 use super::size::SizeField;
@@ -21,12 +22,15 @@ use crate::scene::{Scene, SceneError};
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
-/// Meshes all bodies of the scene (or imports `mesh.gmsh_file`).
+/// Meshes all bodies of the scene (or imports `mesh.gmsh_file` or `mesh.inline`).
 pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
     if let Some(file) = &scene.mesh.gmsh_file {
-        let text = std::fs::read_to_string(file)
+        let bytes = std::fs::read(file)
             .map_err(|e| SceneError::new("mesh.gmsh_file", format!("cannot read '{file}': {e}")))?;
-        return import_gmsh(&text, scene);
+        return import_gmsh(bytes, scene);
+    }
+    if let Some(inline) = &scene.mesh.inline {
+        return import_inline(inline, scene);
     }
     let min_angle = scene.mesh.min_angle;
     if !(0.0..=30.0).contains(&min_angle) {

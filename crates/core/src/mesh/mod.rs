@@ -11,18 +11,22 @@ mod count;
 mod generate;
 pub(crate) mod geom;
 mod gmsh;
+mod import;
+mod inline;
 mod input;
+mod msh;
 mod refine;
 mod rows;
 mod size;
 pub mod structured;
+mod subdivide;
 #[cfg(test)]
 pub(crate) mod tests;
 mod tri;
 
 pub use count::{count, MeshCount};
 pub use generate::{generate, stats, MeshStats};
-pub use gmsh::import_gmsh;
+pub use gmsh::{import_gmsh, with_inline_mesh};
 
 /// A material zone of the mesh.
 #[derive(Debug, Clone, PartialEq)]

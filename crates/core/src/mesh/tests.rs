@@ -490,16 +490,24 @@ fn gmsh_import_splits_bodies_and_pairs_contact_nodes() {
 #[test]
 fn gmsh_errors_name_the_problem() {
     let sc = two_squares_scene();
-    let binary = TWO_SQUARES_MSH.replace("4.1 0 8", "4.1 1 8");
-    assert!(import_gmsh(&binary, &sc)
-        .unwrap_err()
-        .reason
-        .contains("binary"));
+    let reason = |text: &str| import_gmsh(text, &sc).unwrap_err().reason;
     let quad = TWO_SQUARES_MSH.replace("2 1 2 2\n", "2 1 3 2\n");
-    assert!(import_gmsh(&quad, &sc)
-        .unwrap_err()
-        .reason
-        .contains("type 3"));
+    assert!(reason(&quad).contains("type 3"));
+    let r = reason(&TWO_SQUARES_MSH.replace("2 1 2 2\n", "2 1 9 2\n"));
+    assert!(r.contains("type 9") && r.contains("second-order"), "{r}");
+    let r = reason(&TWO_SQUARES_MSH.replace("4.1 0 8", "3.0 0 8"));
+    assert!(r.starts_with("line 2: MSH version 3.0"), "{r}");
+    let r = reason(&TWO_SQUARES_MSH.replace(
+        "$EndMeshFormat\n",
+        "$EndMeshFormat\n$PartitionedEntities\n1\n$EndPartitionedEntities\n",
+    ));
+    assert!(r.contains("partitioned"), "{r}");
+    // A binary file written on a big-endian machine: its byte-order mark reads 1 << 24 here.
+    let mut big = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    big.extend(1i32.to_be_bytes());
+    big.extend(b"\n$EndMeshFormat\n");
+    let r = import_gmsh(&big, &sc).unwrap_err().reason;
+    assert!(r.contains("big-endian"), "{r}");
     let mut renamed = sc.clone();
     renamed.bodies[1].zones[0].name = "other".into();
     let e = import_gmsh(TWO_SQUARES_MSH, &renamed).unwrap_err();
@@ -582,7 +590,7 @@ fn gmsh_import_refuses_broken_meshes_naming_the_elements() {
     let reason = |nodes: &[(usize, f64, f64)],
                   tris: &[(usize, [usize; 3])],
                   lines: &[(usize, [usize; 2])]| {
-        let e = import_gmsh(&square_msh(nodes, tris, lines), &sc).unwrap_err();
+        let e = import_gmsh(square_msh(nodes, tris, lines), &sc).unwrap_err();
         assert_eq!(e.path, "mesh.gmsh_file", "{e}");
         e.reason
     };
@@ -636,7 +644,7 @@ fn gmsh_import_refuses_broken_meshes_naming_the_elements() {
     );
     // The same file with conforming elements imports.
     assert!(import_gmsh(
-        &square_msh(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 4])], &bottom),
+        square_msh(&UNIT_SQUARE, &[(10, [1, 2, 3]), (11, [1, 3, 4])], &bottom),
         &sc
     )
     .is_ok());
@@ -682,4 +690,98 @@ fn small_input_angles_terminate() {
         s.triangles, s.min_angle_deg
     );
     assert!(s.min_angle_deg > 1.0);
+}
+
+/// One mesh of two triangles given inline (`mesh.inline`) on the square scene: the errors name
+/// the inline mesh's JSON paths.
+#[test]
+fn inline_mesh_errors_name_their_json_paths() {
+    let base = serde_json::json!({
+        "nodes": [[0, 0], [1, 0], [1, 1], [0, 1]],
+        "triangles": [[0, 1, 2], [0, 3, 2]],
+        "zones": ["z"],
+        "triangle_zones": [0, 0],
+        "segments": { "bottom": [[0, 1]] }
+    });
+    let with = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut inline = base.clone();
+        edit(&mut inline);
+        let mut sc = square_scene();
+        sc.mesh.max_size = None;
+        sc.mesh.inline = Some(serde_json::from_value(inline).unwrap());
+        generate(&sc)
+    };
+    let mesh = with(&|_| {}).unwrap();
+    check_mesh(&mesh, 45.0);
+    assert_eq!(mesh.segments[0].edges.len(), 1);
+    let err = |edit: &dyn Fn(&mut serde_json::Value)| with(edit).unwrap_err();
+    let e = err(&|m| m["triangles"][1] = serde_json::json!([0, 3, 7]));
+    assert_eq!(e.path, "mesh.inline.triangles[1]", "{e}");
+    assert!(e.reason.contains("node index 7 is out of range"), "{e}");
+    let e = err(&|m| m["triangles"][1] = serde_json::json!([0, 1, 2]));
+    assert_eq!(e.path, "mesh.inline.triangles[1]", "{e}");
+    assert!(
+        e.reason.contains("triangles 0 and 1") && e.reason.contains("overlap"),
+        "{e}"
+    );
+    let e = err(&|m| m["triangles"][1] = serde_json::json!([0, 2, 2]));
+    assert!(
+        e.path == "mesh.inline.triangles[1]" && e.reason.contains("degenerate"),
+        "{e}"
+    );
+    let e = err(&|m| m["zones"][0] = serde_json::json!("rock"));
+    assert_eq!(e.path, "mesh.inline.zones[0]", "{e}");
+    let e = err(&|m| m["triangle_zones"][1] = serde_json::json!(1));
+    assert_eq!(e.path, "mesh.inline.triangle_zones[1]", "{e}");
+    let e = err(&|m| m["triangle_zones"] = serde_json::json!([0]));
+    assert_eq!(e.path, "mesh.inline.triangle_zones", "{e}");
+    let e = err(&|m| m["segments"]["bottom"] = serde_json::json!([[0, 1], [1, 3]]));
+    assert_eq!(e.path, "mesh.inline.segments.bottom[1]", "{e}");
+    assert!(e.reason.contains("not two corners of one triangle"), "{e}");
+    let e = err(&|m| m["segments"] = serde_json::json!({}));
+    assert_eq!(e.path, "segments.bottom", "no edges and no geometry: {e}");
+}
+
+/// Subdividing an imported mesh k times is the same as importing its k-times subdivided
+/// version: 4^k triangles, the same area, the segments' edges split, and the counts of
+/// `count` exact.
+#[test]
+fn subdivided_imports_keep_zones_segments_and_contacts() {
+    let mut sc = two_squares_scene();
+    let coarse = import_gmsh(TWO_SQUARES_MSH, &sc).unwrap();
+    for k in 1..=2u32 {
+        sc.mesh.subdivide = k;
+        let fine = import_gmsh(TWO_SQUARES_MSH, &sc).unwrap();
+        check_mesh(&fine, 45.0);
+        let f = 4usize.pow(k);
+        assert_eq!(fine.triangles.len(), f * coarse.triangles.len());
+        let area = |m: &Mesh| {
+            (0..m.triangles.len())
+                .map(|t| m.triangle_area(t))
+                .sum::<f64>()
+        };
+        assert!((area(&fine) - area(&coarse)).abs() < 1e-12);
+        for (s, c) in fine.segments.iter().zip(&coarse.segments) {
+            assert_eq!(s.edges.len(), 2usize.pow(k) * c.edges.len(), "{}", s.name);
+        }
+        let pairs = &fine.contacts[0].pairs;
+        assert_eq!(pairs.len(), 2usize.pow(k) + 1);
+        assert!(pairs.iter().all(|&[a, b]| fine.nodes[a] == fine.nodes[b]));
+        let zone_area = |m: &Mesh, z: usize| {
+            (0..m.triangles.len())
+                .filter(|&t| m.triangle_zone[t] == z)
+                .map(|t| m.triangle_area(t))
+                .sum::<f64>()
+        };
+        assert!((zone_area(&fine, 1) - zone_area(&coarse, 1)).abs() < 1e-12);
+        let mut file = sc.clone();
+        let path = std::env::temp_dir().join(format!("wsm-subdivide-{}.msh", std::process::id()));
+        std::fs::write(&path, TWO_SQUARES_MSH).unwrap();
+        file.mesh.gmsh_file = Some(path.display().to_string());
+        let counted = crate::mesh::count(&file).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        assert_eq!(counted.triangles, fine.triangles.len() as f64);
+        assert_eq!(counted.nodes, fine.nodes.len() as f64);
+        assert_eq!(counted.contact_pairs, pairs.len() as f64);
+    }
 }

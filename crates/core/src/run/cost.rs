@@ -58,7 +58,7 @@ pub struct SolveCost {
     /// Wall time of one solve \[s\] (order of magnitude; machine dependent).
     pub seconds: f64,
     /// JSON path of the size that accounts for most triangles (`mesh.max_size` or
-    /// `mesh.refine[i].max_size`; `mesh.gmsh_file` for an imported mesh).
+    /// `mesh.refine[i].max_size`; `mesh.gmsh_file` or `mesh.inline` for an imported mesh).
     pub size_field: String,
     #[serde(skip)]
     scene: Scene,
@@ -144,9 +144,13 @@ impl SolveCost {
         );
         match self.fitting_size(FIT_MARGIN * max_bytes) {
             Some(size) => message += &format!("; a max_size of at least {size} fits"),
-            None if self.size_field == "mesh.gmsh_file" => {
+            None if self.scene.mesh.subdivide > 0 => {
+                message += "; subdivide the imported mesh less (mesh.subdivide)"
+            }
+            None if self.scene.mesh.gmsh_file.is_some() => {
                 message += "; make a coarser mesh in Gmsh"
             }
+            None if self.scene.mesh.inline.is_some() => message += "; give a coarser mesh",
             None => message += "; no value of this field alone fits: coarsen the others too",
         }
         Err(CostRefusal {
@@ -190,11 +194,11 @@ impl SolveCost {
 }
 
 /// The value of `mesh.max_size` or `mesh.refine[i].max_size` (`None` for an imported mesh's
-/// `mesh.gmsh_file`: no size of wsm's changes it).
+/// `mesh.gmsh_file` or `mesh.inline`: no size of wsm's changes it).
 fn size_at(scene: &Scene, path: &str) -> Option<f64> {
     match refine_index(path) {
         Some(i) => scene.mesh.refine.get(i).map(|r| r.max_size),
-        None if path == "mesh.gmsh_file" => None,
+        None if scene.mesh.imported() == Some(path) => None,
         None => scene.mesh.max_size,
     }
 }

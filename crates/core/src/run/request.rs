@@ -106,14 +106,6 @@ impl WorstRequest {
                 )
                 .into());
             }
-            if r > 0 && scene.mesh.gmsh_file.is_some() {
-                return Err(SceneError::new(
-                    "accuracy_refinements",
-                    "an imported Gmsh mesh (mesh.gmsh_file) cannot be refined by wsm (make the \
-                     finer meshes in Gmsh): give 0, or leave it out",
-                )
-                .into());
-            }
             settings.accuracy_refinements = Some(r);
         }
         if let Some(target) = self.target_error {

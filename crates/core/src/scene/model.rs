@@ -435,12 +435,63 @@ pub struct MeshControls {
     #[serde(default = "default_min_angle")]
     #[schemars(extend("exclusiveMinimum" = 0.0), range(max = 30.0))]
     pub min_angle: f64,
-    /// Import a Gmsh .msh 4.1 (ASCII) file instead of meshing the polygons. Physical names of
-    /// 2D entities map to zone names, of 1D entities to segment names. The command line reads a
-    /// relative path from the scene file's directory (`wsm` resolves it when it reads the file);
-    /// the library opens the path as it stands.
+    /// Import a Gmsh .msh file (MSH 4.1 or 2.2, ASCII or binary) instead of meshing the
+    /// polygons. Physical names of 2D entities map to zone names, of 1D entities to segment
+    /// names. The command line reads a relative path from the scene file's directory (`wsm`
+    /// resolves it when it reads the file); the library opens the path as it stands.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gmsh_file: Option<String>,
+    /// A mesh given in the scene instead of meshing the polygons (not with `gmsh_file`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inline: Option<InlineMesh>,
+    /// Uniform subdivisions of an imported mesh (`gmsh_file` or `inline`), each splitting every
+    /// triangle into four by its edge midpoints (halving every edge); 0 by default, at most
+    /// [`MAX_SUBDIVIDE`]. The accuracy statement refines an imported mesh this way.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    #[schemars(range(max = MAX_SUBDIVIDE))]
+    pub subdivide: u32,
+}
+
+/// Most uniform subdivisions of an imported mesh (each multiplies its triangles by 4).
+pub const MAX_SUBDIVIDE: u32 = 8;
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+impl MeshControls {
+    /// The JSON path of the imported mesh (`mesh.gmsh_file` or `mesh.inline`), or `None` when
+    /// the built-in mesher meshes the polygons.
+    pub fn imported(&self) -> Option<&'static str> {
+        if self.gmsh_file.is_some() {
+            Some("mesh.gmsh_file")
+        } else if self.inline.is_some() {
+            Some("mesh.inline")
+        } else {
+            None
+        }
+    }
+}
+
+/// A triangle mesh given in the scene (`mesh.inline`), checked like an imported Gmsh mesh.
+/// Nodes are numbered from 0 in the order of `nodes`; every index below is such a number.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InlineMesh {
+    /// Node coordinates `[x, y]` \[m\].
+    pub nodes: Vec<Point>,
+    /// Triangles: three node indices each, in either orientation (3-node, linear).
+    pub triangles: Vec<[usize; 3]>,
+    /// Zone names used by `triangle_zones`: each must be a zone name of the scene, and every
+    /// zone of the scene must have triangles.
+    pub zones: Vec<String>,
+    /// The zone of each triangle, an index into `zones` (as many as `triangles`).
+    pub triangle_zones: Vec<usize>,
+    /// Boundary edges by segment name: each a pair of node indices that is an edge of a
+    /// triangle. A scene segment named here takes these edges (it then needs no `from`/`to`
+    /// or `path`); names that are no scene segment are ignored.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub segments: BTreeMap<String, Vec<[usize; 2]>>,
 }
 
 fn default_min_angle() -> f64 {

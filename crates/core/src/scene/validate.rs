@@ -722,7 +722,7 @@ fn check_segments(scene: &Scene) -> Result<(), SceneError> {
             ));
         }
         let geometry = s.path.is_some() || (s.from.is_some() && s.to.is_some());
-        if !geometry && scene.mesh.gmsh_file.is_none() {
+        if !geometry && scene.mesh.imported().is_none() {
             return Err(SceneError::new(
                 path,
                 "give `from` and `to`, or a `path` polyline",
@@ -973,7 +973,7 @@ impl MeshControls {
             SceneError::new(
                 "mesh.max_size",
                 "missing: the built-in mesher needs the maximal element edge length in metres \
-                 (or import a Gmsh mesh with mesh.gmsh_file)",
+                 (or import a mesh with mesh.gmsh_file or mesh.inline)",
             )
         })
     }
@@ -981,10 +981,32 @@ impl MeshControls {
 
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {
     // An imported mesh needs no max_size (a given one is checked all the same).
-    if (mesh.max_size.is_some() || mesh.gmsh_file.is_none())
+    if (mesh.max_size.is_some() || mesh.imported().is_none())
         && finite("mesh.max_size", mesh.built_in_max_size()?)? <= 0.0
     {
         return Err(SceneError::new("mesh.max_size", "must be > 0"));
+    }
+    if mesh.gmsh_file.is_some() && mesh.inline.is_some() {
+        return Err(SceneError::new(
+            "mesh.inline",
+            "give either mesh.gmsh_file or mesh.inline, not both",
+        ));
+    }
+    if mesh.subdivide > 0 && mesh.imported().is_none() {
+        return Err(SceneError::new(
+            "mesh.subdivide",
+            "subdivides an imported mesh (mesh.gmsh_file or mesh.inline); the built-in mesher \
+             is refined with mesh.max_size",
+        ));
+    }
+    if mesh.subdivide > MAX_SUBDIVIDE {
+        return Err(SceneError::new(
+            "mesh.subdivide",
+            format!(
+                "at most {MAX_SUBDIVIDE} (each subdivision multiplies the triangles by 4; got {})",
+                mesh.subdivide
+            ),
+        ));
     }
     if !(finite("mesh.min_angle", mesh.min_angle)? > 0.0 && mesh.min_angle <= 30.0) {
         return Err(SceneError::new(

@@ -91,7 +91,8 @@ fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, Str
     if scene.mesh.gmsh_file.is_some() {
         return Err(ApiError::invalid(
             "scene.mesh.gmsh_file",
-            "the service does not read files on the server; mesh the polygons, or run `wsm worst` locally for Gmsh meshes",
+            "the service does not read files on the server: give the mesh inline (mesh.inline; \
+             `wsm inline-mesh scene.json > inline.json` converts a Gmsh scene), or let wsm mesh the polygons",
         ));
     }
     Ok((scene, text))

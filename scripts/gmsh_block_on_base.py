@@ -1,0 +1,81 @@
+"""Writes the Gmsh meshes of the block-on-base contact scene (scenes/block-on-base.json's
+geometry) used by the import tests: tests/data/block-on-base-{4.1-ascii,4.1-binary,2.2-ascii,
+2.2-binary}.msh, one mesh in four formats.
+
+The two bodies share the contact curve y = 0.5, 0.5 <= x <= 1.5 (one Gmsh curve in both
+surfaces, so its nodes coincide); the physical names are the scene's zone names ("base",
+"block") and segment names ("bottom", "top", "push", "base_contact", "block_contact" — the
+contact curve carries both contact names).
+
+    python scripts/gmsh_block_on_base.py [OUT_DIR] [SIZE]     (needs the `gmsh` PyPI package)
+"""
+
+import sys
+from pathlib import Path
+
+import gmsh
+
+FORMATS = {
+    "4.1-ascii": (4.1, 0),
+    "4.1-binary": (4.1, 1),
+    "2.2-ascii": (2.2, 0),
+    "2.2-binary": (2.2, 1),
+}
+
+
+def build(size: float) -> None:
+    geo = gmsh.model.geo
+    p = {
+        xy: geo.addPoint(*xy, 0.0, size)
+        for xy in [(0, 0), (2, 0), (2, 0.5), (1.5, 0.5), (0.5, 0.5), (0, 0.5), (1.5, 1), (0.5, 1)]
+    }
+
+    def line(a, b):
+        return geo.addLine(p[a], p[b])
+
+    bottom = line((0, 0), (2, 0))
+    right = line((2, 0), (2, 0.5))
+    base_right_top = line((2, 0.5), (1.5, 0.5))
+    contact = line((1.5, 0.5), (0.5, 0.5))
+    base_left_top = line((0.5, 0.5), (0, 0.5))
+    left = line((0, 0.5), (0, 0))
+    block_right = line((1.5, 0.5), (1.5, 1))
+    top = line((1.5, 1), (0.5, 1))
+    push = line((0.5, 1), (0.5, 0.5))
+    base = geo.addPlaneSurface(
+        [geo.addCurveLoop([bottom, right, base_right_top, contact, base_left_top, left])]
+    )
+    block = geo.addPlaneSurface([geo.addCurveLoop([-contact, block_right, top, push])])
+    geo.synchronize()
+    for dim, tags, name in [
+        (2, [base], "base"),
+        (2, [block], "block"),
+        (1, [bottom], "bottom"),
+        (1, [top], "top"),
+        (1, [push], "push"),
+        (1, [contact], "base_contact"),
+        (1, [contact], "block_contact"),
+    ]:
+        gmsh.model.addPhysicalGroup(dim, tags, name=name)
+    gmsh.model.mesh.generate(2)
+
+
+def main() -> None:
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).parents[1] / "tests" / "data"
+    size = float(sys.argv[2]) if len(sys.argv) > 2 else 0.125
+    out.mkdir(parents=True, exist_ok=True)
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("block-on-base")
+        build(size)
+        for name, (version, binary) in FORMATS.items():
+            gmsh.option.setNumber("Mesh.MshFileVersion", version)
+            gmsh.option.setNumber("Mesh.Binary", binary)
+            gmsh.write(str(out / f"block-on-base-{name}.msh"))
+    finally:
+        gmsh.finalize()
+
+
+if __name__ == "__main__":
+    main()
