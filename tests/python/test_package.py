@@ -223,3 +223,18 @@ def test_the_client_gives_the_in_process_result(server):
     with pytest.raises(wsm.BadInputError) as e:
         client.submit(example="hertz", budget=0)
     assert e.value.field == "settings.budget"
+
+
+@pytest.mark.parametrize("fmt", ["4.1-ascii", "4.1-binary", "2.2-ascii", "2.2-binary"])
+def test_mesh_from_meshio_solves_like_the_gmsh_file(fmt):
+    meshio = pytest.importorskip("meshio")
+    data = Path(__file__).resolve().parents[2] / "tests" / "data"
+    scene = wsm.load(data / "block-on-base-gmsh.json")
+    scene["mesh"] = {"gmsh_file": str(data / f"block-on-base-{fmt}.msh")}
+    from_file = wsm.solve(scene, fields=False)
+    scene["mesh"] = {"inline": wsm.mesh_from_meshio(meshio.read(data / f"block-on-base-{fmt}.msh"))}
+    inline = wsm.solve(scene, fields=False)
+    assert inline.summary["mesh"] == from_file.summary["mesh"]
+    assert from_file.summary["mesh"]["contact_pairs"] == 9
+    for name, value in from_file.criteria.items():
+        assert inline.criteria[name] == pytest.approx(value, rel=1e-12), name

@@ -28,6 +28,7 @@ from ._errors import (
     translated,
 )
 from ._evaluator import Evaluations, Evaluator
+from ._mesh import mesh_from_meshio
 from ._progress import Bar
 from ._results import Solution, WorstResult
 from ._scene import example, examples, load, request_json, scene_text
@@ -48,6 +49,7 @@ __all__ = [
     "example",
     "examples",
     "load",
+    "mesh_from_meshio",
     "solve",
     "worst",
 ]
