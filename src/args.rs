@@ -124,6 +124,10 @@ pub struct SolveArgs {
     /// measures, contact zones as line cells, the scenario in its field data.
     #[arg(long)]
     pub vtu: Option<PathBuf>,
+    /// Write the contact profiles as CSV: per contact zone and node pair, the arc length, the
+    /// normal and tangential displacement jumps and the contact pressure and shear.
+    #[arg(long)]
+    pub profiles: Option<PathBuf>,
 }
 
 impl From<&SolveArgs> for SolveRequest {

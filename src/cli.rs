@@ -80,16 +80,17 @@ fn write(path: &Path, text: &str) -> Result<(), WsmError> {
     std::fs::write(path, text).map_err(|e| WsmError::io(path.display(), e))
 }
 
-/// `wsm solve`: the JSON summary; the full result and a VTU file on request. The report's
-/// warnings also go to stderr, as `wsm worst`'s do.
+/// `wsm solve`: the JSON summary; the full result, a VTU file and the contact profiles (CSV) on
+/// request. The report's warnings also go to stderr, as `wsm worst`'s do.
 pub fn solve(
     scene: Scene,
     request: SolveRequest,
     out: Option<&Path>,
     vtu: Option<&Path>,
+    profiles: Option<&Path>,
 ) -> Result<String, WsmError> {
     let request = SolveRequest {
-        fields: out.is_some() || vtu.is_some(),
+        fields: out.is_some() || vtu.is_some() || profiles.is_some(),
         ..request
     };
     let output = run::solve(scene, &request)?;
@@ -101,6 +102,9 @@ pub fn solve(
     }
     if let (Some(p), Some(text)) = (vtu, &output.vtu) {
         write(p, text)?;
+    }
+    if let (Some(p), Some(fields)) = (profiles, &output.fields) {
+        write(p, &run::profiles_csv(&fields.contact_profiles))?;
     }
     to_json(&output.summary)
 }

@@ -72,8 +72,15 @@ enum StudyCommand {
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Command::Solve(a) => cli::load_affordable_scene(&a.input, &a.memory)
-            .and_then(|scene| cli::solve(scene, (&a).into(), a.out.as_deref(), a.vtu.as_deref())),
+        Command::Solve(a) => cli::load_affordable_scene(&a.input, &a.memory).and_then(|scene| {
+            cli::solve(
+                scene,
+                (&a).into(),
+                a.out.as_deref(),
+                a.vtu.as_deref(),
+                a.profiles.as_deref(),
+            )
+        }),
         Command::Worst(a) => cli::load_affordable_scene(&a.input, &a.memory)
             .and_then(|scene| cli::worst(scene, (&a).try_into()?, (&a).into(), a.memory.limit())),
         Command::Evaluate(a) => cli::load_affordable_scene(&a.input, &a.memory)

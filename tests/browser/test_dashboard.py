@@ -208,6 +208,13 @@ def test_finished_job_shows_plots_and_numbers(page):
     expect(page.locator("#mesh-tip")).to_be_visible()
     expect(page.locator("#mesh-tip")).to_contain_text("|u| =")
     page.mouse.move(0, 0)
+    # The contact profiles (design §5.8): nominal, worst and best curves along the contact zone.
+    expect(page.locator("#profile-plot")).to_have_attribute("data-ready", "phi3-3", timeout=60_000)
+    page.wait_for_timeout(300)
+    assert canvas_stats(page, "#profile-plot canvas")["painted"] > 200
+    page.get_by_label("Quantity").select_option("normal_jump")
+    expect(page.locator("#profile-plot h3")).to_contain_text("normal displacement jump")
+    page.locator("#profile-section").screenshot(path=str(ART / "03b-contact-profiles.png"))
     # The sensitivity chart has a bar per parameter and sense.
     assert page.locator("#sens-chart rect").count() >= len(result["parameters"])
     shot(page, "03-job-finished")
@@ -231,6 +238,17 @@ def test_switch_field_and_scenario(page):
     assert canvas_stats(page, "#mesh-canvas")["sum"] != mesh["sum"]
     page.locator("#mesh-section").screenshot(path=str(ART / "05-mesh-i2-zoomed.png"))
     page.get_by_role("button", name="Reset view").click()
+    # The stress measures of the fields (design §5.6) colour the mesh too, each its own picture.
+    sums = set()
+    for field, unit in (("von_mises", "von Mises [Pa]"), ("sigma1", "σ1 [Pa]"),
+                        ("tau_xy", "τ_xy [Pa]"), ("theta1", "[deg]")):
+        page.get_by_label("Colour by").select_option(field)
+        expect(page.locator("#cb-unit")).to_contain_text(unit)
+        page.wait_for_timeout(300)
+        stats = canvas_stats(page, "#mesh-canvas")
+        assert stats["painted"] > 0.2 * stats["samples"] and stats["colours"] > 30, (field, stats)
+        sums.add(stats["sum"])
+    assert len(sums) == 4, "each stress measure paints its own picture"
     page.get_by_label("Colour by").select_option("pressure")
     expect(page.locator("#cb-unit")).to_contain_text("[Pa]")
     page.wait_for_timeout(200)

@@ -65,6 +65,11 @@ def test_solve_equals_the_command_line(run_wsm, tmp_path):
     assert f["triangles"].shape == (cli["mesh"]["triangles"], 3)
     assert f["stress"].shape == (cli["mesh"]["triangles"], 4)
     assert len(solution.contact) > 0 and (solution.contact["pressure"] >= 0).all()
+    # σ1 ≥ σ2 and von Mises from the same stresses; the profiles hold every contact pair.
+    assert (f["principal_stress"][:, 0] >= f["principal_stress"][:, 1]).all()
+    assert f["von_mises"].shape == (cli["mesh"]["triangles"],)
+    assert len(solution.profiles) == len(solution.contact)
+    assert solution.profiles.groupby("zone")["arc_length"].apply(lambda a: a.is_monotonic_increasing).all()
 
     # The VTU is the one `wsm solve --vtu` writes, and meshio reads it.
     cli_vtu = tmp_path / "cli.vtu"

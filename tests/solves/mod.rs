@@ -54,12 +54,20 @@ pub struct HertzMeasures {
     pub peak: f64,
 }
 
+/// The load of the bundled Hertz scene: P = 4 m × 2.5e8 Pa \[N/m\].
+pub const HERTZ_LOAD: f64 = 4.0 * 2.5e8;
+
+/// Hertz's half-width a = 2 √(P R / (π E*)) and peak pressure p0 = 2P / (π a) of the bundled
+/// Hertz scene (R = 0.5 m, two steel bodies: E* = E / (2 (1 − ν²))).
+pub fn hertz_exact() -> (f64, f64) {
+    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
+    let a = 2.0 * (HERTZ_LOAD * 0.5 / (std::f64::consts::PI * e_star)).sqrt();
+    (a, 2.0 * HERTZ_LOAD / (std::f64::consts::PI * a))
+}
+
 /// Measure a solve of the bundled Hertz scene (R = 0.5 m, P = 4 m × 2.5e8 Pa, steel).
 pub fn hertz_measures(problem: &StateProblem, sol: &Solution) -> HertzMeasures {
-    let e_star = 2.0e11 / (2.0 * (1.0 - 0.3 * 0.3));
-    let (r, load) = (0.5, 4.0 * 2.5e8);
-    let a_exact = 2.0 * (load * r / (std::f64::consts::PI * e_star)).sqrt();
-    let p0_exact = 2.0 * load / (std::f64::consts::PI * a_exact);
+    let (load, (a_exact, p0_exact)) = (HERTZ_LOAD, hertz_exact());
     let forces: Vec<f64> = sol
         .contact
         .iter()

@@ -1,11 +1,14 @@
 //! Typed renderings of a state solution: a short summary (criteria, mesh sizes, contact zones,
 //! solver report) and the full result (nodal and element fields, contact results), both plain
-//! serde types.
+//! serde types. The fields carry the stress measures of design §5.6 and the contact profiles of
+//! design §5.8.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use super::contact_profile::{contact_profiles, ContactProfile};
+use super::stress_measures::{principal, von_mises};
 use crate::scene::{Criterion, Data};
 use crate::state::{
     piece_pressures, region_name, zone_summaries, ContactNode, Solution, SolveReport, StateProblem,
@@ -113,8 +116,17 @@ pub struct SolveFields {
     pub stress: Vec<[f64; 4]>,
     /// Element shear-stress intensity I2² \[Pa²\].
     pub i2_squared: Vec<f64>,
+    /// Element von Mises stress √(3/2 I2²) \[Pa\].
+    pub von_mises: Vec<f64>,
+    /// Element principal stresses (σ1, σ2, σ3): the in-plane σ1 ≥ σ2 and the out-of-plane
+    /// σ3 = τ33 \[Pa\]. The shear τ_xy is `stress[e][2]`.
+    pub principal_stress: Vec<[f64; 3]>,
+    /// Element unit direction (cos θ, sin θ) of σ1, θ ∈ (−90°, 90°] from the x axis.
+    pub principal_direction: Vec<[f64; 2]>,
     /// Per contact node pair: pressure, shear, gap, slip and state.
     pub contact: Vec<ContactNode>,
+    /// Per contact zone, the displacement jumps and tractions against the arc length.
+    pub contact_profiles: Vec<ContactProfile>,
 }
 
 /// The summary of a solve of `data`.
@@ -172,6 +184,11 @@ pub fn summary(problem: &StateProblem, data: &Data, solution: &Solution) -> Solv
 /// The fields of a solve.
 pub fn fields(problem: &StateProblem, solution: &Solution) -> SolveFields {
     let mesh = problem.mesh();
+    let principals: Vec<_> = solution
+        .stresses
+        .iter()
+        .map(|s| principal(s.stress))
+        .collect();
     SolveFields {
         nodes: mesh.nodes.clone(),
         triangles: mesh.triangles.clone(),
@@ -180,6 +197,20 @@ pub fn fields(problem: &StateProblem, solution: &Solution) -> SolveFields {
         temperature: solution.temperature.clone(),
         stress: solution.stresses.iter().map(|s| s.stress).collect(),
         i2_squared: solution.stresses.iter().map(|s| s.i2_squared()).collect(),
+        von_mises: solution
+            .stresses
+            .iter()
+            .map(|s| von_mises(s.stress))
+            .collect(),
+        principal_stress: principals
+            .iter()
+            .map(|p| [p.sigma1, p.sigma2, p.sigma3])
+            .collect(),
+        principal_direction: principals
+            .iter()
+            .map(|p| [p.direction[0], p.direction[1]])
+            .collect(),
         contact: solution.contact.clone(),
+        contact_profiles: contact_profiles(problem, solution),
     }
 }

@@ -45,6 +45,7 @@ pub use crate::estimate::statement::{
 };
 pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::mesh::with_inline_mesh;
+pub use crate::output::contact_profile::{profiles_csv, ContactProfile, PROFILE_CSV_HEADER};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};

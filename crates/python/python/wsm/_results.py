@@ -16,7 +16,8 @@ import pandas as pd
 class Solution:
     """One state solve. `summary` is the dict ``wsm solve`` prints; `criteria` the criteria
     defined for the scene (Φ1–Φ6 by name); `fields` the mesh and fields as NumPy arrays;
-    `contact` one row per contact node pair. `write_vtu`, `to_meshio` and `to_pyvista` give the
+    `contact` one row per contact node pair; `profiles` each contact zone's profile against arc
+    length (displacement jumps, tractions, state; design §5.8). `write_vtu`, `to_meshio` and `to_pyvista` give the
     VTU document ``wsm solve --vtu`` writes (README "Results in ParaView"): the stress tensor,
     von Mises and principal stresses, zone and body ids, the contact zones as line cells."""
 
@@ -28,6 +29,7 @@ class Solution:
         raw = output.get("fields")
         self.fields: dict[str, np.ndarray] = _field_arrays(raw) if raw else {}
         self.contact: pd.DataFrame = _contact_frame(raw["contact"] if raw else [])
+        self.profiles: pd.DataFrame = _profile_frame(raw.get("contact_profiles", []) if raw else [])
         self.warnings: list[str] = list(self.summary.get("report", {}).get("warnings", []))
         self._vtu = vtu
         self._vtu_loader = vtu_loader
@@ -83,7 +85,34 @@ def _field_arrays(raw: dict) -> dict[str, np.ndarray]:
     if raw.get("stress"):
         arrays["stress"] = np.asarray(raw["stress"], dtype=float).reshape(-1, 4)
         arrays["i2_squared"] = np.asarray(raw["i2_squared"], dtype=float)
+        arrays["von_mises"] = np.asarray(raw["von_mises"], dtype=float)
+        arrays["principal_stress"] = np.asarray(raw["principal_stress"], dtype=float).reshape(-1, 3)
+        arrays["principal_direction"] = np.asarray(raw["principal_direction"], dtype=float).reshape(-1, 2)
     return arrays
+
+
+_PROFILE_COLUMNS = ["zone", "arc_length", "x", "y", "normal_jump", "tangential_jump", "pressure", "shear", "state"]
+
+
+def _profile_frame(profiles: list[dict]) -> pd.DataFrame:
+    rows = [
+        {
+            "zone": p["zone"],
+            "arc_length": s,
+            "x": xy[0],
+            "y": xy[1],
+            "normal_jump": nj,
+            "tangential_jump": tj,
+            "pressure": pr,
+            "shear": sh,
+            "state": st,
+        }
+        for p in profiles
+        for s, xy, nj, tj, pr, sh, st in zip(
+            p["arc_length"], p["position"], p["normal_jump"], p["tangential_jump"], p["pressure"], p["shear"], p["state"]
+        )
+    ]
+    return pd.DataFrame(rows, columns=_PROFILE_COLUMNS)
 
 
 _CONTACT_COLUMNS = ["zone", "x", "y", "pressure", "shear", "gap", "slip", "bound", "state"]

@@ -4,12 +4,14 @@ import { api, ApiError, download, hasToken } from "./api.js";
 import { ConvergencePlots, sensitivityChart } from "./charts.js";
 import { $, el, facts, num, count, duration, when, PHASES, criterionLabel, criterionInfo } from "./format.js";
 import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
+import { ProfilePlot } from "./profiles.js";
 
 const POLL_MS = 1000;
 
 let current = null; // {id, gen, es, timer, plots, status, result, scene}
 let generation = 0;
 let mesh = null;
+let profilePlot = null;
 
 const finished = (s) => ["succeeded", "failed", "cancelled"].includes(s.state);
 
@@ -21,13 +23,14 @@ export function hideJob() {
   current.plots.destroy();
   current = null;
   if (mesh) mesh.clear();
+  if (profilePlot) profilePlot.clear();
 }
 
 /** Show job `id` and follow it until it finishes. */
 export async function showJob(id) {
   hideJob();
   const gen = ++generation;
-  current = { id, gen, es: null, timer: null, plots: new ConvergencePlots($("conv-plots")), status: null, result: null, scene: null };
+  current = { id, gen, es: null, timer: null, plots: new ConvergencePlots($("conv-plots")), status: null, result: null, scene: null, profiles: new Map() };
   const here = () => current && current.gen === gen;
   resetView(id);
   let status;
@@ -67,6 +70,10 @@ function resetView(id) {
   $("stats").replaceChildren();
   $("mesh-facts").replaceChildren();
   $("mesh-criterion").replaceChildren();
+  $("profile-zone").replaceChildren();
+  $("profile-msg").textContent = "";
+  delete $("profile-plot").dataset.ready;
+  profilePlot.clear();
   mesh.clear();
   mesh.message("");
   delete $("mesh-canvas").dataset.ready;
@@ -484,6 +491,7 @@ async function loadFields() {
   const options = $("mesh-field").options;
   for (const o of options) {
     o.disabled = (o.value === "temperature" && !f.temperature)
+      || (FIELDS[o.value].on === "triangles" && !(f.stress && f.stress.length))
       || (FIELDS[o.value].on === "contact" && !(f.contact && f.contact.length));
   }
   if (options[$("mesh-field").selectedIndex].disabled) $("mesh-field").value = "u";
@@ -493,6 +501,69 @@ async function loadFields() {
   updateColorbar();
   updateMag();
   meshFacts(fields.summary);
+  current.profiles.set(`${scenario}-${criterion}`, f.contact_profiles || []);
+  loadProfiles();
+}
+
+// ---- contact profiles ----
+
+let profilesRequest = 0; // the latest request wins
+
+/**
+ * The contact profiles of the nominal, worst and best scenarios of the mesh view's criterion,
+ * each fetched once per job (the scenario in the mesh view is already there).
+ */
+async function loadProfiles() {
+  if (!current || !current.result) return;
+  const { id, gen } = current;
+  const ticket = ++profilesRequest;
+  const criterion = $("mesh-criterion").value;
+  const zones = ((current.scene && current.scene.contacts) || []).map((c) => c.name);
+  $("profile-section").hidden = zones.length === 0;
+  if (zones.length === 0) return;
+  const select = $("profile-zone");
+  if ([...select.options].map((o) => o.value).join("\n") !== zones.join("\n")) {
+    select.replaceChildren(...zones.map((z) => el("option", { value: z }, z)));
+  }
+  delete $("profile-plot").dataset.ready;
+  const c = current.result.criteria.find((x) => x.criterion === criterion);
+  const byScenario = {};
+  const missing = [];
+  $("profile-msg").textContent = "Solving the scenarios for their contact profiles…";
+  for (const scenario of ["nominal", "worst", "best"]) {
+    const key = `${scenario}-${criterion}`;
+    const extremum = c && (scenario === "worst" ? c.worst : c.best);
+    if (scenario !== "nominal" && (!extremum || !extremum.point)) {
+      missing.push(scenario);
+      continue;
+    }
+    if (!current.profiles.has(key)) {
+      try {
+        const fields = await api.fields(id, scenario, criterion);
+        if (!current || current.gen !== gen) return;
+        current.profiles.set(key, fields.fields.contact_profiles || []);
+      } catch (e) {
+        missing.push(`${scenario} (${e.message})`);
+        continue;
+      }
+    }
+    byScenario[scenario] = current.profiles.get(key);
+  }
+  if (!current || current.gen !== gen || ticket !== profilesRequest) return;
+  $("profile-msg").textContent = missing.length ? `No profile for: ${missing.join(", ")}.` : "";
+  const curves = profilePlot.show(byScenario, select.value, $("profile-quantity").value);
+  $("profile-plot").dataset.ready = `${criterion}-${curves}`;
+}
+
+/** Replot the fetched profiles for another zone or quantity. */
+function redrawProfiles() {
+  if (!current) return;
+  const criterion = $("mesh-criterion").value;
+  const byScenario = {};
+  for (const scenario of ["nominal", "worst", "best"]) {
+    byScenario[scenario] = current.profiles.get(`${scenario}-${criterion}`) || null;
+  }
+  profilePlot.show(byScenario, $("profile-zone").value, $("profile-quantity").value);
 }
 
 /** A contact zone's friction law in words, with its data in this scenario. */
@@ -557,6 +628,9 @@ function updateMag() {
 /** Wire the job view's controls (once). */
 export function initJob() {
   mesh = new MeshView($("mesh-canvas"), $("mesh-tip"), $("mesh-msg"));
+  profilePlot = new ProfilePlot($("profile-plot"));
+  $("profile-zone").addEventListener("change", redrawProfiles);
+  $("profile-quantity").addEventListener("change", redrawProfiles);
   drawColorbar($("cb-canvas"));
   $("cancel-btn").addEventListener("click", cancelJob);
   $("mesh-criterion").addEventListener("change", loadFields);

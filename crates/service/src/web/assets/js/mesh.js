@@ -8,6 +8,13 @@ import { num } from "./format.js";
 export const FIELDS = {
   u: { label: "|u|", unit: "m", on: "nodes", robust: false },
   i2: { label: "I2²", unit: "Pa²", on: "triangles", robust: true },
+  von_mises: { label: "von Mises", unit: "Pa", on: "triangles", robust: true },
+  sigma1: { label: "σ1", unit: "Pa", on: "triangles", robust: true },
+  sigma2: { label: "σ2", unit: "Pa", on: "triangles", robust: true },
+  sigma3: { label: "σ3 = τ33", unit: "Pa", on: "triangles", robust: true },
+  tau_xy: { label: "τ_xy", unit: "Pa", on: "triangles", robust: true },
+  // The angle θ of σ1's direction from the x axis, in (−90°, 90°].
+  theta1: { label: "direction of σ1, θ", unit: "deg", on: "triangles", robust: false },
   temperature: { label: "T", unit: "K", on: "nodes", robust: false },
   pressure: { label: "contact pressure", unit: "Pa", on: "contact", robust: true },
   slip: { label: "slip", unit: "m", on: "contact", robust: true },
@@ -140,7 +147,9 @@ export class MeshView {
     }
     const boundary = [...seen.values()].filter(Boolean);
     this.data = { nodes, tris, disp, umag, maxU, grid, size, nodeBody, boundary, zone: f.triangle_zone,
-      i2: f.i2_squared, temperature: f.temperature, contact: f.contact || [], scene,
+      i2: f.i2_squared, stress: f.stress || [], vonMises: f.von_mises || [],
+      principal: f.principal_stress || [], direction: f.principal_direction || [],
+      temperature: f.temperature, contact: f.contact || [], scene,
       bbox: [x0, y0, x1, y1] };
     this.data.contactDisp = this.data.contact.map((c) => this.nodeDispAt(c.position, null));
     this.data.outlines = this.outlines(scene);
@@ -240,6 +249,13 @@ export class MeshView {
       case "u": return { node: d.umag };
       case "temperature": return d.temperature ? { node: d.temperature } : null;
       case "i2": return d.i2 ? { tri: d.i2 } : null;
+      case "von_mises": return d.vonMises.length ? { tri: d.vonMises } : null;
+      case "sigma1": return d.principal.length ? { tri: d.principal.map((p) => p[0]) } : null;
+      case "sigma2": return d.principal.length ? { tri: d.principal.map((p) => p[1]) } : null;
+      case "sigma3": return d.principal.length ? { tri: d.principal.map((p) => p[2]) } : null;
+      case "tau_xy": return d.stress.length ? { tri: d.stress.map((s) => s[2]) } : null;
+      case "theta1": return d.direction.length
+        ? { tri: d.direction.map(([c, s]) => (Math.atan2(s, c) * 180) / Math.PI) } : null;
       case "pressure": return { contact: d.contact.map((c) => c.pressure) };
       case "slip": return { contact: d.contact.map((c) => c.slip) };
       case "utilisation": return { contact: d.contact.map((c) => (c.bound > 0 ? Math.abs(c.shear) / c.bound : null)) };
