@@ -321,8 +321,10 @@ fn iterate(
     let t = Instant::now();
     let s0 = s0_operator(dec, &enrich, report)?;
     let mut step = Step::new(dec, s0, f0, options);
-    let (u, converged) = outer(&mut step, u0, options, report)?;
+    let outcome = outer(&mut step, u0, options, report);
+    // Counts are kept even when the iteration stops (a non-contracting plain run).
     step.record(report);
+    let (u, converged) = outcome?;
     report.finish_contraction();
     times.scon = step.scon_time;
     times.pcg2 = step.pcg2_time;
