@@ -47,10 +47,16 @@ fn each_printed_option_equals_the_direct_solver() {
             None => {}
             // Only the plain iteration may stop, and only saying why.
             Some(said) => {
-                assert_eq!(options["iteration"], "plain", "{options}: fell back: {said}");
+                assert_eq!(
+                    options["iteration"], "plain",
+                    "{options}: fell back: {said}"
+                );
                 assert!(said.contains("not contracting"), "{said}");
                 assert!(
-                    dd.report.warnings.iter().any(|w| w.contains("not contracting")),
+                    dd.report
+                        .warnings
+                        .iter()
+                        .any(|w| w.contains("not contracting")),
                     "{:?}",
                     dd.report.warnings
                 );
@@ -125,17 +131,28 @@ fn iteration_counts_at_the_papers_sizes() {
         ("coarse kernels", json!({"coarse": "kernels"})),
         ("weights mean_young", json!({"weights": "mean_young"})),
         ("iteration plain", json!({"iteration": "plain"})),
-        ("all printed", json!({"pcg1": "printed", "coarse": "kernels", "weights": "mean_young", "iteration": "plain"})),
+        (
+            "all printed",
+            json!({"pcg1": "printed", "coarse": "kernels", "weights": "mean_young", "iteration": "plain"}),
+        ),
     ];
     for (name, scene, subdomains) in [("tunnel", &tunnel, 12), ("knee-d05", &knee, 13)] {
         for (label, dd) in &variants {
             let (r, rel) = papers_run(scene, subdomains, dd);
             println!(
                 "| {name} | {label} | {} | {} | {} | {} / {} / {} | {} | {:.1e} | {} |",
-                r["n_dofs"], r["n_pairs"], r["n_subdomains"],
-                r["pcg1_iterations"], r["outer_iterations"], r["pcg2_iterations"],
-                r["newton_steps"], rel,
-                r["fallback"].as_str().or(r["acceleration"].as_str()).unwrap_or("plain, converged")
+                r["n_dofs"],
+                r["n_pairs"],
+                r["n_subdomains"],
+                r["pcg1_iterations"],
+                r["outer_iterations"],
+                r["pcg2_iterations"],
+                r["newton_steps"],
+                rel,
+                r["fallback"]
+                    .as_str()
+                    .or(r["acceleration"].as_str())
+                    .unwrap_or("plain, converged")
             );
             assert!(rel <= 1e-5, "{name} {label}: {rel}");
         }
