@@ -5,6 +5,7 @@
 
 use rayon::prelude::*;
 
+use super::options::Weights;
 use super::pair::{ContactCluster, LocalRow};
 use super::partition::Partition;
 use std::sync::Arc;
@@ -69,13 +70,17 @@ impl Decomposition {
         problem: &DdProblem,
         partition: Partition,
         operators: Option<&OperatorCache>,
+        weights: Weights,
     ) -> Result<Decomposition, DdError> {
         let n = problem.n_dofs();
         let ns = partition.n_subdomains;
         let elements = subdomain_elements(&partition);
         let dof_subs = dof_subdomains(problem, &elements, n);
         let (interface, sub_dofs) = interface_and_local_dofs(&dof_subs, n, ns);
-        let rho = stiffness_weights(problem, &elements);
+        let rho = match weights {
+            Weights::Stiffness => stiffness_weights(problem, &elements),
+            Weights::MeanYoung => young_weights(problem, &elements),
+        };
         let (blocks, block_dofs) =
             linear_blocks(problem, &partition, &elements, &sub_dofs, &rho, operators)?;
         let (members, cluster_pairs) = cluster_members(problem, &partition);
@@ -185,6 +190,23 @@ fn stiffness_weights(problem: &DdProblem, elements: &[Vec<usize>]) -> Vec<f64> {
                 }
             }
             sum / count.max(1) as f64
+        })
+        .collect()
+}
+
+/// ρ_s: the area-weighted mean Young's modulus of the subdomain's elements (D05 5.5, the
+/// papers' choice).
+fn young_weights(problem: &DdProblem, elements: &[Vec<usize>]) -> Vec<f64> {
+    elements
+        .iter()
+        .map(|list| {
+            let (mut sum, mut area) = (0.0, 0.0);
+            for &e in list {
+                let el = &problem.elements[e];
+                sum += el.young * el.area;
+                area += el.area;
+            }
+            sum / area
         })
         .collect()
 }

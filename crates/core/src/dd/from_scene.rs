@@ -11,7 +11,9 @@
 
 use std::collections::HashMap;
 
-use super::options::{DdOptions, PCG1_TOL};
+use super::options::{
+    CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner, Weights, PCG1_TOL,
+};
 use super::partition::CONTACT_LAYERS;
 use super::successive::{solve, DdSolution, Fallback};
 use super::{DdContactPair, DdContactRow, DdError, DdProblem, Partition, PartitionRequest};
@@ -21,7 +23,7 @@ use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
 use crate::fem::{ElasticCoefficients, ElasticProblem};
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
-use crate::scene::{Data, SolverSettings};
+use crate::scene::{Data, DdCoarse, DdIteration, DdPcg1, DdWeights, SolverSettings};
 
 /// Elements per subdomain when the scene asks for an automatic count (`subdomains: 0`): about
 /// the paper's tunnel (9676 elements on 12 subdomains).
@@ -37,7 +39,8 @@ const PCG_FLOOR: f64 = 1e-9;
 
 /// DD options of a scene: `partition` polygons fix the subdomains (`explicit_partition`),
 /// otherwise `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements per
-/// subdomain; at most one per `MIN_ELEMENTS` elements); `tolerance` is the relative stopping tolerance of the successive approximations
+/// subdomain; at most one per `MIN_ELEMENTS` elements); `dd` selects the variants (the papers'
+/// printed PCG1, kernel coarse space, plain iteration, mean-Young weights); `tolerance` is the relative stopping tolerance of the successive approximations
 /// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
 /// U⁰).
 pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
@@ -56,8 +59,25 @@ pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
         },
     };
     let tol = settings.tolerance;
+    let dd = &settings.dd;
     DdOptions {
         partition,
+        pcg1_preconditioner: match dd.pcg1 {
+            DdPcg1::Reduced => Pcg1Preconditioner::Reduced,
+            DdPcg1::Printed => Pcg1Preconditioner::Full,
+        },
+        coarse: match dd.coarse {
+            DdCoarse::Rigid => CoarseKind::Rigid,
+            DdCoarse::Kernels => CoarseKind::Kernels,
+        },
+        iteration: match dd.iteration {
+            DdIteration::Safeguarded => OuterIteration::Safeguarded,
+            DdIteration::Plain => OuterIteration::Plain,
+        },
+        weights: match dd.weights {
+            DdWeights::Stiffness => Weights::Stiffness,
+            DdWeights::MeanYoung => Weights::MeanYoung,
+        },
         outer_tol: tol,
         pcg1_tol: PCG1_TOL.max(tol * 1e-1),
         pcg2_tol: (tol * 1e-1).max(PCG_FLOOR),

@@ -54,11 +54,12 @@ pub(crate) mod subdomain;
 mod successive;
 
 use crate::fem::{ElasticCoefficients, ElasticProblem, FemError, Slot};
+use crate::scene::law::bulk_and_shear;
 
 pub use from_scene::{options as scene_options, solve_elastic};
-pub use options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+pub use options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner, Weights};
 pub use partition::{Partition, PartitionRequest};
-pub use report::DdReport;
+pub use report::{D03Bound, DdReport};
 pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
@@ -73,6 +74,13 @@ pub struct DdElement {
     /// The 6×6 element stiffness in the same local order, prescribed DOFs included [Pa, i.e. N/m of
     /// force per m of displacement per unit thickness].
     pub matrix: [[f64; 6]; 6],
+    /// Young's modulus of the element's material \[Pa\] (for the injection weights
+    /// [`Weights::MeanYoung`]): E = G(3K − G)/K from the in-plane bulk and shear moduli K, G of
+    /// [`bulk_and_shear`] (= μ(3λ + 2μ)/(λ + μ), exact for an isotropic material; an isotropic
+    /// equivalent for an anisotropic one).
+    pub young: f64,
+    /// Area of the triangle \[m²\].
+    pub area: f64,
 }
 
 /// One constraint row of a contact node pair: its multiplier x lies in [lower, upper] and the
@@ -161,10 +169,15 @@ impl DdProblem {
                 Slot::Free(i) => Some(i),
                 Slot::Fixed(_) => None,
             });
+            let (bulk, shear) = bulk_and_shear(&coefficients[mesh.triangle_zone[t]]);
+            let [a, b, c] = tri.map(|n| mesh.nodes[n]);
+            let area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])).abs();
             elements.push(DdElement {
                 nodes: *tri,
                 dofs,
                 matrix,
+                young: shear * (3.0 * bulk - shear) / bulk,
+                area,
             });
         }
         let mut dof_node = vec![0; dofs.n_free()];
@@ -252,6 +265,16 @@ pub enum DdError {
     Diverged {
         /// The error of the failed iteration.
         reason: String,
+    },
+    /// The plain successive approximations ([`OuterIteration::Plain`]) do not contract: the
+    /// observed factor q_k = ‖U^{k+1} − U^k‖ / ‖U^k − U^{k−1}‖ was ≥ 1 on two consecutive steps,
+    /// so the contraction condition of D05 Thm 7.1 (2β² < 1) / D03 Thm 4.1 (2λ²P_c < 1) fails.
+    #[error("successive approximations not contracting: observed contraction q = {q:.3} ≥ 1 at outer step {step} (D05 Thm 7.1 needs q ≤ 2β² < 1); the papers' plain iteration does not converge on this problem")]
+    NotContracting {
+        /// Outer step at which non-contraction was declared.
+        step: usize,
+        /// The last observed contraction factor.
+        q: f64,
     },
     /// The direct fallback was tried after a DD failure and failed as well.
     #[error("direct fallback failed: {0}")]

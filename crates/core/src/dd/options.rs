@@ -1,8 +1,9 @@
 //! Options of the DD solve (design §3.2 solver settings): the partition request, the PCG1
 //! preconditioner (D05 §5 as printed or the reduced one of §6), the coarse space of the balancing
 //! preconditioners (D05 5.11 / 6.7 kernels, or rigid-motion enrichment), tolerances and
-//! iteration limits of PCG1 / PCG2 / the successive approximations (D05 4.37 / 6.1–6.3), Anderson
-//! acceleration and the local QP options.
+//! iteration limits of PCG1 / PCG2 / the successive approximations (D05 4.37 / 6.1–6.3), the
+//! injection weights ρ (D05 5.5), the outer iteration (wsm's safeguarded one or the papers' plain
+//! successive approximations), Anderson acceleration and the local QP options.
 //!
 //! Depends only on [`super::partition`] and [`crate::contact::qp`]; read by
 //! [`super::successive`] and recorded in [`super::report`].
@@ -55,6 +56,33 @@ pub enum CoarseKind {
     Rigid,
 }
 
+/// The stiffness measure ρ_s of the injections D_s = diag(ρ_s / Σ_{t∋dof} ρ_t) (D05 5.5–5.8).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Weights {
+    /// The mean diagonal of the subdomain's stiffness matrix (wsm's default; it follows the
+    /// element size as well as the material).
+    #[default]
+    Stiffness,
+    /// The area-weighted mean Young's modulus of the subdomain's elements, the papers' example
+    /// (D05 5.5: "ρ … e.g. the average Young modulus").
+    MeanYoung,
+}
+
+/// The outer iteration on S0 U + S_CON(U) = F.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OuterIteration {
+    /// Successive approximations monitored by their contraction factor, switching to Anderson
+    /// mixing and then safeguarded Newton steps when they do not contract (design §3.2).
+    #[default]
+    Safeguarded,
+    /// The papers' plain successive approximations (D05 4.37 / 6.1, D03 (52)): no acceleration,
+    /// no Newton steps; the solve stops with [`super::DdError::NotContracting`] as soon as the
+    /// observed contraction factor is ≥ 1 on two consecutive steps.
+    Plain,
+}
+
 /// Solver options.
 #[derive(Debug, Clone)]
 pub struct DdOptions {
@@ -64,6 +92,11 @@ pub struct DdOptions {
     pub pcg1_preconditioner: Pcg1Preconditioner,
     /// The coarse space of the balancing preconditioners (default: rigid-motion enrichment).
     pub coarse: CoarseKind,
+    /// The stiffness measure ρ of the injections (default: mean stiffness diagonal).
+    pub weights: Weights,
+    /// The outer iteration (default: safeguarded; `Plain` ignores `anderson_depth`,
+    /// `stagnation` and `force_acceleration`).
+    pub iteration: OuterIteration,
     /// Relative residual of PCG1 (auxiliary problem). U⁰ only starts the outer iteration, so
     /// PCG1 need not be tight (`PCG1_TOL`).
     pub pcg1_tol: f64,
@@ -99,6 +132,8 @@ impl Default for DdOptions {
             },
             pcg1_preconditioner: Pcg1Preconditioner::Reduced,
             coarse: CoarseKind::Rigid,
+            weights: Weights::Stiffness,
+            iteration: OuterIteration::Safeguarded,
             pcg1_tol: PCG1_TOL,
             pcg2_tol: 1e-12,
             max_pcg: 500,

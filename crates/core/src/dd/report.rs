@@ -2,7 +2,9 @@
 //! PCG2 iteration counts, Newton steps, the observed contraction factors q_k vs the theory's 2β² < 1 (D05 Thm
 //! 7.1, FGCS 3.37), the a-priori error bound of D05 Cor. 7.1 / FGCS 3.38
 //! ‖U^k − U‖ ≤ q^k / (1 − q) ‖U⁰ − U¹‖ with the observed q, checks (partition of unity, residual
-//! orthogonality to the coarse spaces), acceleration / fallback, and times per phase.
+//! orthogonality to the coarse spaces), acceleration / fallback, and times per phase. For a
+//! frictionless problem the D03 form of the bound (Thm 4.1: 2λ²P_c < 1 over P_c contact
+//! clusters) is reported too ([`D03Bound`]).
 //!
 //! Depends on [`super::options`] (the recorded variants), [`super::decomposition`] (sizes) and
 //! [`super::DdProblem`]; filled in by [`super::successive`], which depends on it, not the
@@ -11,7 +13,7 @@
 use std::fmt;
 
 use super::decomposition::Decomposition;
-use super::options::{CoarseKind, Pcg1Preconditioner};
+use super::options::{CoarseKind, OuterIteration, Pcg1Preconditioner, Weights};
 use super::DdProblem;
 
 /// Wall-clock seconds per phase.
@@ -29,6 +31,23 @@ pub struct Times {
     /// Interior and multiplier recovery.
     pub recovery: f64,
     pub total: f64,
+}
+
+/// D03 Thm 4.1 for a frictionless problem with P_c contact clusters: T contracts in the S0
+/// energy norm with factor 2λ²P_c if every cluster's energy |R*_j U|²_{a*j} ≤ λ² ‖U‖²_Q with
+/// λ < 1/√(2P_c), and ‖U^k − U‖ ≤ (2λ²P_c)^k / (1 − 2λ²P_c) ‖U⁰ − T U⁰‖. wsm does not compute λ
+/// a priori; it reports the λ that the observed contraction factor q = 2λ²P_c implies.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct D03Bound {
+    /// P_c: the contact clusters (D03's Ω*_j).
+    pub clusters: usize,
+    /// The theorem's sufficient condition λ < 1/√(2P_c).
+    pub lambda_limit: f64,
+    /// λ = √(q / (2P_c)) implied by the observed contraction factor q.
+    pub lambda_observed: f64,
+    /// (2λ²P_c)^k / (1 − 2λ²P_c) ‖U⁰ − U¹‖ at the last step k, with 2λ²P_c = q (Euclidean norm
+    /// of the interface trace in place of the theorem's Q-norm).
+    pub bound: f64,
 }
 
 /// Report of one DD solve.
@@ -54,6 +73,12 @@ pub struct DdReport {
     pub pcg1_preconditioner: Pcg1Preconditioner,
     /// The coarse space of all balancing preconditioners.
     pub coarse: CoarseKind,
+    /// The injection weights ρ of the balancing preconditioners (D05 5.5).
+    pub weights: Weights,
+    /// The outer iteration (safeguarded, or the papers' plain successive approximations).
+    pub iteration: OuterIteration,
+    /// Whether every contact row is frictionless (D03's setting; the D03 bound applies).
+    pub frictionless: bool,
     /// Dimension of the coarse space V_H of PCG1 after dropping dependent columns.
     pub coarse_dim_pcg1: usize,
     /// Dimension of the coarse space V_0H of PCG2 (S0) after dropping dependent columns.
@@ -74,6 +99,9 @@ pub struct DdReport {
     pub contraction_estimate: Option<f64>,
     /// Cor. 7.1 with the observed q: q^k / (1 − q) ‖U⁰ − U¹‖ at the last step.
     pub error_bound: Option<f64>,
+    /// D03 Thm 4.1 with the observed q, for a frictionless problem whose unaccelerated
+    /// iteration contracted.
+    pub d03: Option<D03Bound>,
     /// max |Σ D_s R_s − 1| for PCG1 and PCG2 weights (D05 5.8, 6.6).
     pub partition_of_unity_error: [f64; 2],
     /// max |w_jᵀ r| / ‖b‖ over all PCG1 / PCG2 iterations (Lemma 5.1 / 6.1).
@@ -108,6 +136,10 @@ impl DdReport {
             n_clusters: dec.clusters.len(),
             n_pairs: problem.pairs.len(),
             auxiliary_full_stick: dec.full_stick.iter().filter(|&&f| f).count(),
+            frictionless: problem
+                .pairs
+                .iter()
+                .all(|p| p.tangent.lower == 0.0 && p.tangent.upper == 0.0),
             threads: rayon::current_num_threads(),
             ..DdReport::default()
         }
@@ -121,7 +153,17 @@ impl DdReport {
             self.contraction_estimate = Some(q);
             let k = self.outer_residuals.len() as i32;
             if let Some(&r0) = self.outer_residuals.first() {
-                self.error_bound = Some(q.powi(k) / (1.0 - q) * r0);
+                let bound = q.powi(k) / (1.0 - q) * r0;
+                self.error_bound = Some(bound);
+                if self.frictionless && self.n_clusters > 0 {
+                    let pc = self.n_clusters as f64;
+                    self.d03 = Some(D03Bound {
+                        clusters: self.n_clusters,
+                        lambda_limit: 1.0 / (2.0 * pc).sqrt(),
+                        lambda_observed: (q / (2.0 * pc)).sqrt(),
+                        bound,
+                    });
+                }
             }
         }
     }
@@ -153,10 +195,12 @@ impl fmt::Display for DdReport {
         )?;
         writeln!(
             f,
-            "  iterations: PCG1 {} ({:?} preconditioner), outer {}, PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
+            "  iterations: PCG1 {} ({:?} preconditioner, {:?} weights), outer {} ({:?}), PCG2 total {} (paper, tunnel: 21 / 15 / 39); Newton steps {} ({} PCG iterations)",
             self.pcg1_iterations,
             self.pcg1_preconditioner,
+            self.weights,
             self.outer_iterations,
+            self.iteration,
             self.pcg2_iterations,
             self.newton_steps,
             self.newton_pcg_iterations
@@ -172,6 +216,13 @@ impl fmt::Display for DdReport {
                 f,
                 "  no contraction estimate (accelerated or too few steps)"
             )?,
+        }
+        if let Some(d) = &self.d03 {
+            writeln!(
+                f,
+                "  D03 Thm 4.1 (frictionless, P_c = {}): λ = √(q/2P_c) = {:.3} < 1/√(2P_c) = {:.3}; bound (2λ²P_c)^k/(1−2λ²P_c)‖U⁰−U¹‖ = {:.3e}",
+                d.clusters, d.lambda_observed, d.lambda_limit, d.bound
+            )?;
         }
         if self.auxiliary_full_stick > 0 {
             writeln!(

@@ -34,7 +34,7 @@ use super::coarse::Balancing;
 use super::decomposition::Decomposition;
 use super::dense::Cholesky;
 use super::newton::{line_search, NewtonOperator};
-use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
+use super::options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner};
 use super::partition::Partition;
 use super::pcg::pcg;
 use super::report::{DdReport, Times};
@@ -76,8 +76,15 @@ pub fn solve(
 ) -> Result<DdSolution, DdError> {
     let t0 = Instant::now();
     let partition = Partition::new(problem, &options.partition)?;
-    let dec = Decomposition::new(problem, partition, options.operators.as_deref())?;
+    let dec = Decomposition::new(
+        problem,
+        partition,
+        options.operators.as_deref(),
+        options.weights,
+    )?;
     let mut report = DdReport::new(problem, &dec);
+    report.weights = options.weights;
+    report.iteration = options.iteration;
     let setup = t0.elapsed().as_secs_f64();
     match iterate(problem, &dec, options, &mut report) {
         Ok((u, multipliers, mut times)) => {
@@ -314,8 +321,10 @@ fn iterate(
     let t = Instant::now();
     let s0 = s0_operator(dec, &enrich, report)?;
     let mut step = Step::new(dec, s0, f0, options);
-    let (u, converged) = outer(&mut step, u0, options, report)?;
+    let outcome = outer(&mut step, u0, options, report);
+    // Counts are kept even when the iteration stops (a non-contracting plain run).
     step.record(report);
+    let (u, converged) = outcome?;
     report.finish_contraction();
     times.scon = step.scon_time;
     times.pcg2 = step.pcg2_time;
@@ -478,7 +487,9 @@ struct Switches {
 
 impl Switches {
     fn new(options: &DdOptions, report: &mut DdReport) -> Switches {
-        let accelerated = options.force_acceleration && options.anderson_depth > 0;
+        let accelerated = options.force_acceleration
+            && options.anderson_depth > 0
+            && options.iteration == OuterIteration::Safeguarded;
         if accelerated {
             report.acceleration = Some("Anderson mixing from the first step (forced)".into());
         }
@@ -492,12 +503,26 @@ impl Switches {
     }
 
     /// Record r_k and the contraction factor q_k = r_k / r_{k−1} (Thm 7.1: q ≤ 2β² < 1);
-    /// switch to Anderson when q ≥ 1, or when q > `stagnation` twice in a row.
-    fn record_residual(&mut self, k: usize, r: f64, options: &DdOptions, report: &mut DdReport) {
+    /// switch to Anderson when q ≥ 1, or when q > `stagnation` twice in a row. The plain
+    /// iteration never switches: q ≥ 1 on two consecutive steps ends it as not contracting.
+    fn record_residual(
+        &mut self,
+        k: usize,
+        r: f64,
+        options: &DdOptions,
+        report: &mut DdReport,
+    ) -> Result<(), DdError> {
         if let Some(&prev) = report.outer_residuals.last() {
             let q = if prev > 0.0 { r / prev } else { 0.0 };
             report.contraction.push(q);
-            if !self.accelerated {
+            if options.iteration == OuterIteration::Plain {
+                self.high = if q >= 1.0 { self.high + 1 } else { 0 };
+                if self.high >= 2 {
+                    report.outer_residuals.push(r);
+                    report.outer_iterations = k + 1;
+                    return Err(DdError::NotContracting { step: k, q });
+                }
+            } else if !self.accelerated {
                 self.high = if q >= 1.0 {
                     2
                 } else if q > options.stagnation {
@@ -516,6 +541,7 @@ impl Switches {
         }
         report.outer_residuals.push(r);
         report.outer_iterations = k + 1;
+        Ok(())
     }
 
     /// Switch to Newton steps when Anderson's best residual has not dropped by 10 % for
@@ -558,7 +584,7 @@ fn outer(
         let diff: Vec<f64> = tu.iter().zip(&u).map(|(a, b)| a - b).collect();
         let r = norm(&diff);
         let scale = norm(&tu).max(f64::MIN_POSITIVE);
-        switches.record_residual(k, r, options, report);
+        switches.record_residual(k, r, options, report)?;
         pcg2_tol = forcing_tol(r, scale, options);
         match stop_test(r, scale, used, step, options) {
             Stop::Converged => return Ok((tu, true)),

@@ -172,7 +172,7 @@ fn coarse_dimensions_equal_the_counted_kernels() {
         },
     )
     .expect("partition");
-    let dec = Decomposition::new(&problem, part, None).expect("decomposition");
+    let dec = Decomposition::new(&problem, part, None, Weights::Stiffness).expect("decomposition");
     let kernels: usize = dec.blocks.iter().map(|b| b.kernel().ncols()).sum();
     let tied: usize = dec.tied.iter().map(|b| b.kernel().ncols()).sum();
     assert!(kernels > 0, "expected floating subdomains");
@@ -380,4 +380,120 @@ fn subdomain_operators_are_reused_while_the_stiffness_is_unchanged_with_the_same
     assert_eq!(b.u, fresh.u);
     assert_eq!(b.multipliers, fresh.multipliers);
     assert_ne!(a.u, b.u, "the load did change");
+}
+
+/// [`two_blocks`] (slip limit `g`) with the elements of its contact subdomains made `scale` times
+/// as stiff, and the partition it was cut with.
+fn scaled_contact_band(g: f64, scale: f64) -> (DdProblem, PartitionRequest) {
+    let mut problem = two_blocks(24, g, 0.003).expect("problem");
+    let request = PartitionRequest::Automatic {
+        subdomains: 8,
+        contact_layers: 4,
+    };
+    let part = Partition::new(&problem, &request).expect("partition");
+    for (e, el) in problem.elements.iter_mut().enumerate() {
+        if part.contact[part.element_subdomain[e]] {
+            el.matrix.iter_mut().flatten().for_each(|x| *x *= scale);
+        }
+    }
+    (problem, PartitionRequest::Given(Box::new(part)))
+}
+
+#[test]
+fn plain_successive_approximations_stop_as_not_contracting() {
+    // The two blocks as they are: the contact band is as stiff as its neighbours and the
+    // papers' contraction condition fails (q ≈ 2.4); the plain iteration says so instead of
+    // accelerating.
+    let (problem, partition) = scaled_contact_band(8.0, 1.0);
+    let plain = DdOptions {
+        iteration: OuterIteration::Plain,
+        partition,
+        ..DdOptions::default()
+    };
+    match solve(&problem, &plain, None) {
+        Err(DdError::NotContracting { q, step }) => assert!(q >= 1.0 && step >= 1, "{q} {step}"),
+        other => panic!("expected non-contraction, got {other:?}"),
+    }
+    let reference = direct(&problem);
+    let fallback = || Ok(reference.clone());
+    let sol = solve(&problem, &plain, Some(&fallback)).expect("fallback");
+    let said = sol.report.fallback.as_deref().unwrap_or_default();
+    assert!(said.contains("not contracting"), "{said}");
+    assert!(sol.report.acceleration.is_none() && sol.report.newton_steps == 0);
+    assert!(sol
+        .report
+        .contraction
+        .iter()
+        .rev()
+        .take(2)
+        .all(|&q| q >= 1.0));
+    assert_eq!(sol.report.iteration, OuterIteration::Plain);
+}
+
+#[test]
+fn plain_successive_approximations_converge_on_a_soft_contact_band() {
+    // Contact band softer than the rest (0.3 and 0.01 times the stiffness): the cluster's energy
+    // is small against S0's (D03 (66), D05 Assumption 7.1), the plain iteration contracts
+    // (q ≈ 0.5–0.7 at 0.3); frictionless, so the D03 form of the bound is reported, 2λ²P_c = q.
+    let (problem, partition) = scaled_contact_band(0.0, 0.3);
+    let plain = DdOptions {
+        iteration: OuterIteration::Plain,
+        partition,
+        ..DdOptions::default()
+    };
+    let sol = solve(&problem, &plain, None).expect("plain DD converges");
+    let report = &sol.report;
+    assert!(report.acceleration.is_none() && report.newton_steps == 0);
+    assert!(report.fallback.is_none());
+    assert!(rel(&sol.u, &direct(&problem).u) <= 1e-8);
+    let q = report.contraction_estimate.expect("a contraction estimate");
+    assert!(q < 1.0, "{q}");
+    let d03 = report
+        .d03
+        .as_ref()
+        .expect("D03 bound for a frictionless problem");
+    assert_eq!(d03.clusters, report.n_clusters);
+    assert!((2.0 * d03.lambda_observed.powi(2) * d03.clusters as f64 - q).abs() <= 1e-12);
+    assert!(d03.lambda_observed < d03.lambda_limit);
+    assert!((d03.lambda_limit - 1.0 / (2.0 * d03.clusters as f64).sqrt()).abs() <= 1e-15);
+    assert_eq!(Some(d03.bound), report.error_bound);
+    assert!(report.to_string().contains("D03 Thm 4.1"));
+    // With friction the D03 (frictionless) bound does not apply.
+    let (problem, partition) = scaled_contact_band(8.0, 0.01);
+    let plain = DdOptions {
+        iteration: OuterIteration::Plain,
+        partition,
+        ..DdOptions::default()
+    };
+    let sol = solve(&problem, &plain, None).expect("plain DD converges with friction");
+    assert!(sol.report.d03.is_none() && !sol.report.frictionless);
+    assert!(rel(&sol.u, &direct(&problem).u) <= 1e-8);
+}
+
+#[test]
+fn mean_young_weights_are_the_materials_moduli_and_dd_still_equals_direct() {
+    // two_blocks: E = 1e4 (lower body 0), 2e4 (upper body 1), ν = 0.3.
+    let problem = two_blocks(24, 8.0, 0.003).expect("problem");
+    for (e, el) in problem.elements.iter().enumerate() {
+        let expected = [1.0e4, 2.0e4][problem.element_body(e)];
+        assert!(
+            (el.young - expected).abs() <= 1e-10 * expected,
+            "{}",
+            el.young
+        );
+    }
+    let area: f64 = problem.elements.iter().map(|el| el.area).sum();
+    assert!((area - 3.0).abs() <= 1e-12, "{area}");
+    let opts = DdOptions {
+        weights: Weights::MeanYoung,
+        ..options(8, 2)
+    };
+    let sol = solve(&problem, &opts, None).expect("dd");
+    assert_eq!(sol.report.weights, Weights::MeanYoung);
+    assert!(sol
+        .report
+        .partition_of_unity_error
+        .iter()
+        .all(|&x| x <= 1e-14));
+    assert!(rel(&sol.u, &direct(&problem).u) <= 1e-8);
 }

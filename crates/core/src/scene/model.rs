@@ -944,6 +944,88 @@ pub struct SolverSettings {
     /// `sparse` (primal–dual active set on sparse factors, memory O(nnz of a factor)).
     #[serde(default, skip_serializing_if = "ContactMethod::is_auto")]
     pub contact: ContactMethod,
+    /// Variants of the DD solver (design §3.2, "The papers' method as printed"): each member
+    /// selects the papers' printed choice instead of wsm's default. Ignored by the direct solver.
+    #[serde(default, skip_serializing_if = "DdSettings::is_default")]
+    pub dd: DdSettings,
+}
+
+/// Variants of the DD solver (design §3.2): wsm's defaults, or the papers' method as printed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DdSettings {
+    /// The PCG1 preconditioner of the auxiliary problem: `reduced` (default; D05 §6 on the
+    /// tied operator) or `printed` (D05 §5 / D03 Def. 3.4: Neumann solves on the tied contact
+    /// clusters too).
+    #[serde(default)]
+    pub pcg1: DdPcg1,
+    /// The coarse space of the balancing preconditioners: `rigid` (default; rigid motions of
+    /// every non-contact subdomain) or `kernels` (as printed, D05 5.11 / 6.7: the floating
+    /// subdomains' kernels only).
+    #[serde(default)]
+    pub coarse: DdCoarse,
+    /// The outer iteration: `safeguarded` (default; Anderson mixing, Newton steps and the direct
+    /// solver when the successive approximations do not contract) or `plain` (the papers'
+    /// successive approximations; a solve whose contraction factor is ≥ 1 on two consecutive
+    /// steps stops as "not contracting" and the direct solver answers with that warning).
+    #[serde(default)]
+    pub iteration: DdIteration,
+    /// The stiffness measure ρ of the injection weights (D05 5.5): `stiffness` (default; mean
+    /// diagonal of the subdomain's stiffness) or `mean_young` (the papers' choice: mean Young's
+    /// modulus of the subdomain).
+    #[serde(default)]
+    pub weights: DdWeights,
+}
+
+impl DdSettings {
+    /// Whether every member is wsm's default.
+    pub fn is_default(&self) -> bool {
+        *self == DdSettings::default()
+    }
+}
+
+/// The PCG1 preconditioner (design §3.2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DdPcg1 {
+    /// The reduced balancing preconditioner of D05 §6 on the tied operator.
+    #[default]
+    Reduced,
+    /// D05 §5 / D03 Def. 3.4 as printed.
+    Printed,
+}
+
+/// The coarse space of the DD's balancing preconditioners (design §3.2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DdCoarse {
+    /// Rigid motions of every non-contact subdomain.
+    #[default]
+    Rigid,
+    /// The floating subdomains' kernels only, as printed (D05 5.11 / 6.7).
+    Kernels,
+}
+
+/// The DD's outer iteration (design §3.2).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DdIteration {
+    /// Successive approximations with Anderson mixing, Newton steps and a direct fallback.
+    #[default]
+    Safeguarded,
+    /// The papers' plain successive approximations (D05 4.37, D03 (52)).
+    Plain,
+}
+
+/// The stiffness measure ρ of the DD's injection weights (D05 5.5).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DdWeights {
+    /// Mean diagonal of the subdomain's stiffness matrix.
+    #[default]
+    Stiffness,
+    /// Area-weighted mean Young's modulus of the subdomain (the papers' choice).
+    MeanYoung,
 }
 
 /// How the direct solver treats the contact (design §3.1).
@@ -1000,6 +1082,7 @@ impl Default for SolverSettings {
             partition: Vec::new(),
             coulomb_acceleration: CoulombAcceleration::default(),
             contact: ContactMethod::default(),
+            dd: DdSettings::default(),
         }
     }
 }
