@@ -717,12 +717,7 @@ impl DirectContact {
         upper: &[f64],
         warm: Option<&WarmStart>,
     ) -> Result<ContactSolution, WsmError> {
-        let TrescaInputs {
-            factor,
-            elastic,
-            rhs,
-            fixed,
-        } = *inputs;
+        let (factor, rhs, fixed) = (inputs.factor, inputs.rhs, inputs.fixed);
         let start = std::time::Instant::now();
         let mut offsets = vec![0.0; self.geometry.dim()];
         self.add_offsets(fixed, &mut offsets);
@@ -759,7 +754,7 @@ impl DirectContact {
         let gaps = self.gaps(&u_free, fixed);
         Ok(ContactSolution {
             equilibrium_residual: self.equilibrium_residual(
-                elastic,
+                inputs.elastic,
                 &factor.values,
                 &u_free,
                 &outcome.multipliers,

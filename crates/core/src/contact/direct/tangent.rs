@@ -35,7 +35,7 @@
 //! given for it.
 
 use super::{DirectContact, StiffnessFactor};
-use crate::contact::pairs::{is_tangential_row, normal_row, pair_of_row};
+use crate::contact::pairs::{is_tangential_row, normal_row, pair_of_row, ContactRow};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
 use crate::error::WsmError;
 use crate::fem::rigid::remove_components;
@@ -106,6 +106,21 @@ struct SignedDirection<'a> {
     b: Vec<f64>,
     /// sign · du_d.
     fixed: Vec<f64>,
+}
+
+impl SignedDirection<'_> {
+    /// d_r = B_r x0 + B_r^d du_d: the rate of `row`'s gap at fixed multipliers.
+    fn gap_rate(&self, row: &ContactRow) -> f64 {
+        row.dot(&self.x0) + row.dot_fixed(&self.fixed)
+    }
+
+    /// The signed derivatives of row `r`'s lower and upper multiplier bounds.
+    fn bound_rates(&self, r: usize) -> (f64, f64) {
+        (
+            self.sign * self.derivative.lower[r],
+            self.sign * self.derivative.upper[r],
+        )
+    }
 }
 
 /// The derivative of the displacement on the free DOFs along +ε and, when the state is only
@@ -211,14 +226,6 @@ impl DirectContact {
         motions: &[RowMotion],
         direction: &SignedDirection,
     ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
-        let SignedDirection {
-            derivative: dd,
-            sign,
-            x0,
-            b,
-            fixed,
-        } = direction;
-        let sign = *sign;
         let m = self.geometry.dim();
         if m == 0 && self.kernel_dim() == 0 {
             return Ok((Vec::new(), Vec::new()));
@@ -227,10 +234,10 @@ impl DirectContact {
             .geometry
             .rows
             .iter()
-            .map(|row| row.dot(x0) + row.dot_fixed(fixed))
+            .map(|row| direction.gap_rate(row))
             .collect();
-        let (lo, hi) = tangent_bounds(motions, dd, sign);
-        let (g, e) = self.tangent_equilibrium(b);
+        let (lo, hi) = tangent_bounds(motions, direction.derivative, direction.sign);
+        let (g, e) = self.tangent_equilibrium(&direction.b);
         let start = WarmStart {
             x: lo
                 .iter()
@@ -322,22 +329,14 @@ impl DirectContact {
         state: &ContactPoint,
         direction: &SignedDirection,
     ) -> Result<(Vec<f64>, Vec<f64>), WsmError> {
-        let SignedDirection {
-            derivative: dd,
-            sign,
-            x0,
-            b,
-            fixed,
-        } = direction;
-        let sign = *sign;
         let m = self.geometry.dim();
-        let (g, e) = self.tangent_equilibrium(b);
+        let (g, e) = self.tangent_equilibrium(&direction.b);
         let k = e.len();
         let n = m + k;
         let mut a = Mat::<f64>::zeros(n, n);
         let mut rhs = vec![0.0; n];
         for (r, motion) in motions.iter().enumerate() {
-            let (dl, du) = (sign * dd.lower[r], sign * dd.upper[r]);
+            let (dl, du) = direction.bound_rates(r);
             let bound = match motion {
                 RowMotion::Free => {
                     for j in 0..m {
@@ -347,7 +346,7 @@ impl DirectContact {
                         a[(r, m + i)] = -g[(i, r)];
                     }
                     let row = &self.geometry.rows[r];
-                    rhs[r] = row.dot(x0) + row.dot_fixed(fixed);
+                    rhs[r] = direction.gap_rate(row);
                     continue;
                 }
                 RowMotion::Lower | RowMotion::Pinched => (dl, -1.0),
