@@ -139,7 +139,8 @@ impl ErrorKind {
         }
     }
 
-    /// The kind's name in snake case (`bad_input`, `unsolvable`, …).
+    /// The kind's name in snake case (`bad_input`, `unsolvable`, …), as job records and the
+    /// Python package carry it.
     pub fn name(self) -> &'static str {
         match self {
             ErrorKind::BadInput => "bad_input",

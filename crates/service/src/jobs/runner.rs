@@ -304,17 +304,6 @@ fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
         .unwrap_or_else(|| "unknown panic".into())
 }
 
-fn kind_name(kind: ErrorKind) -> &'static str {
-    match kind {
-        ErrorKind::BadInput => "bad_input",
-        ErrorKind::Unsolvable => "unsolvable",
-        ErrorKind::Solver => "solver",
-        ErrorKind::Cancelled => "cancelled",
-        ErrorKind::NotFound => "not_found",
-        ErrorKind::Io => "io",
-    }
-}
-
 async fn run_job(
     store: &Arc<dyn JobStore>,
     live: &Arc<Live>,
@@ -489,7 +478,7 @@ impl Run<'_> {
                 return Attempt::StoreFailed(e.to_string())
             }
             Ok(Err(e)) => JobEnd::Failed {
-                kind: kind_name(e.kind()).into(),
+                kind: e.kind().name().into(),
                 error: e.to_string(),
             },
             Err(join) if join.is_panic() => JobEnd::Failed {
