@@ -364,13 +364,7 @@ fn the_service_takes_an_inline_mesh_and_gives_the_cli_result() {
     let server = Server::start(&db, &["--workers", "1"]);
     let addr = &server.addr;
     let reply = post(addr, "/v1/jobs", &json!({ "scene": inline }));
-    assert_eq!(
-        reply.status,
-        202,
-        "{}",
-        String::from_utf8_lossy(&reply.body)
-    );
-    let id = reply.json()["id"].as_str().unwrap().to_string();
+    let id = reply.accepted_id();
     let status = wait_finished(addr, &id, Duration::from_secs(300));
     assert_eq!(status["state"], "succeeded", "{status}");
     let result = common::get(addr, &format!("/v1/jobs/{id}/result")).json();

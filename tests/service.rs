@@ -45,13 +45,7 @@ fn a_job_runs_to_the_result_of_wsm_worst_and_can_be_cancelled() {
         .any(|e| e["name"] == "tunnel-fault"));
 
     let reply = post(addr, "/v1/jobs", &submission(30, 5));
-    assert_eq!(
-        reply.status,
-        202,
-        "{}",
-        String::from_utf8_lossy(&reply.body)
-    );
-    let id = reply.json()["id"].as_str().unwrap().to_string();
+    let id = reply.accepted_id();
     assert_eq!(
         reply.header("location"),
         Some(format!("/v1/jobs/{id}").as_str())
@@ -248,8 +242,7 @@ fn twenty_concurrent_submissions_on_two_workers_all_finish_correctly() {
                 let addr = addr.clone();
                 s.spawn(move || {
                     let reply = post(&addr, "/v1/jobs", &submission(12, seed));
-                    assert_eq!(reply.status, 202);
-                    (reply.json()["id"].as_str().unwrap().to_string(), seed)
+                    (reply.accepted_id(), seed)
                 })
             })
             .collect();

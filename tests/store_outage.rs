@@ -94,13 +94,7 @@ fn a_locked_store_degrades_health_refuses_with_503_and_recovers_without_failing_
     let mut accepted = vec![running];
     for seed in 0..10 {
         let reply = post(&addr, "/v1/jobs", &submission(4, 10 + seed));
-        assert_eq!(
-            reply.status,
-            202,
-            "{}",
-            String::from_utf8_lossy(&reply.body)
-        );
-        accepted.push(reply.json()["id"].as_str().unwrap().to_string());
+        accepted.push(reply.accepted_id());
     }
     for id in &accepted {
         let done = wait_finished(&addr, id, Duration::from_secs(120));

@@ -95,6 +95,13 @@ impl Reply {
             .unwrap_or_else(|e| panic!("{e}: {}", String::from_utf8_lossy(&self.body)))
     }
 
+    /// The id of the job this reply accepted: the status must be 202 (otherwise the test fails
+    /// showing the body).
+    pub fn accepted_id(&self) -> String {
+        assert_eq!(self.status, 202, "{}", String::from_utf8_lossy(&self.body));
+        self.json()["id"].as_str().unwrap().to_string()
+    }
+
     pub fn header(&self, name: &str) -> Option<&str> {
         self.headers
             .iter()
