@@ -258,6 +258,12 @@ fn hertz_matches_finite_differences() {
     example("hertz", 1.0, 3);
 }
 
+/// Dual mortar rows on non-matching meshes (design §2.4.1).
+#[test]
+fn hertz_nonmatching_matches_finite_differences() {
+    example("hertz-nonmatching", 1.0, 3);
+}
+
 #[test]
 fn knee_matches_finite_differences() {
     example("knee", 1.5, 2);

@@ -12,6 +12,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../../scenes/heated-plate.json"),
     ),
     ("hertz", include_str!("../../../scenes/hertz.json")),
+    (
+        "hertz-nonmatching",
+        include_str!("../../../scenes/hertz-nonmatching.json"),
+    ),
     ("knee", include_str!("../../../scenes/knee.json")),
     (
         "knee-cut-3",

@@ -101,7 +101,7 @@ impl Feasibility {
             })
             .map(|(m, pair)| {
                 let mut sources: Vec<(Source, f64)> = Vec::new();
-                for (node, sign) in [(pair.nodes[0], 1.0), (pair.nodes[1], -1.0)] {
+                for (node, sign) in pair.terms() {
                     for (source, du) in dofs.prescribed_sources(node) {
                         let a = sign * (pair.normal[0] * du[0] + pair.normal[1] * du[1]);
                         match sources.iter_mut().find(|(s, _)| *s == source) {

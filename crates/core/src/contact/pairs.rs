@@ -3,6 +3,9 @@
 //! nodal share w_m of the contact length (friction lumped at nodes: j_h(v) = Σ g(s_m) w_m
 //! |t_m·(v^k_m − v^l_m)|), the initial gap g0_m, and the rows of the contact operator B on the
 //! reduced (free, rotated) DOFs: (B u)_{2m} = n_m·(u^k_m − u^l_m), (B u)_{2m+1} = t_m·(u^k_m − u^l_m).
+//! On a mortar zone (design §2.4.1) k is the slave side, u^l_m the master combination
+//! Σ_q M̂_mq u_q, w_m the mortar weight D_mm and g0_m the weighted gap d_m / D_mm (plus any
+//! `initial_gap`): the decoupled dual mortar constraint (PDAS paper (25)) divided by D_mm.
 //! That layout of rows (and multipliers) is read through `normal_row`, `tangential_row`,
 //! `pair_of_row`, `is_normal_row` and `is_tangential_row`.
 //! On a Coulomb zone the nodal friction bound is F λ_n,m instead of g(s_m) w_m (design §3.4).
@@ -18,8 +21,12 @@ use crate::scene::{piecewise_linear, ContactKind, Data, InitialGap, Scene};
 pub struct ContactPair {
     /// Contact zone index (scene order).
     pub zone: usize,
-    /// Node of body k and node of body l (same position).
+    /// Node of body k and node of body l (same position); with mortar the slave node and the
+    /// master node of its largest coefficient.
     pub nodes: [usize; 2],
+    /// Body l's side of the row: nodes and coefficients (`[(l, 1.0)]` for a node pair, the
+    /// mortar combination Σ_q M̂_mq u_q otherwise).
+    pub master: Vec<(usize, f64)>,
     /// Unit normal, outward of body k.
     pub normal: [f64; 2],
     /// Unit tangent (−n_y, n_x).
@@ -32,6 +39,21 @@ pub struct ContactPair {
     pub bilateral: bool,
     /// Initial normal gap g0 ≥ 0 \[m\].
     pub gap: f64,
+}
+
+impl ContactPair {
+    /// The nodes of the pair's rows and their signs: (node of body k, 1) and (q, −c_q) for the
+    /// master side, so that the jump is Σ sign · u_node.
+    pub fn terms(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        std::iter::once((self.nodes[0], 1.0)).chain(self.master.iter().map(|&(q, c)| (q, -c)))
+    }
+
+    /// The displacement jump u^k − Σ_q c_q u_q of nodal displacements `u`.
+    pub fn jump(&self, u: &[[f64; 2]]) -> [f64; 2] {
+        self.terms().fold([0.0; 2], |j, (node, sign)| {
+            [j[0] + sign * u[node][0], j[1] + sign * u[node][1]]
+        })
+    }
 }
 
 /// A row of B: coefficients on free DOFs and on prescribed DOFs.
@@ -103,18 +125,28 @@ impl ContactGeometry {
                 *weights.entry(a).or_insert(0.0) += half;
                 *weights.entry(b).or_insert(0.0) += half;
             }
-            for (&[k, l], &fraction) in zone.pairs.iter().zip(&zone.fraction) {
+            for (m, (&[k, l], &fraction)) in zone.pairs.iter().zip(&zone.fraction).enumerate() {
                 let normal = normals.get(&k).copied().unwrap_or([0.0, 0.0]);
                 let position = mesh.nodes[k];
+                let given = initial_gap(contact.initial_gap.as_ref(), position, fraction);
+                let (master, weight, gap) = match &zone.mortar {
+                    None => (
+                        vec![(l, 1.0)],
+                        weights.get(&k).copied().unwrap_or(0.0),
+                        given,
+                    ),
+                    Some(rows) => (rows[m].master.clone(), rows[m].weight, rows[m].gap + given),
+                };
                 pairs.push(ContactPair {
                     zone: z,
                     nodes: [k, l],
+                    master,
                     normal,
                     tangent: [-normal[1], normal[0]],
-                    weight: weights.get(&k).copied().unwrap_or(0.0),
+                    weight,
                     fraction,
                     bilateral: contact.kind == ContactKind::Bilateral,
-                    gap: initial_gap(contact.initial_gap.as_ref(), position, fraction),
+                    gap,
                 });
             }
         }
@@ -172,10 +204,11 @@ impl ContactGeometry {
     }
 }
 
-/// The row v·(u^k − u^l) in local DOFs: u_global = e0 u0 + e1 u1 per node.
+/// The row v·(u^k − Σ_q c_q u_q) in local DOFs (u_global = e0 u0 + e1 u1 per node), the sum
+/// over the pair's master side.
 fn row(dofs: &DofMap, pair: &ContactPair, v: [f64; 2]) -> ContactRow {
     let mut out = ContactRow::default();
-    for (node, sign) in [(pair.nodes[0], 1.0), (pair.nodes[1], -1.0)] {
+    for (node, sign) in pair.terms() {
         let basis = dofs.basis(node);
         for (c, slot) in dofs.slots(node).into_iter().enumerate() {
             let coef = sign * (v[0] * basis[c][0] + v[1] * basis[c][1]);

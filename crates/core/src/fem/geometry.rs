@@ -1,9 +1,10 @@
 //! P1 geometry shared by every operator: shape-function gradients of a triangle and outward
 //! normals of boundary edges (edges are oriented with the body on their left, `mesh::MeshSegment`).
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 
-use crate::mesh::{Mesh, MeshSegment};
+pub use crate::mesh::normals::{edge_length, edge_normal, segment_node_normals};
+use crate::mesh::Mesh;
 use crate::scene::BoundaryData;
 
 use super::FemError;
@@ -56,44 +57,6 @@ impl TriangleGradients {
         }
         f
     }
-}
-
-/// Outward normal times length of the boundary edge [a, b]: (y_b − y_a, −(x_b − x_a)).
-pub fn edge_normal(mesh: &Mesh, [a, b]: [usize; 2]) -> [f64; 2] {
-    let (pa, pb) = (mesh.nodes[a], mesh.nodes[b]);
-    [pb[1] - pa[1], -(pb[0] - pa[0])]
-}
-
-/// Length of the edge [a, b].
-pub fn edge_length(mesh: &Mesh, edge: [usize; 2]) -> f64 {
-    let n = edge_normal(mesh, edge);
-    n[0].hypot(n[1])
-}
-
-/// Averaged outward unit normal of a segment at each of its nodes (sum of the unit normals of
-/// the adjacent segment edges, normalised), in the order of `segment.nodes`.
-pub fn segment_node_normals(mesh: &Mesh, segment: &MeshSegment) -> Vec<(usize, [f64; 2])> {
-    let mut sum = HashMap::<usize, [f64; 2]>::new();
-    for &edge in &segment.edges {
-        let n = edge_normal(mesh, edge);
-        let len = n[0].hypot(n[1]);
-        if len > 0.0 {
-            for node in edge {
-                let s = sum.entry(node).or_insert([0.0; 2]);
-                s[0] += n[0] / len;
-                s[1] += n[1] / len;
-            }
-        }
-    }
-    segment
-        .nodes
-        .iter()
-        .filter_map(|&node| {
-            let s = sum.get(&node)?;
-            let len = s[0].hypot(s[1]);
-            (len > 0.0).then(|| (node, [s[0] / len, s[1] / len]))
-        })
-        .collect()
 }
 
 /// Shape-function gradients of every triangle.

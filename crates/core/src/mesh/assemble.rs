@@ -6,9 +6,10 @@
 use std::collections::{BTreeMap, HashMap, HashSet};
 
 use super::geom::{bbox, dist, lerp, orient, Polyline, P};
+use super::mortar::{self, MortarFault};
 use super::rows::Rows;
 use super::{Mesh, MeshContact, MeshSegment, MeshZone};
-use crate::scene::{Scene, SceneError, Segment};
+use crate::scene::{Coupling, Scene, SceneError, Segment};
 
 /// Relative tolerance (of the mesh diameter) for "lies on a segment" and "same position".
 const ON: f64 = 1e-8;
@@ -342,7 +343,8 @@ fn chain_order(edges: &[[usize; 2]]) -> (Vec<[usize; 2]>, Vec<usize>) {
     (out_edges, out_nodes)
 }
 
-/// Contact `i` of the scene: the node pairs of its two segments at the same positions.
+/// Contact `i` of the scene: the node pairs of its two segments at the same positions, or with
+/// mortar coupling the slave nodes' mortar rows.
 fn contact(scene: &Scene, i: usize, mesh: &Mesh, tol: f64) -> Result<MeshContact, SceneError> {
     let c = &scene.contacts[i];
     let err = |reason: String| SceneError::new(format!("contacts[{i}].between"), reason);
@@ -357,6 +359,9 @@ fn contact(scene: &Scene, i: usize, mesh: &Mesh, tol: f64) -> Result<MeshContact
             "both segments belong to body '{}'; a contact joins two bodies",
             mesh.bodies[sk.body]
         )));
+    }
+    if c.coupling == Coupling::Mortar {
+        return mortar_contact(scene, i, mesh, [k, l]);
     }
     let mismatch = || {
         err(format!(
@@ -405,5 +410,94 @@ fn contact(scene: &Scene, i: usize, mesh: &Mesh, tol: f64) -> Result<MeshContact
         segment_l: l,
         pairs,
         fraction: arc.iter().map(|s| s / total).collect(),
+        mortar: None,
     })
+}
+
+/// A mortar zone (design §2.4.1): the slave side (`slave`, else the finer segment, else the
+/// first), its covered nodes' rows against the master side, and their arc-length fractions along
+/// the zone's first segment.
+fn mortar_contact(
+    scene: &Scene,
+    i: usize,
+    mesh: &Mesh,
+    [k, l]: [usize; 2],
+) -> Result<MeshContact, SceneError> {
+    let c = &scene.contacts[i];
+    let mean_edge = |s: usize| {
+        let seg = &mesh.segments[s];
+        let length: f64 = seg
+            .edges
+            .iter()
+            .map(|&[a, b]| dist(mesh.nodes[a], mesh.nodes[b]))
+            .sum();
+        length / seg.edges.len().max(1) as f64
+    };
+    let slave_is_l = match &c.slave {
+        Some(name) => *name == c.between[1],
+        None => mean_edge(l) < mean_edge(k),
+    };
+    let (slave, master) = if slave_is_l { (l, k) } else { (k, l) };
+    let (ss, sm) = (&mesh.segments[slave], &mesh.segments[master]);
+    let rows = mortar::couple(mesh, ss, sm).map_err(|fault| match fault {
+        MortarFault::TooFewElements(n) => SceneError::new(
+            format!("contacts[{i}].between"),
+            format!(
+                "the mortar slave segment '{}' has {n} element(s) on the mesh; it needs at least 2 \
+                 (refine it or choose the other side as `slave`)",
+                ss.name
+            ),
+        ),
+        MortarFault::NoOverlap => SceneError::new(
+            format!("contacts[{i}].between"),
+            format!(
+                "segments '{}' and '{}' do not face each other anywhere: no slave point sees the \
+                 master side along its outward normal",
+                ss.name, sm.name
+            ),
+        ),
+        MortarFault::Crossing { at, angle } => SceneError::new(
+            format!("contacts[{i}].between"),
+            format!(
+                "segments '{}' and '{}' cross each other at ({:.6}, {:.6}) at {angle:.0}°; a \
+                 contact zone needs two boundaries facing each other",
+                ss.name, sm.name, at[0], at[1]
+            ),
+        ),
+    })?;
+    let along = &mesh.segments[k];
+    let fraction = rows
+        .iter()
+        .map(|(p, _)| arc_fraction(mesh, along, mesh.nodes[*p]))
+        .collect();
+    let pairs = rows
+        .iter()
+        .map(|(p, row)| {
+            let main = row
+                .master
+                .iter()
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+                .map_or(*p, |&(q, _)| q);
+            [*p, main]
+        })
+        .collect();
+    Ok(MeshContact {
+        name: c.name.clone(),
+        segment_k: slave,
+        segment_l: master,
+        pairs,
+        fraction,
+        mortar: Some(rows.into_iter().map(|(_, row)| row).collect()),
+    })
+}
+
+/// The arc-length fraction along `segment` (its nodes' chain) of the point nearest to `p`.
+fn arc_fraction(mesh: &Mesh, segment: &MeshSegment, p: P) -> f64 {
+    let line = Polyline::new(segment.nodes.iter().map(|&n| mesh.nodes[n]).collect());
+    let length = line.length();
+    if length > 0.0 {
+        line.project(p).1 / length
+    } else {
+        0.0
+    }
 }

@@ -18,7 +18,7 @@ use super::refine::Refiner;
 use super::size::SizeField;
 use super::tri::{orient, Tri, NONE};
 use super::Mesh;
-use crate::scene::{Scene, SceneError};
+use crate::scene::{Coupling, Scene, SceneError};
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
@@ -40,6 +40,110 @@ pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
         ));
     }
     let zones = mesh_zones(scene)?;
+    let groups = meshing_groups(scene);
+    if groups.len() == 1 {
+        let raw = raw_mesh_of(scene, min_angle)?;
+        return finish(scene, raw, zones, &Default::default());
+    }
+    SizeField::from_scene(scene)?;
+    let mut raw = RawMesh::default();
+    for group in &groups {
+        let part = bodies_only(scene, group);
+        let piece = raw_mesh_of(&part, min_angle).map_err(|e| in_scene(e, group))?;
+        // The part's zones are its bodies' zones in order; map them to the scene's.
+        let zone_of: Vec<usize> = zones
+            .iter()
+            .enumerate()
+            .filter(|(_, z)| group.contains(&z.body))
+            .map(|(i, _)| i)
+            .collect();
+        let base = raw.nodes.len();
+        raw.nodes.extend(piece.nodes);
+        raw.triangles
+            .extend(piece.triangles.iter().map(|t| t.map(|v| v + base)));
+        raw.zone.extend(piece.zone.iter().map(|&z| zone_of[z]));
+    }
+    finish(scene, raw, zones, &Default::default())
+}
+
+/// The bodies meshed together: those joined by node-coupled contact zones (their nodes must
+/// match), each group on its own when a mortar zone lets bodies be meshed separately (design
+/// §2.4.1). One group, in body order, when no zone is mortar-coupled.
+fn meshing_groups(scene: &Scene) -> Vec<Vec<usize>> {
+    let n = scene.bodies.len();
+    if scene.contacts.iter().all(|c| c.coupling == Coupling::Nodes) {
+        return vec![(0..n).collect()];
+    }
+    let body_of = |segment: &str| {
+        let name = &scene.segments.get(segment)?.body;
+        scene.bodies.iter().position(|b| b.name == *name)
+    };
+    let mut group: Vec<usize> = (0..n).collect();
+    let root = |group: &[usize], mut b: usize| {
+        while group[b] != b {
+            b = group[b];
+        }
+        b
+    };
+    for c in scene
+        .contacts
+        .iter()
+        .filter(|c| c.coupling == Coupling::Nodes)
+    {
+        if let (Some(a), Some(b)) = (body_of(&c.between[0]), body_of(&c.between[1])) {
+            let (ra, rb) = (root(&group, a), root(&group, b));
+            group[ra.max(rb)] = ra.min(rb);
+        }
+    }
+    let mut out: Vec<Vec<usize>> = Vec::new();
+    let mut slot = vec![usize::MAX; n];
+    for b in 0..n {
+        let r = root(&group, b);
+        if slot[r] == usize::MAX {
+            slot[r] = out.len();
+            out.push(Vec::new());
+        }
+        out[slot[r]].push(b);
+    }
+    out
+}
+
+/// The scene restricted to some bodies for meshing: their zones, their segments, and the
+/// refinements along their segments or inside polygons.
+fn bodies_only(scene: &Scene, bodies: &[usize]) -> Scene {
+    let mut part = scene.clone();
+    part.bodies = bodies.iter().map(|&b| scene.bodies[b].clone()).collect();
+    let names: Vec<&str> = part.bodies.iter().map(|b| b.name.as_str()).collect();
+    part.segments
+        .retain(|_, segment| names.contains(&segment.body.as_str()));
+    part.contacts.clear();
+    part.mesh.refine = scene
+        .mesh
+        .refine
+        .iter()
+        .filter_map(|r| {
+            let mut r = r.clone();
+            r.segments.retain(|s| part.segments.contains_key(s));
+            (!r.segments.is_empty() || r.polygon.is_some()).then_some(r)
+        })
+        .collect();
+    part
+}
+
+/// An error of a part's mesh named in the scene's body numbering.
+fn in_scene(mut error: SceneError, bodies: &[usize]) -> SceneError {
+    if let Some(rest) = error.path.strip_prefix("bodies[") {
+        if let Some((index, tail)) = rest.split_once(']') {
+            if let Some(&b) = index.parse::<usize>().ok().and_then(|j| bodies.get(j)) {
+                error.path = format!("bodies[{b}]{tail}");
+            }
+        }
+    }
+    error
+}
+
+/// The checked raw triangulation of every body of `scene` together.
+fn raw_mesh_of(scene: &Scene, min_angle: f64) -> Result<RawMesh, SceneError> {
     let geo = input::geometry(scene)?;
     let size = SizeField::from_scene(scene)?;
     let area: f64 = geo.zones.iter().map(|z| z.area()).sum();
@@ -66,7 +170,7 @@ pub fn generate(scene: &Scene) -> Result<Mesh, SceneError> {
             ))
         })?;
     check::raw_mesh(&raw, &geo, &pslg, &size, min_angle)?;
-    finish(scene, raw, zones, &Default::default())
+    Ok(raw)
 }
 
 fn spade_point(p: P) -> Point2<f64> {

@@ -14,7 +14,9 @@ mod gmsh;
 mod import;
 mod inline;
 mod input;
+mod mortar;
 mod msh;
+pub mod normals;
 mod refine;
 mod rows;
 mod size;
@@ -27,6 +29,7 @@ mod tri;
 pub use count::{count, MeshCount};
 pub use generate::{generate, stats, MeshStats};
 pub use gmsh::{import_gmsh, with_inline_mesh};
+pub use mortar::MortarRow;
 
 /// A material zone of the mesh.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,19 +56,25 @@ pub struct MeshSegment {
     pub edges: Vec<[usize; 2]>,
 }
 
-/// A contact zone Γ^kl: matching node pairs between body k and body l.
+/// A contact zone Γ^kl: matching node pairs between body k and body l, or, with mortar
+/// coupling, the slave nodes and their dual mortar rows (design §2.4.1).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeshContact {
     /// Name of the contact zone from the scene.
     pub name: String,
-    /// Index of body k's segment in `Mesh::segments` (the normal is outward of body k).
+    /// Index of body k's segment in `Mesh::segments` (the normal is outward of body k); with
+    /// mortar the slave segment.
     pub segment_k: usize,
-    /// Index of body l's segment in `Mesh::segments`.
+    /// Index of body l's segment in `Mesh::segments`; with mortar the master segment.
     pub segment_l: usize,
-    /// (node of body k, node of body l), ordered along body k's segment.
+    /// (node of body k, node of body l), ordered along body k's segment; with mortar (slave node,
+    /// the master node of its largest mortar coefficient).
     pub pairs: Vec<[usize; 2]>,
-    /// Arc-length fraction s ∈ [0, 1] of each pair along the zone (for slip limits g(s)).
+    /// Arc-length fraction s ∈ [0, 1] of each pair along the zone (for slip limits g(s)),
+    /// measured along the scene's first segment of the zone (`between[0]`).
     pub fraction: Vec<f64>,
+    /// With mortar coupling, each pair's row: the master combination, weight and weighted gap.
+    pub mortar: Option<Vec<MortarRow>>,
 }
 
 /// The mesh of a scene.

@@ -207,6 +207,7 @@ pub fn stacked_blocks(
         segment_l: l,
         pairs,
         fraction,
+        mortar: None,
     });
     mesh
 }

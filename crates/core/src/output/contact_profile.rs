@@ -63,8 +63,7 @@ pub fn contact_profiles(problem: &StateProblem, solution: &Solution) -> Vec<Cont
                 .zip(&solution.contact)
                 .filter(|(p, _)| p.zone == z)
             {
-                let [k, l] = pair.nodes;
-                let jump = [u[k][0] - u[l][0], u[k][1] - u[l][1]];
+                let jump = pair.jump(u);
                 let along = |d: [f64; 2]| d[0] * jump[0] + d[1] * jump[1];
                 let s = match (profile.arc_length.last(), profile.position.last()) {
                     (Some(&s), Some(p)) => {

@@ -28,9 +28,9 @@ pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialDa
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
-    CoulombAcceleration, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec, DdCoarse,
-    DdIteration, DdPcg1, DdSettings, DdWeights, InitialGap, InlineMesh, Material, MeshControls,
-    Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
+    CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec,
+    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, InitialGap, InlineMesh, Material,
+    MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
     SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};

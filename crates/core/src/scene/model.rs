@@ -319,9 +319,37 @@ pub struct Contact {
     #[schemars(range(min = 0.0, max = MAX_FRICTION))]
     pub friction_coefficient: Option<f64>,
     /// Initial normal gap g0 ≥ 0 between the two segments (default 0, as in the papers). Lets a
-    /// flat contact line model curved surfaces, e.g. the 2D Hertz setting.
+    /// flat contact line model curved surfaces, e.g. the 2D Hertz setting. With mortar coupling
+    /// it is added to the gap the geometry gives.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial_gap: Option<InitialGap>,
+    /// How the two sides are coupled: `nodes` (default; matching node pairs) or `mortar` (dual
+    /// mortar on non-matching meshes, design §2.4.1).
+    #[serde(default, skip_serializing_if = "Coupling::is_nodes")]
+    pub coupling: Coupling,
+    /// With mortar coupling, the segment (one of `between`) that carries the multipliers and
+    /// whose outward normal is the contact normal; default the finer side (body k on a tie).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub slave: Option<String>,
+}
+
+/// Coupling of the two sides of a contact zone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Coupling {
+    /// Node pairs at identical positions: both segments must have matching nodes (the papers').
+    #[default]
+    Nodes,
+    /// Dual mortar (Wohlmuth; PDAS paper (15)–(25)): the segments need only overlap; each body is
+    /// meshed on its own.
+    Mortar,
+}
+
+impl Coupling {
+    /// Whether this is the default node-pair coupling (for `skip_serializing_if`).
+    pub fn is_nodes(&self) -> bool {
+        *self == Coupling::Nodes
+    }
 }
 
 /// Initial normal gap of a contact zone.

@@ -1,0 +1,375 @@
+//! Mortar contact on non-matching meshes (design §2.4.1): on matching meshes the dual mortar rows
+//! are the node-pair rows (every bundled contact example, 1e-10); the contact patch test across
+//! a 1 : 2.7 interface; Hertz meshed finely on one side and coarsely on the other, both ways;
+//! Tresca stick and refusal; refusals named. (Exact derivatives on the bundled `hertz-nonmatching`
+//! are checked against finite differences in tests/sensitivities.rs.)
+
+mod solves;
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use serde_json::{json, Value};
+use wsm_core::scene::{parse, Coupling, InlineMesh, Scene, SolverKind};
+use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
+
+fn options(scene: &Scene) -> SolveOptions {
+    SolveOptions {
+        needs: Needs::all(scene),
+        par: wsm_core::fem::Par::Seq,
+        warm: None,
+    }
+}
+
+fn solve_scene(scene: Scene) -> Result<(StateProblem, Solution), String> {
+    let problem = StateProblem::new(scene).map_err(|e| e.to_string())?;
+    let sol = problem
+        .solve(&problem.nominal, &options(&problem.scene))
+        .map_err(|e| e.to_string())?;
+    Ok((problem, sol))
+}
+
+fn solve_value(v: &Value) -> Result<(StateProblem, Solution), String> {
+    solve_scene(parse(&v.to_string()).map_err(|e| e.to_string())?)
+}
+
+fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
+    v.fold(0.0, |a, x| a.max(x.abs()))
+}
+
+/// The scene's generated mesh given inline, so that a second coupling meets the same nodes.
+fn with_own_mesh_inline(scene: &Scene) -> Scene {
+    let mesh = wsm_core::mesh::generate(scene).unwrap();
+    let mut out = scene.clone();
+    out.mesh.inline = Some(InlineMesh {
+        nodes: mesh.nodes.clone(),
+        triangles: mesh.triangles.clone(),
+        zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
+        triangle_zones: mesh.triangle_zone.clone(),
+        segments: mesh
+            .segments
+            .iter()
+            .map(|s| (s.name.clone(), s.edges.clone()))
+            .collect::<BTreeMap<_, _>>(),
+    });
+    // Larger than a posted inline mesh may be (10,000 nodes), so not through `parse` again.
+    out
+}
+
+#[test]
+fn matching_meshes_give_the_node_pair_results_on_every_bundled_contact_example() {
+    let mut compared = 0;
+    for name in wsm_core::bundled::names() {
+        let mut scene = parse(wsm_core::bundled::example(name).unwrap()).unwrap();
+        if scene.contacts.is_empty()
+            || scene
+                .contacts
+                .iter()
+                .any(|c| c.coupling == Coupling::Mortar)
+        {
+            continue;
+        }
+        if scene.thermal.is_some() {
+            println!("{name}: thermal, mortar heat coupling not built: skipped");
+            continue;
+        }
+        scene.solver.kind = SolverKind::Direct;
+        let nodes = with_own_mesh_inline(&scene);
+        let mut mortar = nodes.clone();
+        for c in &mut mortar.contacts {
+            c.coupling = Coupling::Mortar;
+            c.slave = Some(c.between[0].clone());
+        }
+        let (pn, a) = solve_scene(nodes).unwrap();
+        let (pm, b) = solve_scene(mortar).unwrap();
+        assert_eq!(
+            pn.contact.geometry.pairs.len(),
+            pm.contact.geometry.pairs.len()
+        );
+        for (p, q) in pn
+            .contact
+            .geometry
+            .pairs
+            .iter()
+            .zip(&pm.contact.geometry.pairs)
+        {
+            assert_eq!(p.nodes, q.nodes, "{name}: the same pairs");
+            assert!(
+                (p.weight - q.weight).abs() <= 1e-12 * p.weight,
+                "{name}: weight {} vs {}",
+                p.weight,
+                q.weight
+            );
+        }
+        let u = max_abs(a.displacement.iter().flatten().copied());
+        let du = max_abs(
+            a.displacement
+                .iter()
+                .flatten()
+                .zip(b.displacement.iter().flatten())
+                .map(|(x, y)| x - y),
+        );
+        // A pair whose rows have no free DOF (both nodes held) has multipliers the problem does
+        // not determine (any value in the box): compared are the others.
+        let geometry = &pn.contact.geometry;
+        let determined: Vec<bool> = (0..geometry.pairs.len())
+            .map(|m| {
+                !geometry.rows[2 * m].free.is_empty() || !geometry.rows[2 * m + 1].free.is_empty()
+            })
+            .collect();
+        let compared_pairs = || {
+            a.contact
+                .iter()
+                .zip(&b.contact)
+                .zip(&determined)
+                .filter(|(_, d)| **d)
+                .map(|(c, _)| c)
+        };
+        let f = max_abs(compared_pairs().flat_map(|(c, _)| [c.pressure, c.shear]));
+        let df = max_abs(
+            compared_pairs().flat_map(|(x, y)| [x.pressure - y.pressure, x.shear - y.shear]),
+        );
+        println!(
+            "{name}: displacement {:.1e}, contact {:.1e}",
+            du / u,
+            df / f.max(1e-300)
+        );
+        assert!(
+            du <= 1e-10 * u,
+            "{name}: displacement differs by {du:e} of {u:e}"
+        );
+        assert!(
+            df <= 1e-10 * f,
+            "{name}: contact stress differs by {df:e} of {f:e}"
+        );
+        for (x, y) in a.criteria.iter().zip(&b.criteria) {
+            if let (Some(x), Some(y)) = (x, y) {
+                assert!(
+                    (x - y).abs() <= 1e-10 * x.abs().max(1e-300),
+                    "{name}: criterion {x} vs {y}"
+                );
+            }
+        }
+        compared += 1;
+    }
+    assert!(compared >= 8, "only {compared} examples compared");
+}
+
+/// Stacked blocks of width 1 (as in tests/contact_verification.rs) meshed on their own: the lower
+/// at size h, the upper `ratio` times finer along the interface.
+fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Value {
+    json!({
+        "version": 1, "name": "stacked blocks, non-matching",
+        "bodies": [
+            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
+            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
+        ],
+        "segments": {
+            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
+            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
+            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
+            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
+            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
+            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
+        },
+        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
+        "boundary": [
+            {"segment": "floor", "roller": {}},
+            {"segment": "lower_left", "roller": {}},
+            {"segment": "upper_left", "roller": {}},
+            {"segment": "top", "pressure": pressure}
+        ],
+        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit,
+                      "coupling": "mortar"}],
+        "mesh": {"max_size": h, "refine": [{"segments": ["upper_bottom"], "max_size": h / ratio}]}
+    })
+}
+
+/// Interface node counts of the two sides.
+fn interface_nodes(problem: &StateProblem) -> (usize, usize) {
+    let mesh = &problem.mesh();
+    let count = |name: &str| {
+        mesh.segments
+            .iter()
+            .find(|s| s.name == name)
+            .map_or(0, |s| s.nodes.len())
+    };
+    (count("upper_bottom"), count("lower_top"))
+}
+
+/// Largest deviation of the element stresses (σ11, σ22, σ12, τ33) from the uniform state
+/// σ22 = −p, σ11 = σ12 = 0 (rollers on the left sides and the floor, free right sides), relative
+/// to p: a displacement field linear in each body has one constant stress per body.
+fn stress_misfit(sol: &Solution, p: f64) -> f64 {
+    sol.stresses
+        .iter()
+        .flat_map(|s| [s.stress[0], s.stress[1] + p, s.stress[2]])
+        .fold(0.0, |worst: f64, x| worst.max(x.abs() / p))
+}
+
+#[test]
+fn contact_patch_test_across_a_non_matching_interface() {
+    let p = 3.0e6;
+    let (problem, sol) = solve_value(&stacked_blocks(p, 1.0e5, 0.1, 2.7)).unwrap();
+    let (fine, coarse) = interface_nodes(&problem);
+    println!("interface nodes: upper {fine}, lower {coarse}");
+    assert!(
+        fine >= 2 * coarse,
+        "the sides do not match: {fine} vs {coarse}"
+    );
+    let zone = &problem.mesh().contacts[0];
+    assert!(zone.mortar.is_some());
+    assert_eq!(zone.pairs.len(), fine, "the finer side is the slave");
+    for c in &sol.contact {
+        assert!(
+            (c.pressure - p).abs() <= 1e-8 * p,
+            "λ_n / D_pp = {} at {:?}",
+            c.pressure,
+            c.position
+        );
+        assert!(c.shear.abs() <= 1e-8 * p, "shear {}", c.shear);
+    }
+    let misfit = stress_misfit(&sol, p);
+    println!("element stresses off the uniform state by {misfit:.1e} p");
+    assert!(misfit <= 1e-10, "displacement not linear: stresses off by {misfit:e} p");
+    assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+}
+
+#[test]
+fn tresca_block_sticks_below_and_is_refused_above_the_capacity_on_non_matching_meshes() {
+    let g = 2.0e5;
+    let scene = |t: f64| {
+        let mut s = stacked_blocks(1.0e6, g, 0.1, 2.7);
+        s["boundary"][2] = json!({"segment": "upper_left", "traction": [t, 0]});
+        s
+    };
+    let (problem, below) = solve_value(&scene(3.8e5)).unwrap();
+    let total_shear: f64 = below
+        .contact
+        .iter()
+        .zip(&problem.contact.geometry.pairs)
+        .map(|(c, p)| c.shear * p.weight)
+        .sum();
+    assert!(
+        (total_shear.abs() - 1.9e5).abs() <= 1e-8 * 1.9e5,
+        "friction force {total_shear}"
+    );
+    assert!(below.contact.iter().any(|c| c.state == ContactState::Stick));
+    assert!(below.report.kkt.max() <= 1e-9, "{:?}", below.report.kkt);
+    let err = solve_value(&scene(4.2e5)).err().expect("must be refused");
+    assert!(
+        err.contains("upper") && err.contains("translation"),
+        "{err}"
+    );
+}
+
+/// The bundled Hertz scene with the bodies meshed on their own: the cylinder's contact side at
+/// `cylinder` and the flat's at `flat`.
+fn hertz_non_matching(cylinder: f64, flat: f64) -> Value {
+    let mut v: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    v["contacts"][0]["coupling"] = json!("mortar");
+    v["mesh"]["refine"] = json!([
+        {"segments": ["cylinder_contact"], "max_size": cylinder},
+        {"segments": ["flat_contact"], "max_size": flat},
+        {"polygon": [[-0.3, -0.15], [0.3, -0.15], [0.3, 0.15], [-0.3, 0.15]], "max_size": flat.max(cylinder)}
+    ]);
+    v
+}
+
+#[test]
+fn hertz_on_non_matching_meshes_both_ways() {
+    // The nodal pressure of the finer side carries the coarser side's chords: a wave of about
+    // E* π H / (8 R_eff) (R_eff = 2R for equal materials), 2 % of p0 at H = 0.005.
+    for (cylinder, flat) in [(0.0025, 0.005), (0.005, 0.0025)] {
+        let (problem, sol) = solve_value(&hertz_non_matching(cylinder, flat)).unwrap();
+        let h = solves::hertz_measures(&problem, &sol);
+        let (a_exact, p0_exact) = h.exact;
+        let (ea, ep) = (
+            (h.half_width - a_exact).abs() / a_exact,
+            (h.peak - p0_exact).abs() / p0_exact,
+        );
+        println!(
+            "cylinder {cylinder}, flat {flat}: {} slave nodes, a = {:.5} ({ea:.2e}), p0 = {:.4e} ({ep:.2e}), Σλ = {:.6e}",
+            sol.contact.len(),
+            h.half_width,
+            h.peak,
+            h.total
+        );
+        assert!(
+            (h.total - h.load).abs() <= 1e-8 * h.load,
+            "resultant {} vs load {}",
+            h.total,
+            h.load
+        );
+        assert!(ea <= 0.03 && ep <= 0.03, "a off by {ea:.3}, p0 by {ep:.3}");
+        assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+    }
+}
+
+#[test]
+fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
+    let base = stacked_blocks(1.0e6, 0.0, 0.1, 2.7);
+    let cases: Vec<(Value, &str, &str)> = vec![
+        {
+            // The master side moved away sideways: nothing faces.
+            let mut v = base.clone();
+            v["bodies"][0]["zones"][0]["polygon"] = json!([[3, 0], [4, 0], [4, 0.5], [3, 0.5]]);
+            v["segments"]["floor"] = json!({"body": "lower", "from": [3,0], "to": [4,0]});
+            v["segments"]["lower_left"] = json!({"body": "lower", "from": [3,0.5], "to": [3,0]});
+            v["segments"]["lower_top"] = json!({"body": "lower", "from": [3,0.5], "to": [4,0.5]});
+            (v, "contacts[0].between", "do not face")
+        },
+        {
+            // A slave of one element.
+            let mut v = base.clone();
+            v["mesh"]["refine"] = json!([]);
+            v["segments"]["upper_bottom"]["to"] = json!([0.05, 0.5]);
+            v["contacts"][0]["slave"] = json!("upper_bottom");
+            (v, "contacts[0].between", "at least 2")
+        },
+        {
+            // The lower body tilted through the upper one: the segments cross.
+            let mut v = base.clone();
+            v["bodies"][0]["zones"][0]["polygon"] = json!([[0, 0], [1, 0], [1, 1.0], [0, 0.2]]);
+            v["segments"]["lower_left"] = json!({"body": "lower", "from": [0,0.2], "to": [0,0]});
+            v["segments"]["lower_top"] = json!({"body": "lower", "from": [0,0.2], "to": [1,1.0]});
+            (v, "contacts[0].between", "cross")
+        },
+        {
+            let mut v = base.clone();
+            v["segments"]["lower_top"]["body"] = json!("upper");
+            v["segments"]["lower_top"]["from"] = json!([1, 1]);
+            v["segments"]["lower_top"]["to"] = json!([0, 1]);
+            v["boundary"][3] = json!({"segment": "upper_left", "roller": {}});
+            (v, "contacts[0].between", "two different bodies")
+        },
+        {
+            let mut v = base.clone();
+            v["contacts"][0]["slave"] = json!("top");
+            (v, "contacts[0].slave", "not one of")
+        },
+        {
+            let mut v = base.clone();
+            v["contacts"][0]["coupling"] = json!("nodes");
+            v["contacts"][0]["slave"] = json!("upper_bottom");
+            (v, "contacts[0].slave", "mortar")
+        },
+        {
+            let mut v = base.clone();
+            v["solver"] = json!({"kind": "dd"});
+            (v, "solver.kind", "mortar")
+        },
+    ];
+    for (v, path, words) in cases {
+        let start = Instant::now();
+        let err = parse(&v.to_string())
+            .map_err(|e| e.to_string())
+            .and_then(|s| StateProblem::new(s).map(|_| ()).map_err(|e| e.to_string()))
+            .expect_err("must be refused");
+        let took = start.elapsed();
+        println!("{path}: {err} ({took:?})");
+        assert!(err.contains(path), "{err} does not name {path}");
+        assert!(err.contains(words), "{err} does not say '{words}'");
+        assert!(took.as_secs_f64() < 2.0, "took {took:?}");
+    }
+}
