@@ -2,7 +2,7 @@
 //! documented as OpenAPI 3.1 by utoipa (served at `/openapi.json`, checked in as
 //! `openapi/openapi.json`, the scene's JSON Schema among its components). Request bodies are
 //! parsed here so that every bad field answers 422 with its JSON path, query strings likewise
-//! ([`query::Query`]); job endpoints require the bearer token when one is configured
+//! (`query::Query`); job endpoints require the bearer token when one is configured
 //! ([`Access`]), which a handler asks for with the extractor [`CanRead`] or [`CanWrite`].
 
 mod access;

@@ -11,11 +11,15 @@ use wsm_core::run::{self, BestSoFar, RunPhase, WorstOutcome};
 /// What a job is doing.
 #[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
 pub struct JobStatus {
+    /// The job's id (`/v1/jobs/{id}`).
     pub id: String,
+    /// Queued, running, or how it ended.
     pub state: JobState,
     /// The phase of a running job (`queued` before it starts, `finished` after).
     pub phase: RunPhase,
+    /// The scene's name.
     pub scene: String,
+    /// The criteria searched (`phi3`, `phi3@crest`, …).
     pub criteria: Vec<String>,
     /// Distinct points evaluated so far (stored evaluations while running).
     pub evaluations: usize,
@@ -29,12 +33,15 @@ pub struct JobStatus {
     /// `warnings` before trusting its numbers — failed solves, unsettled or unproven extrema,
     /// locking, a target error not met.
     pub warnings: usize,
+    /// Inner solves the search may spend.
     pub budget: usize,
     /// Best value so far per objective (max and min of each criterion).
     pub best: Vec<BestSoFar>,
     /// Unix time \[s\].
     pub created_at: f64,
+    /// When a worker first leased it (Unix time \[s\]).
     pub started_at: Option<f64>,
+    /// When it ended (Unix time \[s\]).
     pub finished_at: Option<f64>,
     /// Since the job started (to its end when finished) \[s\].
     pub elapsed_seconds: f64,
@@ -42,15 +49,18 @@ pub struct JobStatus {
     pub eta_seconds: Option<f64>,
     /// Leases taken (more than 1: the job was resumed after a restart).
     pub attempts: u32,
+    /// A cancel was requested (a running job stops within one evaluation batch).
     pub cancel_requested: bool,
     /// Why a failed job failed.
     pub error: Option<String>,
+    /// The class of a failed job's error (`bad_input`, `solver`, `damaged`, …).
     pub error_kind: Option<String>,
     /// The outcome's status once finished (`completed`, `budget_exhausted`, `time_limit`, …).
     pub outcome_status: Option<run::Status>,
 }
 
 impl JobStatus {
+    /// The status of the stored record `job`.
     pub fn of(job: &JobRecord) -> JobStatus {
         let end = job.finished_at.unwrap_or_else(now);
         let elapsed = job.started_at.map_or(0.0, |s| (end - s).max(0.0));

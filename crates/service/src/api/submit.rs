@@ -49,6 +49,7 @@ pub struct SolveSubmission {
     /// The name of a bundled example scene.
     #[serde(default)]
     pub example: Option<String>,
+    /// The solver and whether to return the fields.
     #[serde(default)]
     pub settings: SolveRequest,
 }
@@ -56,7 +57,9 @@ pub struct SolveSubmission {
 /// The answer to a submission.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct Submitted {
+    /// The new job's id.
     pub id: String,
+    /// `queued`.
     pub state: JobState,
     /// Where the job's status is.
     pub location: String,
