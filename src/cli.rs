@@ -261,11 +261,32 @@ pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
 
 /// `wsm serve`: the service on a multi-threaded runtime, until Ctrl-C or SIGTERM.
 pub fn serve(config: wsm_service::server::ServeConfig) -> Result<String, WsmError> {
+    init_logging();
     until_stopped(wsm_service::server::serve(config))
 }
 
+/// `wsm worker`: a worker process on a multi-threaded runtime, until Ctrl-C or SIGTERM.
 pub fn worker(config: wsm_service::server::WorkerConfig) -> Result<String, WsmError> {
+    init_logging();
     until_stopped(wsm_service::server::worker(config))
+}
+
+/// The service's log (design §5.3, "Logs"): `tracing` events on stderr, at `info` and above
+/// unless `RUST_LOG` says otherwise (`RUST_LOG=tower_http=debug` adds a line per request;
+/// directives it cannot read are left out). Colours only on a terminal. The address line that
+/// scripts wait for stays on stdout.
+fn init_logging() {
+    use std::io::IsTerminal;
+    use tracing_subscriber::filter::{EnvFilter, LevelFilter};
+    let filter = EnvFilter::builder()
+        .with_default_directive(LevelFilter::INFO.into())
+        .from_env_lossy();
+    // A second call in one process (tests) keeps the first subscriber.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .try_init();
 }
 
 /// Run a server or worker to its end; its jobs, given back and told to stop, get a few seconds

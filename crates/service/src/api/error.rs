@@ -71,6 +71,12 @@ impl ApiError {
         )
     }
 
+    /// 500 `internal`: the server's own fault (a stored record it cannot read, a task that
+    /// panicked).
+    pub fn internal(detail: impl Into<String>) -> ApiError {
+        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail)
+    }
+
     /// 409 `conflict`: the request does not fit the current state (e.g. of a job).
     pub fn conflict(detail: impl Into<String>) -> ApiError {
         ApiError::new(StatusCode::CONFLICT, "conflict", detail)
@@ -96,7 +102,7 @@ impl ApiError {
             ErrorKind::Solver => {
                 ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "solver_failure", detail)
             }
-            ErrorKind::Io => ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail),
+            ErrorKind::Io => ApiError::internal(detail),
         }
     }
 }
@@ -137,7 +143,7 @@ impl From<StoreError> for ApiError {
             error.retry_after = Some(5);
             error
         } else {
-            ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string())
+            ApiError::internal(e.to_string())
         }
     }
 }

@@ -59,6 +59,7 @@ pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiErr
 pub struct Health {
     /// `ok` when the store answers and takes writes, else `degraded` (with status 503).
     pub status: String,
+    /// The version of `wsm`.
     pub version: String,
     /// Queued and running jobs (`None` when the store does not answer).
     pub active_jobs: Option<usize>,

@@ -1,19 +1,25 @@
 //! The HTTP API of `wsm serve` (design §5.3): axum routes over the job store and the front door,
 //! documented as OpenAPI 3.1 by utoipa (served at `/openapi.json`, checked in as
-//! `openapi/openapi.json`, the scene's JSON Schema among its components). Request bodies are parsed here so that every bad field answers 422
-//! with its JSON path; job endpoints require the bearer token when one is configured
-//! ([`Access`]).
+//! `openapi/openapi.json`, the scene's JSON Schema among its components). Request bodies are
+//! parsed here so that every bad field answers 422 with its JSON path, query strings likewise
+//! (`query::Query`); job endpoints require the bearer token when one is configured
+//! ([`Access`]), which a handler asks for with the extractor [`CanRead`] or [`CanWrite`].
 
+mod access;
 mod body;
 mod error;
+mod evaluations;
+mod fields;
 mod guard;
 mod jobs;
 mod misc;
 mod query;
 mod schema;
 mod solves;
+mod status;
 mod submit;
 
+pub use access::{Access, CanRead, CanWrite};
 pub use error::{ApiError, ErrorBody};
 pub use solves::SolveSlots;
 
@@ -21,9 +27,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::DefaultBodyLimit;
-use axum::http::{header, HeaderMap, StatusCode};
 use axum::Router;
-use subtle::ConstantTimeEq;
+use tower_http::trace::TraceLayer;
 use utoipa::OpenApi;
 use utoipa_axum::router::OpenApiRouter;
 use utoipa_axum::routes;
@@ -83,72 +88,6 @@ impl Default for Limits {
     }
 }
 
-/// Who may do what (design §5.3). With a token, every request about jobs needs it — their
-/// scenes and results are their submitters' data — except that a read-only token also opens
-/// the reads, and `open_reads` (`wsm serve --open-reads`) leaves reads open to anyone. Without
-/// a token everything is open (a server on loopback for one user). The examples, `/healthz`,
-/// `/openapi.json` and the dashboard's files are always open.
-#[derive(Debug, Clone, Default)]
-pub struct Access {
-    /// Bearer token for every job endpoint (`WSM_API_TOKEN`; `None`: open).
-    pub token: Option<String>,
-    /// Bearer token for the reads only (`WSM_READ_TOKEN`).
-    pub read_token: Option<String>,
-    /// Reads need no token.
-    pub open_reads: bool,
-}
-
-/// The bearer credentials of a request ("" when there are none); the scheme is
-/// case-insensitive (RFC 9110 §11.1).
-fn bearer(headers: &HeaderMap) -> &str {
-    headers
-        .get(header::AUTHORIZATION)
-        .and_then(|v| v.to_str().ok())
-        .and_then(|v| v.trim().split_once(' '))
-        .filter(|(scheme, _)| scheme.eq_ignore_ascii_case("bearer"))
-        .map_or("", |(_, credentials)| credentials.trim())
-}
-
-/// Constant-time comparison of given credentials with a configured token.
-fn matches(given: &str, token: &Option<String>) -> bool {
-    token
-        .as_ref()
-        .is_some_and(|t| bool::from(given.as_bytes().ct_eq(t.as_bytes())))
-}
-
-fn unauthorized(what: &str) -> ApiError {
-    ApiError::new(
-        StatusCode::UNAUTHORIZED,
-        "unauthorized",
-        format!("{what} needs the header 'Authorization: Bearer <token>' with the server's token"),
-    )
-}
-
-impl Access {
-    /// Refuse a request that changes something without the token.
-    pub fn authorize_write(&self, headers: &HeaderMap) -> Result<(), ApiError> {
-        if self.token.is_none() || matches(bearer(headers), &self.token) {
-            Ok(())
-        } else {
-            Err(unauthorized("this endpoint"))
-        }
-    }
-
-    /// Refuse a read of job data without the token or the read token (unless reads are open).
-    pub fn authorize_read(&self, headers: &HeaderMap) -> Result<(), ApiError> {
-        let given = bearer(headers);
-        if self.open_reads
-            || self.token.is_none()
-            || matches(given, &self.token)
-            || matches(given, &self.read_token)
-        {
-            Ok(())
-        } else {
-            Err(unauthorized("reading jobs"))
-        }
-    }
-}
-
 /// What every handler shares.
 #[derive(Clone)]
 pub struct AppState {
@@ -164,6 +103,16 @@ pub struct AppState {
     pub health: Arc<StoreHealth>,
     /// Places for synchronous solves (`Limits::max_concurrent_solves`).
     pub solves: SolveSlots,
+}
+
+/// `work` on a blocking thread (meshing, solving, validating large scenes: the runtime's threads
+/// must keep answering other requests); 500 `internal` if it panicked.
+async fn blocking<T: Send + 'static>(
+    work: impl FnOnce() -> T + Send + 'static,
+) -> Result<T, ApiError> {
+    tokio::task::spawn_blocking(work)
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))
 }
 
 #[derive(OpenApi)]
@@ -185,9 +134,9 @@ fn routes() -> OpenApiRouter<AppState> {
         .routes(routes!(jobs::job_scene))
         .routes(routes!(jobs::job_result))
         .routes(routes!(jobs::job_history))
-        .routes(routes!(jobs::job_evaluations))
+        .routes(routes!(evaluations::job_evaluations))
         .routes(routes!(jobs::cancel_job))
-        .routes(routes!(jobs::job_fields))
+        .routes(routes!(fields::job_fields))
         .routes(routes!(submit::solve))
         .routes(routes!(misc::list_examples))
         .routes(routes!(misc::get_example))
@@ -211,13 +160,16 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(body_limit))
 }
 
-/// The request guard around a whole app (the API and the dashboard).
+/// The request guard around a whole app (the API and the dashboard), inside tower-http's trace
+/// layer: every request gets a `tracing` span (method, path) and its response an event with
+/// status and latency (`debug`; server errors at `error`), refusals of the guard included.
 pub fn guarded(app: Router, limits: &Limits) -> Router {
     let body = guard::BodyLimits {
         max_bytes: limits.max_body_bytes,
         timeout: limits.body_timeout,
     };
     app.layer(axum::middleware::from_fn_with_state(body, guard::guard))
+        .layer(TraceLayer::new_for_http())
 }
 
 /// The OpenAPI document of `api` with the scene's JSON Schema among its components.

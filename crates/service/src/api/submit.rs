@@ -16,7 +16,7 @@ use utoipa::ToSchema;
 use super::body::parse_body;
 use super::error::{join_path, ApiError, ErrorBody};
 use super::schema::SceneDocument;
-use super::{AppState, Limits};
+use super::{blocking, AppState, CanWrite, Limits};
 use crate::jobs::{JobState, NewJob};
 use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
 use wsm_core::scene::Scene;
@@ -49,6 +49,7 @@ pub struct SolveSubmission {
     /// The name of a bundled example scene.
     #[serde(default)]
     pub example: Option<String>,
+    /// The solver and whether to return the fields.
     #[serde(default)]
     pub settings: SolveRequest,
 }
@@ -56,21 +57,12 @@ pub struct SolveSubmission {
 /// The answer to a submission.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct Submitted {
+    /// The new job's id.
     pub id: String,
+    /// `queued`.
     pub state: JobState,
     /// Where the job's status is.
     pub location: String,
-}
-
-/// [`scene_of`] on a blocking thread: validation can take a while for large polygons (bounded by
-/// the scene's vertex limit), and the runtime's threads must keep answering other requests.
-async fn validated_scene(
-    scene: Option<Value>,
-    example: Option<String>,
-) -> Result<(Scene, String), ApiError> {
-    tokio::task::spawn_blocking(move || scene_of(scene, example))
-        .await
-        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
 }
 
 /// The scene of a submission, validated; the service refuses server-side mesh files.
@@ -167,6 +159,52 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
     Ok(())
 }
 
+/// The plan of a submitted job — the record to queue — once the submission passed every check,
+/// in this order: the scene itself ([`scene_of`]), the server's limits, the search settings, the
+/// uncertain parameters, the admissible set (`run::check_admissible_set`: the checks a search
+/// makes before its first evaluation, so that a job that cannot start is refused with the field)
+/// and the run's log header, whose hash the record keeps. Runs on a blocking thread:
+/// validation can take a while for large polygons (bounded by the scene's vertex limit).
+fn plan_job(submission: JobSubmission, limits: &Limits) -> Result<NewJob, ApiError> {
+    let (scene, text) = scene_of(submission.scene, submission.example)?;
+    let request = submission.settings;
+    check_limits(&scene, &request, limits)?;
+    let settings = request.settings(&scene).map_err(ApiError::settings)?;
+    let in_scene = |e| ApiError::engine(e, "scene");
+    run::parameter_info(&scene).map_err(in_scene)?;
+    run::check_admissible_set(&scene).map_err(in_scene)?;
+    let header = run::log_header(&scene, &settings).map_err(in_scene)?;
+    Ok(NewJob {
+        id: uuid::Uuid::new_v4().to_string(),
+        scene: text,
+        settings: request,
+        scene_name: scene.name.clone(),
+        criteria: settings
+            .criteria
+            .iter()
+            .map(|c| c.name().to_string())
+            .collect(),
+        budget: settings.budget,
+        run_hash: header.run_hash,
+    })
+}
+
+/// Queue `job` unless `max_active` jobs are queued or running already (503 `queue_full` with
+/// `Retry-After`).
+async fn enqueue(state: &AppState, job: NewJob) -> Result<(), ApiError> {
+    let max_active = state.limits.max_active_jobs;
+    if state.store.insert(job, max_active).await? {
+        return Ok(());
+    }
+    let mut error = ApiError::new(
+        StatusCode::SERVICE_UNAVAILABLE,
+        "queue_full",
+        format!("{max_active} jobs are queued or running; try again later"),
+    );
+    error.retry_after = Some(10);
+    Err(error)
+}
+
 /// Queue a worst-scenario search.
 #[utoipa::path(
     post,
@@ -185,53 +223,16 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
     )
 )]
 pub async fn submit_job(
+    _: CanWrite,
     State(state): State<AppState>,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Response, ApiError> {
-    state.access.authorize_write(&headers)?;
     let submission: JobSubmission = parse_body(&headers, body)?;
-    let (scene, text) = validated_scene(submission.scene, submission.example).await?;
-    let request = submission.settings;
-    check_limits(&scene, &request, &state.limits)?;
-    let settings = request.settings(&scene).map_err(ApiError::settings)?;
-    wsm_core::run::parameter_info(&scene).map_err(|e| ApiError::engine(e, "scene"))?;
-    let checked = scene.clone();
-    tokio::task::spawn_blocking(move || run::check_admissible_set(&checked))
-        .await
-        .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-        .map_err(|e| ApiError::engine(e, "scene"))?;
-    let header = run::log_header(&scene, &settings).map_err(|e| ApiError::engine(e, "scene"))?;
-    let id = uuid::Uuid::new_v4().to_string();
-    let job = NewJob {
-        id: id.clone(),
-        scene: text,
-        settings: request,
-        scene_name: scene.name.clone(),
-        criteria: settings
-            .criteria
-            .iter()
-            .map(|c| c.name().to_string())
-            .collect(),
-        budget: settings.budget,
-        run_hash: header.run_hash,
-    };
-    if !state
-        .store
-        .insert(job, state.limits.max_active_jobs)
-        .await?
-    {
-        let mut error = ApiError::new(
-            StatusCode::SERVICE_UNAVAILABLE,
-            "queue_full",
-            format!(
-                "{} jobs are queued or running; try again later",
-                state.limits.max_active_jobs
-            ),
-        );
-        error.retry_after = Some(10);
-        return Err(error);
-    }
+    let limits = state.limits.clone();
+    let job = blocking(move || plan_job(submission, &limits)).await??;
+    let id = job.id.clone();
+    enqueue(&state, job).await?;
     let location = format!("/v1/jobs/{id}");
     Ok((
         StatusCode::ACCEPTED,
@@ -243,6 +244,19 @@ pub async fn submit_job(
         }),
     )
         .into_response())
+}
+
+/// Solve the nominal data of a submitted scene within the server's limits for a synchronous
+/// solve (validation, cost estimate, meshing and the solve: a blocking thread's work).
+fn solve_now(submission: SolveSubmission, limits: &Limits) -> Result<SolveOutput, ApiError> {
+    let (scene, _) = scene_of(submission.scene, submission.example)?;
+    check_cost(
+        &scene,
+        limits.max_solve_triangles,
+        limits.max_solve_memory,
+        "a synchronous solve (submit a job)",
+    )?;
+    run::solve(scene, &submission.settings).map_err(|e| ApiError::engine(e, "scene"))
 }
 
 /// Solve one small scene now (its nominal data) and return the summary (and fields on request).
@@ -262,28 +276,19 @@ pub async fn submit_job(
     )
 )]
 pub async fn solve(
+    _: CanWrite,
     State(state): State<AppState>,
     headers: HeaderMap,
     body: Result<Bytes, BytesRejection>,
 ) -> Result<Json<SolveOutput>, ApiError> {
-    state.access.authorize_write(&headers)?;
     let place = state.solves.take()?;
     let submission: SolveSubmission = parse_body(&headers, body)?;
-    let (scene, _) = validated_scene(submission.scene, submission.example).await?;
-    check_cost(
-        &scene,
-        state.limits.max_solve_triangles,
-        state.limits.max_solve_memory,
-        "a synchronous solve (submit a job)",
-    )?;
-    let request = submission.settings;
-    let output = tokio::task::spawn_blocking(move || {
+    let limits = state.limits.clone();
+    let output = blocking(move || {
         let _place = place;
-        run::solve(scene, &request)
+        solve_now(submission, &limits)
     })
-    .await
-    .map_err(|e| ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", e.to_string()))?
-    .map_err(|e| ApiError::engine(e, "scene"))?;
+    .await??;
     super::solves::check_fields(
         &output,
         state.limits.max_field_triangles,

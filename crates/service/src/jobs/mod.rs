@@ -6,14 +6,14 @@
 //!   (scale-out);
 //! - `health`: the background write probe behind `/healthz` (does the store still take writes?);
 //! - `runner`: a worker process (`wsm serve`, `wsm worker`) — job slots that lease whole jobs and
-//!   coordinate them (run the search), beside them the task loop of `tasks` and the heartbeat
-//!   that announces the process;
-//! - `batch_tasks`: the coordinator's side of fanning out — a job's evaluation batches (and its
-//!   accuracy statement's refined solves) posted as tasks, the coordinator's own share solved at
-//!   once, abandoned tasks taken over, the results read back in input order;
-//! - `tasks`: the other side — the task loop of every worker process, which leases the tasks
-//!   that other processes' coordinators posted, solves their points on a prepared model of the
-//!   job and stores the results.
+//!   coordinate them (run the search), beside them the task loop of `task_worker` and the
+//!   heartbeat that announces the process;
+//! - `task_coordinator`: the coordinator's side of fanning out — a job's evaluation batches (and
+//!   its accuracy statement's refined solves) posted as tasks, the coordinator's own share solved
+//!   at once, abandoned tasks taken over, the results read back in input order;
+//! - `task_worker`: the worker's side — the task loop of every worker process, which leases the
+//!   tasks that other processes' coordinators posted, solves their points on a prepared model of
+//!   the job and stores the results.
 //!
 //! A job's life: `queued` → `running` (leased by a worker, lease renewed by heartbeat) →
 //! `succeeded` | `failed` | `cancelled`. A running job whose lease expired (its process died) is
@@ -25,11 +25,11 @@
 //! uses all of them. Leases of jobs and tasks are renewed by heartbeat and expire by the database
 //! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
 
-pub mod batch_tasks;
 pub mod health;
 pub mod runner;
 pub mod sql;
-pub mod tasks;
+pub mod task_coordinator;
+pub mod task_worker;
 
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;

@@ -1,10 +1,10 @@
 //! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job from
 //! the store and coordinates it — runs it through the front door (`run::worst`) on a blocking
 //! thread (never on the async runtime), with its batches fanned out as tasks when other workers
-//! share the store (`batch_tasks`), stores the evaluations it computes chunk by chunk, renews the
+//! share the store (`task_coordinator`), stores the evaluations it computes chunk by chunk, renews the
 //! lease by heartbeat, passes cancel requests on, publishes progress, and stores how the job ended.
 //! A panic inside a job fails that job with the reason; the worker goes on. Beside the job slots
-//! run the task loop (`tasks`) and the heartbeat that announces the process.
+//! run the task loop (`task_worker`) and the heartbeat that announces the process.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -13,8 +13,8 @@ use std::time::Duration;
 
 use tokio::sync::mpsc;
 
-use super::batch_tasks::StoreDispatch;
-use super::tasks::{serve_tasks, TaskConfig};
+use super::task_coordinator::StoreDispatch;
+use super::task_worker::{serve_tasks, TaskConfig};
 use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use wsm_core::error::{ErrorKind, WsmError};
 use wsm_core::run::{
@@ -143,8 +143,11 @@ pub async fn release_on_shutdown(store: &Arc<dyn JobStore>, live: &Live, owner: 
     live.stopping.store(true, Ordering::SeqCst);
     match store.release_all(owner).await {
         Ok(0) => {}
-        Ok(n) => eprintln!("wsm: {n} running job(s) given back to the queue"),
-        Err(e) => eprintln!("wsm: {e} (its jobs resume when their lease expires)"),
+        Ok(n) => tracing::info!(jobs = n, "running jobs given back to the queue"),
+        Err(e) => tracing::warn!(
+            error = %e,
+            "giving the running jobs back failed; they resume when their lease expires"
+        ),
     }
     live.stop_all();
     // Let them leave their batch while the runtime still serves their store calls.
@@ -175,8 +178,9 @@ impl Backoff {
     /// Report `error` (if new) and wait before the next attempt.
     async fn failed(&mut self, error: String) {
         if self.last.as_deref() != Some(error.as_str()) {
-            eprintln!(
-                "wsm: {error} (retrying, with growing pauses up to {:?})",
+            tracing::warn!(
+                error = %error,
+                "the job store failed; retrying with growing pauses up to {:?}",
                 Backoff::MAX
             );
             self.last = Some(error);
@@ -187,7 +191,7 @@ impl Backoff {
 
     fn succeeded(&mut self) {
         if self.last.take().is_some() {
-            eprintln!("wsm: the job store answers again");
+            tracing::info!("the job store answers again");
         }
         self.pause = Backoff::FIRST;
     }
@@ -250,7 +254,7 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
     };
     tokio::spawn(async move {
         if let Err(e) = serve_tasks(store, tasks).await {
-            eprintln!("wsm: the task loop stopped: {e}");
+            tracing::error!(error = %e, "the task loop stopped");
         }
     });
 }
@@ -341,7 +345,7 @@ async fn run_job(
             Attempt::Ended(end) => break *end,
             Attempt::StoreFailed(error) if retries < STORE_RETRIES => {
                 retries += 1;
-                eprintln!("wsm: job {id}: {error}; resuming once the store takes writes");
+                tracing::warn!(job = %id, error = %error, "resuming once the store takes writes");
                 if !run.await_writable(live).await {
                     break match cancel.load(Ordering::SeqCst) {
                         true => JobEnd::Cancelled(None),
@@ -373,7 +377,7 @@ async fn run_job(
             Ok(()) => break,
             Err(e) if e.unavailable => backoff.failed(format!("job {id}: {e}")).await,
             Err(e) => {
-                eprintln!("wsm: job {id}: {e}");
+                tracing::error!(job = %id, error = %e, "storing how the job ended");
                 break;
             }
         }
@@ -534,7 +538,7 @@ async fn heartbeat(
                 cancel.store(true, Ordering::SeqCst);
                 return;
             }
-            Err(e) => eprintln!("wsm: job {id}: {e}"),
+            Err(e) => tracing::warn!(job = %id, error = %e, "renewing the job's lease"),
         }
     }
 }
@@ -551,7 +555,7 @@ async fn publish(
     while let Some(event) = events.recv().await {
         if last_write.elapsed() >= Duration::from_millis(200) {
             if let Err(e) = store.set_progress(&id, &event).await {
-                eprintln!("wsm: job {id}: {e}");
+                tracing::warn!(job = %id, error = %e, "storing the job's progress");
             }
             last_write = std::time::Instant::now();
             pending = None;

@@ -619,7 +619,7 @@ impl JobStore for SqlStore {
             .iter()
             .filter_map(|row| {
                 Self::record(row)
-                    .map_err(|e| eprintln!("wsm: listing jobs: a row left out: {e}"))
+                    .map_err(|e| tracing::warn!(error = %e, "listing jobs: a row left out"))
                     .ok()
             })
             .collect())

@@ -4,7 +4,7 @@
 //! job's pool and never leases its own job's tasks here), evaluates its points with the job's
 //! prepared model, and stores the evaluations with the task's completion in one transaction. The
 //! tasks are posted, taken over when abandoned and read back by the job's coordinator
-//! ([`super::batch_tasks`]). The lease is renewed by heartbeat while the points are solved; a task
+//! ([`super::task_coordinator`]). The lease is renewed by heartbeat while the points are solved; a task
 //! whose worker died is leased again by another once its lease expires, so a killed worker loses at
 //! most the task it held.
 //!
@@ -176,11 +176,11 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
                 // worker takes it rather than wait for this one), then prepare the model.
                 None => {
                     if let Err(e) = store.release_task(&task.key, &config.owner).await {
-                        eprintln!("wsm: job {}: {e}", task.key.job_id);
+                        tracing::warn!(job = %task.key.job_id, error = %e, "giving a task back");
                     }
                     let job = &task.key.job_id;
                     if let Err(e) = prepare(&store, &mut models, job, true).await {
-                        eprintln!("wsm: job {job}: {e}");
+                        tracing::warn!(job = %job, error = %e, "preparing the job's model");
                         tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
                     }
                 }
@@ -190,7 +190,7 @@ pub async fn serve_tasks(store: Arc<dyn JobStore>, config: TaskConfig) -> Result
                 wait(&mut work, Duration::from_millis(500)).await
             }
             Err(e) => {
-                eprintln!("wsm: {e}");
+                tracing::warn!(error = %e, "leasing a task");
                 tokio::time::sleep(Duration::from_secs(1)).await;
             }
         }
@@ -214,7 +214,9 @@ async fn run_task(
                 match store.renew_task(&key, &owner, lease).await {
                     Ok(true) => {}
                     Ok(false) => return,
-                    Err(e) => eprintln!("wsm: {e}"),
+                    Err(e) => {
+                        tracing::warn!(job = %key.job_id, error = %e, "renewing a task's lease")
+                    }
                 }
             }
         })
@@ -240,13 +242,13 @@ async fn run_task(
                 }
             };
             if let Err(e) = stored {
-                eprintln!("wsm: job {}: {e}", task.key.job_id);
+                tracing::warn!(job = %task.key.job_id, error = %e, "storing a task's results");
             }
         }
         // The coordinator built the same model, so this is this process's trouble (memory, a
         // thread that died): leave the task to expire and be leased by another worker.
         Err(e) => {
-            eprintln!("wsm: job {}: {e}", task.key.job_id);
+            tracing::warn!(job = %task.key.job_id, error = %e, "solving a task; left to another worker");
             tokio::time::sleep(Duration::from_secs_f64(config.lease_seconds)).await;
         }
     }

@@ -2,7 +2,7 @@
 //! "Design"): [`StoreDispatch`] hands a job's evaluation batches, as the search produces them, to
 //! the other worker processes as tasks in the job store and collects the results. It runs in the
 //! process that holds the job's lease and only ever serves that one job; the other processes pick
-//! the tasks up in their task loops ([`super::tasks`]), which never post tasks themselves.
+//! the tasks up in their task loops ([`super::task_worker`]), which never post tasks themselves.
 //!
 //! When other worker processes share the store, each chunk of a batch is dealt round robin to the
 //! live evaluation threads: this process's share is computed at once in the job's own pool and
