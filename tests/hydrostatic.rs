@@ -155,8 +155,8 @@ fn the_level_derivative_of_the_load_is_exact() {
                 &problem,
                 &problem.elastic.loads(&only(d, face), None).unwrap(),
             );
-            for k in 0..4 {
-                derivative[k] += w * r[k];
+            for (d, r) in derivative.iter_mut().zip(r) {
+                *d += w * r;
             }
         }
         assert!(
@@ -323,6 +323,9 @@ fn the_worst_water_level_is_certified() {
     );
 }
 
+/// An edit of the scene document.
+type Edit = Box<dyn Fn(&mut Value)>;
+
 fn refusal(v: &Value) -> wsm_core::scene::SceneError {
     let scene = parse(&v.to_string()).and_then(|s| parameters(&s).map(|_| s));
     scene.expect_err("refused")
@@ -330,7 +333,7 @@ fn refusal(v: &Value) -> wsm_core::scene::SceneError {
 
 #[test]
 fn bad_hydrostatic_and_linked_data_are_refused_naming_the_field() {
-    let cases: Vec<(Box<dyn Fn(&mut Value)>, &str, &str)> = vec![
+    let cases: Vec<(Edit, &str, &str)> = vec![
         (
             Box::new(|v| v["boundary"][3]["hydrostatic"]["unit_weight"] = json!(-1.0)),
             "boundary[3].hydrostatic.unit_weight",
