@@ -170,18 +170,17 @@ fn the_level_derivative_of_the_load_is_exact() {
     }
 }
 
-/// The scene with the water level's fields as separate data (each its own interval).
+/// The scene with the water level's fields as separate data (each over factor × the interval).
 fn unlinked(v: &Value) -> Value {
     let mut u = v.clone();
     let level = u["uncertain"][0].clone();
-    let mut data = vec![json!({"field": level["field"], "interval": level["interval"]})];
+    let [lo, hi] = [0, 1].map(|k| level["interval"][k].as_f64().unwrap());
+    let mut data = vec![json!({"field": level["field"], "interval": [lo, hi]})];
     for d in level["drives"].as_array().unwrap() {
-        data.push(json!({"field": d["field"], "interval": level["interval"]}));
+        let c = d["factor"].as_f64().unwrap();
+        data.push(json!({"field": d["field"], "interval": [c * lo, c * hi]}));
     }
-    let friction = u["uncertain"][1].clone();
-    data.push(json!({"field": friction["field"], "interval": friction["interval"]}));
-    // The heel's slip limit, factor 0.9 in the linked scene.
-    data.push(json!({"field": "contacts[heel].slip_limit", "interval": [2.7e5, 4.5e5]}));
+    data.push(u["uncertain"][1].clone());
     data.push(u["uncertain"][2].clone());
     u["uncertain"] = Value::Array(data);
     u
@@ -209,27 +208,25 @@ fn sensitivities_at(
 }
 
 /// A linked datum's derivative is Σ factor × its fields' derivatives (the same fields as
-/// separate data), and equals central differences of whole solves; the slip-limit datum drives
-/// the heel's slip limit with the factor 0.9.
+/// separate data), and equals central differences of whole solves; here the water level drives
+/// the uplift on the dam's face of the crack with the factor 0.5 (half the head).
 #[test]
 fn a_linked_datum_derivative_is_the_factored_sum_of_its_fields() {
     let mut v = dam();
-    v["uncertain"][1]["drives"][0]["factor"] = json!(0.9);
-    v["contacts"][0]["slip_limit"] = json!(3.6e5);
+    v["uncertain"][0]["drives"][1]["factor"] = json!(0.5);
+    let up_dam = index(&v, "uplift_dam");
+    v["boundary"][up_dam]["hydrostatic"]["level"] = json!(13.0);
     let linked = StateProblem::new(scene(&v)).unwrap();
     let p_linked = parameters(&linked.scene).unwrap();
     assert_eq!(p_linked.len(), 3);
     let separate = StateProblem::new(scene(&unlinked(&v))).unwrap();
     let p_separate = parameters(&separate.scene).unwrap();
-    assert_eq!(p_separate.len(), 7);
+    assert_eq!(p_separate.len(), 6);
     let theta = [25.37, 4.1e5, 8e9];
-    let spread = [25.37, 25.37, 25.37, 25.37, 4.1e5, 0.9 * 4.1e5, 8e9];
+    let spread = [25.37, 25.37, 0.5 * 25.37, 25.37, 4.1e5, 8e9];
     let (d_linked, phi) = sensitivities_at(&linked, &p_linked, &theta);
     let (d_separate, phi_separate) = sensitivities_at(&separate, &p_separate, &spread);
-    let factors: [&[(usize, f64)]; 2] = [
-        &[(0, 1.0), (1, 1.0), (2, 1.0), (3, 1.0)],
-        &[(4, 1.0), (5, 0.9)],
-    ];
+    let factors: [&[(usize, f64)]; 2] = [&[(0, 1.0), (1, 1.0), (2, 0.5), (3, 1.0)], &[(4, 1.0)]];
     let mut compared = 0;
     for c in [Criterion::Phi3, Criterion::Phi5, Criterion::Phi6] {
         let i = c as usize;
@@ -367,8 +364,13 @@ fn bad_hydrostatic_and_linked_data_are_refused_naming_the_field() {
             "already set",
         ),
         (
-            Box::new(|v| v["uncertain"][1]["drives"][0]["factor"] = json!(-1.0)),
-            "uncertain[1].drives[0].factor",
+            Box::new(|v| {
+                v["uncertain"][0]["drives"]
+                    .as_array_mut()
+                    .unwrap()
+                    .push(json!({"field": "contacts[joint].slip_limit", "factor": -1.0}))
+            }),
+            "uncertain[0].drives[3].factor",
             "must be > 0",
         ),
         (
