@@ -248,6 +248,12 @@ fn block_on_base_matches_finite_differences() {
     example("block-on-base", 1.0, 3);
 }
 
+/// The water level's exact load derivative and linked data (design §2.6, §4.1).
+#[test]
+fn dam_water_level_matches_finite_differences() {
+    example("dam-water-level", 1.0, 4);
+}
+
 #[test]
 fn heated_plate_matches_finite_differences() {
     example("heated-plate", 1.0, 3);

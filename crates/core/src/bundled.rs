@@ -11,6 +11,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "heated-plate",
         include_str!("../../../scenes/heated-plate.json"),
     ),
+    (
+        "dam-water-level",
+        include_str!("../../../scenes/dam-water-level.json"),
+    ),
     ("hertz", include_str!("../../../scenes/hertz.json")),
     (
         "hertz-nonmatching",

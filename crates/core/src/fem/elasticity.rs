@@ -20,6 +20,7 @@ use crate::scene::{BoundaryValue, Data, Scene};
 
 use super::dofs::DofMap;
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
+use super::hydrostatic::add_hydrostatic;
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{
@@ -222,6 +223,7 @@ impl ElasticProblem {
                         f[node][1] -= p * n[1];
                     }
                 }
+                BoundaryValue::Hydrostatic(h) => add_hydrostatic(&self.mesh, bc.segment, &h, f),
                 _ => {}
             }
         }

@@ -19,6 +19,7 @@ mod dofs;
 mod elasticity;
 mod geometry;
 mod heat;
+mod hydrostatic;
 mod linear;
 mod operator;
 pub mod rigid;

@@ -32,18 +32,23 @@ const MAX_VERTICES: usize = 4096;
 /// Refuse the admissible set if at some vertex of the uncertain displacements the prescribed
 /// displacements alone make two bodies overlap (no admissible displacement exists there).
 fn check_feasibility_on_box(problem: &StateProblem, params: &[Parameter]) -> Result<(), WsmError> {
+    // A datum driving several displacements is checked as if each moved on its own over its
+    // interval: a larger set, so the check stays sufficient.
     let uncertain: Vec<UncertainDisplacement<'_>> = params
         .iter()
         .enumerate()
-        .filter_map(|(index, p)| match p.target {
-            ParamTarget::Displacement(bc, comp) => Some(UncertainDisplacement {
-                index,
-                name: &p.name,
-                source: (bc, comp),
-                lo: p.lo,
-                hi: p.hi,
-            }),
-            _ => None,
+        .flat_map(|(index, p)| {
+            p.field_intervals()
+                .filter_map(move |(target, lo, hi)| match target {
+                    ParamTarget::Displacement(bc, comp) => Some(UncertainDisplacement {
+                        index,
+                        name: &p.name,
+                        source: (bc, comp),
+                        lo,
+                        hi,
+                    }),
+                    _ => None,
+                })
         })
         .collect();
     let contact = &problem.contact;
@@ -91,10 +96,7 @@ pub fn check_balance(
         return Ok(());
     }
     Balance::new(problem, &problem.nominal).check(&load_work(problem, &problem.nominal)?)?;
-    if !params
-        .iter()
-        .any(|p| is_load(p.target) || is_bound(p.target))
-    {
+    if !params.iter().any(|p| is_load(p) || is_bound(p)) {
         return Ok(());
     }
     // Every parameter at its lower end: the least bounds, and the loads' base point e₀.
@@ -105,7 +107,7 @@ pub fn check_balance(
     let base = load_work(problem, &least)?;
     let mut swings = Vec::new();
     for (i, p) in params.iter().enumerate() {
-        if is_load(p.target) && p.hi > p.lo {
+        if is_load(p) && p.hi > p.lo {
             let mut theta = lows.clone();
             theta[i] = p.hi;
             let e = load_work(
@@ -144,7 +146,7 @@ pub fn check_balance(
                     at.push(format!("{} = {}", p.name, if high { p.hi } else { p.lo }));
                 }
             }
-            let limits = if params.iter().any(|p| is_bound(p.target)) {
+            let limits = if params.iter().any(is_bound) {
                 ", slip limits and friction coefficients at their least"
             } else {
                 ""
@@ -159,25 +161,32 @@ pub fn check_balance(
     Ok(())
 }
 
-/// Whether a parameter is a load (it moves e).
-fn is_load(target: ParamTarget) -> bool {
-    matches!(
-        target,
-        ParamTarget::SpecificWeight(_)
-            | ParamTarget::BodyForce(..)
-            | ParamTarget::Traction(..)
-            | ParamTarget::Pressure(_)
-    )
+/// Whether a parameter drives a load (it moves e).
+fn is_load(p: &Parameter) -> bool {
+    p.fields().any(|(target, _)| {
+        matches!(
+            target,
+            ParamTarget::SpecificWeight(_)
+                | ParamTarget::BodyForce(..)
+                | ParamTarget::Traction(..)
+                | ParamTarget::Pressure(_)
+                | ParamTarget::HydrostaticLevel(_)
+                | ParamTarget::UnitWeight(_)
+        )
+    })
 }
 
-/// Whether a parameter bounds the contact forces (a slip limit or a friction coefficient).
-fn is_bound(target: ParamTarget) -> bool {
-    matches!(
-        target,
-        ParamTarget::SlipConstant(_)
-            | ParamTarget::SlipKnot(..)
-            | ParamTarget::FrictionCoefficient(_)
-    )
+/// Whether a parameter drives a bound of the contact forces (a slip limit or a friction
+/// coefficient; a driven one has a positive factor, so it is least at θ = lo).
+fn is_bound(p: &Parameter) -> bool {
+    p.fields().any(|(target, _)| {
+        matches!(
+            target,
+            ParamTarget::SlipConstant(_)
+                | ParamTarget::SlipKnot(..)
+                | ParamTarget::FrictionCoefficient(_)
+        )
+    })
 }
 
 /// Parameters (by index) with the sign of their swing along a generator.

@@ -121,6 +121,8 @@ pub enum BoundaryValue {
     Traction([f64; 2]),
     /// Normal pressure p \[Pa\]: traction −p n with n the outward normal.
     Pressure(f64),
+    /// Hydrostatic pressure p(y) = γ max(y0 − y, 0), traction −p n (design §2.6).
+    Hydrostatic(HydrostaticData),
     /// Roller with a given direction, or the segment normal when `None`.
     Roller(Option<[f64; 2]>),
     /// Prescribed temperature T1 \[K\].
@@ -136,6 +138,30 @@ impl BoundaryValue {
             self,
             BoundaryValue::Temperature(_) | BoundaryValue::HeatFlux(_)
         )
+    }
+}
+
+/// The numbers of a hydrostatic pressure (design §2.6).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HydrostaticData {
+    /// Level y0 \[m\] of the free surface.
+    pub level: f64,
+    /// Unit weight γ \[N/m³\].
+    pub unit_weight: f64,
+    /// A uniform pressure \[Pa\] added where the segment lies below the level: 0 in a scene's
+    /// data. It is ∂p/∂y0 = γ H(y0 − y) when set to γ, which is how the level's derivative
+    /// stencil writes the exact load derivative ([`super::params::stencil`]).
+    pub wet_pressure: f64,
+}
+
+impl HydrostaticData {
+    /// The pressure \[Pa\] at height y.
+    pub fn pressure(&self, y: f64) -> f64 {
+        if y < self.level {
+            self.unit_weight * (self.level - y) + self.wet_pressure
+        } else {
+            0.0
+        }
     }
 }
 
@@ -287,6 +313,12 @@ fn boundary_value(bc: &BoundaryCondition) -> BoundaryValue {
         BoundaryValue::Traction(t)
     } else if let Some(p) = bc.pressure {
         BoundaryValue::Pressure(p)
+    } else if let Some(h) = bc.hydrostatic {
+        BoundaryValue::Hydrostatic(HydrostaticData {
+            level: h.level,
+            unit_weight: h.unit_weight,
+            wet_pressure: 0.0,
+        })
     } else if let Some(r) = &bc.roller {
         BoundaryValue::Roller(r.direction)
     } else if let Some(t) = bc.temperature {

@@ -24,14 +24,17 @@ mod validate;
 mod warnings;
 
 pub(crate) use data::piecewise_linear;
-pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
+pub use data::{
+    BoundaryData, BoundaryValue, Data, Elastic, Expansion, HydrostaticData, MaterialData, SlipData,
+};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
     CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec,
-    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, InitialGap, InlineMesh, Material,
-    MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
-    SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
+    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, Driven, Hydrostatic, InitialGap,
+    InlineMesh, Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment,
+    SlipLimit, SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
+    MAX_SUBDIVIDE,
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};
 pub use schema::{scene_schema, scene_schema_json, SCENE_SCHEMA_DIALECT};

@@ -7,7 +7,8 @@
 //! This module only describes the shape of the document; `validate` checks its meaning.
 
 use super::rules::{
-    MAX_ANGLE, MAX_CONDUCTIVITY, MAX_FRICTION, MAX_STRESS, MIN_CONDUCTIVITY, MIN_MODULUS,
+    MAX_ANGLE, MAX_CONDUCTIVITY, MAX_FRICTION, MAX_LEVEL, MAX_STRESS, MAX_UNIT_WEIGHT,
+    MIN_CONDUCTIVITY, MIN_MODULUS,
 };
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -265,6 +266,11 @@ pub struct BoundaryCondition {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     #[schemars(range(min = -MAX_STRESS, max = MAX_STRESS))]
     pub pressure: Option<f64>,
+    /// Hydrostatic pressure p(y) = γ · max(y0 − y, 0) of a liquid whose free surface is at the
+    /// level y0, acting like `pressure` (traction −p·n); the segment may also be a contact
+    /// zone's, which makes it the uplift in the joint (design §2.6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hydrostatic: Option<Hydrostatic>,
     /// Bilateral contact with a rigid foundation (Γo): u·d = 0, zero tangential traction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roller: Option<Roller>,
@@ -274,6 +280,19 @@ pub struct BoundaryCondition {
     /// Prescribed inward heat flux [W/m²] (0 is the default insulated boundary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heat_flux: Option<f64>,
+}
+
+/// A hydrostatic pressure: p(y) = γ · max(y0 − y, 0) on the segment (design §2.6).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Hydrostatic {
+    /// The level y0 \[m\] of the free surface (the y coordinate where the pressure is zero);
+    /// the segment is loaded below it. `boundary[NAME].hydrostatic.level` may be uncertain.
+    #[schemars(range(min = -MAX_LEVEL, max = MAX_LEVEL))]
+    pub level: f64,
+    /// The unit weight γ = ρg \[N/m³\] of the liquid (water: 9810), ≥ 0.
+    #[schemars(range(min = 0.0, max = MAX_UNIT_WEIGHT))]
+    pub unit_weight: f64,
 }
 
 /// Roller direction: `{}` uses the segment's outward normal, `{"direction": [dx, dy]}` a given one.
@@ -607,6 +626,22 @@ pub struct Uncertain {
     /// Display name of the parameter (e.g. `"friction of the dam joint"`); defaults to `field`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub name: Option<String>,
+    /// Further scene numbers the same datum θ drives (linked data, design §4.1): each takes the
+    /// value `factor` × θ, e.g. one water level on every face of a dam or one pressure per body
+    /// (CZ 3.8). Each field's own scene value must be `factor` × the nominal value of `field`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub drives: Vec<Driven>,
+}
+
+/// A scene number driven by an uncertain datum θ: it takes the value `factor` × θ.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Driven {
+    /// Path of the scene number, as in `uncertain[i].field`.
+    pub field: String,
+    /// The factor [field unit per datum unit]: finite and not zero (> 0 for a slip limit or a
+    /// friction coefficient).
+    pub factor: f64,
 }
 
 /// The criteria Φ1–Φ6 (FGCS numbering).

@@ -5,7 +5,8 @@
 //! matrix[i][j], out_of_plane[k], specific_weight, body_force[c], conductivity,
 //! conductivity[i][j], heat_source, expansion, beta, beta[k]}` (a symmetric matrix entry `[i][j]`
 //! varies `[j][i]` with it), `boundary[i].{displacement[c], traction[c],
-//! pressure, temperature, heat_flux}`, `contacts[i].slip_limit` (constant g) and
+//! pressure, hydrostatic.level, hydrostatic.unit_weight, temperature, heat_flux}`,
+//! `contacts[i].slip_limit` (constant g) and
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g),
 //! `contacts[i].friction_coefficient` (Coulomb's F; it scales the state-dependent slip bound
 //! F |λ_n|, so the data map is affine in it like every other datum), and
@@ -13,6 +14,10 @@
 //! `[i]` or by its `name` (`boundary[water_up1].pressure`, `contacts[joint].slip_limit`): a name
 //! keeps pointing at its entry when entries are inserted, an index does not, so an index whose
 //! entry has a name gets a warning ([`index_path_warnings`]).
+//!
+//! Linked data (design §4.1): `uncertain[i].drives` lists further numbers the same datum θ sets,
+//! each to factor × θ ([`Parameter::fields`]); a search sees one dimension, and the derivative
+//! along it is Σ factor × the numbers' derivatives (one stencil moves them together).
 //!
 //! The scene's own value of every uncertain datum (its nominal value, solved by `wsm solve` and
 //! by a run's nominal solve) must lie in the datum's interval ([`parameters`] and the scene's
@@ -87,6 +92,11 @@ pub enum ParamTarget {
     Traction(usize, usize),
     /// `boundary[b].pressure`.
     Pressure(usize),
+    /// `boundary[b].hydrostatic.level`: the level y0 of a hydrostatic pressure (not affine: its
+    /// derivative is written exactly by [`stencil`]).
+    HydrostaticLevel(usize),
+    /// `boundary[b].hydrostatic.unit_weight`.
+    UnitWeight(usize),
     /// `boundary[b].temperature`.
     Temperature(usize),
     /// `boundary[b].heat_flux`.
@@ -123,6 +133,8 @@ impl ParamTarget {
             | ParamTarget::Pressure(_) => Some(Constant::Load),
             ParamTarget::Displacement(..) => Some(Constant::Displacement),
             ParamTarget::Angle(_) => Some(Constant::Angle),
+            ParamTarget::HydrostaticLevel(_) => Some(Constant::Level),
+            ParamTarget::UnitWeight(_) => Some(Constant::UnitWeight),
             _ => None,
         }
     }
@@ -139,6 +151,24 @@ pub struct Parameter {
     pub lo: f64,
     /// Upper end of the interval (≥ `lo`; equal when the number is fixed).
     pub hi: f64,
+    /// The further numbers the datum drives (`uncertain[i].drives`), each with its factor: the
+    /// number is factor × θ.
+    pub drives: Vec<(ParamTarget, f64)>,
+}
+
+impl Parameter {
+    /// Every number the datum sets, with its factor: `target` (factor 1), then `drives`.
+    pub fn fields(&self) -> impl Iterator<Item = (ParamTarget, f64)> + '_ {
+        std::iter::once((self.target, 1.0)).chain(self.drives.iter().copied())
+    }
+
+    /// Every number the datum sets with the interval it sweeps, factor × [lo, hi] in order.
+    pub fn field_intervals(&self) -> impl Iterator<Item = (ParamTarget, f64, f64)> + '_ {
+        self.fields().map(|(target, factor)| {
+            let (a, b) = (factor * self.lo, factor * self.hi);
+            (target, a.min(b), a.max(b))
+        })
+    }
 }
 
 /// Split `a.b[2].c[name]` into tokens: names between dots, and in brackets indices (digits) or
@@ -259,11 +289,72 @@ pub fn index_path_warnings(scene: &Scene) -> Vec<String> {
 /// The error of an unknown or unsuitable field path, with the reason.
 type Unknown<'a> = &'a dyn Fn(&str) -> SceneError;
 
-/// Resolve `uncertain[i]` against the scene and check its interval.
+/// Resolve `uncertain[i]` against the scene and check its interval, then its driven fields
+/// (`uncertain[i].drives[k]`: a known number, a finite non-zero factor — positive on a contact
+/// force bound, whose least value the balance check takes at θ = lo — and factor × interval within
+/// the number's rule). A knot of a slope-limited slip limit is projected with its own interval
+/// and can neither drive nor be driven.
 fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter, SceneError> {
-    let field_path = format!("uncertain[{i}].field");
-    let unknown = |why: &str| SceneError::new(field_path.clone(), format!("'{}': {why}", u.field));
-    let toks = tokens(&u.field).ok_or_else(|| unknown("not a valid field path"))?;
+    let target = resolve_field(scene, &format!("uncertain[{i}].field"), &u.field)?;
+    let [lo, hi] = u.interval;
+    check_interval(&target, lo, hi, &format!("uncertain[{i}].interval"))?;
+    let mut drives = Vec::new();
+    for (k, d) in u.drives.iter().enumerate() {
+        let path = format!("uncertain[{i}].drives[{k}]");
+        let driven = resolve_field(scene, &format!("{path}.field"), &d.field)?;
+        for (t, which) in [(target, &u.field), (driven, &d.field)] {
+            if is_sloped_knot(scene, t) {
+                return Err(SceneError::new(
+                    format!("{path}.field"),
+                    format!(
+                        "'{which}' is a knot of a slip limit with max_slope, projected onto its \
+                         slope set with its own interval: it cannot be linked to other data"
+                    ),
+                ));
+            }
+        }
+        let factor_path = format!("{path}.factor");
+        if !d.factor.is_finite() || d.factor == 0.0 {
+            return Err(SceneError::new(
+                factor_path,
+                "the factor must be a finite number other than 0",
+            ));
+        }
+        let bound = matches!(
+            driven,
+            ParamTarget::SlipConstant(_)
+                | ParamTarget::SlipKnot(..)
+                | ParamTarget::FrictionCoefficient(_)
+        );
+        if bound && d.factor < 0.0 {
+            return Err(SceneError::new(
+                factor_path,
+                "a slip limit or friction coefficient must grow with its datum: the factor must be > 0",
+            ));
+        }
+        let (a, b) = (d.factor * lo, d.factor * hi);
+        check_interval(&driven, a.min(b), a.max(b), &factor_path)?;
+        drives.push((driven, d.factor));
+    }
+    Ok(Parameter {
+        name: u.name.clone().unwrap_or_else(|| u.field.clone()),
+        target,
+        lo,
+        hi,
+        drives,
+    })
+}
+
+/// Whether `target` is a knot of a slip limit with a slope bound.
+fn is_sloped_knot(scene: &Scene, target: ParamTarget) -> bool {
+    matches!(target, ParamTarget::SlipKnot(c, _)
+        if matches!(scene.contacts[c].slip_limit, SlipLimit::PiecewiseLinear { max_slope: Some(_), .. }))
+}
+
+/// Resolve the field path `field` (given at `field_path` of the document) to its number.
+fn resolve_field(scene: &Scene, field_path: &str, field: &str) -> Result<ParamTarget, SceneError> {
+    let unknown = |why: &str| SceneError::new(field_path, format!("'{field}': {why}"));
+    let toks = tokens(field).ok_or_else(|| unknown("not a valid field path"))?;
     use Token::Name as N;
     let target = match toks.as_slice() {
         [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
@@ -280,14 +371,7 @@ fn resolve_uncertain(scene: &Scene, i: usize, u: &Uncertain) -> Result<Parameter
         }
         _ => return Err(unknown("unknown field")),
     };
-    let [lo, hi] = u.interval;
-    check_interval(&target, lo, hi, &format!("uncertain[{i}].interval"))?;
-    Ok(Parameter {
-        name: u.name.clone().unwrap_or_else(|| u.field.clone()),
-        target,
-        lo,
-        hi,
-    })
+    Ok(target)
 }
 
 /// `materials.NAME.…`: an elastic constant, a load density or a thermal constant of a zone.
@@ -376,6 +460,12 @@ fn boundary_target(
             Ok(ParamTarget::Traction(b, *c))
         }
         [N("pressure")] if bc.pressure.is_some() => Ok(ParamTarget::Pressure(b)),
+        [N("hydrostatic"), N("level")] if bc.hydrostatic.is_some() => {
+            Ok(ParamTarget::HydrostaticLevel(b))
+        }
+        [N("hydrostatic"), N("unit_weight")] if bc.hydrostatic.is_some() => {
+            Ok(ParamTarget::UnitWeight(b))
+        }
         [N("temperature")] if bc.temperature.is_some() => Ok(ParamTarget::Temperature(b)),
         [N("heat_flux")] if bc.heat_flux.is_some() => Ok(ParamTarget::HeatFlux(b)),
         _ => Err(unknown("the boundary condition has no such number")),
@@ -462,6 +552,21 @@ pub(crate) fn resolve_all(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
         .map(|(i, u)| {
             let parameter = resolve_uncertain(scene, i, u)?;
             let value = value(&nominal, parameter.target);
+            for (k, &(target, factor)) in parameter.drives.iter().enumerate() {
+                let own = self::value(&nominal, target);
+                let linked = factor * value;
+                if (own - linked).abs() > 1e-12 * own.abs().max(linked.abs()) {
+                    return Err(SceneError::new(
+                        format!("uncertain[{i}].drives[{k}].factor"),
+                        format!(
+                            "the scene's value {own} of {} is not factor × the nominal value of \
+                             {} ({factor} × {value} = {linked}); the datum sets it to factor × θ, \
+                             so make the scene's value agree",
+                            u.drives[k].field, u.field
+                        ),
+                    ));
+                }
+            }
             if parameter.lo <= value && value <= parameter.hi {
                 Ok(parameter)
             } else {
@@ -483,14 +588,27 @@ pub(crate) fn resolve_all(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
 pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
     let params = resolve_all(scene)?;
     for (i, p) in params.iter().enumerate() {
-        if params[..i].iter().any(|q| q.target == p.target) {
-            return Err(SceneError::new(
-                format!("uncertain[{i}].field"),
-                format!(
-                    "'{}' is already uncertain in an earlier entry",
-                    scene.uncertain[i].field
-                ),
-            ));
+        // Each number of entry i, with its path, against the numbers set before it.
+        let earlier: Vec<ParamTarget> = params[..i]
+            .iter()
+            .flat_map(|q| q.fields().map(|(t, _)| t))
+            .collect();
+        let paths = std::iter::once((format!("uncertain[{i}].field"), &scene.uncertain[i].field))
+            .chain(
+                scene.uncertain[i]
+                    .drives
+                    .iter()
+                    .enumerate()
+                    .map(|(k, d)| (format!("uncertain[{i}].drives[{k}].field"), &d.field)),
+            );
+        for (n, ((target, _), (path, field))) in p.fields().zip(paths).enumerate() {
+            let seen = earlier.contains(&target) || p.fields().take(n).any(|(t, _)| t == target);
+            if seen {
+                return Err(SceneError::new(
+                    path,
+                    format!("'{field}' is already set by an uncertain datum before it"),
+                ));
+            }
         }
     }
     check_interval_matrices(scene, &params)?;
@@ -519,11 +637,14 @@ pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<()
     let bounds = |target: ParamTarget, nominal: f64| {
         params
             .iter()
-            .find(|p| p.target == target)
-            .map_or((nominal, nominal), |p| (p.lo, p.hi))
+            .flat_map(Parameter::field_intervals)
+            .find(|f| f.0 == target)
+            .map_or((nominal, nominal), |(_, lo, hi)| (lo, hi))
     };
     for (idx, (name, m)) in scene.materials.iter().enumerate() {
-        let uncertain = |f: &dyn Fn(ParamTarget) -> bool| params.iter().any(|p| f(p.target));
+        let uncertain = |f: &dyn Fn(ParamTarget) -> bool| {
+            params.iter().flat_map(Parameter::fields).any(|(t, _)| f(t))
+        };
         let zones: Vec<&str> = scene
             .bodies
             .iter()
@@ -635,7 +756,9 @@ pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<()
 pub fn apply(scene: &Scene, nominal: &Data, params: &[Parameter], theta: &[f64]) -> Data {
     let mut data = nominal.clone();
     for (p, &v) in params.iter().zip(theta) {
-        set(&mut data, p.target, v);
+        for (target, factor) in p.fields() {
+            set(&mut data, target, factor * v);
+        }
     }
     for set in slope_sets(scene, params) {
         let slip = &mut data.slip[set.contact];
@@ -793,7 +916,13 @@ const FORWARD_4: &[(f64, f64)] = &[
 ];
 
 /// The derivative stencil of parameter `i` at θ: central when its points lie in the box,
-/// otherwise one-sided pointing into it (see [`Stencil`] for the formulas and steps).
+/// otherwise one-sided pointing into it (see [`Stencil`] for the formulas and steps). A datum
+/// that drives several numbers takes the shortest of their steps (in units of θ) and the higher
+/// order of their formulas; its derivative is then Σ factor × the numbers' derivatives.
+///
+/// A hydrostatic level y0 is not differenced: its numbers stay at factor × θ_i in those points,
+/// and two more points at t = 0, the data with `wet_pressure` = factor × γ (weight 1) and without
+/// (weight −1), add the exact load derivative factor × γ H(y0 − y) (design §2.6).
 pub fn stencil(
     scene: &Scene,
     nominal: &Data,
@@ -804,10 +933,77 @@ pub fn stencil(
     let p = &params[i];
     let x = theta[i];
     let width = p.hi - p.lo;
+    let differenced: Vec<(ParamTarget, f64)> = p
+        .fields()
+        .filter(|(t, _)| !matches!(t, ParamTarget::HydrostaticLevel(_)))
+        .collect();
+    let levels: Vec<(usize, f64)> = p
+        .fields()
+        .filter_map(|(t, factor)| match t {
+            ParamTarget::HydrostaticLevel(b) => Some((b, factor)),
+            _ => None,
+        })
+        .collect();
+    let mut points = Vec::new();
+    let rules: Vec<StepRule> = differenced
+        .iter()
+        .map(|&(target, factor)| {
+            let (h, central, forward) = step_rule(scene, target, factor * x, factor.abs() * width);
+            (h / factor.abs(), central, forward)
+        })
+        .collect();
+    if let Some(&(mut h, _, _)) = rules.first() {
+        let (mut central, mut forward) = (CENTRAL_2, FORWARD_2);
+        for &(h_k, central_k, forward_k) in &rules {
+            h = h.min(h_k);
+            if central_k.len() > central.len() {
+                (central, forward) = (central_k, forward_k);
+            }
+        }
+        let reach = |taps: &[(f64, f64)]| taps.iter().fold(0.0_f64, |m, (t, _)| m.max(t.abs())) * h;
+        let taps: Vec<(f64, f64)> = if x - reach(central) >= p.lo && x + reach(central) <= p.hi
+            || width < 2.0 * reach(central)
+        {
+            central.to_vec()
+        } else if x + reach(forward) <= p.hi {
+            forward.to_vec()
+        } else {
+            forward.iter().map(|&(t, w)| (-t, -w)).collect()
+        };
+        points = taps
+            .iter()
+            .map(|&(steps, weight)| {
+                let mut at = theta.to_vec();
+                at[i] = x + steps * h;
+                let mut data = apply(scene, nominal, params, &at);
+                for &(b, factor) in &levels {
+                    set(&mut data, ParamTarget::HydrostaticLevel(b), factor * x);
+                }
+                (steps * h, weight / h, data)
+            })
+            .collect();
+    }
+    if !levels.is_empty() {
+        let at = apply(scene, nominal, params, theta);
+        let mut wet = at.clone();
+        for &(b, factor) in &levels {
+            if let BoundaryValue::Hydrostatic(h) = &mut wet.boundary[b].value {
+                h.wet_pressure = factor * h.unit_weight;
+            }
+        }
+        points.push((0.0, 1.0, wet));
+        points.push((0.0, -1.0, at));
+    }
+    Stencil { points }
+}
+
+/// A step and the central and one-sided formulas of one number.
+type StepRule = (f64, &'static [(f64, f64)], &'static [(f64, f64)]);
+
+/// The step and formulas of a number at the value `x` swept over an interval of `width`.
+fn step_rule(scene: &Scene, target: ParamTarget, x: f64, width: f64) -> StepRule {
     let scale = x.abs().max(width).max(f64::MIN_POSITIVE);
-    let sloped_knot = matches!(p.target, ParamTarget::SlipKnot(c, _)
-        if matches!(scene.contacts[c].slip_limit, SlipLimit::PiecewiseLinear { max_slope: Some(_), .. }));
-    let (h, central, forward) = match p.target {
+    match target {
         ParamTarget::Poisson(_) => (
             POISSON_STEP * scale.min(0.5 - x).min(1.0 + x),
             CENTRAL_4,
@@ -820,28 +1016,11 @@ pub fn stencil(
         {
             (POISSON_STEP * scale, CENTRAL_4, FORWARD_4)
         }
-        _ if sloped_knot || width == 0.0 => (SHORT_STEP * scale, CENTRAL_2, FORWARD_2),
+        _ if is_sloped_knot(scene, target) || width == 0.0 => {
+            (SHORT_STEP * scale, CENTRAL_2, FORWARD_2)
+        }
         _ => (AFFINE_STEP * width, CENTRAL_2, FORWARD_2),
-    };
-    let reach = |taps: &[(f64, f64)]| taps.iter().fold(0.0_f64, |m, (t, _)| m.max(t.abs())) * h;
-    let taps: Vec<(f64, f64)> = if x - reach(central) >= p.lo && x + reach(central) <= p.hi
-        || width < 2.0 * reach(central)
-    {
-        central.to_vec()
-    } else if x + reach(forward) <= p.hi {
-        forward.to_vec()
-    } else {
-        forward.iter().map(|&(t, w)| (-t, -w)).collect()
-    };
-    let points = taps
-        .iter()
-        .map(|&(steps, weight)| {
-            let mut at = theta.to_vec();
-            at[i] = x + steps * h;
-            (steps * h, weight / h, apply(scene, nominal, params, &at))
-        })
-        .collect();
-    Stencil { points }
+    }
 }
 
 /// The value of the datum `target` in `data` (what [`set`] writes; 0 where the scene leaves the
@@ -896,6 +1075,11 @@ fn value(data: &Data, target: ParamTarget) -> f64 {
         },
         T::Traction(b, c) => match data.boundary[b].value {
             BoundaryValue::Traction(t) => t[c],
+            _ => 0.0,
+        },
+        T::HydrostaticLevel(b) | T::UnitWeight(b) => match data.boundary[b].value {
+            BoundaryValue::Hydrostatic(h) if matches!(target, T::HydrostaticLevel(_)) => h.level,
+            BoundaryValue::Hydrostatic(h) => h.unit_weight,
             _ => 0.0,
         },
         T::Pressure(b) | T::Temperature(b) | T::HeatFlux(b) => match data.boundary[b].value {
@@ -971,6 +1155,14 @@ fn set(data: &mut Data, target: ParamTarget, v: f64) {
             }
         }
         T::Pressure(b) => data.boundary[b].value = BoundaryValue::Pressure(v),
+        T::HydrostaticLevel(b) | T::UnitWeight(b) => {
+            if let BoundaryValue::Hydrostatic(h) = &mut data.boundary[b].value {
+                match target {
+                    T::HydrostaticLevel(_) => h.level = v,
+                    _ => h.unit_weight = v,
+                }
+            }
+        }
         T::Temperature(b) => data.boundary[b].value = BoundaryValue::Temperature(v),
         T::HeatFlux(b) => data.boundary[b].value = BoundaryValue::HeatFlux(v),
         T::SlipConstant(c) => data.slip[c].values = vec![v],

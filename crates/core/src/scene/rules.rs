@@ -10,6 +10,9 @@
 //! (pressure, traction, specific weight, body force) and slip limits in magnitude ≤ 1e15 (Pa or
 //! N/m³), prescribed displacements ≤ 1e3 m, conductivities in [1e-9, 1e9] W/(m·K).
 //!
+//! A hydrostatic pressure's level y0 lies in [−1e6, 1e6] m and its unit weight γ in [0, 1e8]
+//! N/m³ (design §2.6), so that γ (y0 − y) stays a load double precision solves.
+//!
 //! Depends on nothing else in the crate.
 
 /// A scene number with a rule.
@@ -33,6 +36,10 @@ pub(crate) enum Constant {
     Displacement,
     /// The orientation of an orthotropic material's axis 1 \[deg\].
     Angle,
+    /// The level y0 of a hydrostatic pressure \[m\].
+    Level,
+    /// The unit weight γ of a hydrostatic pressure's liquid \[N/m³\].
+    UnitWeight,
 }
 
 /// Largest modulus, load or slip limit \[Pa, N/m³\].
@@ -47,6 +54,11 @@ pub(crate) const MAX_ANGLE: f64 = 360.0;
 /// Largest friction coefficient [-] (measured coefficients are below 2; far beyond that the
 /// Coulomb problem has no unique solution and the fixed point cannot converge).
 pub(crate) const MAX_FRICTION: f64 = 100.0;
+/// Largest level of a hydrostatic pressure in magnitude \[m\] (with [`MAX_UNIT_WEIGHT`] the
+/// pressure stays within [`MAX_STRESS`] on any model within this distance of the origin).
+pub(crate) const MAX_LEVEL: f64 = 1e6;
+/// Largest unit weight of a liquid \[N/m³\] (mercury is 1.3e5).
+pub(crate) const MAX_UNIT_WEIGHT: f64 = 1e8;
 /// Smallest conductivity \[W/(m K)\].
 pub(crate) const MIN_CONDUCTIVITY: f64 = 1e-9;
 /// Largest conductivity \[W/(m K)\].
@@ -67,6 +79,8 @@ impl Constant {
             Constant::Load => v.abs() <= MAX_STRESS,
             Constant::Displacement => v.abs() <= MAX_DISPLACEMENT,
             Constant::Angle => v.abs() <= MAX_ANGLE,
+            Constant::Level => v.abs() <= MAX_LEVEL,
+            Constant::UnitWeight => (0.0..=MAX_UNIT_WEIGHT).contains(&v),
         }
     }
 
@@ -97,6 +111,10 @@ impl Constant {
             }
             Constant::Displacement => "a prescribed displacement must be at most 1e3 m in magnitude",
             Constant::Angle => "the angle must lie in [-360, 360] degrees",
+            Constant::Level => "the level of a hydrostatic pressure must lie in [-1e6, 1e6] m",
+            Constant::UnitWeight => {
+                "the unit weight of a hydrostatic pressure must be >= 0 and at most 1e8 N/m3 (water is 9810)"
+            }
         }
     }
 

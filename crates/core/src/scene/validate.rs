@@ -163,10 +163,9 @@ fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), 
         let range = |target: ParamTarget, nominal: f64| {
             parameters
                 .iter()
-                .filter(|p| p.target == target)
-                .fold((nominal, nominal), |(lo, hi), p| {
-                    (lo.min(p.lo), hi.max(p.hi))
-                })
+                .flat_map(Parameter::field_intervals)
+                .filter(|f| f.0 == target)
+                .fold((nominal, nominal), |(lo, hi), f| (lo.min(f.1), hi.max(f.2)))
         };
         let (corners, soft_field) = match (m.young, m.nu, m.lambda, m.mu) {
             (Some(e), Some(nu), _, _) => {
@@ -766,6 +765,7 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
             bc.displacement.is_some(),
             bc.traction.is_some(),
             bc.pressure.is_some(),
+            bc.hydrostatic.is_some(),
             bc.roller.is_some(),
             bc.temperature.is_some(),
             bc.heat_flux.is_some(),
@@ -776,7 +776,8 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
         if set != 1 {
             return Err(SceneError::new(
                 path,
-                "set exactly one of displacement, traction, pressure, roller, temperature, heat_flux",
+                "set exactly one of displacement, traction, pressure, hydrostatic, roller, temperature, \
+                 heat_flux",
             ));
         }
         if let Some(d) = bc.displacement {
@@ -804,6 +805,18 @@ fn check_boundary(scene: &Scene) -> Result<(), SceneError> {
         }
         if let Some(p) = bc.pressure {
             admissible(&format!("{path}.pressure"), p, Constant::Load)?;
+        }
+        if let Some(h) = bc.hydrostatic {
+            admissible(
+                &format!("{path}.hydrostatic.level"),
+                h.level,
+                Constant::Level,
+            )?;
+            admissible(
+                &format!("{path}.hydrostatic.unit_weight"),
+                h.unit_weight,
+                Constant::UnitWeight,
+            )?;
         }
         if let Some(Roller { direction: Some(d) }) = bc.roller {
             check_point(&format!("{path}.roller.direction"), d)?;

@@ -94,16 +94,18 @@ fn interval_warnings(scene: &Scene, used: &BTreeSet<&str>, extent: f64) -> Vec<S
     let mut out = Vec::new();
     for (i, p) in parameters.iter().enumerate() {
         let path = format!("uncertain[{i}].interval");
-        let largest = p.lo.abs().max(p.hi.abs());
-        out.extend(match p.target {
-            ParamTarget::Young(m) | ParamTarget::OrthotropicYoung(m, _) if material_used(m) => {
-                soft(&path, p.lo, "")
-            }
-            ParamTarget::SpecificWeight(m) if material_used(m) => heavy(&path, p.hi),
-            ParamTarget::Displacement(..) => far(&path, largest, extent),
-            ParamTarget::Pressure(_) | ParamTarget::Traction(..) => huge_load(&path, largest),
-            _ => None,
-        });
+        for (target, lo, hi) in p.field_intervals() {
+            let largest = lo.abs().max(hi.abs());
+            out.extend(match target {
+                ParamTarget::Young(m) | ParamTarget::OrthotropicYoung(m, _) if material_used(m) => {
+                    soft(&path, lo, "")
+                }
+                ParamTarget::SpecificWeight(m) if material_used(m) => heavy(&path, hi),
+                ParamTarget::Displacement(..) => far(&path, largest, extent),
+                ParamTarget::Pressure(_) | ParamTarget::Traction(..) => huge_load(&path, largest),
+                _ => None,
+            });
+        }
     }
     out
 }
