@@ -231,7 +231,10 @@ fn contact_patch_test_across_a_non_matching_interface() {
     }
     let misfit = stress_misfit(&sol, p);
     println!("element stresses off the uniform state by {misfit:.1e} p");
-    assert!(misfit <= 1e-10, "displacement not linear: stresses off by {misfit:e} p");
+    assert!(
+        misfit <= 1e-10,
+        "displacement not linear: stresses off by {misfit:e} p"
+    );
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
 }
 
