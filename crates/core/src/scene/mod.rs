@@ -12,6 +12,7 @@
 //! the JSON Schema of the document from `model`.
 
 mod data;
+pub mod dynamics;
 pub mod law;
 mod model;
 pub mod params;
@@ -25,6 +26,7 @@ mod warnings;
 
 pub(crate) use data::piecewise_linear;
 pub use data::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
+pub use dynamics::{AbsorbingLayer, Dynamics, InitialState, Receiver, TimeFunction, TimeScheme};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
