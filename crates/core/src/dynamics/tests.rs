@@ -399,3 +399,72 @@ fn bad_dynamic_input_names_the_field() {
         "boundary[3].time_function"
     );
 }
+
+/// A block pushed along a clamped base against a Tresca slip limit g: it sticks while the push
+/// Q h stays below g ℓ, and slides with acceleration (Q h − g ℓ)/m beyond (friction on each
+/// step's slip, bound g w).
+#[test]
+fn pushed_block_sticks_below_and_slides_at_the_predicted_acceleration_above() {
+    let (rho, g_limit) = (2500.0, 2e4);
+    let (height, length) = (0.25, 0.5);
+    let scene = |push: f64| {
+        json!({
+            "version": 1,
+            "bodies": [
+                {"name": "base", "zones": [{"name": "base", "material": "rock",
+                    "polygon": [[0, 0], [1, 0], [1, 0.25], [0, 0.25]]}]},
+                {"name": "block", "zones": [{"name": "block", "material": "rock",
+                    "polygon": [[0.25, 0.25], [0.75, 0.25], [0.75, 0.5], [0.25, 0.5]]}]}
+            ],
+            "segments": {
+                "bottom": {"body": "base", "from": [0, 0], "to": [1, 0]},
+                "base_top": {"body": "base", "from": [0.25, 0.25], "to": [0.75, 0.25]},
+                "block_bottom": {"body": "block", "from": [0.25, 0.25], "to": [0.75, 0.25]},
+                "push": {"body": "block", "from": [0.25, 0.5], "to": [0.25, 0.25]}
+            },
+            "materials": {"rock": {"E": 1e10, "nu": 0.25, "density": rho,
+                "specific_weight": 24500.0}},
+            "boundary": [
+                {"segment": "bottom", "displacement": [0, 0]},
+                {"segment": "push", "traction": [push, 0]}
+            ],
+            "contacts": [{"name": "joint", "between": ["block_bottom", "base_top"],
+                "slip_limit": g_limit}],
+            "mesh": {"max_size": 0.0625},
+            "receivers": [{"name": "centre", "point": [0.5, 0.375]}],
+            "dynamics": {"t_end": 0.01, "dt": 5e-5, "scheme": "newmark"}
+        })
+    };
+    let mass = rho * height * length;
+    for push in [3e4, 1e5] {
+        let run = run(&scene(push));
+        let h = &run.history;
+        let v: Vec<f64> = h.receivers["centre"]
+            .velocity
+            .iter()
+            .map(|v| v[0])
+            .collect();
+        let (n, t) = (v.len() - 1, h.times[v.len() - 1]);
+        let drive = push * height - g_limit * length;
+        let zone = &h.contact_zones["joint"];
+        if drive < 0.0 {
+            let scale = push * height / mass * t;
+            let worst = v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            eprintln!(
+                "pushed block, Q h < g ℓ: |v| ≤ {:.2e} of Q h t/m",
+                worst / scale
+            );
+            assert!(worst < 1e-3 * scale, "the block moves: {worst:e}");
+            assert_eq!(zone.slip[n], 0, "no pair slips");
+        } else {
+            let a = (v[n] - v[n / 2]) / (t - h.times[n / 2]);
+            let expected = drive / mass;
+            eprintln!("pushed block, Q h > g ℓ: a = {a:.5} m/s² vs (Q h − g ℓ)/m = {expected:.5}");
+            assert!(
+                (a - expected).abs() < 0.02 * expected,
+                "a = {a}, expected {expected}"
+            );
+            assert_eq!(zone.stick[n], 0, "every pair slips");
+        }
+    }
+}
