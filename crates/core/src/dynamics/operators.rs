@@ -99,10 +99,13 @@ impl Operators {
     }
 }
 
+/// An absorbing layer as the elements see it: thickness, damping and the edges of its segments.
+type Layer = (f64, f64, Vec<[[f64; 2]; 2]>);
+
 /// α per element: the largest damping of the absorbing layers whose segments lie within the
 /// layer's thickness of the element's centroid (0 outside every layer).
 fn element_damping(scene: &Scene, mesh: &Mesh) -> Vec<f64> {
-    let layers: Vec<(f64, f64, Vec<[[f64; 2]; 2]>)> = scene
+    let layers: Vec<Layer> = scene
         .absorbing
         .iter()
         .map(|layer| {
