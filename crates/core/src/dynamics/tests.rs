@@ -459,14 +459,13 @@ fn pushed_block_sticks_below_and_slides_at_the_predicted_acceleration_above() {
             "pushed block, Q = {push:e} Pa: a = {a:.5} m/s² vs max(Q h − g ℓ, 0)/m = {expected:.5}"
         );
         if drive < 0.0 {
-            // Stuck, the block only rings elastically: its displacement stays bounded (a
-            // constant acceleration would make the late maximum 4 times the early one).
-            let peak = |r: std::ops::Range<usize>| u[r].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-            let (early, late) = (peak(0..n / 2), peak(n / 2..n + 1));
-            eprintln!("pushed block, stuck: peak |u| {early:.3e} m, then {late:.3e} m");
+            // Stuck, the block only deforms elastically (~1e-5 m) and rings: no mean
+            // acceleration (below 2 % of the push's Q h / m).
+            let late = u[n / 2..].iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            eprintln!("pushed block, stuck: peak |u| {late:.3e} m over the second half");
             assert!(
-                late <= 1.5 * early && late < 1e-4,
-                "the block moves: {early:e}, {late:e}"
+                late < 1e-4 && a.abs() < 0.02 * push * height / mass,
+                "the block moves: {late:e} m, a = {a:e}"
             );
         } else {
             assert!(
