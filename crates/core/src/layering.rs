@@ -3,9 +3,9 @@
 //! (`#[cfg(test)] mod tests` at the end of a file, `tests.rs` files) may use anything.
 
 /// The pipeline, earliest first, as the crate documentation states it.
-const PIPELINE: [&str; 15] = [
+const PIPELINE: [&str; 16] = [
     "memo", "scene", "mesh", "fem", "error", "fault", "bundled", "contact", "dd", "regions",
-    "state", "output", "estimate", "scenario", "run",
+    "state", "dynamics", "output", "estimate", "scenario", "run",
 ];
 
 /// `crate::NAME` paths in the library code of one file (comments and test code skipped).

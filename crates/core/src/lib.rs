@@ -8,8 +8,9 @@
 //! FEM errors and the search's) → `fault` (injected solve failures, for the tests of how runs
 //! report them) → `bundled` (the example scenes) → `contact` (the exact direct contact solver) →
 //! `dd` (the papers' domain decomposition solver) → `regions` (the criteria's areas and boundary
-//! pieces as exact weights) → `state` (one state solve and its criteria) → `output` (result
-//! documents, the VTU writer) → `estimate` (discretisation-error estimates: mesh
+//! pieces as exact weights) → `state` (one state solve and its criteria) → `dynamics` (dynamic
+//! viscoelastic contact: time stepping from rest or the static state, histories) → `output`
+//! (result documents, the VTU writer) → `estimate` (discretisation-error estimates: mesh
 //! ladders, Richardson extrapolation, the accuracy statement of a result, the mesh choice for a
 //! target error) → `scenario` (admissible-set checks, the physics evaluator and the engine around
 //! the generic search of the `wsm-search` crate) → `run` (the front door: typed requests,
@@ -22,6 +23,7 @@
 pub mod bundled;
 pub mod contact;
 pub mod dd;
+pub mod dynamics;
 pub mod error;
 pub mod estimate;
 pub mod fault;

@@ -97,6 +97,10 @@ pub struct SolveSummary {
     pub report: SolveReport,
     /// Meshing and operator set-up \[s\].
     pub setup_seconds: f64,
+    /// A dynamic scene's time histories (design §3.5); the rest of the summary is then the
+    /// static solve with the loads at t = 0.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub history: Option<crate::dynamics::History>,
 }
 
 /// Nodal and element fields of one solve.
@@ -178,6 +182,7 @@ pub fn summary(problem: &StateProblem, data: &Data, solution: &Solution) -> Solv
         .collect(),
         report: solution.report.clone(),
         setup_seconds: problem.setup_seconds,
+        history: None,
     }
 }
 

@@ -129,7 +129,11 @@ pub fn solve_at(
         point,
         if point.is_some() { "data" } else { "nominal" },
     );
-    Ok(solve_output(&problem, &data, &solution, &label, request))
+    let mut output = solve_output(&problem, &data, &solution, &label, request);
+    if problem.scene.dynamics.is_some() {
+        output.summary.history = Some(crate::dynamics::simulate(&problem, &data)?.history);
+    }
+    Ok(output)
 }
 
 /// `scene` with the request's inner solver, if it names one.
@@ -171,7 +175,14 @@ fn solve_point(
         par: Par::rayon(0),
         warm: None,
     };
-    let solution = problem.solve(&data, &options)?;
+    // A dynamic scene's summary is the static solve with the loads at t = 0.
+    let solution = match problem.scene.dynamics {
+        Some(_) => problem.solve(
+            &crate::dynamics::data_at(&problem.scene, &data, 0.0),
+            &options,
+        )?,
+        None => problem.solve(&data, &options)?,
+    };
     Ok((data, solution))
 }
 
@@ -272,6 +283,13 @@ pub fn worst(
     request: &WorstRequest,
     control: &RunControl,
 ) -> Result<WorstOutcome, WsmError> {
+    if scene.dynamics.is_some() {
+        return Err(crate::scene::SceneError::new(
+            "dynamics",
+            "the worst scenario over time is not built yet; `wsm solve` runs a dynamic scene",
+        )
+        .into());
+    }
     let settings = request.settings(&scene)?;
     if let Some(limit) = control.max_solve_bytes {
         estimate_solve_cost(&scene)?.check(limit)?;

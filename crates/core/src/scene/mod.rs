@@ -12,6 +12,7 @@
 //! the JSON Schema of the document from `model`.
 
 mod data;
+pub mod dynamics;
 pub mod law;
 mod model;
 pub mod params;
@@ -27,6 +28,7 @@ pub(crate) use data::piecewise_linear;
 pub use data::{
     BoundaryData, BoundaryValue, Data, Elastic, Expansion, HydrostaticData, MaterialData, SlipData,
 };
+pub use dynamics::{AbsorbingLayer, Dynamics, InitialState, Receiver, TimeFunction, TimeScheme};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,

@@ -6,6 +6,7 @@
 //! of uncertain data and the search settings. All quantities are SI (m, Pa, N/m³, K, W/m³, W/m²).
 //! This module only describes the shape of the document; `validate` checks its meaning.
 
+use super::dynamics::{AbsorbingLayer, Dynamics, Receiver, TimeFunction};
 use super::rules::{
     MAX_ANGLE, MAX_CONDUCTIVITY, MAX_FRICTION, MAX_LEVEL, MAX_STRESS, MAX_UNIT_WEIGHT,
     MIN_CONDUCTIVITY, MIN_MODULUS,
@@ -66,6 +67,16 @@ pub struct Scene {
     /// Inner solver settings.
     #[serde(default)]
     pub solver: SolverSettings,
+    /// Time grid and integrator: present, the scene is a dynamic problem (design §3.6).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dynamics: Option<Dynamics>,
+    /// Absorbing layers (dynamic scenes only).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub absorbing: Vec<AbsorbingLayer>,
+    /// Points whose displacement, velocity and acceleration the history records (dynamic
+    /// scenes only).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub receivers: Vec<Receiver>,
 }
 
 /// One elastic body.
@@ -217,6 +228,15 @@ pub struct Material {
     /// Voigt vector `[β11, β22, β12, β33]` (β12 the tensor shear component).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub beta: Option<ThermalStress>,
+    /// Density ρ \[kg/m³\] (> 0); required with `dynamics`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub density: Option<f64>,
+    /// Kelvin–Voigt viscosity as a retardation time τ_v \[s\] (≥ 0): c⁽¹⁾ = τ_v c⁽⁰⁾, so
+    /// τ = c⁽⁰⁾ (e(u) + τ_v e(u′)) (PDAS paper (1)); absent: elastic.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 0.0))]
+    pub viscosity: Option<f64>,
 }
 
 /// A conductivity: a scalar or a symmetric 2×2 matrix.
@@ -280,6 +300,9 @@ pub struct BoundaryCondition {
     /// Prescribed inward heat flux [W/m²] (0 is the default insulated boundary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub heat_flux: Option<f64>,
+    /// Dynamic scenes: the traction or pressure is multiplied by this function of time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_function: Option<TimeFunction>,
 }
 
 /// A hydrostatic pressure: p(y) = γ · max(y0 − y, 0) on the segment (design §2.6).

@@ -131,6 +131,7 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     check_mesh(&scene.mesh, scene)?;
     check_criteria(scene)?;
     check_search(scene)?;
+    super::dynamics::check_dynamics(scene)?;
     let parameters = resolve_all(scene)?;
     check_interval_matrices(scene, &parameters)?;
     check_stiffness_ratio(scene, &parameters)
@@ -282,7 +283,7 @@ fn check_vertex_count(scene: &Scene) -> Result<(), SceneError> {
     Ok(())
 }
 
-fn finite(path: &str, v: f64) -> Result<f64, SceneError> {
+pub(super) fn finite(path: &str, v: f64) -> Result<f64, SceneError> {
     if v.is_finite() {
         Ok(v)
     } else {
@@ -316,7 +317,7 @@ fn entry_name<'a>(
 
 /// Record the name of the entry at `path` (a `what`): a name used before is an error at
 /// `{path}.name`.
-fn unique_name<'a>(
+pub(super) fn unique_name<'a>(
     names: &mut BTreeSet<&'a str>,
     name: &'a str,
     path: &str,
@@ -345,7 +346,7 @@ fn check_points(path: &str, pts: &[Point]) -> Result<(), SceneError> {
 }
 
 /// A point (or direction) with finite components within [`MAX_COORDINATE`].
-fn check_point(path: &str, p: Point) -> Result<(), SceneError> {
+pub(super) fn check_point(path: &str, p: Point) -> Result<(), SceneError> {
     if p.iter().all(|c| c.abs() <= MAX_COORDINATE) {
         Ok(())
     } else {
