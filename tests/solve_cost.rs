@@ -58,8 +58,10 @@ fn probe_case_refused_before_meshing() {
             stderr.contains("mesh.refine[0].max_size") && stderr.contains("fits"),
             "{command}: {stderr}"
         );
-        // Milliseconds of counting; the bound leaves room for a loaded 2-core machine.
-        assert!(seconds < 3.0, "{command} took {seconds} s");
+        // Milliseconds of counting (1.7 s for the four runs, process starts included, on an idle
+        // 2-core machine); meshing the 2.1e6 triangles would take far longer than the bound, which
+        // leaves room for a machine loaded by parallel builds (5 s measured there).
+        assert!(seconds < 15.0, "{command} took {seconds} s");
     }
 }
 
