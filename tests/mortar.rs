@@ -155,36 +155,6 @@ fn matching_meshes_give_the_node_pair_results_on_every_bundled_contact_example()
     assert!(compared >= 8, "only {compared} examples compared");
 }
 
-/// Stacked blocks of width 1 (as in tests/contact_verification.rs) meshed on their own: the lower
-/// at size h, the upper `ratio` times finer along the interface.
-fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Value {
-    json!({
-        "version": 1, "name": "stacked blocks, non-matching",
-        "bodies": [
-            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
-            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
-        ],
-        "segments": {
-            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
-            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
-            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
-            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
-            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
-            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
-        },
-        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
-        "boundary": [
-            {"segment": "floor", "roller": {}},
-            {"segment": "lower_left", "roller": {}},
-            {"segment": "upper_left", "roller": {}},
-            {"segment": "top", "pressure": pressure}
-        ],
-        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit,
-                      "coupling": "mortar"}],
-        "mesh": {"max_size": h, "refine": [{"segments": ["upper_bottom"], "max_size": h / ratio}]}
-    })
-}
-
 /// Interface node counts of the two sides.
 fn interface_nodes(problem: &StateProblem) -> (usize, usize) {
     let mesh = &problem.mesh();
@@ -210,7 +180,7 @@ fn stress_misfit(sol: &Solution, p: f64) -> f64 {
 #[test]
 fn contact_patch_test_across_a_non_matching_interface() {
     let p = 3.0e6;
-    let (problem, sol) = solve_value(&stacked_blocks(p, 1.0e5, 0.1, 2.7)).unwrap();
+    let (problem, sol) = solve_value(&solves::stacked_blocks(p, 1.0e5, 0.1, 2.7)).unwrap();
     let (fine, coarse) = interface_nodes(&problem);
     println!("interface nodes: upper {fine}, lower {coarse}");
     assert!(
@@ -242,7 +212,7 @@ fn contact_patch_test_across_a_non_matching_interface() {
 fn tresca_block_sticks_below_and_is_refused_above_the_capacity_on_non_matching_meshes() {
     let g = 2.0e5;
     let scene = |t: f64| {
-        let mut s = stacked_blocks(1.0e6, g, 0.1, 2.7);
+        let mut s = solves::stacked_blocks(1.0e6, g, 0.1, 2.7);
         s["boundary"][2] = json!({"segment": "upper_left", "traction": [t, 0]});
         s
     };
@@ -311,7 +281,7 @@ fn hertz_on_non_matching_meshes_both_ways() {
 
 #[test]
 fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
-    let base = stacked_blocks(1.0e6, 0.0, 0.1, 2.7);
+    let base = solves::stacked_blocks(1.0e6, 0.0, 0.1, 2.7);
     let cases: Vec<(Value, &str, &str)> = vec![
         {
             // The master side moved away sideways: nothing faces.
@@ -356,11 +326,6 @@ fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
             v["contacts"][0]["coupling"] = json!("nodes");
             v["contacts"][0]["slave"] = json!("upper_bottom");
             (v, "contacts[0].slave", "mortar")
-        },
-        {
-            let mut v = base.clone();
-            v["solver"] = json!({"kind": "dd"});
-            (v, "solver.kind", "mortar")
         },
     ];
     for (v, path, words) in cases {

@@ -1,9 +1,9 @@
 //! Helpers shared by the tests that solve scenes in-process with either inner solver
-//! (tests/dd_vs_direct.rs, tests/coulomb.rs, tests/knee_papers.rs).
+//! (tests/dd_vs_direct.rs, tests/coulomb.rs, tests/knee_papers.rs, tests/mortar.rs).
 
 #![allow(dead_code)] // each test binary uses its own subset
 
-use serde_json::Value;
+use serde_json::{json, Value};
 use wsm_core::scene::{parse, SolverKind};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 
@@ -88,4 +88,34 @@ pub fn hertz_measures(problem: &StateProblem, sol: &Solution) -> HertzMeasures {
         half_width: (4.0 * m2 / total).sqrt(),
         peak: sol.contact.iter().map(|c| c.pressure).fold(0.0, f64::max),
     }
+}
+
+/// Stacked blocks of width 1 (as in tests/contact_verification.rs) meshed on their own: the lower
+/// at size h, the upper `ratio` times finer along the interface.
+pub fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Value {
+    json!({
+        "version": 1, "name": "stacked blocks, non-matching",
+        "bodies": [
+            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
+            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
+        ],
+        "segments": {
+            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
+            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
+            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
+            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
+            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
+            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
+        },
+        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
+        "boundary": [
+            {"segment": "floor", "roller": {}},
+            {"segment": "lower_left", "roller": {}},
+            {"segment": "upper_left", "roller": {}},
+            {"segment": "top", "pressure": pressure}
+        ],
+        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit,
+                      "coupling": "mortar"}],
+        "mesh": {"max_size": h, "refine": [{"segments": ["upper_bottom"], "max_size": h / ratio}]}
+    })
 }

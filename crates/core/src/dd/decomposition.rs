@@ -266,7 +266,8 @@ fn find(p: &mut [usize], mut i: usize) -> usize {
     i
 }
 
-/// Clusters: union–find over the contact pairs. The member subdomains of each cluster and the
+/// Clusters: union–find over the contact pairs (every node of a pair's rows: a mortar row's
+/// master nodes join the slave node's cluster). The member subdomains of each cluster and the
 /// indices of its pairs, clusters numbered by their first contact subdomain.
 fn cluster_members(
     problem: &DdProblem,
@@ -284,9 +285,11 @@ fn cluster_members(
     };
     let mut parent: Vec<usize> = (0..ns).collect();
     for pair in &problem.pairs {
-        let (a, b) = (node_sub[pair.nodes[0]], node_sub[pair.nodes[1]]);
-        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
-        parent[ra.max(rb)] = ra.min(rb);
+        let a = node_sub[pair.nodes[0]];
+        for &node in &pair.nodes[1..] {
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, node_sub[node]));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
     }
     let mut cluster_of = vec![NONE; ns];
     let mut members: Vec<Vec<usize>> = Vec::new();

@@ -129,7 +129,7 @@ pub fn contact_pairs(
                 upper: upper[r],
             };
             DdContactPair {
-                nodes: p.nodes,
+                nodes: p.terms().map(|(node, _)| node).collect(),
                 normal: row(normal_row(m), p.gap),
                 tangent: row(tangential_row(m), 0.0),
             }

@@ -102,11 +102,15 @@ pub struct DdContactRow {
     pub upper: f64,
 }
 
-/// A contact node pair (node of body k, node of body l) with its normal and tangential rows.
+/// A contact pair with its normal and tangential rows: a node pair (node of body k, node of body
+/// l), or a mortar row (slave node of body k, the master nodes of body l's combination
+/// Σ_q M̂_pq u_q, design §2.4.1).
 #[derive(Debug, Clone, PartialEq)]
 pub struct DdContactPair {
-    /// The paired mesh nodes: `[node of body k, node of body l]`.
-    pub nodes: [usize; 2],
+    /// The mesh nodes of the rows: the node of body k first, then body l's side — one node for a
+    /// node pair, the master nodes of the combination for a mortar row. The partition keeps them
+    /// all inside one contact cluster (design §3.2).
+    pub nodes: Vec<usize>,
     /// Normal row n·(u^k − u^l) with the non-penetration (or bilateral tie) bounds.
     pub normal: DdContactRow,
     /// Tangential row t·(u^k − u^l) with the Tresca bounds ±g w.

@@ -1,7 +1,9 @@
 //! Partition of the bodies into subdomains (D05 §4.1, FGCS 3.1–3.2).
 //!
 //! Rules: interfaces lie inside bodies and never cut a contact zone (D05 4.4, Γ ∩ Γc = ∅): every
-//! element touching a contact node belongs to that node's contact subdomain. Automatic partitions
+//! element touching a contact node belongs to that node's contact subdomain. The contact nodes are
+//! all nodes of the contact rows — with mortar rows (design §2.4.1) the master nodes of each
+//! slave node's combination too, so that every row lies inside one contact cluster. Automatic partitions
 //! keep contact subdomains SMALL — the band of elements within `contact_layers` element layers of
 //! the contact nodes (FGCS Remark 3.1: the contraction factor 2β² of Thm 7.1 shrinks with the
 //! contact subdomains' share of the energy) — except for a floating body in contact, which becomes
@@ -99,7 +101,7 @@ impl Partition {
         let node_subdomains = node_subdomains(problem, &element_subdomain);
         let mut contact = vec![false; n_subdomains];
         for pair in &problem.pairs {
-            for node in pair.nodes {
+            for &node in &pair.nodes {
                 match node_subdomains[node].as_slice() {
                     [s] => contact[*s] = true,
                     _ => {
@@ -188,7 +190,7 @@ fn automatic(problem: &DdProblem, target: Target, layers: usize) -> Vec<usize> {
     let contact_bodies: Vec<usize> = problem
         .pairs
         .iter()
-        .flat_map(|p| p.nodes.map(|n| problem.node_body[n]))
+        .flat_map(|p| p.nodes.iter().map(|&n| problem.node_body[n]))
         .collect();
     for &b in &problem.floating_bodies {
         if contact_bodies.contains(&b) {
@@ -202,7 +204,11 @@ fn automatic(problem: &DdProblem, target: Target, layers: usize) -> Vec<usize> {
     }
     // Bands of `layers` element layers around the contact nodes.
     let mut band = vec![false; ne];
-    let mut front: Vec<usize> = problem.pairs.iter().flat_map(|p| p.nodes).collect();
+    let mut front: Vec<usize> = problem
+        .pairs
+        .iter()
+        .flat_map(|p| p.nodes.iter().copied())
+        .collect();
     for _ in 0..layers.max(1) {
         let mut nodes = Vec::new();
         for &n in &front {
@@ -502,7 +508,11 @@ mod tests {
         let node_elements = node_elements(&problem);
         let edges = edge_neighbours(&problem);
         let mut sub = vec![UNSET; ne];
-        let mut front: Vec<usize> = problem.pairs.iter().flat_map(|p| p.nodes).collect();
+        let mut front: Vec<usize> = problem
+            .pairs
+            .iter()
+            .flat_map(|p| p.nodes.iter().copied())
+            .collect();
         let mut band = vec![false; ne];
         for _ in 0..2 {
             let mut nodes = Vec::new();

@@ -888,24 +888,12 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                 "a contact zone joins segments of two different bodies",
             ));
         }
-        if c.coupling == Coupling::Mortar {
-            if scene.solver.kind == SolverKind::Dd {
-                return Err(SceneError::new(
-                    "solver.kind",
-                    format!(
-                        "the papers' domain decomposition couples matching node pairs; contact \
-                         zone '{}' is mortar-coupled: use \"kind\": \"direct\"",
-                        c.name
-                    ),
-                ));
-            }
-            if scene.thermal.is_some() {
-                return Err(SceneError::new(
-                    format!("{path}.coupling"),
-                    "heat conduction across a mortar-coupled zone is not built yet: the thermal \
-                     part needs matching nodes (\"coupling\": \"nodes\")",
-                ));
-            }
+        if c.coupling == Coupling::Mortar && scene.thermal.is_some() {
+            return Err(SceneError::new(
+                format!("{path}.coupling"),
+                "heat conduction across a mortar-coupled zone is not built yet: the thermal \
+                 part needs matching nodes (\"coupling\": \"nodes\")",
+            ));
         }
         if let Some(slave) = &c.slave {
             if c.coupling != Coupling::Mortar {
