@@ -885,13 +885,6 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                     ),
                 ));
             }
-            if scene.thermal.is_some() {
-                return Err(SceneError::new(
-                    format!("{path}.coupling"),
-                    "heat conduction across a mortar-coupled zone is not built yet: the thermal \
-                     part needs matching nodes (\"coupling\": \"nodes\")",
-                ));
-            }
         }
         if let Some(slave) = &c.slave {
             if c.coupling != Coupling::Mortar {
