@@ -69,10 +69,6 @@ fn matching_meshes_give_the_node_pair_results_on_every_bundled_contact_example()
         {
             continue;
         }
-        if scene.thermal.is_some() {
-            println!("{name}: thermal, mortar heat coupling not built: skipped");
-            continue;
-        }
         scene.solver.kind = SolverKind::Direct;
         let nodes = with_own_mesh_inline(&scene);
         let mut mortar = nodes.clone();
@@ -231,7 +227,10 @@ fn contact_patch_test_across_a_non_matching_interface() {
     }
     let misfit = stress_misfit(&sol, p);
     println!("element stresses off the uniform state by {misfit:.1e} p");
-    assert!(misfit <= 1e-10, "displacement not linear: stresses off by {misfit:e} p");
+    assert!(
+        misfit <= 1e-10,
+        "displacement not linear: stresses off by {misfit:e} p"
+    );
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
 }
 

@@ -97,10 +97,10 @@ fn errors(
         let a = area(x);
         // ∇u_h = Σ v_i ∇λ_i, ∇λ_i = (y_j − y_k, x_k − x_j) / 2A.
         let mut g = [0.0; 2];
-        for i in 0..3 {
+        for (i, vi) in v.iter().enumerate() {
             let (j, k) = ((i + 1) % 3, (i + 2) % 3);
-            g[0] += v[i] * (x[j][1] - x[k][1]) / (2.0 * a);
-            g[1] += v[i] * (x[k][0] - x[j][0]) / (2.0 * a);
+            g[0] += vi * (x[j][1] - x[k][1]) / (2.0 * a);
+            g[1] += vi * (x[k][0] - x[j][0]) / (2.0 * a);
         }
         for (l, p) in rule(x) {
             let uh = l[0] * v[0] + l[1] * v[1] + l[2] * v[2];
@@ -241,8 +241,14 @@ fn matching_meshes_give_the_node_pair_temperatures() {
     assert!(mm.contacts[0].mortar.is_some());
     let (a, b) = (solve(&inline, &pn), solve(&mortar, &pm));
     let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let d = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
-    println!("matching meshes: mortar vs node pairs {:.1e} of {scale:.2}", d / scale);
+    let d = a
+        .iter()
+        .zip(&b)
+        .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    println!(
+        "matching meshes: mortar vs node pairs {:.1e} of {scale:.2}",
+        d / scale
+    );
     assert!(d <= 1e-10 * scale, "differs by {d:e}");
 }
 
@@ -275,8 +281,14 @@ fn manufactured_heat_converges_at_h2_in_l2_and_h_in_energy_across_a_non_matching
     let (sl2, sh1) = (slopes(&hs, &l2), slopes(&hs, &h1));
     println!("slopes: L² {sl2:.2?}, energy {sh1:.2?}");
     let last = |s: &[f64]| s[s.len() - 1];
-    assert!(last(&sl2) > 1.8 && sl2.iter().all(|&s| s > 1.6), "L² slopes {sl2:?}");
-    assert!(last(&sh1) > 0.9 && sh1.iter().all(|&s| s > 0.8), "energy slopes {sh1:?}");
+    assert!(
+        last(&sl2) > 1.8 && sl2.iter().all(|&s| s > 1.6),
+        "L² slopes {sl2:?}"
+    );
+    assert!(
+        last(&sh1) > 0.9 && sh1.iter().all(|&s| s > 0.8),
+        "energy slopes {sh1:?}"
+    );
 }
 
 /// The annulus 1/4 < r² < 1 as four sector bodies cut at φ = −π/8 + kπ/2 (the data's jump at
@@ -299,14 +311,22 @@ fn annulus(sizes: [f64; 4], per_pi: usize) -> Value {
     let mut boundary = Vec::new();
     let mut contacts = Vec::new();
     let mut refine = Vec::new();
-    for k in 0..4 {
+    for (k, size) in sizes.iter().enumerate() {
         let (outer, inner) = (arc(k, 1.0), arc(k, 0.5));
         let mut polygon = outer.clone();
         polygon.extend(inner.iter().rev().cloned());
         let name = format!("s{k}");
-        bodies.push(json!({"name": name, "zones": [{"name": name, "material": "m", "polygon": polygon}]}));
-        segments.insert(format!("{name}_outer"), json!({"body": name, "path": outer}));
-        segments.insert(format!("{name}_inner"), json!({"body": name, "path": inner}));
+        bodies.push(
+            json!({"name": name, "zones": [{"name": name, "material": "m", "polygon": polygon}]}),
+        );
+        segments.insert(
+            format!("{name}_outer"),
+            json!({"body": name, "path": outer}),
+        );
+        segments.insert(
+            format!("{name}_inner"),
+            json!({"body": name, "path": inner}),
+        );
         // Radial sides: at the start cut (from inner to outer) and the end cut.
         segments.insert(
             format!("{name}_start"),
@@ -320,7 +340,7 @@ fn annulus(sizes: [f64; 4], per_pi: usize) -> Value {
         boundary.push(json!({"segment": format!("{name}_inner"), "temperature": 0.0}));
         contacts.push(json!({"name": format!("cut{k}"), "kind": "bilateral", "coupling": "mortar",
                              "between": [format!("{name}_end"), format!("s{}_start", (k + 1) % 4)]}));
-        refine.push(json!({"polygon": polygon, "max_size": sizes[k]}));
+        refine.push(json!({"polygon": polygon, "max_size": size}));
     }
     let largest = sizes.iter().fold(0.0f64, |m, &s| m.max(s));
     json!({
@@ -335,10 +355,10 @@ fn annulus(sizes: [f64; 4], per_pi: usize) -> Value {
 
 /// The series solution of (24) (paper part A.6).
 fn annulus_series(r: f64, phi: f64) -> f64 {
-    (1..=4000)
-        .map(|n| {
-            let n = n as f64;
-            let sign = if n as usize % 2 == 0 { 1.0 } else { -1.0 };
+    (1..=4000usize)
+        .map(|k| {
+            let n = k as f64;
+            let sign = if k.is_multiple_of(2) { 1.0 } else { -1.0 };
             // ((2r)ⁿ + r⁻ⁿ) / (2ⁿ + 1) without overflow.
             let radial = (r.powf(n) + (2.0 * r).powf(-n)) / (1.0 + 2f64.powf(-n));
             2.0 * sign / n * radial * (n * (phi - 1.25 * PI)).sin()
@@ -378,7 +398,11 @@ fn annulus_errors(sizes: [f64; 4]) -> (f64, f64, usize) {
             count += 1;
         }
     }
-    (paper_worst, (squares / count as f64).sqrt(), mesh.nodes.len())
+    (
+        paper_worst,
+        (squares / count as f64).sqrt(),
+        mesh.nodes.len(),
+    )
 }
 
 #[test]
@@ -404,4 +428,99 @@ fn annulus_values_and_refining_only_the_subdomain_with_the_jump() {
     assert!(rms[1].0 < 0.1 * rms[0].0, "{rms:?}");
     assert!(rms[1].0 < rms[2].0, "{rms:?}");
     assert!(rms[1].1 < 0.35 * rms[0].1, "{rms:?}");
+}
+
+/// Example (23) on an L-shaped Ω = (0,2)×(0,1) ∪ (0,1)×(1,2): −Δu = 30, u = 0 on Γ0 (y = 0),
+/// u = 1 on Γ1 (y = 2), insulated elsewhere. `subdomains`: as three bodies A = (0,1)², B to the
+/// right, C on top, meshed at 0.1, 0.04 and 0.06 and glued by mortar ties (the corner (1, 1) is a
+/// cross point of both ties); otherwise one body meshed at `h`.
+fn example_23(subdomains: bool, h: f64) -> Value {
+    let boundary = json!([
+        {"segment": "gamma0", "temperature": 0.0},
+        {"segment": "gamma1", "temperature": 1.0}
+    ]);
+    let materials = json!({"m": material(30.0)});
+    let thermal = json!({"reference_temperature": 0.0});
+    if !subdomains {
+        return json!({
+            "version": 1, "name": "example (23), conforming",
+            "bodies": [{"name": "l", "zones": [{"name": "l", "material": "m",
+                        "polygon": [[0,0],[2,0],[2,1],[1,1],[1,2],[0,2]]}]}],
+            "segments": {
+                "gamma0": {"body": "l", "from": [0,0], "to": [2,0]},
+                "gamma1": {"body": "l", "from": [1,2], "to": [0,2]}
+            },
+            "materials": materials, "thermal": thermal, "boundary": boundary,
+            "mesh": {"max_size": h}
+        });
+    }
+    json!({
+        "version": 1, "name": "example (23), mortar subdomains",
+        "bodies": [
+            {"name": "a", "zones": [{"name": "a", "material": "m", "polygon": [[0,0],[1,0],[1,1],[0,1]]}]},
+            {"name": "b", "zones": [{"name": "b", "material": "m", "polygon": [[1,0],[2,0],[2,1],[1,1]]}]},
+            {"name": "c", "zones": [{"name": "c", "material": "m", "polygon": [[0,1],[1,1],[1,2],[0,2]]}]}
+        ],
+        "segments": {
+            "gamma0": {"body": "a", "from": [0,0], "to": [1,0]},
+            "gamma0_b": {"body": "b", "from": [1,0], "to": [2,0]},
+            "gamma1": {"body": "c", "from": [1,2], "to": [0,2]},
+            "a_right": {"body": "a", "from": [1,0], "to": [1,1]},
+            "a_top": {"body": "a", "from": [1,1], "to": [0,1]},
+            "b_left": {"body": "b", "from": [1,1], "to": [1,0]},
+            "c_bottom": {"body": "c", "from": [0,1], "to": [1,1]}
+        },
+        "materials": materials, "thermal": thermal,
+        "boundary": [
+            {"segment": "gamma0", "temperature": 0.0},
+            {"segment": "gamma0_b", "temperature": 0.0},
+            {"segment": "gamma1", "temperature": 1.0}
+        ],
+        "contacts": [
+            {"name": "ab", "between": ["b_left", "a_right"], "kind": "bilateral", "coupling": "mortar"},
+            {"name": "ac", "between": ["c_bottom", "a_top"], "kind": "bilateral", "coupling": "mortar"}
+        ],
+        "mesh": {"max_size": 0.1, "refine": [
+            {"polygon": [[1,0],[2,0],[2,1],[1,1]], "max_size": 0.04},
+            {"polygon": [[0,1],[1,1],[1,2],[0,2]], "max_size": 0.06}
+        ]}
+    })
+}
+
+#[test]
+fn example_23_matches_a_fine_conforming_solution() {
+    let solve_23 = |subdomains: bool, h: f64| {
+        let scene = parse(&example_23(subdomains, h).to_string()).unwrap();
+        let (mesh, problem) = heat(&scene);
+        let u = solve(&scene, &problem);
+        (mesh, u)
+    };
+    let (fine, reference) = solve_23(false, 0.01);
+    let (coarse, conforming) = solve_23(false, 0.1);
+    let (mortar, u) = solve_23(true, 0.0);
+    let (ns, nm) = interface_nodes(&mortar);
+    // Sample points off the interfaces, the re-entrant corner's neighbourhood included.
+    let points: Vec<[f64; 2]> = (1..20)
+        .flat_map(|i| (1..20).map(move |j| [0.1 * i as f64 + 0.013, 0.1 * j as f64 + 0.007]))
+        .filter(|p| p[0] < 1.0 || p[1] < 1.0)
+        .collect();
+    let deviation = |mesh: &Mesh, v: &[f64]| {
+        points.iter().fold(0.0f64, |m, &p| {
+            m.max((value_at(mesh, v, p) - value_at(&fine, &reference, p)).abs())
+        })
+    };
+    let (dm, dc) = (deviation(&mortar, &u), deviation(&coarse, &conforming));
+    let peak = reference.iter().fold(0.0f64, |m, &v| m.max(v));
+    let least = u.iter().fold(f64::INFINITY, |m, &v| m.min(v));
+    println!(
+        "example (23): max u {peak:.4}; mortar ({} nodes, ab interface {ns} : {nm}) vs fine conforming ({} nodes): {dm:.2e}; conforming at 0.1 ({} nodes): {dc:.2e}; min u {least:.1e}",
+        mortar.nodes.len(),
+        fine.nodes.len(),
+        coarse.nodes.len()
+    );
+    // −Δu = 30 > 0: the minimum 0 is on Γ0 (paper part A.6 check 6).
+    assert!(least >= -1e-12, "min u = {least:e}");
+    // No worse than the conforming mesh of the coarsest subdomain's size.
+    assert!(dm <= dc, "mortar {dm:e} vs conforming {dc:e}");
+    assert!(dm < 1e-2 * peak, "mortar off by {dm:e} of {peak}");
 }

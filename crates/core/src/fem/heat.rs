@@ -53,6 +53,9 @@ impl UnionFind {
     }
 }
 
+/// Per fixed unknown: a node of it and the indices of the `Temperature` conditions on it.
+type FixedSources = Vec<(usize, Vec<usize>)>;
+
 /// Where a node's temperature lives in the reduced system.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Thermal {
@@ -72,7 +75,7 @@ pub struct HeatProblem {
     /// Each thermal unknown's place in the reduced system (a row of Q).
     terms: Vec<Thermal>,
     /// Per fixed unknown: a node of it and the `Temperature` conditions prescribing it.
-    fixed_sources: Vec<(usize, Vec<usize>)>,
+    fixed_sources: FixedSources,
     operator: ZonedOperator<3>,
     /// Load weights per zone and per boundary condition.
     unit_loads: UnitLoads,
@@ -338,6 +341,9 @@ fn temperature_sources(
     Ok(sources)
 }
 
+/// A mortar slave unknown's tie: (master thermal unknown, M̂_pq).
+type Tie = Vec<(usize, f64)>;
+
 /// Per thermal unknown, the mortar tie of a slave node without a prescribed temperature: its
 /// row M̂_p· (design §2.4.1) over thermal unknowns. A slave node that is prescribed keeps its
 /// value and gets no tie.
@@ -345,8 +351,8 @@ fn mortar_ties(
     mesh: &Mesh,
     unknown_of: &[usize],
     sources: &[Vec<usize>],
-) -> Result<Vec<Option<Vec<(usize, f64)>>>, FemError> {
-    let mut ties: Vec<Option<Vec<(usize, f64)>>> = vec![None; sources.len()];
+) -> Result<Vec<Option<Tie>>, FemError> {
+    let mut ties: Vec<Option<Tie>> = vec![None; sources.len()];
     for contact in &mesh.contacts {
         let Some(rows) = &contact.mortar else {
             continue;
@@ -369,7 +375,7 @@ fn mortar_ties(
                     contact.name
                 )));
             }
-            let mut combination: Vec<(usize, f64)> = Vec::with_capacity(row.master.len());
+            let mut combination: Tie = Vec::with_capacity(row.master.len());
             for &(q, w) in &row.master {
                 add_term(&mut combination, unknown_of[q], w);
             }
@@ -400,7 +406,7 @@ fn check_components(
     mesh: &Mesh,
     unknown_of: &[usize],
     sources: &[Vec<usize>],
-    ties: &[Option<Vec<(usize, f64)>>],
+    ties: &[Option<Tie>],
 ) -> Result<(), FemError> {
     let mut uf = UnionFind::new(sources.len());
     for tri in &mesh.triangles {
@@ -439,8 +445,8 @@ fn check_components(
 fn number_unknowns(
     unknown_of: &[usize],
     sources: Vec<Vec<usize>>,
-    ties: &[Option<Vec<(usize, f64)>>],
-) -> (Vec<Option<Slot>>, Vec<(usize, Vec<usize>)>) {
+    ties: &[Option<Tie>],
+) -> (Vec<Option<Slot>>, FixedSources) {
     let mut node_of = vec![0; sources.len()];
     for (node, &u) in unknown_of.iter().enumerate().rev() {
         node_of[u] = node;
@@ -471,7 +477,7 @@ fn resolve_ties(
     mesh: &Mesh,
     unknown_of: &[usize],
     slots: &[Option<Slot>],
-    ties: &[Option<Vec<(usize, f64)>>],
+    ties: &[Option<Tie>],
 ) -> Result<Vec<Thermal>, FemError> {
     /// Not yet resolved, being resolved (on the stack), or resolved.
     #[derive(Clone)]
@@ -483,7 +489,7 @@ fn resolve_ties(
     fn resolve(
         u: usize,
         slots: &[Option<Slot>],
-        ties: &[Option<Vec<(usize, f64)>>],
+        ties: &[Option<Tie>],
         state: &mut [State],
     ) -> Result<Vec<(Slot, f64)>, usize> {
         if let Some(slot) = slots[u] {

@@ -874,17 +874,15 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                 "a contact zone joins segments of two different bodies",
             ));
         }
-        if c.coupling == Coupling::Mortar {
-            if scene.solver.kind == SolverKind::Dd {
-                return Err(SceneError::new(
-                    "solver.kind",
-                    format!(
-                        "the papers' domain decomposition couples matching node pairs; contact \
-                         zone '{}' is mortar-coupled: use \"kind\": \"direct\"",
-                        c.name
-                    ),
-                ));
-            }
+        if c.coupling == Coupling::Mortar && scene.solver.kind == SolverKind::Dd {
+            return Err(SceneError::new(
+                "solver.kind",
+                format!(
+                    "the papers' domain decomposition couples matching node pairs; contact \
+                     zone '{}' is mortar-coupled: use \"kind\": \"direct\"",
+                    c.name
+                ),
+            ));
         }
         if let Some(slave) = &c.slave {
             if c.coupling != Coupling::Mortar {
