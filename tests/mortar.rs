@@ -69,10 +69,6 @@ fn matching_meshes_give_the_node_pair_results_on_every_bundled_contact_example()
         {
             continue;
         }
-        if scene.thermal.is_some() {
-            println!("{name}: thermal, mortar heat coupling not built: skipped");
-            continue;
-        }
         scene.solver.kind = SolverKind::Direct;
         let nodes = with_own_mesh_inline(&scene);
         let mut mortar = nodes.clone();

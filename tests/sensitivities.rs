@@ -270,6 +270,40 @@ fn hertz_nonmatching_matches_finite_differences() {
     example("hertz-nonmatching", 1.0, 3);
 }
 
+/// Heat conducted across the mortar zone of `hertz-nonmatching` (slave temperatures tied by the
+/// dual mortar rows, `fem::heat`), its thermal expansion loading the contact: derivatives with
+/// respect to the conductivity, the source, a boundary temperature and the reference temperature.
+#[test]
+fn heated_hertz_nonmatching_matches_finite_differences() {
+    let text = wsm_core::bundled::find("hertz-nonmatching").unwrap();
+    let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
+    scene["materials"]["steel"] = serde_json::json!({"E": 2e11, "nu": 0.3,
+        "conductivity": 50.0, "heat_source": 2000.0, "expansion": 1.2e-5});
+    scene["thermal"] = serde_json::json!({"reference_temperature": 20.0});
+    let boundary = scene["boundary"].as_array_mut().unwrap();
+    boundary.push(serde_json::json!({"segment": "flat_bottom", "temperature": 20.0}));
+    boundary.push(serde_json::json!({"segment": "cylinder_top", "temperature": 60.0}));
+    let interval = |lo: f64, hi: f64| serde_json::json!([lo, hi]);
+    scene["uncertain"] = [
+        ("boundary[1].pressure", interval(2e8, 3e8)),
+        ("materials.steel.conductivity", interval(40.0, 60.0)),
+        ("materials.steel.heat_source", interval(1000.0, 3000.0)),
+        ("boundary[5].temperature", interval(40.0, 80.0)),
+        ("thermal.reference_temperature", interval(10.0, 30.0)),
+    ]
+    .iter()
+    .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
+    .collect();
+    let tally = check(wsm_core::scene::parse(&scene.to_string()).unwrap(), 3, 7);
+    eprintln!("heated hertz-nonmatching: {tally:?}");
+    assert!(tally.checked > 0, "nothing checked");
+    assert!(tally.one_sided > 0, "nothing checked at a bound");
+    assert!(
+        tally.kinks * 10 <= tally.checked,
+        "too many components straddle a kink: {tally:?}"
+    );
+}
+
 #[test]
 fn knee_matches_finite_differences() {
     example("knee", 1.5, 2);

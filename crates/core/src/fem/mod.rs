@@ -28,7 +28,7 @@ pub mod stress;
 pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;
 pub use geometry::{segment_node_normals, TriangleGradients};
-pub use heat::HeatProblem;
+pub use heat::{HeatProblem, Thermal};
 pub use linear::{symmetric_apply, Factor, Symbolic};
 pub use operator::{OperatorFactor, Slot, ZonedOperator};
 pub use rigid::RigidModes;

@@ -888,13 +888,6 @@ fn check_contacts(scene: &Scene) -> Result<(), SceneError> {
                 "a contact zone joins segments of two different bodies",
             ));
         }
-        if c.coupling == Coupling::Mortar && scene.thermal.is_some() {
-            return Err(SceneError::new(
-                format!("{path}.coupling"),
-                "heat conduction across a mortar-coupled zone is not built yet: the thermal \
-                 part needs matching nodes (\"coupling\": \"nodes\")",
-            ));
-        }
         if let Some(slave) = &c.slave {
             if c.coupling != Coupling::Mortar {
                 return Err(SceneError::new(
