@@ -1,8 +1,10 @@
 //! Mortar contact on non-matching meshes (design §2.4.1): on matching meshes the dual mortar rows
 //! are the node-pair rows (every bundled contact example, 1e-10); the contact patch test across
 //! a 1 : 2.7 interface; Hertz meshed finely on one side and coarsely on the other, both ways;
-//! Tresca stick and refusal; refusals named. (Exact derivatives on the bundled `hertz-nonmatching`
-//! are checked against finite differences in tests/sensitivities.rs.)
+//! Tresca stick and refusal; refusals named; a Gmsh mesh whose bodies were meshed on their own.
+//! (Exact derivatives on the bundled `hertz-nonmatching` are checked against finite differences in
+//! tests/sensitivities.rs; worst-scenario runs on the bundled mortar examples against their
+//! matching twins in tests/worst_scenario.rs.)
 
 mod solves;
 
@@ -389,7 +391,9 @@ fn a_gmsh_mesh_with_the_bodies_meshed_on_their_own_is_coupled_by_mortar() {
     let text = std::fs::read_to_string(data.join("block-on-base-gmsh.json")).unwrap();
     let mut v: Value = serde_json::from_str(&text).unwrap();
     v["mesh"]["gmsh_file"] = json!(data.join("block-on-base-nonmatching.msh"));
-    let err = solve_value(&v).err().expect("node coupling must be refused");
+    let err = solve_value(&v)
+        .err()
+        .expect("node coupling must be refused");
     assert!(
         err.contains("contacts[0].between") && err.contains("node for node"),
         "{err}"
