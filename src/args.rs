@@ -443,6 +443,10 @@ pub struct BenchArgs {
     /// per evaluation on the tunnel (with / without, medians over --runs points).
     #[arg(long)]
     pub gradients: bool,
+    /// Instead: the cost of an evaluation with mortar contact rows against node-to-node pairs
+    /// on one mesh (equal unknowns), on the Hertz and tunnel examples (medians over --runs points).
+    #[arg(long)]
+    pub mortar: bool,
 }
 
 /// `wsm example`.

@@ -248,9 +248,12 @@ pub fn schema() -> String {
 }
 
 /// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop, or with
-/// `--gradients` the cost of the exact derivatives.
+/// `--gradients` the cost of the exact derivatives, or with `--mortar` mortar against node-pair
+/// contact rows.
 pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
-    if args.gradients {
+    if args.mortar {
+        wsm_study::bench::run_mortar(&args.sizes, args.runs)
+    } else if args.gradients {
         wsm_study::bench::run_gradients(&args.sizes, args.runs)
     } else if args.worst {
         wsm_study::bench::run_worst(&args.sizes, args.budget, args.dd)

@@ -1,8 +1,10 @@
 //! Mortar contact on non-matching meshes (design §2.4.1): on matching meshes the dual mortar rows
 //! are the node-pair rows (every bundled contact example, 1e-10); the contact patch test across
 //! a 1 : 2.7 interface; Hertz meshed finely on one side and coarsely on the other, both ways;
-//! Tresca stick and refusal; refusals named. (Exact derivatives on the bundled `hertz-nonmatching`
-//! are checked against finite differences in tests/sensitivities.rs.)
+//! Tresca stick and refusal; refusals named; a Gmsh mesh whose bodies were meshed on their own.
+//! (Exact derivatives on the bundled `hertz-nonmatching` are checked against finite differences in
+//! tests/sensitivities.rs; worst-scenario runs on the bundled mortar examples against their
+//! matching twins in tests/worst_scenario.rs.)
 
 mod solves;
 
@@ -336,4 +338,52 @@ fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
         assert!(err.contains(words), "{err} does not say '{words}'");
         assert!(took.as_secs_f64() < 2.0, "took {took:?}");
     }
+}
+
+/// The block-on-base scene on a Gmsh mesh whose bodies were meshed on their own
+/// (`scripts/gmsh_block_on_base.py`: the base's contact side in 8 elements, the block's in 21):
+/// node-coupled it is refused as before; mortar-coupled it solves, the finer block side is the
+/// slave, and the contact resultants carry the block's loads exactly — its top pressure 1e6 Pa on
+/// 1 m plus its weight 2.45e4 N/m³ × 0.5 m² normally, the push 4e5 Pa on its 0.5 m side
+/// tangentially (the block is held by the contact only).
+#[test]
+fn a_gmsh_mesh_with_the_bodies_meshed_on_their_own_is_coupled_by_mortar() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let text = std::fs::read_to_string(data.join("block-on-base-gmsh.json")).unwrap();
+    let mut v: Value = serde_json::from_str(&text).unwrap();
+    v["mesh"]["gmsh_file"] = json!(data.join("block-on-base-nonmatching.msh"));
+    let err = solve_value(&v)
+        .err()
+        .expect("node coupling must be refused");
+    assert!(
+        err.contains("contacts[0].between") && err.contains("node for node"),
+        "{err}"
+    );
+    v["contacts"][0]["coupling"] = json!("mortar");
+    let (problem, sol) = solve_value(&v).unwrap();
+    let mesh = problem.mesh();
+    let count = |name: &str| {
+        let s = mesh.segments.iter().find(|s| s.name == name).unwrap();
+        s.nodes.len()
+    };
+    assert_eq!((count("block_contact"), count("base_contact")), (22, 9));
+    let zone = &mesh.contacts[0];
+    assert_eq!(mesh.segments[zone.segment_k].name, "block_contact");
+    assert_eq!(zone.pairs.len(), 22, "every block node has a row");
+    let resultant = |f: fn(&wsm_core::state::ContactNode) -> f64| -> f64 {
+        sol.contact
+            .iter()
+            .zip(&problem.contact.geometry.pairs)
+            .map(|(c, p)| f(c) * p.weight)
+            .sum()
+    };
+    let (normal, tangential) = (resultant(|c| c.pressure), resultant(|c| c.shear));
+    println!("normal {normal:.10e}, tangential {tangential:.10e}");
+    let (n, t) = (1.0e6 + 2.45e4 * 0.5, 4.0e5 * 0.5);
+    assert!((normal - n).abs() <= 1e-8 * n, "normal {normal} vs {n}");
+    assert!(
+        (tangential.abs() - t).abs() <= 1e-8 * t,
+        "tangential {tangential} vs {t}"
+    );
+    assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
 }

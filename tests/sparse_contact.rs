@@ -183,9 +183,18 @@ fn sparse_derivatives_equal_dense_ones() {
             let mut scene = parse(text).unwrap();
             scene.solver.kind = SolverKind::Direct;
             scene.solver.contact = method;
-            StateProblem::new(scene).unwrap()
+            StateProblem::new(scene).map_err(|e| e.to_string())
         };
-        let (dense, sparse) = (build(ContactMethod::Dense), build(ContactMethod::Sparse));
+        let dense = build(ContactMethod::Dense).unwrap();
+        let sparse = match build(ContactMethod::Sparse) {
+            Ok(s) => s,
+            // A mortar zone chains its rows (design §2.4.1): not eligible for the sparse path.
+            Err(e) if e.contains("solver.contact") => {
+                println!("{name}: not on the sparse path: {e}");
+                continue;
+            }
+            Err(e) => panic!("{name}: {e}"),
+        };
         let coulomb = dense.nominal.has_coulomb();
         let params = parameters(&dense.scene).unwrap();
         for vertex in [false, true] {

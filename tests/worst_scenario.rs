@@ -1,6 +1,7 @@
 //! Worst-scenario engine acceptance, through the front door (`wsm_core::run::worst`): known worst
 //! cases, a two-parameter contact case against a dense grid, a thermal case that needs only the
-//! heat solve, and bad admissible sets refused before any solve.
+//! heat solve, the bundled mortar examples against their matching twins, and bad admissible sets
+//! refused before any solve.
 
 use serde_json::{json, Value};
 use wsm_core::run::{worst as run_worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
@@ -233,6 +234,109 @@ fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
     assert!(r.evaluations <= 120);
     assert_all_certified(&r);
     assert_at_least_as_extreme(&r, &values, "vertex");
+}
+
+/// The bundled mortar examples (design §2.4.1: the bodies meshed on their own, coupled by dual
+/// mortar) end like their node-coupled twins: every extremum locally certified, in the same
+/// region, at the same end (or inside) of every data interval, and its value within the
+/// discretisation difference: |Φ_twin − Φ_mortar| ≤ |Φ_twin − Φ| + |Φ_mortar − Φ|, each error
+/// estimated, at its run's extremum, by twice the change when all mesh sizes are halved (an O(h)
+/// criterion's error is about twice its change when h halves).
+#[test]
+fn mortar_examples_end_certified_like_their_matching_twins() {
+    let cases: [(&str, &str, &[Criterion], usize); 2] = [
+        (
+            "hertz",
+            "hertz-nonmatching",
+            &[Criterion::Phi5, Criterion::Phi6],
+            20,
+        ),
+        (
+            "tunnel-fault",
+            "tunnel-fault-nonmatching",
+            &[
+                Criterion::Phi3,
+                Criterion::Phi4,
+                Criterion::Phi5,
+                Criterion::Phi6,
+            ],
+            120,
+        ),
+    ];
+    for (twin, mortar, criteria, budget) in cases {
+        let text = |name| wsm_core::bundled::example(name).unwrap();
+        let run = |name| {
+            worst(
+                &serde_json::from_str(text(name)).unwrap(),
+                criteria,
+                budget,
+                1,
+            )
+        };
+        let (a, b) = (run(twin), run(mortar));
+        println!(
+            "{twin}: {} evaluations; {mortar}: {}",
+            a.evaluations, b.evaluations
+        );
+        assert_all_certified(&a);
+        assert_all_certified(&b);
+        let params = parameters(&parse(text(twin)).unwrap()).unwrap();
+        let specs: Vec<CriterionSpec> = criteria.iter().map(|&c| c.into()).collect();
+        // Each run's extrema (in the order of the requested criteria, worst then best) on its
+        // scene with all mesh sizes halved.
+        let halved = |name, r: &WorstOutcome| {
+            let extrema: Vec<Vec<f64>> = r
+                .criteria
+                .iter()
+                .flat_map(|c| [point(&c.worst), point(&c.best)])
+                .collect();
+            let scene = parse(text(name)).unwrap();
+            let problem =
+                StateProblem::new(wsm_core::estimate::ladder::scaled(&scene, 0.5).unwrap())
+                    .unwrap();
+            solve_all(
+                &ScenarioEvaluator::new(&problem, &params, &specs).unwrap(),
+                &extrema,
+            )
+        };
+        let (half_a, half_b) = (halved(twin, &a), halved(mortar, &b));
+        let ends = |o: &wsm_core::run::ObjectiveResult| -> Vec<&str> {
+            point(o)
+                .iter()
+                .zip(&params)
+                .map(|(&x, p)| match x {
+                    _ if x == p.lo => "lower",
+                    _ if x == p.hi => "upper",
+                    _ => "inside",
+                })
+                .collect()
+        };
+        for (c, (ca, cb)) in a.criteria.iter().zip(&b.criteria).enumerate() {
+            for (e, (oa, ob)) in [(&ca.worst, &cb.worst), (&ca.best, &cb.best)]
+                .into_iter()
+                .enumerate()
+            {
+                let (va, vb) = (oa.value.unwrap(), ob.value.unwrap());
+                let i = 2 * c + e;
+                let bound = 2.0 * ((half_a[i][c] - va).abs() + (half_b[i][c] - vb).abs());
+                println!(
+                    "  {:?} {:?}: {va:.6e} vs {vb:.6e}, {:.2e} relative (bound {:.2e})",
+                    criteria[c],
+                    oa.sense,
+                    (va - vb).abs() / va.abs(),
+                    bound / va.abs()
+                );
+                assert_eq!(oa.region, ob.region, "{mortar} {:?}", criteria[c]);
+                assert_eq!(ends(oa), ends(ob), "{mortar} {:?}", criteria[c]);
+                assert!(
+                    (va - vb).abs() <= bound,
+                    "{mortar} {:?} {:?}: {va} vs {vb}",
+                    criteria[c],
+                    oa.sense
+                );
+            }
+        }
+    }
 }
 
 /// The criteria at every one of `points`, solved independently of any search (each must solve).

@@ -55,6 +55,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../../scenes/tunnel-fault.json"),
     ),
     (
+        "tunnel-fault-nonmatching",
+        include_str!("../../../scenes/tunnel-fault-nonmatching.json"),
+    ),
+    (
         "tunnel-fault-slip-profile",
         include_str!("../../../scenes/tunnel-fault-slip-profile.json"),
     ),

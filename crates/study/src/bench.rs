@@ -1,12 +1,14 @@
 //! Benchmarks behind `wsm bench` (not part of the test suite): timings of the FEM pipeline and
-//! of the direct contact solver on the tunnel example at chosen sizes. Medians of a few runs.
+//! of the direct contact solver on the tunnel example at chosen sizes, of the exact derivatives,
+//! of the worst-scenario loop, and of mortar against node-pair contact rows (design §2.4.1).
+//! Medians of a few runs.
 
 use std::time::Instant;
 
 use wsm_core::error::WsmError;
 use wsm_core::fem::Par;
-use wsm_core::scene::params::{apply, stencil};
-use wsm_core::scene::{parse, BoundaryValue, Scene};
+use wsm_core::scene::params::{apply, stencil, Parameter};
+use wsm_core::scene::{parse, BoundaryValue, Coupling, InlineMesh, Scene};
 use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -25,12 +27,29 @@ pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
     wsm_core::estimate::ladder::scaled(&parse(wsm_core::bundled::find(example)?)?, factor)
 }
 
-/// A state problem of the example with about `unknowns` free DOFs (one correction step).
-pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, WsmError> {
+/// The example scaled to about `unknowns` free DOFs (one correction step).
+pub fn scene_of_size(example: &str, unknowns: usize) -> Result<Scene, WsmError> {
     let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
     let n0 = probe.elastic.dofs().n_free() as f64;
     let factor = (n0 / unknowns as f64).sqrt();
-    StateProblem::new(scaled_scene(example, factor)?)
+    scaled_scene(example, factor)
+}
+
+/// A state problem of the example with about `unknowns` free DOFs (one correction step).
+pub fn problem_of_size(example: &str, unknowns: usize) -> Result<StateProblem, WsmError> {
+    StateProblem::new(scene_of_size(example, unknowns)?)
+}
+
+/// Fixed interior point `r` of the box: a low-discrepancy walk through it.
+fn interior_point(params: &[Parameter], r: usize) -> Vec<f64> {
+    params
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let u = ((r + 1) as f64 * (0.618_034 + 0.1 * i as f64)).fract();
+            p.lo + (0.1 + 0.8 * u) * (p.hi - p.lo)
+        })
+        .collect()
 }
 
 /// One row of the contact benchmark.
@@ -345,15 +364,7 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
         };
         let mut times: [Vec<f64>; 4] = Default::default();
         for r in 0..runs.max(1) {
-            // Fixed interior points: a low-discrepancy walk through the box.
-            let theta: Vec<f64> = params
-                .iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    let u = ((r + 1) as f64 * (0.618_034 + 0.1 * i as f64)).fract();
-                    p.lo + (0.1 + 0.8 * u) * (p.hi - p.lo)
-                })
-                .collect();
+            let theta = interior_point(&params, r);
             let data = apply(&problem.scene, &problem.nominal, &params, &theta);
             let stencils: Vec<_> = (0..params.len())
                 .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
@@ -431,6 +442,107 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
                     .map(|v| format!("{v:.10e}"))
                     .collect::<Vec<_>>()
                     .join(", ")
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// The scene with its own generated mesh given inline, so that a second coupling of its contact
+/// zones meets the same nodes and the same unknowns.
+fn with_generated_mesh_inline(scene: &Scene) -> Result<Scene, WsmError> {
+    let mesh = wsm_core::mesh::generate(scene)?;
+    let mut out = scene.clone();
+    out.mesh.inline = Some(InlineMesh {
+        zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
+        segments: mesh
+            .segments
+            .iter()
+            .map(|s| (s.name.clone(), s.edges.clone()))
+            .collect(),
+        nodes: mesh.nodes,
+        triangles: mesh.triangles,
+        triangle_zones: mesh.triangle_zone,
+    });
+    Ok(out)
+}
+
+/// `wsm bench --mortar`: the cost of an evaluation with dual mortar contact rows against one with
+/// node-to-node pairs at equal unknowns (design §2.4.1; acceptance of issue #46: at most 1.3×).
+/// Per example and size the scene's mesh is generated once and given inline, and its contact
+/// zones are coupled once by node pairs and once by mortar (the first segment the slave, so both
+/// have their rows on the same nodes). Medians over `runs` interior points of the box, the two
+/// couplings alternating, of an evaluation (new data: factorisation where the stiffness
+/// changes, contact solve, criteria) and then of the same solve with the exact derivatives of
+/// the scene's criteria (adjoint; the factor cached by then), one thread per solve; the set-up
+/// (operators, contact rows) once.
+pub fn run_mortar(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
+    let mut out = String::from(
+        "Mortar against node-pair contact rows on one mesh (one thread per solve; medians):\n\n| example | unknowns | slave nodes | set-up nodes / mortar [s] | evaluation nodes / mortar [s] | ratio | again with derivatives, factor cached, nodes / mortar [s] | ratio | sparse steps nodes / mortar |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for example in ["hertz", "tunnel-fault"] {
+        for &n in sizes {
+            let nodes = with_generated_mesh_inline(&scene_of_size(example, n)?)?;
+            let mut mortar = nodes.clone();
+            for c in &mut mortar.contacts {
+                c.coupling = Coupling::Mortar;
+                c.slave = Some(c.between[0].clone());
+            }
+            let mut problems = Vec::new();
+            let mut setup = Vec::new();
+            for scene in [nodes, mortar] {
+                let (problem, t) = time(|| StateProblem::new(scene));
+                problems.push(problem?);
+                setup.push(t);
+            }
+            let params = wsm_core::scene::params::parameters(&problems[0].scene)?;
+            let mut times: [[Vec<f64>; 2]; 2] = Default::default();
+            let mut sparse = [0; 2];
+            for r in 0..runs.max(1) {
+                let theta = interior_point(&params, r);
+                // Alternating which coupling goes first.
+                for k in [r % 2, 1 - r % 2] {
+                    let problem = &problems[k];
+                    let targets = problem.targets(&problem.scene.search.criteria)?;
+                    let options = SolveOptions {
+                        needs: Needs::for_targets(&problem.scene, &targets),
+                        par: Par::Seq,
+                        warm: None,
+                    };
+                    let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+                    let stencils: Vec<_> = (0..params.len())
+                        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                        .collect();
+                    let (solution, t) = time(|| problem.solve(&data, &options));
+                    sparse[k] = solution?.report.sparse_steps;
+                    times[0][k].push(t);
+                    let (solution, t) = time(|| {
+                        problem.solve_with_sensitivities_by(
+                            &data,
+                            &options,
+                            &stencils,
+                            DerivativeRoute::Adjoint,
+                        )
+                    });
+                    solution?;
+                    times[1][k].push(t);
+                }
+            }
+            let [[e_nodes, e_mortar], [d_nodes, d_mortar]] = times.map(|t| t.map(median));
+            out.push_str(&format!(
+                "| {example} | {} | {} | {:.3} / {:.3} | {:.4} / {:.4} | {:.2} | {:.4} / {:.4} | {:.2} | {} / {} |\n",
+                problems[0].elastic.dofs().n_free(),
+                problems[1].contact.geometry.pairs.len(),
+                setup[0],
+                setup[1],
+                e_nodes,
+                e_mortar,
+                e_mortar / e_nodes,
+                d_nodes,
+                d_mortar,
+                d_mortar / d_nodes,
+                sparse[0],
+                sparse[1],
             ));
         }
     }
