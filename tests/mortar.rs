@@ -387,3 +387,118 @@ fn a_gmsh_mesh_with_the_bodies_meshed_on_their_own_is_coupled_by_mortar() {
     );
     assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
 }
+
+/// The Lamé cylinder (inner radius 1, outer 2, internal pressure p) cut at r = 1.5 into two rings
+/// meshed on their own — the outer ring's side of the cut `ratio` times finer — and tied by a
+/// bilateral mortar zone (normal tie; the exact solution has no shear on circles). Returns the
+/// largest nodal error of u_r relative to u_r(1) and the relative L² error of the stress (the
+/// energy norm's equivalent).
+fn split_lame_errors(h: f64, ratio: f64) -> (f64, f64) {
+    let (a, m, b, p, e, nu) = (1.0, 1.5, 2.0, 1.0e6, 2.0e9, 0.3);
+    let arc = |r: f64, reverse: bool| {
+        let n = 256;
+        let mut pts: Vec<[f64; 2]> = (0..=n)
+            .map(|k| {
+                let t = std::f64::consts::FRAC_PI_2 * k as f64 / n as f64;
+                [r * t.cos(), r * t.sin()]
+            })
+            .collect();
+        if reverse {
+            pts.reverse();
+        }
+        pts
+    };
+    let ring = |r0: f64, r1: f64| {
+        let mut poly = arc(r0, false);
+        poly.extend(arc(r1, true));
+        poly
+    };
+    let scene = json!({
+        "version": 1, "name": "split Lamé cylinder",
+        "bodies": [
+            {"name": "inner", "zones": [{"name": "inner", "material": "m", "polygon": ring(a, m)}]},
+            {"name": "outer", "zones": [{"name": "outer", "material": "m", "polygon": ring(m, b)}]}
+        ],
+        "segments": {
+            "bore": {"body": "inner", "path": arc(a, false)},
+            "inner_cut": {"body": "inner", "path": arc(m, false)},
+            "outer_cut": {"body": "outer", "path": arc(m, false)},
+            "inner_x": {"body": "inner", "from": [a, 0], "to": [m, 0]},
+            "outer_x": {"body": "outer", "from": [m, 0], "to": [b, 0]},
+            "inner_y": {"body": "inner", "from": [0, m], "to": [0, a]},
+            "outer_y": {"body": "outer", "from": [0, b], "to": [0, m]}
+        },
+        "materials": {"m": {"E": e, "nu": nu}},
+        "boundary": [
+            {"segment": "bore", "pressure": p},
+            {"segment": "inner_x", "roller": {}}, {"segment": "outer_x", "roller": {}},
+            {"segment": "inner_y", "roller": {}}, {"segment": "outer_y", "roller": {}}
+        ],
+        "contacts": [{"name": "cut", "between": ["outer_cut", "inner_cut"], "kind": "bilateral",
+                      "coupling": "mortar"}],
+        "mesh": {"max_size": h, "refine": [{"segments": ["outer_cut"], "max_size": h / ratio}]}
+    });
+    let (problem, sol) = solve_value(&scene).unwrap();
+    // Plane strain Lamé: u_r = A r + B / r, σ_θ = C + D / r².
+    let (lam, mu) = (
+        e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu)),
+        e / (2.0 * (1.0 + nu)),
+    );
+    let c = p * a * a / (b * b - a * a);
+    let d = p * a * a * b * b / (b * b - a * a);
+    let u_r = |r: f64| c / (2.0 * (lam + mu)) * r + d / (2.0 * mu * r);
+    let hoop = |r: f64| c + d / (r * r);
+    let mesh = problem.mesh();
+    let u_err = mesh
+        .nodes
+        .iter()
+        .zip(&sol.displacement)
+        .map(|(x, u)| {
+            let r = x[0].hypot(x[1]);
+            ((u[0] * x[0] + u[1] * x[1]) / r - u_r(r)).abs() / u_r(a)
+        })
+        .fold(0.0, f64::max);
+    // Relative L² error of the stress tensor (centroid rule), equivalent to the energy norm.
+    let (mut num, mut den) = (0.0, 0.0);
+    for (t, s) in sol.stresses.iter().enumerate() {
+        let tri = mesh.triangles[t];
+        let c = tri.iter().fold([0.0; 2], |c, &n| {
+            [c[0] + mesh.nodes[n][0] / 3.0, c[1] + mesh.nodes[n][1] / 3.0]
+        });
+        let r = c[0].hypot(c[1]);
+        let (cs, sn) = (c[0] / r, c[1] / r);
+        let (srr, stt) = (hoop(r) - 2.0 * d / (r * r), hoop(r));
+        let exact = [
+            srr * cs * cs + stt * sn * sn,
+            srr * sn * sn + stt * cs * cs,
+            (srr - stt) * cs * sn,
+        ];
+        let area = mesh.triangle_area(t);
+        for ((w, computed), exact) in [1.0, 1.0, 2.0].into_iter().zip(s.stress).zip(exact) {
+            num += area * w * (computed - exact).powi(2);
+            den += area * w * exact.powi(2);
+        }
+    }
+    let s_err = (num / den).sqrt();
+    (u_err, s_err)
+}
+
+#[test]
+fn elasticity_across_a_mortar_tie_converges_at_the_p1_rates() {
+    let errors: Vec<(f64, f64)> = [0.1, 0.05, 0.025]
+        .iter()
+        .map(|&h| split_lame_errors(h, 2.7))
+        .collect();
+    println!("split Lamé (u_r, σ_θ) errors at h = 0.1, 0.05, 0.025: {errors:?}");
+    for w in errors.windows(2) {
+        println!(
+            "ratios: u_r {:.2}, stress {:.2}",
+            w[0].0 / w[1].0,
+            w[0].1 / w[1].1
+        );
+    }
+    // Asymptotic on the finer pair (the coarsest ring has 5 elements across).
+    let (du, ds) = (errors[1].0 / errors[2].0, errors[1].1 / errors[2].1);
+    assert!(du > 3.4, "u_r error must fall like h²: {errors:?}");
+    assert!(ds > 1.7, "stress error must fall like h: {errors:?}");
+}
