@@ -8,11 +8,10 @@
 
 mod solves;
 
-use std::collections::BTreeMap;
 use std::time::Instant;
 
 use serde_json::{json, Value};
-use wsm_core::scene::{parse, Coupling, InlineMesh, Scene, SolverKind};
+use wsm_core::scene::{parse, Coupling, Scene, SolverKind};
 use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
 
 fn options(scene: &Scene) -> SolveOptions {
@@ -43,17 +42,7 @@ fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
 fn with_own_mesh_inline(scene: &Scene) -> Scene {
     let mesh = wsm_core::mesh::generate(scene).unwrap();
     let mut out = scene.clone();
-    out.mesh.inline = Some(InlineMesh {
-        nodes: mesh.nodes.clone(),
-        triangles: mesh.triangles.clone(),
-        zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
-        triangle_zones: mesh.triangle_zone.clone(),
-        segments: mesh
-            .segments
-            .iter()
-            .map(|s| (s.name.clone(), s.edges.clone()))
-            .collect::<BTreeMap<_, _>>(),
-    });
+    out.mesh.inline = Some(mesh.to_inline());
     // Larger than a posted inline mesh may be (10,000 nodes), so not through `parse` again.
     out
 }

@@ -11,13 +11,12 @@
 //! - example (23), −Δu = 30 with u = 0 / 1 on two boundary parts, against a fine conforming
 //!   solution.
 
-use std::collections::BTreeMap;
 use std::f64::consts::PI;
 
 use serde_json::{json, Value};
 use wsm_core::fem::{HeatProblem, Par};
 use wsm_core::mesh::Mesh;
-use wsm_core::scene::{parse, Coupling, Data, InlineMesh, Scene};
+use wsm_core::scene::{parse, Coupling, Data, Scene};
 
 /// A unit material (κ = 1, source `source`); the elastic constants are not used.
 fn material(source: f64) -> Value {
@@ -223,17 +222,7 @@ fn matching_meshes_give_the_node_pair_temperatures() {
     let nodes = parse(&v.to_string()).unwrap();
     let mesh = wsm_core::mesh::generate(&nodes).unwrap();
     let mut inline = nodes.clone();
-    inline.mesh.inline = Some(InlineMesh {
-        nodes: mesh.nodes.clone(),
-        triangles: mesh.triangles.clone(),
-        zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
-        triangle_zones: mesh.triangle_zone.clone(),
-        segments: mesh
-            .segments
-            .iter()
-            .map(|s| (s.name.clone(), s.edges.clone()))
-            .collect::<BTreeMap<_, _>>(),
-    });
+    inline.mesh.inline = Some(mesh.to_inline());
     let mut mortar = inline.clone();
     mortar.contacts[0].coupling = Coupling::Mortar;
     let (_, pn) = heat(&inline);

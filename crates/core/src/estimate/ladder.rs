@@ -195,17 +195,7 @@ mod tests {
         scene.mesh.refine.clear();
         let mesh = crate::mesh::generate(&scene).unwrap();
         let mut imported = scene.clone();
-        imported.mesh.inline = Some(InlineMesh {
-            nodes: mesh.nodes.clone(),
-            triangles: mesh.triangles.clone(),
-            zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
-            triangle_zones: mesh.triangle_zone.clone(),
-            segments: mesh
-                .segments
-                .iter()
-                .map(|s| (s.name.clone(), s.edges.clone()))
-                .collect(),
-        });
+        imported.mesh.inline = Some(mesh.to_inline());
         let criteria: Vec<CriterionSpec> = scene.search.criteria.clone();
         let ladder = |scene: &Scene| -> Vec<(f64, Vec<f64>)> {
             (0..4)

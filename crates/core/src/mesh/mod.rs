@@ -99,6 +99,22 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// This mesh as a scene's `mesh.inline` (nodes, triangles, zone names, segment edges): a
+    /// scene given it meshes to the same nodes, e.g. to couple one mesh two ways.
+    pub fn to_inline(&self) -> crate::scene::InlineMesh {
+        crate::scene::InlineMesh {
+            nodes: self.nodes.clone(),
+            triangles: self.triangles.clone(),
+            zones: self.zones.iter().map(|z| z.name.clone()).collect(),
+            triangle_zones: self.triangle_zone.clone(),
+            segments: self
+                .segments
+                .iter()
+                .map(|s| (s.name.clone(), s.edges.clone()))
+                .collect(),
+        }
+    }
+
     /// Signed area of triangle `t` (positive for counter-clockwise).
     pub fn triangle_area(&self, t: usize) -> f64 {
         let [a, b, c] = self.triangles[t];
