@@ -22,39 +22,10 @@ fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::error::W
     Ok((problem, sol))
 }
 
-/// Two stacked blocks of width 1: `lower` [0,1]×[0,0.5] on a roller floor, `upper`
-/// [0,1]×[0.5,1] held only by contact (floating in y), rollers on both left sides.
-fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64) -> Value {
-    json!({
-        "version": 1, "name": "stacked blocks",
-        "bodies": [
-            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
-            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
-        ],
-        "segments": {
-            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
-            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
-            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
-            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
-            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
-            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
-        },
-        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
-        "boundary": [
-            {"segment": "floor", "roller": {}},
-            {"segment": "lower_left", "roller": {}},
-            {"segment": "upper_left", "roller": {}},
-            {"segment": "top", "pressure": pressure}
-        ],
-        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit}],
-        "mesh": {"max_size": h}
-    })
-}
-
 #[test]
 fn contact_patch_test_transmits_uniform_pressure_exactly() {
     let p = 3.0e6;
-    let (problem, sol) = solve_value(&stacked_blocks(p, 1.0e5, 0.1)).unwrap();
+    let (problem, sol) = solve_value(&solves::stacked_blocks(p, 1.0e5, 0.1)).unwrap();
     assert!(
         problem.contact.kernel_dim() >= 1,
         "the upper block floats in y"
@@ -78,7 +49,7 @@ fn zero_slip_limit_is_frictionless() {
     // The upper block's left side is pushed by a prescribed horizontal displacement; with g = 0
     // both blocks carry the same uniaxial stress, so the upper one is shifted by exactly the
     // prescribed 1e-4 m relative to the lower one at every contact node, without shear.
-    let mut scene = stacked_blocks(1.0e6, 0.0, 0.1);
+    let mut scene = solves::stacked_blocks(1.0e6, 0.0, 0.1);
     scene["boundary"][2] = json!({"segment": "upper_left", "displacement": [1.0e-4, null]});
     let (_, free) = solve_value(&scene).unwrap();
     for c in &free.contact {
@@ -99,7 +70,7 @@ fn huge_slip_limit_gives_the_bonded_solution() {
     // stress at the free ends of the interface stays compressive, the upper block sticks
     // everywhere when g is huge, and the displacement equals that of one body made of the same
     // two zones (same mesh). A larger shear opens the left end: a real peeling effect.
-    let mut two = stacked_blocks(1.0e6, 1.0e12, 0.1);
+    let mut two = solves::stacked_blocks(1.0e6, 1.0e12, 0.1);
     two["boundary"] = json!([
         {"segment": "floor", "roller": {}},
         {"segment": "lower_left", "roller": {}},
@@ -148,7 +119,7 @@ fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
     // Upper block pushed by a traction on its left side (height 0.5): capacity g·L = g·1.
     let g = 2.0e5;
     let scene = |t: f64| {
-        let mut s = stacked_blocks(1.0e6, g, 0.1);
+        let mut s = solves::stacked_blocks(1.0e6, g, 0.1);
         s["boundary"][2] = json!({"segment": "upper_left", "traction": [t, 0]});
         s
     };
@@ -260,7 +231,7 @@ fn contact_resultants_balance_the_applied_loads() {
 #[test]
 fn mean_contact_pressure_on_a_contact_piece() {
     let p = 3.0e6;
-    let mut scene = stacked_blocks(p, 1.0e5, 0.1);
+    let mut scene = solves::stacked_blocks(p, 1.0e5, 0.1);
     scene["criteria"] = json!({"boundary_pieces": [
         {"name": "middle", "segment": "upper_bottom", "from": [0.25, 0.5], "to": [0.75, 0.5]}]});
     let (problem, sol) = solve_value(&scene).unwrap();

@@ -6,7 +6,7 @@
 mod solves;
 
 use serde_json::{json, Value};
-use solves::{relative_difference, solve, stacked_blocks};
+use solves::{relative_difference, solve, stacked_blocks_mortar};
 use wsm_core::scene::{parse, SolverKind};
 use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, SolverUsed, StateProblem};
 
@@ -120,7 +120,7 @@ fn an_explicit_partition_through_a_mortar_rows_master_nodes_is_refused() {
 fn tresca_stacked_blocks_on_non_matching_meshes_dd_equals_direct() {
     // The upper block (2.7 times finer along the interface) pushed sideways at 95 % of the
     // friction capacity ∫g: it sticks in the middle and slips at the ends, held only by contact.
-    let mut scene = stacked_blocks(1.0e6, 2.0e5, 0.05, 2.7);
+    let mut scene = stacked_blocks_mortar(1.0e6, 2.0e5, 0.05, 2.7);
     scene["boundary"][2] = json!({"segment": "upper_left", "traction": [3.8e5, 0]});
     let (direct, _) = compare_mortar("stacked blocks, Tresca", scene);
     assert!(direct

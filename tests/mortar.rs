@@ -167,7 +167,7 @@ fn stress_misfit(sol: &Solution, p: f64) -> f64 {
 #[test]
 fn contact_patch_test_across_a_non_matching_interface() {
     let p = 3.0e6;
-    let (problem, sol) = solve_value(&solves::stacked_blocks(p, 1.0e5, 0.1, 2.7)).unwrap();
+    let (problem, sol) = solve_value(&solves::stacked_blocks_mortar(p, 1.0e5, 0.1, 2.7)).unwrap();
     let (fine, coarse) = interface_nodes(&problem);
     println!("interface nodes: upper {fine}, lower {coarse}");
     assert!(
@@ -199,7 +199,7 @@ fn contact_patch_test_across_a_non_matching_interface() {
 fn tresca_block_sticks_below_and_is_refused_above_the_capacity_on_non_matching_meshes() {
     let g = 2.0e5;
     let scene = |t: f64| {
-        let mut s = solves::stacked_blocks(1.0e6, g, 0.1, 2.7);
+        let mut s = solves::stacked_blocks_mortar(1.0e6, g, 0.1, 2.7);
         s["boundary"][2] = json!({"segment": "upper_left", "traction": [t, 0]});
         s
     };
@@ -268,7 +268,7 @@ fn hertz_on_non_matching_meshes_both_ways() {
 
 #[test]
 fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
-    let base = solves::stacked_blocks(1.0e6, 0.0, 0.1, 2.7);
+    let base = solves::stacked_blocks_mortar(1.0e6, 0.0, 0.1, 2.7);
     let cases: Vec<(Value, &str, &str)> = vec![
         {
             // The master side moved away sideways: nothing faces.

@@ -90,11 +90,12 @@ pub fn hertz_measures(problem: &StateProblem, sol: &Solution) -> HertzMeasures {
     }
 }
 
-/// Stacked blocks of width 1 (as in tests/contact_verification.rs) meshed on their own: the lower
-/// at size h, the upper `ratio` times finer along the interface.
-pub fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Value {
+/// Two stacked blocks of width 1: `lower` [0,1]×[0,0.5] on a roller floor, `upper`
+/// [0,1]×[0.5,1] held only by contact (floating in y), rollers on both left sides, matching
+/// nodes along the interface.
+pub fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64) -> Value {
     json!({
-        "version": 1, "name": "stacked blocks, non-matching",
+        "version": 1, "name": "stacked blocks",
         "bodies": [
             {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
             {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
@@ -114,8 +115,17 @@ pub fn stacked_blocks(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Val
             {"segment": "upper_left", "roller": {}},
             {"segment": "top", "pressure": pressure}
         ],
-        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit,
-                      "coupling": "mortar"}],
-        "mesh": {"max_size": h, "refine": [{"segments": ["upper_bottom"], "max_size": h / ratio}]}
+        "contacts": [{"name": "c", "between": ["upper_bottom", "lower_top"], "slip_limit": slip_limit}],
+        "mesh": {"max_size": h}
     })
+}
+
+/// The stacked blocks meshed on their own and coupled by mortar: the lower at size h, the upper
+/// `ratio` times finer along the interface.
+pub fn stacked_blocks_mortar(pressure: f64, slip_limit: f64, h: f64, ratio: f64) -> Value {
+    let mut v = stacked_blocks(pressure, slip_limit, h);
+    v["name"] = json!("stacked blocks, non-matching");
+    v["contacts"][0]["coupling"] = json!("mortar");
+    v["mesh"]["refine"] = json!([{"segments": ["upper_bottom"], "max_size": h / ratio}]);
+    v
 }
