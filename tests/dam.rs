@@ -12,7 +12,7 @@ use std::process::Command;
 use serde_json::{json, Value};
 use wsm_core::error::WsmError;
 use wsm_core::run::{self, RunControl, SolveRequest, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene};
+use wsm_core::scene::{parse, Criterion, Scene, WarningKind};
 use wsm_core::state::StateProblem;
 
 fn dam() -> Value {
@@ -103,14 +103,15 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
     let solved = run::solve(scene(&v), &SolveRequest::default()).unwrap();
     let warnings = &solved.summary.report.warnings;
     // In the order of `uncertain`: the contact zone's index path (entry 1) first.
+    assert!(warnings.iter().all(|w| w.kind == WarningKind::DataPath));
     assert!(
-        warnings[0].starts_with(
+        warnings[0].to_string().starts_with(
             "uncertain[1].field: contacts[0] is the entry named 'dam_foundation_joint'; refer to \
              it as contacts[dam_foundation_joint]"
         ),
         "{warnings:?}"
     );
-    assert_eq!(warnings[1], expected);
+    assert_eq!(warnings[1].to_string(), expected);
 
     let request = WorstRequest {
         criteria: Some(vec![Criterion::Phi3.into()]),
@@ -119,7 +120,12 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
         ..WorstRequest::default()
     };
     let outcome = run::worst(scene(&v), &request, &RunControl::new()).unwrap();
-    assert_eq!(outcome.warnings[1], expected, "{:?}", outcome.warnings);
+    assert_eq!(
+        outcome.warnings[1].to_string(),
+        expected,
+        "{:?}",
+        outcome.warnings
+    );
 
     let path = write("indexed.json", &v);
     let (code, _, stderr) = wsm(&["solve", path.to_str().unwrap()]);

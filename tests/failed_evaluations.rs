@@ -16,7 +16,7 @@ use std::sync::Arc;
 use serde_json::{json, Value};
 use wsm_core::error::WsmError;
 use wsm_core::run::{self, FaultSite, JsonLinesLog, LogMode, RunControl, Status, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene};
+use wsm_core::scene::{parse, Criterion, Scene, Warning, WarningKind};
 
 fn block() -> Scene {
     let mut v: Value =
@@ -77,7 +77,8 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
         .listed
         .iter()
         .all(|f| f.error.contains("injected failure")));
-    let warning = &outcome.warnings[0];
+    assert_eq!(outcome.warnings[0].kind, WarningKind::FailedEvaluations);
+    let warning = outcome.warnings[0].to_string();
     assert!(
         warning.starts_with(&format!(
             "{} of {} evaluations failed",
@@ -244,10 +245,10 @@ fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
     }
 
     // One warning per failed data, in plain words; the other warnings are the plain run's.
-    let (statement, others): (Vec<&String>, Vec<&String>) = faulty
+    let (statement, others): (Vec<&Warning>, Vec<&Warning>) = faulty
         .warnings
         .iter()
-        .partition(|w| w.starts_with("accuracy statement:"));
+        .partition(|w| w.kind == WarningKind::Accuracy);
     assert_eq!(others, plain.warnings.iter().collect::<Vec<_>>());
     assert_eq!(statement.len(), distinct, "{statement:#?}");
     let on = |level: usize| {
@@ -267,13 +268,15 @@ fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
         let second = format!("failed on {}: contact solver: injected failure", on(2));
         if w.contains(&both) {
             assert!(
-                w.ends_with("The discretisation error of this value is unknown.")
-                    || w.ends_with("The discretisation error of these values is unknown."),
+                w.message
+                    .ends_with("The discretisation error of this value is unknown.")
+                    || w.message
+                        .ends_with("The discretisation error of these values is unknown."),
                 "{w}"
             );
         } else {
             assert!(w.contains(&second), "{w}");
-            assert!(w.ends_with("rests on refinement 1 alone."), "{w}");
+            assert!(w.message.ends_with("rests on refinement 1 alone."), "{w}");
         }
     }
     let worst_phi3 = extremum_point(&faulty, 0, 0);
@@ -283,7 +286,7 @@ fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
     );
     assert!(statement
         .iter()
-        .any(|w| w.contains("the worst data of Φ3") && w.ends_with("is unknown.")));
+        .any(|w| w.contains("the worst data of Φ3") && w.message.ends_with("is unknown.")));
 }
 
 fn distinct_count(points: &[Vec<f64>]) -> usize {
@@ -336,7 +339,7 @@ fn a_target_error_run_goes_on_past_a_ladder_mesh_that_fails() {
         failed.unknowns
     );
     assert!(
-        outcome.warnings.contains(&warning),
+        outcome.warnings.iter().any(|w| w.to_string() == warning),
         "{:#?}",
         outcome.warnings
     );

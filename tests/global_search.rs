@@ -145,7 +145,7 @@ fn the_dam_reports_the_better_of_two_maxima_and_beats_vertices_and_random_points
         outcome
             .warnings
             .iter()
-            .any(|w| w.starts_with("Φ5 worst: another local maximum")),
+            .any(|w| w.to_string().starts_with("Φ5 worst: another local maximum")),
         "{:?}",
         outcome.warnings
     );

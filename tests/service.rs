@@ -199,7 +199,7 @@ fn the_job_list_and_status_count_warnings_and_failed_refined_solves() {
     let warnings = result["warnings"].as_array().unwrap();
     let about_statement = warnings
         .iter()
-        .filter(|w| w.as_str().unwrap().starts_with("accuracy statement:"))
+        .filter(|w| w["kind"] == "accuracy" && w["subject"] == "accuracy statement")
         .count();
     assert_eq!(about_statement, failed.len(), "{warnings:#?}");
     // The search's failures are counted apart.

@@ -7,7 +7,7 @@ use serde_json::{json, Value};
 use wsm_core::run::{worst as run_worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
 use wsm_core::scenario::evaluator::ScenarioEvaluator;
 use wsm_core::scene::params::parameters;
-use wsm_core::scene::{parse, Criterion, CriterionSpec, StopRule};
+use wsm_core::scene::{parse, Criterion, CriterionSpec, StopRule, WarningKind};
 use wsm_core::state::StateProblem;
 
 /// Search a scene for the given criteria (fresh run, never cancelled, exact derivatives),
@@ -57,7 +57,10 @@ fn assert_all_certified(r: &WorstOutcome) {
     assert_eq!(r.status, Status::LocallyCertified);
     assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
     assert!(
-        r.warnings[0].starts_with("search.stop = first_certificate"),
+        r.warnings[0].kind == WarningKind::Unproven
+            && r.warnings[0]
+                .to_string()
+                .starts_with("search.stop: first_certificate"),
         "{:?}",
         r.warnings
     );

@@ -402,7 +402,9 @@ def test_failed_evaluations_are_shown(page):
     result = page.request.get(f"{fault}/v1/jobs/{job_id}/result").json()
     failures = result["failures"]
     assert failures["count"] > 0 and status["failures"] == failures["count"], (status, failures)
-    assert result["warnings"][0].startswith(f"{failures['count']} of {result['evaluations']} evaluations failed")
+    first = result["warnings"][0]
+    assert first["kind"] == "failed_evaluations", first
+    assert first["message"].startswith(f"{failures['count']} of {result['evaluations']} evaluations failed")
     page.goto(f"{fault}/#/jobs/{job_id}")
     expect(page.locator("#failures-section")).to_be_visible()
     expect(page.locator("#failures-table tbody tr")).to_have_count(len(failures["listed"]))

@@ -90,7 +90,7 @@ pub struct CaseResult {
     /// (units cases).
     pub difference: Option<f64>,
     /// The solve's or run's warnings.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<wsm_core::scene::Warning>,
     /// Wall-clock time of the case \[s\].
     pub seconds: f64,
     /// The result meets the case's expectation (no failure).
@@ -570,7 +570,7 @@ pub fn markdown(results: &[CaseResult], command: &str) -> String {
         results.len()
     );
     for r in results {
-        let mut notes: Vec<String> = r.warnings.iter().map(|w| short(w)).collect();
+        let mut notes: Vec<String> = r.warnings.iter().map(|w| short(&w.to_string())).collect();
         if let Some(reason) = &r.reason {
             notes.insert(0, short(reason));
         }

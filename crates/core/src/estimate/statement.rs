@@ -35,7 +35,7 @@ use super::richardson::extrapolate;
 use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
 use crate::scene::params::{apply, Parameter};
-use crate::scene::CriterionSpec;
+use crate::scene::{CriterionSpec, Warning, WarningKind};
 use crate::state::StateProblem;
 
 /// Refinements by default: two while 16 × the run's unknowns stay below this, else one.
@@ -454,18 +454,18 @@ impl AccuracyStatement {
     /// which refinement and mesh, the error, and that the discretisation error of those values
     /// rests on fewer meshes or is unknown); one when fewer than the `asked` refinements were
     /// made (a cancel or the time limit).
-    pub fn warnings(&self, asked: usize) -> Vec<String> {
+    pub fn warnings(&self, asked: usize) -> Vec<Warning> {
         let built = |f: &&RefinedFailure| self.meshes[f.level as usize].unknowns > 0;
         let mut warnings = Vec::new();
         let mut unbuilt: Vec<u32> = Vec::new();
         for failure in self.failures.iter().filter(|f| !built(f)) {
             if !unbuilt.contains(&failure.level) {
                 unbuilt.push(failure.level);
-                warnings.push(format!(
-                    "accuracy statement: the mesh of refinement {} (sizes × {}) could not be \
-                     built: {}. No discretisation error can be estimated from it.",
+                warnings.push(accuracy(format!(
+                    "the mesh of refinement {} (sizes × {}) could not be built: {}. No \
+                     discretisation error can be estimated from it.",
                     failure.level, self.meshes[failure.level as usize].size_factor, failure.error
-                ));
+                )));
             }
         }
         let mut seen: Vec<&Vec<f64>> = Vec::new();
@@ -482,16 +482,16 @@ impl AccuracyStatement {
             } else {
                 format!("the estimates rest on the {made} refined mesh(es) solved before")
             };
-            warnings.push(format!(
-                "accuracy statement: cut short by a cancel or the time limit after {made} of the \
-                 {asked} refined meshes asked for; {rest}."
-            ));
+            warnings.push(accuracy(format!(
+                "cut short by a cancel or the time limit after {made} of the {asked} refined \
+                 meshes asked for; {rest}."
+            )));
         }
         warnings
     }
 
     /// The warning about the failed solves at `point` on the meshes that were built.
-    fn failure_warning(&self, point: &[f64]) -> String {
+    fn failure_warning(&self, point: &[f64]) -> Warning {
         let at_point: Vec<&RefinedFailure> =
             self.failures.iter().filter(|f| f.point == point).collect();
         let first = at_point[0];
@@ -543,12 +543,17 @@ impl AccuracyStatement {
                 solved.join(" and ")
             )
         };
-        format!(
-            "accuracy statement: the refined solve at {} failed {}. {meaning}",
+        accuracy(format!(
+            "the refined solve at {} failed {}. {meaning}",
             which.join(" and "),
             how.join("; ")
-        )
+        ))
     }
+}
+
+/// A [`WarningKind::Accuracy`] warning about the accuracy statement.
+fn accuracy(message: String) -> Warning {
+    Warning::new(WarningKind::Accuracy, "accuracy statement", message)
 }
 
 pub(crate) fn extremum_accuracy(
@@ -664,7 +669,7 @@ mod tests {
             failure.contains("; refinement 2: mesh.max_size"),
             "{failure}"
         );
-        let warnings = a.warnings(2);
+        let warnings: Vec<String> = a.warnings(2).iter().map(ToString::to_string).collect();
         assert_eq!(warnings.len(), 2, "one per unbuilt mesh: {warnings:#?}");
         assert!(warnings[0].starts_with(
             "accuracy statement: the mesh of refinement 1 (sizes × 0.5) could not be built: \
@@ -679,8 +684,13 @@ mod tests {
         let stopped = run(&problem, &params, &extrema, 2, &|| true);
         assert!(!stopped.complete && stopped.failures.is_empty());
         assert_eq!(stopped.meshes.len(), 1);
+        let texts: Vec<String> = stopped
+            .warnings(2)
+            .iter()
+            .map(ToString::to_string)
+            .collect();
         assert_eq!(
-            stopped.warnings(2),
+            texts,
             vec![
                 "accuracy statement: cut short by a cancel or the time limit after 0 of the 2 \
                   refined meshes asked for; the discretisation error of every worst and best \
@@ -691,7 +701,7 @@ mod tests {
         let whole = run(&problem, &params, &extrema, 1, &|| false);
         assert!(whole.complete && whole.warnings(1).is_empty(), "{whole:#?}");
         assert_eq!(
-            whole.warnings(2)[0],
+            whole.warnings(2)[0].to_string(),
             "accuracy statement: cut short by a cancel or the time limit after 1 of the 2 \
              refined meshes asked for; the estimates rest on the 1 refined mesh(es) solved before."
         );

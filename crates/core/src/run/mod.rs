@@ -71,7 +71,7 @@ use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::check_admissible_box;
 use crate::scenario::worst::{self as engine, WorstSettings};
 use crate::scene::params::{applied_values, apply, parameters, values, Parameter};
-use crate::scene::Scene;
+use crate::scene::{Scene, Warning, WarningKind};
 use crate::state::{locking_warnings, Needs, SolveOptions, StateProblem};
 use control::{best_so_far, phase_objective};
 use remote::Dispatched;
@@ -532,9 +532,13 @@ impl Run<'_> {
         }
         if self.settings.derivatives && problem.contact.is_sparse() && problem.nominal.has_coulomb()
         {
-            outcome.warnings.push(format!(
-                "exact derivatives of Coulomb states are not available on the sparse contact path that this scene's {} contact pairs take (solver.contact: auto, from 1,500 pairs): the search ran on values alone; solver.contact = \"dense\" gives derivatives and local proofs at a memory cost that grows with the square of the pairs",
-                problem.contact.geometry.pairs.len()
+            outcome.warnings.push(Warning::new(
+                WarningKind::Derivatives,
+                "solver.contact",
+                format!(
+                    "exact derivatives of Coulomb states are not available on the sparse contact path that this scene's {} contact pairs take (solver.contact: auto, from 1,500 pairs): the search ran on values alone; solver.contact = \"dense\" gives derivatives and local proofs at a memory cost that grows with the square of the pairs",
+                    problem.contact.geometry.pairs.len()
+                ),
             ));
         }
         outcome
@@ -606,14 +610,14 @@ impl Run<'_> {
         &self,
         problem: &StateProblem,
         outcome: &WorstOutcome,
-    ) -> Result<Vec<String>, WsmError> {
+    ) -> Result<Vec<Warning>, WsmError> {
         let mut data = vec![problem.nominal.clone()];
         for [worst, best] in outcome.extrema() {
             for (_, point) in [worst, best].into_iter().flatten() {
                 data.push(apply(&problem.scene, &problem.nominal, self.params, &point));
             }
         }
-        let mut warnings: Vec<String> = Vec::new();
+        let mut warnings: Vec<Warning> = Vec::new();
         let mut zones_warned: Vec<usize> = Vec::new();
         for d in &data {
             let coefficients = problem.elastic.coefficients(d)?;
@@ -665,7 +669,7 @@ impl Run<'_> {
 
 /// One warning per level of the target-error ladder that could not be built or solved: it
 /// cannot be chosen, nor estimate the error of the (up to two) coarser levels that solved.
-fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<String> {
+fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<Warning> {
     candidates
         .iter()
         .enumerate()
@@ -697,7 +701,7 @@ fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<String> {
                     needed.join(" and ")
                 ),
             };
-            Some(format!("target_error: {what}: {error}. {meaning}"))
+            Some(target_error(format!("{what}: {error}. {meaning}")))
         })
         .collect()
 }
@@ -705,18 +709,18 @@ fn ladder_failure_warnings(candidates: &[CandidateMesh]) -> Vec<String> {
 /// Warnings of a run with a target error: a mesh of the ladder that failed, no mesh met the
 /// target, or the accuracy statement finds a worst or best value whose estimate exceeds it (the
 /// choice was made at the nominal data).
-fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
+fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<Warning> {
     let mut warnings = Vec::new();
     let target = choice.target_error;
     warnings.extend(ladder_failure_warnings(&choice.candidates));
     if !choice.met {
         let finest = choice.candidates.iter().map(|c| c.unknowns).max();
         let finest = finest.unwrap_or(0);
-        warnings.push(format!(
-            "target_error: no mesh up to {finest} unknowns met the target {target:e} at the \
-             nominal data; the run used the finest one that solved (mesh sizes × {})",
+        warnings.push(target_error(format!(
+            "no mesh up to {finest} unknowns met the target {target:e} at the nominal data; the \
+             run used the finest one that solved (mesh sizes × {})",
             choice.size_factor
-        ));
+        )));
     }
     let Some(statement) = &outcome.accuracy else {
         return warnings;
@@ -725,17 +729,22 @@ fn target_warnings(choice: &MeshChoice, outcome: &WorstOutcome) -> Vec<String> {
         for (name, extremum) in [("worst", &c.worst), ("best", &c.best)] {
             if let Some(relative) = extremum.as_ref().and_then(|e| e.relative) {
                 if relative > target {
-                    warnings.push(format!(
-                        "target_error: the accuracy statement estimates the {name} value of {} \
-                         to {relative:.2e} relative, above the target {target:e} met at the \
-                         nominal data",
+                    warnings.push(target_error(format!(
+                        "the accuracy statement estimates the {name} value of {} to \
+                         {relative:.2e} relative, above the target {target:e} met at the nominal \
+                         data",
                         c.criterion.name()
-                    ));
+                    )));
                 }
             }
         }
     }
     warnings
+}
+
+/// A [`WarningKind::TargetError`] warning about the mesh choice for `target_error`.
+fn target_error(message: String) -> Warning {
+    Warning::new(WarningKind::TargetError, "target_error", message)
 }
 
 #[cfg(test)]
@@ -767,8 +776,12 @@ mod tests {
             candidate(0.25, 51302, None),
             candidate(0.125, 191419, Some("contact solver: no convergence")),
         ];
+        let texts: Vec<String> = ladder_failure_warnings(&ladder)
+            .iter()
+            .map(ToString::to_string)
+            .collect();
         assert_eq!(
-            ladder_failure_warnings(&ladder),
+            texts,
             [
                 "target_error: the ladder's mesh with sizes × 4 could not be built: \
                  criteria.boundary_pieces[0]: zero length. That mesh cannot be chosen.",

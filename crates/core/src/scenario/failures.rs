@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::worst::CriterionOutcome;
 use crate::error::WsmError;
+use crate::scene::{Warning, WarningKind};
 use wsm_search::{EvalCache, ObjectiveResult, Status};
 
 /// How many failed evaluations a result lists (the count and the region cover all of them).
@@ -92,7 +93,7 @@ impl FailureSummary {
     }
 
     /// The plain warning of a result with failures (none without).
-    pub fn warning(&self, evaluations: usize, names: &[String]) -> Option<String> {
+    pub fn warning(&self, evaluations: usize, names: &[String]) -> Option<Warning> {
         let first = self.listed.first()?;
         let region: Vec<String> = names
             .iter()
@@ -105,9 +106,13 @@ impl FailureSummary {
         } else {
             region.join(", ")
         };
-        Some(format!(
-            "{} of {evaluations} evaluations failed, covering {region}; the worst or best may lie where the solver gave no answer (objectives with a failure next to their best point are marked unsettled). First error: {}",
-            self.count, first.error
+        Some(Warning::new(
+            WarningKind::FailedEvaluations,
+            "",
+            format!(
+                "{} of {evaluations} evaluations failed, covering {region}; the worst or best may lie where the solver gave no answer (objectives with a failure next to their best point are marked unsettled). First error: {}",
+                self.count, first.error
+            ),
         ))
     }
 

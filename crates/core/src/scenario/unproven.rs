@@ -10,13 +10,14 @@
 //! within a few percent, or a search that could not look (no derivatives, `first_certificate`).
 
 use crate::scenario::worst::{CriterionOutcome, WorstOutcome};
+use crate::scene::{Warning, WarningKind};
 use wsm_search::{ActiveBound, ObjectiveResult, Sense, Status, StopRule, Verdict, CLOSE_RUNNER_UP};
 
 /// One warning per extremum the search did not settle, worst before best, in criterion order,
 /// then what the global evidence leaves open: a run-level warning when no global rule could
 /// apply (no derivatives, or `stop: first_certificate`), else one per extremum whose rule was
 /// not met or that has a runner-up local optimum within [`CLOSE_RUNNER_UP`] of it.
-pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
+pub fn warnings(outcome: &WorstOutcome) -> Vec<Warning> {
     let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
     let extrema: Vec<(String, &str, &str, &ObjectiveResult)> = outcome
         .criteria
@@ -29,7 +30,7 @@ pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
             ]
         })
         .collect();
-    let mut warnings: Vec<String> = extrema
+    let mut warnings: Vec<Warning> = extrema
         .iter()
         .filter_map(|(symbol, which, direction, o)| {
             warning(symbol, which, direction, o, &names, outcome.budget)
@@ -47,21 +48,23 @@ pub fn warnings(outcome: &WorstOutcome) -> Vec<String> {
             .as_ref()
             .is_some_and(|c| c.verdict == Verdict::NoDerivatives);
     if unproven_locally {
-        warnings.push(
+        warnings.push(Warning::new(
+            WarningKind::Unproven,
+            "",
             "searched without derivatives: no extremum is proven, locally or globally; each is \
              the most extreme of the points evaluated (search with derivatives for local proofs \
-             and the global rule)"
-                .to_string(),
-        );
+             and the global rule)",
+        ));
         return warnings;
     }
     if first.3.global.stop == StopRule::FirstCertificate {
-        warnings.push(
-            "search.stop = first_certificate: every extremum stopped at its first local proof, \
-             and no search looked for other local optima, so a more extreme value elsewhere in \
-             the box is possible; use the default stop (global_rule) to look"
-                .to_string(),
-        );
+        warnings.push(Warning::new(
+            WarningKind::Unproven,
+            "search.stop",
+            "first_certificate: every extremum stopped at its first local proof, and no search \
+             looked for other local optima, so a more extreme value elsewhere in the box is \
+             possible; use the default stop (global_rule) to look",
+        ));
     } else {
         warnings.extend(
             found
@@ -79,7 +82,7 @@ fn global_warning(
     which: &str,
     o: &ObjectiveResult,
     names: &[&str],
-) -> Option<String> {
+) -> Option<Warning> {
     let g = &o.global;
     let kind = match o.sense {
         Sense::Max => "maximum",
@@ -114,7 +117,13 @@ fn global_warning(
         )
     });
     let parts: Vec<String> = [close, open].into_iter().flatten().collect();
-    (!parts.is_empty()).then(|| format!("{symbol} {which}: {}.", parts.join("; ")))
+    (!parts.is_empty()).then(|| {
+        Warning::new(
+            WarningKind::Unproven,
+            format!("{symbol} {which}"),
+            format!("{}.", parts.join("; ")),
+        )
+    })
 }
 
 fn warning(
@@ -124,7 +133,7 @@ fn warning(
     o: &ObjectiveResult,
     names: &[&str],
     budget: usize,
-) -> Option<String> {
+) -> Option<Warning> {
     let kink = o.certificate.as_ref().and_then(|c| c.kink).filter(|_| {
         matches!(
             o.status,
@@ -172,8 +181,10 @@ fn warning(
         ),
     };
     let Some(value) = o.value else {
-        return Some(format!(
-            "{symbol} {which}: no value — no evaluation gave one ({reason}); {advice}."
+        return Some(Warning::new(
+            WarningKind::Unproven,
+            format!("{symbol} {which}"),
+            format!("no value — no evaluation gave one ({reason}); {advice}."),
         ));
     };
     let inside: Vec<&str> = names
@@ -192,8 +203,12 @@ fn warning(
             inside.join(", ")
         )
     };
-    Some(format!(
-        "{symbol} {which} may be {direction} than the reported {value:.6e}: the search stopped before optimality — {reason}, with {place}; {advice}."
+    Some(Warning::new(
+        WarningKind::Unproven,
+        format!("{symbol} {which}"),
+        format!(
+            "may be {direction} than the reported {value:.6e}: the search stopped before optimality — {reason}, with {place}; {advice}."
+        ),
     ))
 }
 
@@ -237,8 +252,10 @@ mod tests {
                 rates: [3e-3, -2e-2],
             }),
         });
-        let w = warning("Φ5", "best", "lower", &o, &["F", "E"], 150).unwrap();
-        assert!(w.starts_with("Φ5 best may be lower"), "{w}");
+        let w = warning("Φ5", "best", "lower", &o, &["F", "E"], 150)
+            .unwrap()
+            .to_string();
+        assert!(w.starts_with("Φ5 best: may be lower"), "{w}");
         assert!(
             w.contains("Φ5 has a kink next to it: its derivative along F changes sign")
                 && w.contains("4.0e-2 of that interval")
@@ -253,9 +270,11 @@ mod tests {
             Status::BudgetExhausted,
             vec![ActiveBound::Upper, ActiveBound::None],
         );
-        let w = warning("Φ5", "worst", "higher", &o, &["E", "g"], 400).unwrap();
+        let w = warning("Φ5", "worst", "higher", &o, &["E", "g"], 400)
+            .unwrap()
+            .to_string();
         assert!(
-            w.starts_with("Φ5 worst may be higher than the reported 2.500000e-3"),
+            w.starts_with("Φ5 worst: may be higher than the reported 2.500000e-3"),
             "{w}"
         );
         assert!(

@@ -154,7 +154,7 @@ pub struct WorstOutcome {
     /// Warnings about the results: failed evaluations, P1 locking at worst or best data with
     /// ν ≥ 0.49, a target error not met.
     #[serde(default)]
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::scene::Warning>,
 }
 
 impl WorstOutcome {

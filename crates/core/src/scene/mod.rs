@@ -22,6 +22,7 @@ mod schema;
 mod shape;
 mod strict;
 mod validate;
+mod warning;
 mod warnings;
 
 pub(crate) use data::piecewise_linear;
@@ -44,6 +45,7 @@ pub use shape::{objects_where_objects, plain_message};
 pub use strict::{strict_value, StrictError};
 pub(crate) use validate::touching_tolerance;
 pub use validate::{check_criteria_list, parse, validate, MAX_COORDINATE, MAX_NAME, MAX_TEXT};
+pub use warning::{Warning, WarningKind};
 pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};
 
 use std::fmt;

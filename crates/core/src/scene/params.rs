@@ -45,6 +45,7 @@ use super::data::{BoundaryValue, Data, Elastic, Expansion};
 use super::law::interval_margin;
 use super::model::{Conductivity, Scene, SlipLimit, ThermalStress, Uncertain};
 use super::rules::Constant;
+use super::warning::{Warning, WarningKind};
 use super::SceneError;
 
 /// The scene number an uncertain parameter varies.
@@ -261,7 +262,7 @@ fn contact_names(scene: &Scene) -> impl Iterator<Item = Option<&str>> {
 /// Warnings for the uncertain data addressed by the index of an entry that has a name
 /// (`uncertain[2].field: boundary[4] is the entry named 'up1'; …`): inserting an entry before
 /// it would move the datum onto another entry without any error.
-pub fn index_path_warnings(scene: &Scene) -> Vec<String> {
+pub fn index_path_warnings(scene: &Scene) -> Vec<Warning> {
     let mut warnings = Vec::new();
     for (i, u) in scene.uncertain.iter().enumerate() {
         let named = match tokens(&u.field).as_deref() {
@@ -277,9 +278,13 @@ pub fn index_path_warnings(scene: &Scene) -> Vec<String> {
             _ => None,
         };
         if let Some((list, index, name)) = named {
-            warnings.push(format!(
-                "uncertain[{i}].field: {list}[{index}] is the entry named '{name}'; refer to it as \
-                 {list}[{name}] so that inserting entries cannot move the datum"
+            warnings.push(Warning::new(
+                WarningKind::DataPath,
+                format!("uncertain[{i}].field"),
+                format!(
+                    "{list}[{index}] is the entry named '{name}'; refer to it as {list}[{name}] \
+                     so that inserting entries cannot move the datum"
+                ),
             ));
         }
     }

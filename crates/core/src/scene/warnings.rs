@@ -14,6 +14,7 @@ use std::collections::BTreeSet;
 
 use super::model::{Material, Scene};
 use super::params::{index_path_warnings, parameters, ParamTarget};
+use super::warning::{Warning, WarningKind};
 
 /// Young's moduli below this \[Pa\] are softer than any solid (soft rubber is about 1e6 Pa).
 pub const MIN_SOLID_MODULUS: f64 = 1e5;
@@ -24,7 +25,7 @@ pub const MAX_SPECIFIC_WEIGHT: f64 = 1e6;
 pub const MAX_SURFACE_LOAD: f64 = 1e10;
 
 /// The warnings about `scene`'s data (empty for a plausible scene).
-pub fn warnings(scene: &Scene) -> Vec<String> {
+pub fn warnings(scene: &Scene) -> Vec<Warning> {
     let mut out = index_path_warnings(scene);
     let extent = extent(scene);
     let used: BTreeSet<&str> = scene
@@ -56,7 +57,7 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
 }
 
 /// Moduli and the specific weight of one used material.
-fn material_warnings(path: &str, m: &Material) -> Vec<String> {
+fn material_warnings(path: &str, m: &Material) -> Vec<Warning> {
     let mut out = Vec::new();
     if let Some(e) = m.young {
         out.extend(soft(&format!("{path}.E"), e, ""));
@@ -80,7 +81,7 @@ fn material_warnings(path: &str, m: &Material) -> Vec<String> {
 }
 
 /// The interval ends of uncertain moduli, displacements, specific weights and surface loads.
-fn interval_warnings(scene: &Scene, used: &BTreeSet<&str>, extent: f64) -> Vec<String> {
+fn interval_warnings(scene: &Scene, used: &BTreeSet<&str>, extent: f64) -> Vec<Warning> {
     let Ok(parameters) = parameters(scene) else {
         return Vec::new();
     };
@@ -110,42 +111,57 @@ fn interval_warnings(scene: &Scene, used: &BTreeSet<&str>, extent: f64) -> Vec<S
     out
 }
 
-fn soft(path: &str, e: f64, how: &str) -> Option<String> {
+fn soft(path: &str, e: f64, how: &str) -> Option<Warning> {
     (e < MIN_SOLID_MODULUS).then(|| {
-        format!(
-            "{path}: a Young's modulus of {e:e} Pa{how} is below {MIN_SOLID_MODULUS:e} Pa, softer \
+        units(
+            path,
+            format!(
+                "a Young's modulus of {e:e} Pa{how} is below {MIN_SOLID_MODULUS:e} Pa, softer \
              than any solid (soft rubber is about 1e6 Pa, concrete 3e10 Pa); moduli are in Pa, \
              not MPa or GPa"
+            ),
         )
     })
 }
 
-fn far(path: &str, d: f64, extent: f64) -> Option<String> {
+fn far(path: &str, d: f64, extent: f64) -> Option<Warning> {
     (d.abs() > extent).then(|| {
-        format!(
-            "{path}: a prescribed displacement of {d:e} m is larger than the whole model (the \
+        units(
+            path,
+            format!(
+                "a prescribed displacement of {d:e} m is larger than the whole model (the \
              diagonal of its bounding box is {extent:e} m); displacements are in m, not mm"
+            ),
         )
     })
 }
 
-fn heavy(path: &str, w: f64) -> Option<String> {
+fn heavy(path: &str, w: f64) -> Option<Warning> {
     (w > MAX_SPECIFIC_WEIGHT).then(|| {
-        format!(
-            "{path}: a specific weight of {w:e} N/m³ is above {MAX_SPECIFIC_WEIGHT:e} N/m³, \
+        units(
+            path,
+            format!("a specific weight of {w:e} N/m³ is above {MAX_SPECIFIC_WEIGHT:e} N/m³, \
              heavier than any material (steel is about 7.7e4 N/m³); it is ρg in N/m³, e.g. 2.4e4 for \
-             concrete"
+             concrete"),
         )
     })
 }
 
-fn huge_load(path: &str, p: f64) -> Option<String> {
+fn huge_load(path: &str, p: f64) -> Option<Warning> {
     (p.abs() > MAX_SURFACE_LOAD).then(|| {
-        format!(
-            "{path}: a surface load of {p:e} Pa is above {MAX_SURFACE_LOAD:e} Pa, far beyond \
+        units(
+            path,
+            format!(
+                "a surface load of {p:e} Pa is above {MAX_SURFACE_LOAD:e} Pa, far beyond \
              what structures carry (high-strength steel yields near 2e9 Pa); loads are in Pa"
+            ),
         )
     })
+}
+
+/// A [`WarningKind::Units`] warning about the number at `path`.
+fn units(path: &str, message: String) -> Warning {
+    Warning::new(WarningKind::Units, path, message)
 }
 
 /// The diagonal of the bounding box of the bodies' zones \[m\].

@@ -37,7 +37,10 @@ use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
 use crate::scene::params::Stencil;
-use crate::scene::{BoundaryValue, Criterion, CriterionSpec, Data, Scene, SceneError, SolverKind};
+use crate::scene::{
+    BoundaryValue, Criterion, CriterionSpec, Data, Scene, SceneError, SolverKind, Warning,
+    WarningKind,
+};
 pub use sensitivity::DerivativeRoute;
 use sensitivity::{ElasticState, SolvedState};
 
@@ -344,9 +347,11 @@ impl StateProblem {
                     solution.region_sensitivities = regions;
                     report.adjoint_directions = adjoint;
                 }
-                Err(e) => report
-                    .warnings
-                    .push(format!("the sensitivities are not available: {e}")),
+                Err(e) => report.warnings.push(Warning::new(
+                    WarningKind::Sensitivities,
+                    "",
+                    format!("the sensitivities are not available: {e}"),
+                )),
             }
             report.timings.sensitivities = t0.elapsed().as_secs_f64();
         }
@@ -461,9 +466,13 @@ impl StateProblem {
         }
         report.undetermined_modes = report.undetermined_modes.max(sol.free_motions);
         if report.undetermined_modes > 0 {
-            report.warnings.push(format!(
-                "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the displacement with no component along them is reported",
-                report.undetermined_modes
+            report.warnings.push(Warning::new(
+                WarningKind::RigidMotion,
+                "",
+                format!(
+                    "{} rigid motion(s) of floating bodies are not determined by contact (e.g. frictionless sliding with balanced loads); the displacement with no component along them is reported",
+                    report.undetermined_modes
+                ),
             ));
         }
         solution.stresses = elastic.stresses(data, &u, temperature)?;
@@ -594,7 +603,11 @@ impl StateProblem {
         report.timings.dd_outer = times.outer;
         report.timings.dd_recovery = times.recovery;
         if let Some(fallback) = &dd.report.fallback {
-            report.warnings.push(format!("DD: {fallback}"));
+            report.warnings.push(Warning::new(
+                WarningKind::SolverFallback,
+                "solver.dd",
+                fallback.clone(),
+            ));
         }
         report.dd = Some(Box::new(dd.report));
         Ok(sol)
@@ -613,8 +626,10 @@ impl StateProblem {
         report: &mut SolveReport,
     ) -> Result<ContactSolution, WsmError> {
         report.solver = SolverUsed::DirectDdUnavailable;
-        report.warnings.push(format!(
-            "domain decomposition: {reason}; solved by the direct solver"
+        report.warnings.push(Warning::new(
+            WarningKind::SolverFallback,
+            "domain decomposition",
+            format!("{reason}; solved by the direct solver"),
         ));
         let (factor, reused) = self.stiffness_factor(coefficients, options.par)?;
         report.reused_factorisation = reused;
@@ -690,7 +705,10 @@ const DD_EQUILIBRIUM_LIMIT: f64 = 1e-6;
 /// P1 triangles lock for nearly incompressible materials: warn from ν ≥ 0.49, with ν = (K − G)/(2K)
 /// from the plane-strain bulk and shear moduli of D ([`crate::scene::law::bulk_and_shear`];
 /// isotropic: λ/(2(λ + μ)), Poisson's ratio). One (zone index, message) per zone that locks.
-pub fn locking_warnings(coefficients: &[ElasticCoefficients], mesh: &Mesh) -> Vec<(usize, String)> {
+pub fn locking_warnings(
+    coefficients: &[ElasticCoefficients],
+    mesh: &Mesh,
+) -> Vec<(usize, Warning)> {
     coefficients
         .iter()
         .zip(&mesh.zones)
@@ -700,10 +718,10 @@ pub fn locking_warnings(coefficients: &[ElasticCoefficients], mesh: &Mesh) -> Ve
             let nu = (bulk - shear) / (2.0 * bulk);
             (nu >= 0.49).then(|| {
                 let message = format!(
-                    "zone '{}': Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)",
-                    zone.name
+                    "Poisson's ratio {nu:.4} is close to 0.5; linear triangles lock (stresses and displacements are underestimated)"
                 );
-                (index, message)
+                let subject = format!("zone '{}'", zone.name);
+                (index, Warning::new(WarningKind::Locking, subject, message))
             })
         })
         .collect()

@@ -215,7 +215,7 @@ pub struct SolveReport {
     /// Messages for the user (e.g. undetermined rigid motions, near-incompressibility); a solve
     /// through the front door (`run::solve`) puts the scene's warnings first
     /// (`scene::warnings`: implausible magnitudes, data addressed by the index of a named entry).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::scene::Warning>,
     /// Solver-specific details (DD iteration counts etc.).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dd: Option<Box<crate::dd::DdReport>>,

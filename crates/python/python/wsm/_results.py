@@ -30,7 +30,7 @@ class Solution:
         self.fields: dict[str, np.ndarray] = _field_arrays(raw) if raw else {}
         self.contact: pd.DataFrame = _contact_frame(raw["contact"] if raw else [])
         self.profiles: pd.DataFrame = _profile_frame(raw.get("contact_profiles", []) if raw else [])
-        self.warnings: list[str] = list(self.summary.get("report", {}).get("warnings", []))
+        self.warnings: list[dict] = list(self.summary.get("report", {}).get("warnings", []))
         self._vtu = vtu
         self._vtu_loader = vtu_loader
 
@@ -135,12 +135,13 @@ class WorstResult:
     """A worst-scenario run. `json` is exactly what ``wsm worst`` prints; `outcome` the full
     outcome (with the convergence histories, as ``--out`` writes it); `extrema` one row per
     criterion and sense with the value, its status and the data; `evaluations` one row per
-    evaluation with the columns of ``wsm worst --table``; `warnings` the run's warnings."""
+    evaluation with the columns of ``wsm worst --table``; `warnings` the run's warnings, each a
+    dict with ``kind``, ``subject`` and ``message``."""
 
     def __init__(self, outcome: dict, printed: str, table: str | None, summary: str | None = None):
         self.outcome = outcome
         self.json = printed
-        self.warnings: list[str] = list(outcome.get("warnings", []))
+        self.warnings: list[dict] = list(outcome.get("warnings", []))
         self.status: str = outcome["status"]
         self.parameters = pd.DataFrame(
             [

@@ -353,13 +353,27 @@ function proofText(c, parameters) {
   return `${words[c.verdict]} (${num(c.residual, 2)})${starts}${kink}`;
 }
 
+/** A warning's readable text, `subject: message` (results stored before warnings were typed
+ * hold plain strings). */
+function warningText(w) {
+  if (typeof w === "string") return w;
+  return w.subject ? `${w.subject}: ${w.message}` : w.message;
+}
+
+/** A warning's kind (`legacy` for a plain string). */
+function warningKind(w) {
+  return typeof w === "string" ? "legacy" : w.kind;
+}
+
 /** The result's warnings at the top of the page: what to read before trusting its numbers. */
 function warningBanner(warnings) {
   const banner = $("job-warnings");
   banner.hidden = warnings.length === 0;
   banner.dataset.count = warnings.length;
   $("job-warnings-title").textContent = `${count(warnings.length, "warning")}: read before trusting the numbers below.`;
-  $("job-warnings-list").replaceChildren(...warnings.map((w) => el("li", {}, w)));
+  $("job-warnings-list").replaceChildren(
+    ...warnings.map((w) => el("li", { "data-kind": warningKind(w) }, warningText(w))),
+  );
 }
 
 /** The failed solves of a result: the search's evaluations and the accuracy statement's refined
@@ -603,7 +617,7 @@ function meshFacts(summary) {
   for (const [k, v] of Object.entries(kkt)) pairs.push([`KKT ${k.replaceAll("_", " ")}`, num(v, 3)]);
   if (summary.report) {
     pairs.push(["Solver", `${summary.report.solver}, ${summary.report.qp_iterations} QP iterations`]);
-    for (const w of summary.report.warnings || []) pairs.push(["Warning", w]);
+    for (const w of summary.report.warnings || []) pairs.push(["Warning", warningText(w)]);
   }
   facts($("mesh-facts"), pairs);
 }
