@@ -130,7 +130,7 @@ fn iteration_counts_at_the_papers_sizes() {
         let mut s: Value =
             serde_json::from_str(wsm_core::bundled::example("d03-model-problem").unwrap()).unwrap();
         let env = |k: &str, d: f64| std::env::var(k).map(|v| v.parse().unwrap()).unwrap_or(d);
-        s["mesh"]["max_size"] = json!(env("D03_SIZE", 0.025));
+        s["mesh"]["max_size"] = json!(env("D03_SIZE", 0.037));
         s
     };
     let variants = [
