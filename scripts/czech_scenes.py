@@ -72,7 +72,7 @@ OURS = "Ours: the geometry (plane strain), the uncertain intervals and the searc
 def hip():
     """CZ model 1: a femoral stem with its head in an acetabular cup set in the pelvis."""
     rh, rc = 0.022, 0.028  # head and cup's outer radius (ours)
-    n = 24
+    n = 12
     head = arc((0, 0), rh, 0, 180, n)
     stem = [(0.006, -0.15), (0.006, -0.03)] + head + [(-0.006, -0.03), (-0.006, -0.15)]
     femur_bone = [
