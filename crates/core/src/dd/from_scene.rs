@@ -83,7 +83,7 @@ pub fn options(scene: &Scene, mesh: &Mesh) -> DdOptions {
         tied_zones: dd.tied_zones.as_ref().map(|names| {
             names
                 .iter()
-                .filter_map(|n| scene.contacts.iter().position(|c| &c.name == n))
+                .filter_map(|n| scene.contacts.iter().position(|c| c.name == *n))
                 .collect()
         }),
         outer_tol: tol,

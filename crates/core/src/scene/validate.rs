@@ -1368,7 +1368,7 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
             ));
         }
         for (k, name) in names.iter().enumerate() {
-            if !scene.contacts.iter().any(|c| &c.name == name) {
+            if !scene.contacts.iter().any(|c| c.name == *name) {
                 return Err(SceneError::new(
                     format!("solver.dd.tied_zones[{k}]"),
                     format!("no contact zone is named '{name}'"),
