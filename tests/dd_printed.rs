@@ -105,8 +105,9 @@ fn papers_run(scene: &Value, subdomains: usize, dd: &Value) -> (Value, f64) {
     (dd_report(&sol), relative_difference(&direct, &sol))
 }
 
-/// The iteration counts of docs/verification.md ("The papers' DD as printed"): the bundled tunnel
-/// and D05 knee at the papers' sizes, wsm's DD and each printed variant. Slow (minutes):
+/// The iteration counts of docs/verification.md ("The papers' DD as printed"): the bundled D03
+/// model problem, tunnel and D05 knee at the papers' sizes, wsm's DD, each printed variant and a
+/// smaller tied set Γc0. Slow (minutes):
 /// `cargo test --release --test dd_printed -- --ignored --nocapture`.
 #[test]
 #[ignore]
@@ -125,6 +126,13 @@ fn iteration_counts_at_the_papers_sizes() {
         s["mesh"]["refine"][0]["max_size"] = json!(env("KNEE_REFINE", 0.0012));
         s
     };
+    let d03 = {
+        let mut s: Value =
+            serde_json::from_str(wsm_core::bundled::example("d03-model-problem").unwrap()).unwrap();
+        let env = |k: &str, d: f64| std::env::var(k).map(|v| v.parse().unwrap()).unwrap_or(d);
+        s["mesh"]["max_size"] = json!(env("D03_SIZE", 0.037));
+        s
+    };
     let variants = [
         ("wsm", json!({})),
         ("pcg1 printed", json!({"pcg1": "printed"})),
@@ -136,8 +144,22 @@ fn iteration_counts_at_the_papers_sizes() {
             json!({"pcg1": "printed", "coarse": "kernels", "weights": "mean_young", "iteration": "plain"}),
         ),
     ];
-    for (name, scene, subdomains) in [("tunnel", &tunnel, 12), ("knee-d05", &knee, 13)] {
-        for (label, dd) in &variants {
+    // D05 4.35: a smaller tied set Γc0 where the other supports still hold every body (the
+    // tunnel's lower fault segment, the knee's lateral condyle; each D03 block rests on its
+    // zone alone, so there Γc0 = Γc).
+    let tied = |zones: &[&str]| vec![("tied_zones", json!({ "tied_zones": zones }))];
+    let cases = [
+        ("d03", &d03, 8, vec![]),
+        ("tunnel", &tunnel, 12, tied(&["fault_low"])),
+        (
+            "knee-d05",
+            &knee,
+            13,
+            tied(&["lateral condyle inner face", "lateral condyle outer face"]),
+        ),
+    ];
+    for (name, scene, subdomains, gamma_c0) in cases {
+        for (label, dd) in variants.iter().chain(&gamma_c0) {
             let (r, rel) = papers_run(scene, subdomains, dd);
             println!(
                 "| {name} | {label} | {} | {} | {} | {} / {} / {} | {} | {:.1e} | {} |",

@@ -8,6 +8,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../../scenes/block-on-base.json"),
     ),
     (
+        "d03-model-problem",
+        include_str!("../../../scenes/d03-model-problem.json"),
+    ),
+    (
         "heated-plate",
         include_str!("../../../scenes/heated-plate.json"),
     ),
@@ -19,6 +23,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     (
         "hertz-nonmatching",
         include_str!("../../../scenes/hertz-nonmatching.json"),
+    ),
+    (
+        "hip-replacement",
+        include_str!("../../../scenes/hip-replacement.json"),
     ),
     ("knee", include_str!("../../../scenes/knee.json")),
     (
@@ -43,12 +51,28 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../../scenes/knee-orthotropic-bone.json"),
     ),
     (
+        "knee-sagittal",
+        include_str!("../../../scenes/knee-sagittal.json"),
+    ),
+    (
         "loaded-block",
         include_str!("../../../scenes/loaded-block.json"),
     ),
     (
+        "lower-limb-cartilage",
+        include_str!("../../../scenes/lower-limb-cartilage.json"),
+    ),
+    (
+        "thermo-contact-fault",
+        include_str!("../../../scenes/thermo-contact-fault.json"),
+    ),
+    (
         "thick-cylinder",
         include_str!("../../../scenes/thick-cylinder.json"),
+    ),
+    (
+        "tibia-marrow",
+        include_str!("../../../scenes/tibia-marrow.json"),
     ),
     (
         "tunnel-fault",

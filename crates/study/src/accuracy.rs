@@ -804,7 +804,7 @@ fn manufactured_solve(
                 .u_free
         }
         SolverKind::Dd => {
-            let options = wsm_core::dd::scene_options(&problem.scene.solver, mesh);
+            let options = wsm_core::dd::scene_options(&problem.scene, mesh);
             let (sol, dd) = wsm_core::dd::solve_elastic(
                 elastic,
                 &problem.contact,

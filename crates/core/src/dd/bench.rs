@@ -96,6 +96,7 @@ pub fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> Result<DdProble
                 nodes: nodes.to_vec(),
                 normal: row(nodes, [0.0, 1.0], 0.0, f64::INFINITY),
                 tangent: row(nodes, [-1.0, 0.0], -gw, gw),
+                tied: true,
             }
         })
         .collect();

@@ -411,10 +411,19 @@ fn build_cluster(
         cand.subrows(0, ni),
     )?;
     let rho_gamma: Vec<f64> = iface.iter().map(|x| rho[members[x.2]]).collect();
-    let (tied, full_stick) = match cluster.tied(is_normal_row, rho_gamma.clone(), cand.as_ref()) {
+    // Rows 2i, 2i + 1 belong to the cluster's pair i; only the pairs on Γc0 are tied (D05 4.35).
+    let on_tied_set = |row: usize| problem.pairs[pairs[row / 2]].tied;
+    let normal = |row: usize| on_tied_set(row) && is_normal_row(row);
+    let (tied, full_stick) = match cluster.tied(normal, rho_gamma.clone(), cand.as_ref()) {
         Ok(t) => (t, false),
-        Err(first) => match cluster.tied(|_| true, rho_gamma, cand.as_ref()) {
+        Err(first) => match cluster.tied(on_tied_set, rho_gamma, cand.as_ref()) {
             Ok(t) => (t, true),
+            Err(_) if !pairs.iter().all(|&p| problem.pairs[p].tied) => {
+                return Err(format!(
+                    "{first}; the tied set Γc0 (solver.dd.tied_zones) leaves a body of this \
+                     cluster free in the auxiliary problem: tie one of its zones"
+                ))
+            }
             Err(_) => return Err(first),
         },
     };

@@ -23,7 +23,7 @@ use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
 use crate::fem::{ElasticCoefficients, ElasticProblem};
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
-use crate::scene::{Data, DdCoarse, DdIteration, DdPcg1, DdWeights, SolverSettings};
+use crate::scene::{Data, DdCoarse, DdIteration, DdPcg1, DdWeights, Scene};
 
 /// Elements per subdomain when the scene asks for an automatic count (`subdomains: 0`): about
 /// the paper's tunnel (9676 elements on 12 subdomains).
@@ -40,10 +40,12 @@ const PCG_FLOOR: f64 = 1e-9;
 /// DD options of a scene: `partition` polygons fix the subdomains (`explicit_partition`),
 /// otherwise `subdomains` is the total count (0: about `AUTO_ELEMENTS` elements per
 /// subdomain; at most one per `MIN_ELEMENTS` elements); `dd` selects the variants (the papers'
-/// printed PCG1, kernel coarse space, plain iteration, mean-Young weights); `tolerance` is the relative stopping tolerance of the successive approximations
+/// printed PCG1, kernel coarse space, plain iteration, mean-Young weights, the tied set Γc0 by
+/// zone names, validated by the scene); `tolerance` is the relative stopping tolerance of the successive approximations
 /// (the PCG2 tolerance is kept tighter so that it does not limit it; PCG1 only gives the start
 /// U⁰).
-pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
+pub fn options(scene: &Scene, mesh: &Mesh) -> DdOptions {
+    let settings = &scene.solver;
     let layers = CONTACT_LAYERS;
     let partition = match settings.subdomains {
         _ if !settings.partition.is_empty() => {
@@ -78,6 +80,12 @@ pub fn options(settings: &SolverSettings, mesh: &Mesh) -> DdOptions {
             DdWeights::Stiffness => Weights::Stiffness,
             DdWeights::MeanYoung => Weights::MeanYoung,
         },
+        tied_zones: dd.tied_zones.as_ref().map(|names| {
+            names
+                .iter()
+                .filter_map(|n| scene.contacts.iter().position(|c| c.name == *n))
+                .collect()
+        }),
         outer_tol: tol,
         pcg1_tol: PCG1_TOL.max(tol * 1e-1),
         pcg2_tol: (tol * 1e-1).max(PCG_FLOOR),
@@ -110,12 +118,15 @@ pub fn explicit_partition(polygons: &[Vec<[f64; 2]>], mesh: &Mesh) -> Vec<usize>
 
 /// The contact rows of the direct solver's geometry (same normals, tangents, weights, gaps and
 /// multiplier bounds `lower`, `upper`, so that DD and direct solve the same discrete problem):
-/// normal rows B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|.
+/// normal rows B_n u ≤ g0 − B_{n,d} u_d, tangential rows g w |B_t u + B_{t,d} u_d|. A pair is
+/// tied in the auxiliary problem when its zone is in `tied_zones` (`None`: every zone) or it is
+/// bilateral.
 pub fn contact_pairs(
     geometry: &ContactGeometry,
     lower: &[f64],
     upper: &[f64],
     fixed: &[f64],
+    tied_zones: Option<&[usize]>,
 ) -> Vec<DdContactPair> {
     geometry
         .pairs
@@ -132,6 +143,8 @@ pub fn contact_pairs(
                 nodes: p.terms().map(|(node, _)| node).collect(),
                 normal: row(normal_row(m), p.gap),
                 tangent: row(tangential_row(m), 0.0),
+                tied: tied_zones.is_none_or(|z| z.contains(&p.zone))
+                    || lower[normal_row(m)] == f64::NEG_INFINITY,
             }
         })
         .collect()
@@ -148,7 +161,13 @@ pub fn partition(
     let coefficients = elastic.coefficients(data)?;
     let fixed = elastic.fixed_values(data)?;
     let (lower, upper) = direct.geometry.bounds(data, None);
-    let pairs = contact_pairs(&direct.geometry, &lower, &upper, &fixed);
+    let pairs = contact_pairs(
+        &direct.geometry,
+        &lower,
+        &upper,
+        &fixed,
+        options.tied_zones.as_deref(),
+    );
     let rhs = vec![0.0; elastic.dofs().n_free()];
     let problem = DdProblem::from_elastic(elastic, &coefficients, rhs, pairs)?;
     Partition::new(&problem, &options.partition)
@@ -182,7 +201,7 @@ pub fn solve_elastic(
     let fallback = if data.has_coulomb() { None } else { fallback };
     // Each step's solution with its multipliers flattened as the direct solver's.
     let tresca = |lower: &[f64], upper: &[f64], _: Option<&(DdSolution, Vec<f64>)>| {
-        let pairs = contact_pairs(geometry, lower, upper, fixed);
+        let pairs = contact_pairs(geometry, lower, upper, fixed, options.tied_zones.as_deref());
         let problem = DdProblem::from_elastic(elastic, coefficients, rhs.to_vec(), pairs)?;
         let sol = solve(&problem, options, fallback)?;
         let flat = sol.multipliers.iter().flatten().copied().collect();

@@ -115,6 +115,9 @@ pub struct DdContactPair {
     pub normal: DdContactRow,
     /// Tangential row t·(u^k − u^l) with the Tresca bounds ±g w.
     pub tangent: DdContactRow,
+    /// Whether the pair lies on the tied set Γc0 of the auxiliary problem (D05 4.35); the other
+    /// pairs carry no traction there.
+    pub tied: bool,
 }
 
 /// The discrete contact problem min ½uᵀKu − fᵀu + Σ_rows σ(B_r u − e_r), K = Σ_e K_e.

@@ -2,7 +2,7 @@
 //! preconditioner (D05 §5 as printed or the reduced one of §6), the coarse space of the balancing
 //! preconditioners (D05 5.11 / 6.7 kernels, or rigid-motion enrichment), tolerances and
 //! iteration limits of PCG1 / PCG2 / the successive approximations (D05 4.37 / 6.1–6.3), the
-//! injection weights ρ (D05 5.5), the outer iteration (wsm's safeguarded one or the papers' plain
+//! injection weights ρ (D05 5.5), the tied set Γc0 of the auxiliary problem (D05 4.35), the outer iteration (wsm's safeguarded one or the papers' plain
 //! successive approximations), Anderson acceleration and the local QP options.
 //!
 //! Depends only on [`super::partition`] and [`crate::contact::qp`]; read by
@@ -97,6 +97,10 @@ pub struct DdOptions {
     /// The outer iteration (default: safeguarded; `Plain` ignores `anderson_depth`,
     /// `stagnation` and `force_acceleration`).
     pub iteration: OuterIteration,
+    /// The tied set Γc0 of the auxiliary problem (D05 4.35): the contact zones (scene indices)
+    /// whose rows are tied there; the other unilateral zones carry no traction in it. `None`:
+    /// every zone (Γc0 = Γc). Bilateral rows are always tied.
+    pub tied_zones: Option<Vec<usize>>,
     /// Relative residual of PCG1 (auxiliary problem). U⁰ only starts the outer iteration, so
     /// PCG1 need not be tight (`PCG1_TOL`).
     pub pcg1_tol: f64,
@@ -134,6 +138,7 @@ impl Default for DdOptions {
             coarse: CoarseKind::Rigid,
             weights: Weights::Stiffness,
             iteration: OuterIteration::Safeguarded,
+            tied_zones: None,
             pcg1_tol: PCG1_TOL,
             pcg2_tol: 1e-12,
             max_pcg: 500,

@@ -67,6 +67,9 @@ pub struct DdReport {
     pub n_clusters: usize,
     /// Contact node pairs.
     pub n_pairs: usize,
+    /// The pairs tied in the auxiliary problem: those on the tied set Γc0 (D05 4.35,
+    /// `solver.dd.tied_zones`) and the bilateral ones; `n_pairs` when Γc0 = Γc.
+    pub n_tied_pairs: usize,
     /// Clusters whose auxiliary tie needed the tangential rows too (a sliding mode was left).
     pub auxiliary_full_stick: usize,
     /// The preconditioner PCG1 used.
@@ -135,6 +138,7 @@ impl DdReport {
             n_contact_subdomains: dec.partition.contact.iter().filter(|&&c| c).count(),
             n_clusters: dec.clusters.len(),
             n_pairs: problem.pairs.len(),
+            n_tied_pairs: problem.pairs.iter().filter(|p| p.tied).count(),
             auxiliary_full_stick: dec.full_stick.iter().filter(|&&f| f).count(),
             frictionless: problem
                 .pairs
@@ -182,6 +186,13 @@ impl fmt::Display for DdReport {
             self.n_pairs,
             self.threads
         )?;
+        if self.n_tied_pairs < self.n_pairs {
+            writeln!(
+                f,
+                "  auxiliary problem: the tied set Γc0 holds {} of the {} pairs (solver.dd.tied_zones)",
+                self.n_tied_pairs, self.n_pairs
+            )?;
+        }
         writeln!(
             f,
             "  coarse dimension ({:?}): PCG1 {}, PCG2 {}; partition of unity error {:.1e} / {:.1e}; coarse residual {:.1e} / {:.1e}",

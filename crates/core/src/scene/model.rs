@@ -1037,7 +1037,7 @@ pub struct SolverSettings {
 }
 
 /// Variants of the DD solver (design §3.2): wsm's defaults, or the papers' method as printed.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DdSettings {
     /// The PCG1 preconditioner of the auxiliary problem: `reduced` (default; D05 §6 on the
@@ -1061,6 +1061,13 @@ pub struct DdSettings {
     /// modulus of the subdomain).
     #[serde(default)]
     pub weights: DdWeights,
+    /// The tied set Γc0 ⊂ Γc of the auxiliary problem (D05 4.35, chosen a priori): the names of
+    /// the contact zones whose normal rows are tied (u^k_n − u^l_n = 0, τ_t = 0) in the linear
+    /// problem that starts the successive approximations; the other unilateral zones carry no
+    /// traction there. Default (absent): every zone, Γc0 = Γc. Bilateral zones are always tied.
+    /// The answer does not depend on it, only the start U⁰ and the iteration counts.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tied_zones: Option<Vec<String>>,
 }
 
 impl DdSettings {

@@ -1359,5 +1359,22 @@ fn check_search(scene: &Scene) -> Result<(), SceneError> {
     for (k, polygon) in scene.solver.partition.iter().enumerate() {
         check_polygon(&format!("solver.partition[{k}]"), polygon)?;
     }
+    if let Some(names) = &scene.solver.dd.tied_zones {
+        if names.is_empty() {
+            return Err(SceneError::new(
+                "solver.dd.tied_zones",
+                "must name at least one contact zone (D05 4.35: Γc0 of positive measure); \
+                 leave it out to tie every zone",
+            ));
+        }
+        for (k, name) in names.iter().enumerate() {
+            if !scene.contacts.iter().any(|c| c.name == *name) {
+                return Err(SceneError::new(
+                    format!("solver.dd.tied_zones[{k}]"),
+                    format!("no contact zone is named '{name}'"),
+                ));
+            }
+        }
+    }
     Ok(())
 }

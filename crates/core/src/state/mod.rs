@@ -544,7 +544,7 @@ impl StateProblem {
                 multipliers: sol.multipliers.chunks(2).map(|c| [c[0], c[1]]).collect(),
             })
         };
-        let mut dd_options = crate::dd::from_scene::options(&self.scene.solver, elastic.mesh());
+        let mut dd_options = crate::dd::from_scene::options(&self.scene, elastic.mesh());
         let partition = self.dd_partition.get_or_init(|| {
             crate::dd::from_scene::partition(elastic, &self.contact, &self.nominal, &dd_options)
         });
