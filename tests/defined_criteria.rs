@@ -42,11 +42,10 @@ fn with_defined(
     to: [f64; 2],
 ) -> Value {
     let criteria = &mut scene["criteria"];
-    let pieces = criteria["boundary_pieces"]
+    let mut pieces = criteria["boundary_pieces"]
         .as_array()
         .cloned()
         .unwrap_or_default();
-    let mut pieces = pieces;
     pieces.push(json!({"name": "contact piece", "segment": segment, "from": from, "to": to}));
     criteria["boundary_pieces"] = Value::Array(pieces);
     let mut defined: Vec<Value> = STRESS_QUANTITIES
