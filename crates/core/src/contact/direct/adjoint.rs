@@ -43,6 +43,9 @@ const PIVOT_RATIO: f64 = 1e-12;
 /// Relative size below which the free rows do not see a rigid motion (or a form does not read it).
 const UNSEEN_TOL: f64 = 1e-10;
 
+/// A form ℓ = aᵀ du_free + cᵀ dλ: a over the free DOFs, c as (row of B, coefficient).
+pub type CriterionForm = (Vec<f64>, Vec<(usize, f64)>);
+
 /// Forms of the data derivative equal to given forms of du (see the module doc).
 pub struct AdjointForms {
     motions: Vec<RowMotion>,
@@ -91,7 +94,7 @@ impl DirectContact {
         &self,
         factor: &StiffnessFactor,
         state: &ContactPoint,
-        forms: &[(Vec<f64>, Vec<(usize, f64)>)],
+        forms: &[CriterionForm],
         n_fixed: usize,
     ) -> Result<Option<AdjointForms>, WsmError> {
         // A row that touches no free DOF (both nodes prescribed) moves nothing: its multiplier
