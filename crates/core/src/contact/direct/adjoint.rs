@@ -211,7 +211,12 @@ impl DirectContact {
                         .map(|(&q, yq)| factor.c[(q, r)] * yq)
                         .sum();
                     let gy: f64 = (0..k).map(|j| self.g[(j, r)] * y2[j]).sum();
-                    c[f][r] - (bz[f][r] + cy + gy)
+                    // Without a multiplier part the coefficient is as before, bit for bit.
+                    if c[f][r] == 0.0 {
+                        -(bz[f][r] + cy + gy)
+                    } else {
+                        c[f][r] - (bz[f][r] + cy + gy)
+                    }
                 })
                 .collect();
             residual.push(v);
