@@ -12,7 +12,9 @@ use wsm_core::contact::coulomb::TOLERANCE;
 use wsm_core::error::WsmError;
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, SolverUsed, StateProblem};
+use wsm_core::state::{
+    ContactState, Needs, PerCriterion, Solution, SolveOptions, SolverUsed, StateProblem,
+};
 
 fn options(problem: &StateProblem) -> SolveOptions {
     SolveOptions {
@@ -334,7 +336,11 @@ fn dd_equals_direct_with_coulomb_friction() {
 }
 
 /// Criteria at θ (a whole solve).
-fn criteria_at(problem: &StateProblem, params: &[Parameter], theta: &[f64]) -> [Option<f64>; 6] {
+fn criteria_at(
+    problem: &StateProblem,
+    params: &[Parameter],
+    theta: &[f64],
+) -> PerCriterion<Option<f64>> {
     let data = apply(&problem.scene, &problem.nominal, params, theta);
     problem.solve(&data, &options(problem)).unwrap().criteria
 }

@@ -10,7 +10,7 @@ use wsm_core::run::{self, RunControl, Status, WorstRequest};
 use wsm_core::scenario::evaluator::ScenarioEvaluator;
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{parse, BoundaryValue, Criterion, CriterionSpec, Data, Scene};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::state::{Needs, PerCriterion, SolveOptions, StateProblem};
 
 const GAMMA: f64 = 9810.0;
 
@@ -190,7 +190,7 @@ fn sensitivities_at(
     problem: &StateProblem,
     params: &[Parameter],
     theta: &[f64],
-) -> (Vec<[Option<f64>; 6]>, [Option<f64>; 6]) {
+) -> (Vec<PerCriterion<Option<f64>>>, PerCriterion<Option<f64>>) {
     let data = apply(&problem.scene, &problem.nominal, params, theta);
     let stencils: Vec<_> = (0..params.len())
         .map(|j| stencil(&problem.scene, &problem.nominal, params, theta, j))

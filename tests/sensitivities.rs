@@ -10,7 +10,7 @@
 
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{Criterion, Scene};
-use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
+use wsm_core::state::{DerivativeRoute, Needs, PerCriterion, SolveOptions, StateProblem};
 use wsm_study::bench::scaled_scene;
 
 fn options(problem: &StateProblem) -> SolveOptions {
@@ -21,7 +21,11 @@ fn options(problem: &StateProblem) -> SolveOptions {
     }
 }
 
-fn criteria_at(problem: &StateProblem, params: &[Parameter], theta: &[f64]) -> [Option<f64>; 6] {
+fn criteria_at(
+    problem: &StateProblem,
+    params: &[Parameter],
+    theta: &[f64],
+) -> PerCriterion<Option<f64>> {
     let data = apply(&problem.scene, &problem.nominal, params, theta);
     problem.solve(&data, &options(problem)).unwrap().criteria
 }
@@ -91,7 +95,7 @@ fn check(scene: Scene, points: usize, seed: u64) -> Tally {
                 criteria_at(&problem, &params, &moved)
             };
             let fd = |h: f64| {
-                let combine = |terms: &[(f64, [Option<f64>; 6])], scale: f64| {
+                let combine = |terms: &[(f64, PerCriterion<Option<f64>>)], scale: f64| {
                     std::array::from_fn::<_, 6, _>(|i| {
                         terms
                             .iter()

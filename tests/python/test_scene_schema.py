@@ -120,6 +120,10 @@ CASES = {
         True,
     ),
     "a piecewise slip limit": (lambda s: piecewise_slip_limit(s, "max_slope"), True),
+    "a defined criterion searched by its name": (lambda s: defined(s, "mean_von_mises", "von_mises"), True),
+    # Defined criteria the reader refuses by shape.
+    "a defined criterion named like a phi": (lambda s: defined(s, "phi7", "von_mises"), False),
+    "a defined criterion of an unknown quantity": (lambda s: defined(s, "vm", "tresca"), False),
     # Criteria the reader refuses by shape.
     "unknown criterion": (set_in(["search", "criteria"], ["phi7"]), False),
     "blank region": (set_in(["search", "criteria"], ["phi3@ "]), False),
@@ -128,6 +132,13 @@ CASES = {
         False,
     ),
 }
+
+
+def defined(scene, name, quantity):
+    """Define a criterion over the scene's first area and search for it by name."""
+    region = scene["criteria"]["regions"][0]["name"]
+    scene["criteria"]["defined"] = [{"name": name, "region": region, "quantity": quantity}]
+    scene["search"]["criteria"] = [name]
 
 
 @pytest.mark.parametrize("case", sorted(CASES))

@@ -423,6 +423,7 @@ fn quantity_names(case: &Case) -> Vec<String> {
                         .any(|r| r.normal_at.is_some() || r.normal.is_some()),
                     Criterion::Phi4 => !regions.boundary_pieces.is_empty(),
                     Criterion::Phi5 => !regions.regions.is_empty(),
+                    Criterion::Defined => false,
                 };
                 if defined {
                     names.push(c.name().to_string());

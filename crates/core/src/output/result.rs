@@ -11,8 +11,8 @@ use super::contact_profile::{contact_profiles, ContactProfile};
 use super::stress_measures::{principal, von_mises};
 use crate::scene::{Criterion, Data};
 use crate::state::{
-    piece_pressures, region_name, zone_summaries, ContactNode, Solution, SolveReport, StateProblem,
-    ZoneSummary,
+    piece_pressures, region_name, zone_summaries, ContactNode, PerCriterion, Solution, SolveReport,
+    StateProblem, ZoneSummary,
 };
 
 /// Φ1–Φ6 of one solve (`None`: not requested, or the scene has no region for it).
@@ -39,7 +39,7 @@ pub struct CriteriaValues {
 
 impl CriteriaValues {
     /// The values from an array in the order Φ1..Φ6 (`Criterion as usize`), with √Φ5.
-    pub fn new(values: &[Option<f64>; 6]) -> CriteriaValues {
+    pub fn new(values: &PerCriterion<Option<f64>>) -> CriteriaValues {
         CriteriaValues {
             phi1: values[0],
             phi2: values[1],
@@ -51,11 +51,12 @@ impl CriteriaValues {
         }
     }
 
-    /// The value of one criterion.
+    /// The value of one criterion (`None` for the defined criteria, which have no maximum).
     pub fn get(&self, criterion: Criterion) -> Option<f64> {
-        [
-            self.phi1, self.phi2, self.phi3, self.phi4, self.phi5, self.phi6,
-        ][criterion as usize]
+        let values: PerCriterion<Option<f64>> = [
+            self.phi1, self.phi2, self.phi3, self.phi4, self.phi5, self.phi6, None,
+        ];
+        values[criterion as usize]
     }
 }
 
@@ -88,6 +89,9 @@ pub struct SolveSummary {
     pub region_values: BTreeMap<String, BTreeMap<String, f64>>,
     /// Per criterion, the region where it is largest (the region its value comes from).
     pub attained_in: BTreeMap<String, String>,
+    /// The scene's defined criteria (`criteria.defined`) by name \[Pa\] (design §4.2).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub defined_criteria: BTreeMap<String, f64>,
     /// Resultants and open / stick / slip counts per contact zone, in scene order.
     pub contact_zones: Vec<ZoneSummary>,
     /// Mean contact pressure over each criteria boundary piece on a contact zone \[Pa\].
@@ -163,6 +167,14 @@ pub fn summary(problem: &StateProblem, data: &Data, solution: &Solution) -> Solv
             .filter_map(|c| {
                 let region = problem.attaining_region(solution, c)?;
                 Some((c.name().to_string(), region.to_string()))
+            })
+            .collect(),
+        defined_criteria: solution.region_values[Criterion::Defined as usize]
+            .iter()
+            .enumerate()
+            .map(|(r, &v)| {
+                let name = region_name(&problem.criteria, Criterion::Defined, r);
+                (name.to_string(), v)
             })
             .collect(),
         contact_zones: zone_summaries(

@@ -1,8 +1,10 @@
 //! Derived stress measures of the written fields (design §5.6): the symmetric tensor in
 //! ParaView's component order, the von Mises stress and the principal stresses of a
-//! plane-strain stress (τ11, τ22, τ12, τ33), τ33 = σ_zz being the out-of-plane stress.
+//! plane-strain stress (τ11, τ22, τ12, τ33), τ33 = σ_zz being the out-of-plane stress, and the
+//! stress quantities of the defined criteria with their gradients (design §4.2).
 
-use crate::fem::stress::i2_squared;
+use crate::fem::stress::{i2_bilinear, i2_squared};
+use crate::scene::DefinedQuantity;
 
 /// The six components in ParaView's symmetric-tensor order (XX, YY, ZZ, XY, YZ, XZ);
 /// YZ = XZ = 0 in plane strain.
@@ -44,6 +46,61 @@ pub fn principal([s11, s22, s12, s33]: [f64; 4]) -> Principal {
     }
 }
 
+/// The value of a stress quantity of (τ11, τ22, τ12, τ33) \[Pa\] (`None` for a contact
+/// traction, which is no function of the stress).
+pub fn stress_quantity(quantity: DefinedQuantity, stress: [f64; 4]) -> Option<f64> {
+    Some(match quantity {
+        DefinedQuantity::SigmaXx => stress[0],
+        DefinedQuantity::SigmaYy => stress[1],
+        DefinedQuantity::TauXy => stress[2],
+        DefinedQuantity::SigmaZz => stress[3],
+        DefinedQuantity::Sigma1 => principal(stress).sigma1,
+        DefinedQuantity::Sigma2 => principal(stress).sigma2,
+        DefinedQuantity::VonMises => von_mises(stress),
+        DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear => return None,
+    })
+}
+
+/// The gradient of [`stress_quantity`] with respect to (τ11, τ22, τ12, τ33) (design §4.2). With
+/// c, d, R = √(d² + τ12²) of [`principal`]: ∂σ1,2 = (½ ± d/2R, ½ ∓ d/2R, ±τ12/R, 0), and the von
+/// Mises stress s has ∂s = (3/2s) B(τ, ·) with B the bilinear form of I2². Where these are not
+/// differentiable (σ1 = σ2, i.e. R = 0; s = 0) the gradient of the smooth part is taken:
+/// (½, ½, 0, 0) for σ1 and σ2, 0 for s — the one-sided convention of the criteria's kinks.
+/// `None` for a contact traction.
+pub fn stress_quantity_gradient(quantity: DefinedQuantity, stress: [f64; 4]) -> Option<[f64; 4]> {
+    let [s11, s22, s12, _] = stress;
+    let principal_gradient = |sign: f64| {
+        let half_difference = 0.5 * (s11 - s22);
+        let radius = half_difference.hypot(s12);
+        if radius > 0.0 {
+            let a = sign * half_difference / (2.0 * radius);
+            [0.5 + a, 0.5 - a, sign * s12 / radius, 0.0]
+        } else {
+            [0.5, 0.5, 0.0, 0.0]
+        }
+    };
+    Some(match quantity {
+        DefinedQuantity::SigmaXx => [1.0, 0.0, 0.0, 0.0],
+        DefinedQuantity::SigmaYy => [0.0, 1.0, 0.0, 0.0],
+        DefinedQuantity::TauXy => [0.0, 0.0, 1.0, 0.0],
+        DefinedQuantity::SigmaZz => [0.0, 0.0, 0.0, 1.0],
+        DefinedQuantity::Sigma1 => principal_gradient(1.0),
+        DefinedQuantity::Sigma2 => principal_gradient(-1.0),
+        DefinedQuantity::VonMises => {
+            let s = von_mises(stress);
+            if s > 0.0 {
+                std::array::from_fn(|k| {
+                    let unit = std::array::from_fn(|j| f64::from(u8::from(j == k)));
+                    1.5 * i2_bilinear(stress, unit) / s
+                })
+            } else {
+                [0.0; 4]
+            }
+        }
+        DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear => return None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -76,6 +133,46 @@ mod tests {
         // The von Mises stress of the principal stresses is the same.
         let diagonal = [p.sigma1, p.sigma2, 0.0, p.sigma3];
         assert!((von_mises(diagonal) - von_mises(STRESS)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn quantity_gradients_are_central_differences() {
+        let all = [
+            DefinedQuantity::SigmaXx,
+            DefinedQuantity::SigmaYy,
+            DefinedQuantity::TauXy,
+            DefinedQuantity::SigmaZz,
+            DefinedQuantity::Sigma1,
+            DefinedQuantity::Sigma2,
+            DefinedQuantity::VonMises,
+        ];
+        for q in all {
+            let g = stress_quantity_gradient(q, STRESS).unwrap();
+            for k in 0..4 {
+                let h = 1e-4;
+                let at = |t: f64| {
+                    let mut s = STRESS;
+                    s[k] += t;
+                    stress_quantity(q, s).unwrap()
+                };
+                let fd = (at(h) - at(-h)) / (2.0 * h);
+                assert!(
+                    (g[k] - fd).abs() < 1e-8,
+                    "{q:?} component {k}: {} vs {fd}",
+                    g[k]
+                );
+            }
+        }
+        // σ1 = σ2: the smooth part.
+        let round = [3.0, 3.0, 0.0, 1.0];
+        assert_eq!(
+            stress_quantity_gradient(DefinedQuantity::Sigma1, round),
+            Some([0.5, 0.5, 0.0, 0.0])
+        );
+        assert_eq!(
+            stress_quantity_gradient(DefinedQuantity::VonMises, [2.0, 2.0, 0.0, 2.0]),
+            Some([0.0; 4])
+        );
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! Geometry of the criteria Φ1–Φ6 (design §4.2): weights that turn a mesh field into its exact mean
+//! Geometry of the criteria Φ1–Φ6 and the defined criteria (design §4.2): weights that turn a mesh field into its exact mean
 //! over an area G_r or a boundary piece G'_r, and the normals n(X_r).
 //!
 //! An area region is clipped against every triangle of the body holding most of it
@@ -17,7 +17,7 @@ use crate::mesh::geom::{
     signed_area, P,
 };
 use crate::mesh::Mesh;
-use crate::scene::{BoundaryPiece, CriterionRegion, Scene, SceneError};
+use crate::scene::{BoundaryPiece, CriterionRegion, DefinedQuantity, Scene, SceneError};
 
 /// X_r may lie at most this many lengths of the nearest boundary edge away from the boundary.
 const NORMAL_REACH: f64 = 3.0;
@@ -70,6 +70,24 @@ pub struct CriteriaGeometry {
     pub regions: Vec<AreaRegion>,
     /// The boundary pieces G'_r in scene order (`criteria.boundary_pieces`).
     pub pieces: Vec<PieceRegion>,
+    /// The defined criteria in scene order (`criteria.defined`).
+    pub defined: Vec<DefinedRegion>,
+}
+
+/// A defined criterion on the mesh: the mean of `quantity` over an area (`regions[region]`) or,
+/// for a contact traction, over a boundary piece (`pieces[region]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DefinedRegion {
+    /// The criterion's name (`criteria.defined[].name`).
+    pub name: String,
+    /// The area ([`CriteriaGeometry::regions`]) or, for a contact traction, the boundary piece
+    /// ([`CriteriaGeometry::pieces`]).
+    pub region: usize,
+    /// The quantity averaged.
+    pub quantity: DefinedQuantity,
+    /// A contact traction's mean as a form on the contact multipliers, (row, coefficient); set
+    /// by the state problem once the contact pairs are known (empty for a stress quantity).
+    pub multipliers: Vec<(usize, f64)>,
 }
 
 /// Mean of a P1 field: Σ w_i f_i.
@@ -99,7 +117,40 @@ pub fn build(scene: &Scene, mesh: &Mesh) -> Result<CriteriaGeometry, SceneError>
         .enumerate()
         .map(|(r, piece)| piece_region(r, piece, mesh, &boundary))
         .collect::<Result<_, _>>()?;
-    Ok(CriteriaGeometry { regions, pieces })
+    let defined = scene
+        .criteria
+        .defined
+        .iter()
+        .enumerate()
+        .map(|(k, d)| {
+            let criteria = &scene.criteria;
+            let region = if d.quantity.is_contact() {
+                criteria
+                    .boundary_pieces
+                    .iter()
+                    .position(|p| p.name == d.region)
+            } else {
+                criteria.regions.iter().position(|g| g.name == d.region)
+            };
+            let region = region.ok_or_else(|| {
+                SceneError::new(
+                    format!("criteria.defined[{k}].region"),
+                    format!("'{}' is no region of this criterion's kind", d.region),
+                )
+            })?;
+            Ok(DefinedRegion {
+                name: d.name.clone(),
+                region,
+                quantity: d.quantity,
+                multipliers: Vec::new(),
+            })
+        })
+        .collect::<Result<_, SceneError>>()?;
+    Ok(CriteriaGeometry {
+        regions,
+        pieces,
+        defined,
+    })
 }
 
 fn finite_point(p: P, path: impl FnOnce() -> String) -> Result<P, SceneError> {

@@ -14,7 +14,7 @@ use crate::estimate::ladder::scaled;
 use crate::output::pvd::{write_pvd, SeriesEntry};
 use crate::scenario::worst::WorstOutcome;
 use crate::scene::params::parameters;
-use crate::scene::{CriterionSpec, Scene, SceneError};
+use crate::scene::{Criterion, CriterionSpec, Scene, SceneError};
 use crate::state::StateProblem;
 use wsm_search::ObjectiveResult;
 
@@ -85,6 +85,9 @@ impl Scenario {
         let Some(c) = self.criterion() else {
             return self.kind().to_string();
         };
+        if c.criterion == Criterion::Defined {
+            return format!("{}-{}", self.kind(), c.name());
+        }
         let mut stem = format!("{}-{}", self.kind(), c.criterion.name());
         if let Some(region) = &c.region {
             stem.push_str("-at-");

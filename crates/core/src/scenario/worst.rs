@@ -360,6 +360,14 @@ fn name_regions(problem: &StateProblem, params: &[Parameter], criteria: &mut [Cr
         let members = family(&problem.criteria, spec.criterion).len();
         for extremum in [&mut c.worst, &mut c.best] {
             extremum.region = match (&spec.region, &extremum.point) {
+                // A defined criterion's region is the area or piece it averages over.
+                (Some(name), _) if spec.criterion == Criterion::Defined => problem
+                    .scene
+                    .criteria
+                    .defined
+                    .iter()
+                    .find(|d| &d.name == name)
+                    .map(|d| d.region.clone()),
                 (Some(region), _) => Some(region.clone()),
                 (None, Some(_)) if members == 1 => {
                     Some(region_name(&problem.criteria, spec.criterion, 0).to_string())

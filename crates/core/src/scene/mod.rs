@@ -32,12 +32,12 @@ pub use data::{
 pub use dynamics::{AbsorbingLayer, Dynamics, InitialState, Receiver, TimeFunction, TimeScheme};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
-    Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
-    CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec,
-    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, Driven, Hydrostatic, InitialGap,
-    InlineMesh, Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment,
-    SlipLimit, SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
-    MAX_SUBDIVIDE,
+    is_defined_name, Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
+    ContactMethod, CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion,
+    CriterionSpec, DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, DefinedCriterion,
+    DefinedQuantity, Driven, Hydrostatic, InitialGap, InlineMesh, Material, MeshControls, Point,
+    Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings,
+    StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};
 pub use schema::{scene_schema, scene_schema_json, SCENE_SCHEMA_DIALECT};

@@ -594,6 +594,66 @@ pub struct CriteriaRegions {
     /// Boundary pieces G'_r.
     #[serde(default)]
     pub boundary_pieces: Vec<BoundaryPiece>,
+    /// Criteria the user defines (design §4.2): the mean of a stress quantity over one area or
+    /// of a contact traction over one boundary piece, named so that `search.criteria` lists them beside `phi1` … `phi6`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub defined: Vec<DefinedCriterion>,
+}
+
+/// A criterion defined in the scene (design §4.2): the mean of a stress quantity over an area
+/// G_r, or of a contact traction over a boundary piece G'_r on a contact zone; searched like
+/// Φ1–Φ6 under its own name.
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct DefinedCriterion {
+    /// The name `search.criteria` uses: letters, digits and `_`, starting with a letter, not
+    /// `phi` followed by a digit, unique among the defined criteria.
+    #[schemars(regex(pattern = r"^(?![pP][hH][iI][0-9])[A-Za-z][A-Za-z0-9_]*$"))]
+    pub name: String,
+    /// Where the mean is taken: an area (`criteria.regions[].name`) for a stress quantity, a
+    /// boundary piece (`criteria.boundary_pieces[].name`) on a contact zone's segment for a
+    /// contact traction.
+    pub region: String,
+    /// The quantity averaged.
+    pub quantity: DefinedQuantity,
+}
+
+/// The quantity of a defined criterion \[Pa\] (design §4.2, §5.8): a component, principal
+/// stress or the von Mises stress of the plane-strain stress (τ11, τ22, τ12, τ33), averaged over
+/// an area; or a contact traction, averaged over a boundary piece on a contact zone.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DefinedQuantity {
+    /// σxx.
+    SigmaXx,
+    /// σyy.
+    SigmaYy,
+    /// τxy.
+    TauXy,
+    /// σzz = τ33, the out-of-plane stress.
+    SigmaZz,
+    /// The larger in-plane principal stress σ1.
+    Sigma1,
+    /// The smaller in-plane principal stress σ2.
+    Sigma2,
+    /// The von Mises stress √(3/2 τᴰ:τᴰ).
+    VonMises,
+    /// The contact pressure (the normal multiplier per unit length, > 0 in compression), as
+    /// `piece_contact_pressure` reports it.
+    ContactPressure,
+    /// The tangential traction (the tangential multiplier per unit length), as the contact
+    /// profiles report it.
+    ContactShear,
+}
+
+impl DefinedQuantity {
+    /// Whether the quantity is a contact traction (averaged over a boundary piece).
+    pub fn is_contact(self) -> bool {
+        matches!(
+            self,
+            DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear
+        )
+    }
 }
 
 /// An area G_r with the point X_r whose outward normal is used by Φ3 and Φ6.
@@ -667,7 +727,7 @@ pub struct Driven {
     pub factor: f64,
 }
 
-/// The criteria Φ1–Φ6 (FGCS numbering).
+/// The criteria Φ1–Φ6 (FGCS numbering) and the family of the scene's defined criteria.
 #[derive(
     Debug,
     Clone,
@@ -696,6 +756,10 @@ pub enum Criterion {
     Phi5,
     /// Φ6: the largest mean normal compression −n·τ·n over the areas G_r that have a normal \[Pa\].
     Phi6,
+    /// A criterion of `criteria.defined`, always bound to one of them by name (design §4.2);
+    /// written as the user's name, never as this variant.
+    #[serde(skip)]
+    Defined,
 }
 
 impl Criterion {
@@ -709,7 +773,11 @@ impl Criterion {
         Criterion::Phi6,
     ];
 
-    /// The JSON name: `phi1` … `phi6`.
+    /// How many kinds there are: Φ1–Φ6 and [`Criterion::Defined`] (`criterion as usize` indexes
+    /// the per-kind arrays of a solution).
+    pub const COUNT: usize = 7;
+
+    /// The JSON name: `phi1` … `phi6` (`defined` for the family of defined criteria).
     pub fn name(self) -> &'static str {
         match self {
             Criterion::Phi1 => "phi1",
@@ -718,17 +786,18 @@ impl Criterion {
             Criterion::Phi4 => "phi4",
             Criterion::Phi5 => "phi5",
             Criterion::Phi6 => "phi6",
+            Criterion::Defined => "defined",
         }
     }
 
     /// The symbol a user reads: `Φ1` … `Φ6`.
     pub fn symbol(self) -> &'static str {
-        ["Φ1", "Φ2", "Φ3", "Φ4", "Φ5", "Φ6"][self as usize]
+        ["Φ1", "Φ2", "Φ3", "Φ4", "Φ5", "Φ6", "defined"][self as usize]
     }
 
     /// The SI unit of the criterion's value.
     pub fn unit(self) -> &'static str {
-        ["K", "K", "m", "m", "Pa²", "Pa"][self as usize]
+        ["K", "K", "m", "m", "Pa²", "Pa", "Pa"][self as usize]
     }
 
     /// What the criterion measures, in words (design §4.2, FGCS 4.29–4.34).
@@ -741,6 +810,7 @@ impl Criterion {
             "mean squared deviatoric stress intensity I2² = τᴰ:τᴰ (plane-strain τ33 included) \
              over an area G_r",
             "mean normal compression −n·τ·n over an area G_r next to a contact zone",
+            "mean of a stress quantity over an area G_r or of a contact traction over a boundary piece G'_r, defined in the scene",
         ][self as usize]
     }
 
@@ -771,31 +841,46 @@ pub struct CriterionSpec {
 }
 
 impl CriterionSpec {
-    /// The name a user writes: `phi3`, or `phi3@crest` when bound.
+    /// The name a user writes: `phi3`, `phi3@crest` when bound, a defined criterion's own name.
     pub fn name(&self) -> String {
-        match &self.region {
-            Some(r) => format!("{}@{r}", self.criterion.name()),
-            None => self.criterion.name().to_string(),
+        match (&self.region, self.criterion) {
+            (Some(r), Criterion::Defined) => r.clone(),
+            (Some(r), c) => format!("{}@{r}", c.name()),
+            (None, c) => c.name().to_string(),
         }
     }
 
-    /// What a user reads: `Φ3`, or `Φ3@crest` when bound.
+    /// What a user reads: `Φ3`, `Φ3@crest` when bound, a defined criterion's own name.
     pub fn symbol(&self) -> String {
-        match &self.region {
-            Some(r) => format!("{}@{r}", self.criterion.symbol()),
-            None => self.criterion.symbol().to_string(),
+        match (&self.region, self.criterion) {
+            (Some(r), Criterion::Defined) => r.clone(),
+            (Some(r), c) => format!("{}@{r}", c.symbol()),
+            (None, c) => c.symbol().to_string(),
+        }
+    }
+
+    /// A criterion of `criteria.defined`, by its name.
+    pub fn defined(name: &str) -> CriterionSpec {
+        CriterionSpec {
+            criterion: Criterion::Defined,
+            region: Some(name.to_string()),
         }
     }
 
     /// The criterion named `s`: `phi1` … `phi6` (case and surrounding blanks ignored),
-    /// optionally `@region`; the reason when it is not one.
+    /// optionally `@region`, or the name of a defined criterion (letters, digits and `_`,
+    /// starting with a letter; whether the scene defines it is checked with the scene); the
+    /// reason when it is not one.
     pub fn parse(s: &str) -> Result<CriterionSpec, String> {
         let (kind, region) = match s.split_once('@') {
             Some((kind, region)) => (kind, Some(region.trim())),
             None => (s, None),
         };
+        if region.is_none() && Criterion::parse(kind).is_none() && is_defined_name(s.trim()) {
+            return Ok(CriterionSpec::defined(s.trim()));
+        }
         let criterion = Criterion::parse(kind).ok_or_else(|| {
-            format!("unknown criterion '{s}': expected phi1 … phi6, optionally bound to a region as phi3@NAME")
+            format!("unknown criterion '{s}': expected phi1 … phi6, optionally bound to a region as phi3@NAME, or the name of a criterion in criteria.defined")
         })?;
         match region {
             Some("") => Err(format!("'{s}': the region after '@' is empty")),
@@ -805,6 +890,19 @@ impl CriterionSpec {
             }),
         }
     }
+}
+
+/// Whether `name` may name a defined criterion: letters, digits and `_`, starting with a letter,
+/// and not `phi` followed by a digit (those are Φ1–Φ6 and their misspellings).
+pub fn is_defined_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    let lower = name.to_ascii_lowercase();
+    let phi_like = lower
+        .strip_prefix("phi")
+        .is_some_and(|rest| rest.starts_with(|c: char| c.is_ascii_digit()));
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic())
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+        && !phi_like
 }
 
 impl From<Criterion> for CriterionSpec {
@@ -869,10 +967,13 @@ impl utoipa::PartialSchema for CriterionSpec {
     fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
         utoipa::openapi::ObjectBuilder::new()
             .schema_type(utoipa::openapi::schema::Type::String)
-            .pattern(Some("^phi[1-6](@.+)?$"))
+            .pattern(Some(
+                "^(phi[1-6](@.+)?|(?![pP][hH][iI][0-9])[A-Za-z][A-Za-z0-9_]*)$",
+            ))
             .description(Some(
-                "A criterion: `phi1` … `phi6` (the largest mean over its regions), or bound to one \
-                 area or boundary piece as `phi3@NAME` (its mean there). Requests also accept \
+                "A criterion: `phi1` … `phi6` (the largest mean over its regions), bound to one \
+                 area or boundary piece as `phi3@NAME` (its mean there), or the name of a \
+                 criterion in the scene's `criteria.defined`. Requests also accept \
                  `{\"criterion\": \"phi3\", \"region\": \"NAME\"}`.",
             ))
             .examples(["phi5", "phi3@crest"])
@@ -892,14 +993,20 @@ impl JsonSchema for CriterionSpec {
     /// form with the criterion's exact name.
     fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
         schemars::json_schema!({
-            "description": "A criterion: `phi1` … `phi6` (the largest mean over its regions), or \
+            "description": "A criterion: `phi1` … `phi6` (the largest mean over its regions), \
                 bound to one area or boundary piece as `phi3@NAME` or \
-                `{\"criterion\": \"phi3\", \"region\": \"NAME\"}` (its mean there).",
+                `{\"criterion\": \"phi3\", \"region\": \"NAME\"}` (its mean there), or the \
+                name of a criterion in `criteria.defined`.",
             "anyOf": [
                 {
                     "type": "string",
                     "pattern": "^\\s*[pP][hH][iI][1-6]\\s*(@[\\s\\S]*\\S[\\s\\S]*)?$",
                     "examples": ["phi5", "phi3@crest"]
+                },
+                {
+                    "type": "string",
+                    "pattern": "^\\s*(?![pP][hH][iI][0-9])[A-Za-z][A-Za-z0-9_]*\\s*$",
+                    "examples": ["heel_pressure"]
                 },
                 {
                     "type": "object",

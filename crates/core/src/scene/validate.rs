@@ -1096,6 +1096,62 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
             }
         }
     }
+    let mut defined = BTreeSet::new();
+    for (k, d) in scene.criteria.defined.iter().enumerate() {
+        let path = format!("criteria.defined[{k}]");
+        if !crate::scene::is_defined_name(&d.name) {
+            return Err(SceneError::new(
+                format!("{path}.name"),
+                format!(
+                    "'{}' is not a criterion name: letters, digits and '_', starting with a letter, and not phi followed by a digit",
+                    d.name
+                ),
+            ));
+        }
+        if !defined.insert(d.name.as_str()) {
+            return Err(SceneError::new(
+                format!("{path}.name"),
+                format!("the criterion name '{}' is defined twice", d.name),
+            ));
+        }
+        if d.quantity.is_contact() {
+            let piece = scene
+                .criteria
+                .boundary_pieces
+                .iter()
+                .find(|p| p.name == d.region)
+                .ok_or_else(|| {
+                    SceneError::new(
+                        format!("{path}.region"),
+                        format!(
+                            "'{}' is not a boundary piece of criteria.boundary_pieces (a contact traction is averaged over one)",
+                            d.region
+                        ),
+                    )
+                })?;
+            let on_contact = scene
+                .contacts
+                .iter()
+                .any(|c| c.between.contains(&piece.segment));
+            if !on_contact {
+                return Err(SceneError::new(
+                    format!("{path}.region"),
+                    format!(
+                        "boundary piece '{}' lies on segment '{}', which is no contact zone's segment",
+                        d.region, piece.segment
+                    ),
+                ));
+            }
+        } else if !scene.criteria.regions.iter().any(|g| g.name == d.region) {
+            return Err(SceneError::new(
+                format!("{path}.region"),
+                format!(
+                    "'{}' is not an area of criteria.regions (a stress quantity is averaged over one)",
+                    d.region
+                ),
+            ));
+        }
+    }
     Ok(())
 }
 
@@ -1224,7 +1280,21 @@ pub fn check_criteria_list(
             ));
         }
         match &spec.region {
+            Some(name) if c == Criterion::Defined => {
+                if !scene.criteria.defined.iter().any(|d| &d.name == name) {
+                    return Err(SceneError::new(
+                        path,
+                        format!("unknown criterion '{name}': not phi1 … phi6 and not a name in criteria.defined"),
+                    ));
+                }
+            }
             Some(region) => check_bound_region(scene, c, region, &path)?,
+            None if c == Criterion::Defined => {
+                return Err(SceneError::new(
+                    path,
+                    "a defined criterion is named by its own name",
+                ))
+            }
             None => check_region_family(scene, c, &path)?,
         }
     }

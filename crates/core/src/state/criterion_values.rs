@@ -11,11 +11,25 @@
 //! the region value itself for the linear criteria, 2 mean B(τ, dτ) for Φ5 (B the bilinear form
 //! of I2²). The sensitivities apply the forms to tangent fields (forward) or hand them to the
 //! adjoint (design §4.3).
+//!
+//! The defined criteria (`criteria.defined`, [`Criterion::Defined`]) are the family after Φ6: the
+//! k-th member is the mean of a stress quantity q over its area, Σ_e w_e q(τ_e), with the form
+//! Σ_e w_e ∇q(τ_e)·dτ_e (q linear for a component; σ1, σ2 and von Mises linearised at τ_e,
+//! `output::stress_measures::stress_quantity_gradient`), or the mean of a contact traction over a
+//! boundary piece, Σ_i w_i λ_{r(i)} / w_{pair(i)}, a linear form on the multipliers whose
+//! derivative reads dλ. The family has no maximum: each member is
+//! requested by its name, as a criterion bound to it.
 
+use super::solution::{pair_of_node, piece_traction_rows};
+use crate::contact::pairs::ContactGeometry;
 use crate::fem::stress::i2_bilinear;
 use crate::fem::ElementStress;
+use crate::output::stress_measures::{stress_quantity, stress_quantity_gradient};
 use crate::regions::{AreaRegion, CriteriaGeometry};
-use crate::scene::Criterion;
+use crate::scene::{Criterion, DefinedQuantity, SceneError};
+
+/// One entry per kind of criterion (Φ1..Φ6, the defined ones), indexed by `criterion as usize`.
+pub type PerCriterion<T> = [T; Criterion::COUNT];
 
 /// The fields a criterion evaluation can use.
 pub struct Fields<'a> {
@@ -25,10 +39,12 @@ pub struct Fields<'a> {
     pub displacement: Option<&'a [[f64; 2]]>,
     /// Element stresses, for Φ5 and Φ6 (`None`: not solved).
     pub stresses: Option<&'a [ElementStress]>,
+    /// Contact multipliers by row of B, for the defined contact tractions (`None`: not solved).
+    pub multipliers: Option<&'a [f64]>,
 }
 
-/// A linear form on (temperature, displacement, stresses): Σ t_n T_n + Σ a_n·u_n + Σ g_e·τ_e,
-/// with τ_e = (τ11, τ22, τ12, τ33).
+/// A linear form on (temperature, displacement, stresses, multipliers): Σ t_n T_n + Σ a_n·u_n +
+/// Σ g_e·τ_e + Σ c_r λ_r, with τ_e = (τ11, τ22, τ12, τ33) and λ_r the contact multiplier of row r.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct LinearForm {
     /// (node, coefficient of T_node).
@@ -37,6 +53,8 @@ pub struct LinearForm {
     pub displacement: Vec<(usize, [f64; 2])>,
     /// (element, coefficients of its stress components).
     pub stresses: Vec<(usize, [f64; 4])>,
+    /// (row of B, coefficient of its contact multiplier).
+    pub multipliers: Vec<(usize, f64)>,
 }
 
 impl LinearForm {
@@ -57,12 +75,15 @@ impl LinearForm {
                 .map(|&(e, g)| (0..4).map(|k| g[k] * s[e].stress[k]).sum::<f64>())
                 .sum()
         });
-        temperature + displacement + stresses
+        let multipliers = fields.multipliers.map_or(0.0, |l| {
+            self.multipliers.iter().map(|&(r, c)| c * l[r]).sum()
+        });
+        temperature + displacement + stresses + multipliers
     }
 
-    /// Whether the form reads the displacement or the stresses.
+    /// Whether the form reads the displacement, the stresses or the contact multipliers.
     pub fn is_mechanical(&self) -> bool {
-        !self.displacement.is_empty() || !self.stresses.is_empty()
+        !self.displacement.is_empty() || !self.stresses.is_empty() || !self.multipliers.is_empty()
     }
 }
 
@@ -86,6 +107,7 @@ pub fn family(geometry: &CriteriaGeometry, criterion: Criterion) -> Vec<usize> {
         Criterion::Phi3 => areas(&|r| r.normal.is_some()),
         Criterion::Phi6 => areas(&|r| r.normal.is_some() && r.adjacent_to_contact),
         Criterion::Phi2 | Criterion::Phi4 => (0..geometry.pieces.len()).collect(),
+        Criterion::Defined => (0..geometry.defined.len()).collect(),
     }
 }
 
@@ -94,15 +116,16 @@ pub fn region_name(geometry: &CriteriaGeometry, criterion: Criterion, index: usi
     let member = family(geometry, criterion)[index];
     match criterion {
         Criterion::Phi2 | Criterion::Phi4 => &geometry.pieces[member].name,
+        Criterion::Defined => &geometry.defined[member].name,
         _ => &geometry.regions[member].name,
     }
 }
 
-/// The derivative forms of the region values of Φ1..Φ6 (empty where the field or a suitable
-/// region is missing), per Φ in the order of its [`family`]. The forms of Φ5 linearise I2² at
-/// `fields.stresses`.
-pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<LinearForm>; 6] {
-    let mut out: [Vec<LinearForm>; 6] = Default::default();
+/// The derivative forms of the region values of Φ1..Φ6 and the defined criteria (empty where the
+/// field or a suitable region is missing), per kind in the order of its [`family`]. The forms of
+/// Φ5 and of the nonlinear defined quantities linearise them at `fields.stresses`.
+pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> PerCriterion<Vec<LinearForm>> {
+    let mut out: PerCriterion<Vec<LinearForm>> = Default::default();
     let areas = |c: Criterion| -> Vec<&AreaRegion> {
         family(geometry, c)
             .into_iter()
@@ -173,8 +196,59 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<Linear
                 })
             })
             .collect();
+        out[Criterion::Defined as usize] = geometry
+            .defined
+            .iter()
+            .map(|d| {
+                if d.quantity.is_contact() {
+                    return LinearForm {
+                        multipliers: d.multipliers.clone(),
+                        ..LinearForm::default()
+                    };
+                }
+                LinearForm {
+                    stresses: geometry.regions[d.region]
+                        .element_weights
+                        .iter()
+                        .filter_map(|&(e, w)| {
+                            let g = stress_quantity_gradient(d.quantity, s[e].stress)?;
+                            Some((e, g.map(|g| w * g)))
+                        })
+                        .collect(),
+                    ..LinearForm::default()
+                }
+            })
+            .collect();
     }
     out
+}
+
+/// Sets the multiplier forms of the defined contact tractions (`super::solution::piece_traction_rows`)
+/// once the contact pairs are known; an error naming the criterion when a node of its piece is
+/// in no contact pair (e.g. a piece on a mortar master segment).
+pub(crate) fn attach_contact_rows(
+    geometry: &mut CriteriaGeometry,
+    contact: &ContactGeometry,
+    n_nodes: usize,
+) -> Result<(), SceneError> {
+    let pair = pair_of_node(contact, n_nodes);
+    for (k, d) in geometry.defined.iter_mut().enumerate() {
+        if !d.quantity.is_contact() {
+            continue;
+        }
+        let piece = &geometry.pieces[d.region];
+        let pressure = d.quantity == DefinedQuantity::ContactPressure;
+        d.multipliers = piece_traction_rows(piece, contact, &pair, pressure).ok_or_else(|| {
+            SceneError::new(
+                format!("criteria.defined[{k}].region"),
+                format!(
+                    "boundary piece '{}' has nodes in no contact pair (a piece on a mortar zone's master side has no multipliers)",
+                    piece.name
+                ),
+            )
+        })?;
+    }
+    Ok(())
 }
 
 fn max_of(values: &[f64]) -> Option<f64> {
@@ -184,9 +258,13 @@ fn max_of(values: &[f64]) -> Option<f64> {
 }
 
 /// Φ1..Φ6 (None where the field or a suitable region is missing) from the region values of
-/// [`per_region`]: the largest of each.
-pub fn maxima(region_values: &[Vec<f64>; 6]) -> [Option<f64>; 6] {
-    region_values.each_ref().map(|values| max_of(values))
+/// [`per_region`]: the largest of each; `None` for the defined criteria, which have no maximum.
+pub fn maxima(region_values: &PerCriterion<Vec<f64>>) -> PerCriterion<Option<f64>> {
+    std::array::from_fn(|i| {
+        (i != Criterion::Defined as usize)
+            .then(|| max_of(&region_values[i]))
+            .flatten()
+    })
 }
 
 /// The index (in its [`family`]) of the region whose value is the largest, the first of ties.
@@ -196,8 +274,9 @@ pub fn attaining(values: &[f64]) -> Option<usize> {
 }
 
 /// The region values behind each Φ_i (the maximum over them is Φ_i): the linear criteria are
-/// their forms applied to the fields, Φ5 the mean of I2².
-pub fn per_region(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<f64>; 6] {
+/// their forms applied to the fields, Φ5 the mean of I2², a defined criterion the mean of its
+/// stress quantity.
+pub fn per_region(geometry: &CriteriaGeometry, fields: &Fields) -> PerCriterion<Vec<f64>> {
     per_region_with(geometry, fields, &region_forms(geometry, fields))
 }
 
@@ -205,9 +284,25 @@ pub fn per_region(geometry: &CriteriaGeometry, fields: &Fields) -> [Vec<f64>; 6]
 pub fn per_region_with(
     geometry: &CriteriaGeometry,
     fields: &Fields,
-    forms: &[Vec<LinearForm>; 6],
-) -> [Vec<f64>; 6] {
+    forms: &PerCriterion<Vec<LinearForm>>,
+) -> PerCriterion<Vec<f64>> {
+    const DEFINED: usize = Criterion::Defined as usize;
     std::array::from_fn(|i| match (i, fields.stresses) {
+        (DEFINED, Some(s)) => geometry
+            .defined
+            .iter()
+            .zip(&forms[DEFINED])
+            .map(|(d, form)| {
+                if d.quantity.is_contact() {
+                    return form.apply(fields);
+                }
+                geometry.regions[d.region]
+                    .element_weights
+                    .iter()
+                    .filter_map(|&(e, w)| Some(w * stress_quantity(d.quantity, s[e].stress)?))
+                    .sum()
+            })
+            .collect(),
         (4, Some(s)) => geometry
             .regions
             .iter()

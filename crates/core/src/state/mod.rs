@@ -14,7 +14,9 @@ mod criterion_values;
 mod sensitivity;
 mod solution;
 
-pub use criterion_values::{attaining, family, maxima, per_region, region_name, Fields};
+pub use criterion_values::{
+    attaining, family, maxima, per_region, region_name, Fields, PerCriterion,
+};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
@@ -54,7 +56,7 @@ pub struct Needs {
     pub elastic: bool,
     /// Per Φ, the regions (indices in its [`family`]) that criteria bound to one region read:
     /// their derivatives are computed beside those of the regions tying for the maximum.
-    pub bound_regions: [Vec<usize>; 6],
+    pub bound_regions: PerCriterion<Vec<usize>>,
 }
 
 impl Needs {
@@ -176,13 +178,18 @@ impl StateProblem {
     /// Build on a given mesh.
     pub fn with_mesh(scene: Scene, mesh: Mesh, start: Instant) -> Result<StateProblem, WsmError> {
         let nominal = Data::from_scene(&scene);
-        let criteria = crate::regions::build(&scene, &mesh)?;
+        let mut criteria = crate::regions::build(&scene, &mesh)?;
         let heat = match scene.thermal {
             Some(_) => Some(HeatProblem::new(&mesh, &nominal)?),
             None => None,
         };
         let elastic = ElasticProblem::new(&mesh, &nominal)?;
         let contact = DirectContact::new(&scene, &elastic)?;
+        criterion_values::attach_contact_rows(
+            &mut criteria,
+            &contact.geometry,
+            elastic.mesh().nodes.len(),
+        )?;
         let body_factors = contact
             .bodies()
             .iter()
@@ -332,6 +339,7 @@ impl StateProblem {
                     .needs
                     .elastic
                     .then_some(solution.stresses.as_slice()),
+                multipliers: elastic.as_ref().map(|e| e.contact.multipliers.as_slice()),
             },
         );
         solution.criteria = maxima(&solution.region_values);

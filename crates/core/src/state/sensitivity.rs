@@ -21,7 +21,7 @@
 //! The DD solver's state is differentiated with the direct solver's factor and C (the same
 //! formulas on the DD multipliers), which costs one direct factorisation per stiffness.
 
-use super::criterion_values::{per_region_with, region_forms, Fields, LinearForm};
+use super::criterion_values::{per_region_with, region_forms, Fields, LinearForm, PerCriterion};
 use super::{thermal_key, StateProblem};
 use crate::contact::direct::{
     AdjointForms, ContactPoint, ContactSolution, DataDerivative, StiffnessFactor,
@@ -29,19 +29,20 @@ use crate::contact::direct::{
 use crate::error::WsmError;
 use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients};
 use crate::scene::params::Stencil;
-use crate::scene::Data;
+use crate::scene::{Criterion, Data};
 pub use wsm_search::OneSided;
 
 /// Relative distance to the maximum within which a region ties with the maximising one.
 const TIE_TOL: f64 = 1e-12;
 
-/// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed).
-pub type Sensitivities = Vec<[Option<OneSided>; 6]>;
+/// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed; always
+/// None for the defined criteria, which have no maximum).
+pub type Sensitivities = Vec<PerCriterion<Option<OneSided>>>;
 
 /// Per parameter, per Φ, per region of its family, the one-sided derivative of the region's value
 /// — for the regions that tie for the maximum and those read by criteria bound to one region
 /// (`None` for the others).
-pub type RegionSensitivities = Vec<[Vec<Option<OneSided>>; 6]>;
+pub type RegionSensitivities = Vec<PerCriterion<Vec<Option<OneSided>>>>;
 
 /// How the derivatives of the criteria are taken (design §4.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,7 +54,7 @@ pub enum DerivativeRoute {
 }
 
 /// The derivatives of the region values of Φ1..Φ6 along +θ_j (right) and −θ_j, negated (left).
-type OneSidedRegions = ([Vec<f64>; 6], [Vec<f64>; 6]);
+type OneSidedRegions = (PerCriterion<Vec<f64>>, PerCriterion<Vec<f64>>);
 
 /// The state a sensitivity is taken at.
 pub(super) struct SolvedState<'a> {
@@ -103,7 +104,7 @@ impl ElasticDerivative {
 struct AdjointCriteria {
     contact: AdjointForms,
     /// Regions per criterion.
-    shape: [usize; 6],
+    shape: PerCriterion<usize>,
     /// (criterion, region) of each form.
     regions: Vec<(usize, usize)>,
     /// Per form, its index in `contact` when it reads the displacement or the stresses.
@@ -116,9 +117,9 @@ struct AdjointCriteria {
 impl AdjointCriteria {
     /// The derivatives of the region values along the data derivative `part` with the
     /// temperature derivative `dt` (0 for the regions not needed).
-    fn along(&self, part: &ElasticDerivative, dt: Option<&[f64]>) -> [Vec<f64>; 6] {
+    fn along(&self, part: &ElasticDerivative, dt: Option<&[f64]>) -> PerCriterion<Vec<f64>> {
         let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        let mut out: [Vec<f64>; 6] = self.shape.map(|n| vec![0.0; n]);
+        let mut out: PerCriterion<Vec<f64>> = self.shape.map(|n| vec![0.0; n]);
         for (f, &(i, r)) in self.regions.iter().enumerate() {
             let mut value = dot(&self.fixed[f], &part.fixed);
             if let Some(c) = self.mechanical[f] {
@@ -144,6 +145,7 @@ struct Tangent {
     temperature: Option<Vec<f64>>,
     displacement: Option<Vec<[f64; 2]>>,
     stresses: Option<Vec<ElementStress>>,
+    multipliers: Option<Vec<f64>>,
 }
 
 impl Tangent {
@@ -152,6 +154,7 @@ impl Tangent {
             temperature: self.temperature.as_deref(),
             displacement: self.displacement.as_deref(),
             stresses: self.stresses.as_deref(),
+            multipliers: self.multipliers.as_deref(),
         }
     }
 }
@@ -165,17 +168,28 @@ impl StateProblem {
         state: &SolvedState,
         stencils: &[Stencil],
         route: DerivativeRoute,
-        bound: &[Vec<usize>; 6],
+        bound: &PerCriterion<Vec<usize>>,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
         let fields = Fields {
             temperature: state.temperature,
             displacement: state.elastic.as_ref().map(|e| e.displacement),
             stresses: state.elastic.as_ref().map(|e| e.stresses),
+            multipliers: state
+                .elastic
+                .as_ref()
+                .map(|e| e.contact.multipliers.as_slice()),
         };
         let forms = region_forms(&self.criteria, &fields);
         let values = per_region_with(&self.criteria, &fields, &forms);
-        let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
-        let needed: [Vec<bool>; 6] = std::array::from_fn(|i| {
+        // The defined criteria have no maximum: only the bound ones are differentiated.
+        let tied: PerCriterion<Vec<bool>> = std::array::from_fn(|i| {
+            if i == Criterion::Defined as usize {
+                vec![false; values[i].len()]
+            } else {
+                tied_regions(&values[i])
+            }
+        });
+        let needed: PerCriterion<Vec<bool>> = std::array::from_fn(|i| {
             let mut needed = tied[i].clone();
             for &r in &bound[i] {
                 if let Some(n) = needed.get_mut(r) {
@@ -203,6 +217,7 @@ impl StateProblem {
                         temperature: dt.as_deref(),
                         displacement: None,
                         stresses: None,
+                        multipliers: None,
                     };
                     let right = apply_forms(&forms, &tangent);
                     *slot = Some((right.clone(), right));
@@ -276,7 +291,11 @@ impl StateProblem {
         let sensitivities = derivatives
             .iter()
             .map(|(right, left)| {
-                std::array::from_fn(|i| one_sided(&values[i], &tied[i], &right[i], &left[i]))
+                std::array::from_fn(|i| {
+                    (i != Criterion::Defined as usize)
+                        .then(|| one_sided(&values[i], &tied[i], &right[i], &left[i]))
+                        .flatten()
+                })
             })
             .collect();
         let regions = derivatives
@@ -305,8 +324,8 @@ impl StateProblem {
         state: &SolvedState,
         el: &ElasticState,
         point: &ContactPoint,
-        forms: &[Vec<LinearForm>; 6],
-        needed: &[Vec<bool>; 6],
+        forms: &PerCriterion<Vec<LinearForm>>,
+        needed: &PerCriterion<Vec<bool>>,
     ) -> Result<Option<AdjointCriteria>, WsmError> {
         let elastic = &self.elastic;
         let nodes = elastic.mesh().nodes.len();
@@ -340,7 +359,7 @@ impl StateProblem {
                 regions.push((i, r));
                 mechanical.push(form.is_mechanical().then_some(free_forms.len()));
                 if form.is_mechanical() {
-                    free_forms.push(a_free);
+                    free_forms.push((a_free, form.multipliers.clone()));
                 }
                 fixed.push(a_fixed);
                 temperature.push(a_t);
@@ -381,28 +400,32 @@ impl StateProblem {
             .zip(d_temperatures)
             .zip(tangents)
             .map(|((part, d_temperature), tangent)| {
-                let fields = |du_free: &[f64], sign: f64| -> Result<Tangent, WsmError> {
-                    let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
-                    let du = elastic.dofs().expand(du_free, &signed(&part.fixed));
-                    let dt = d_temperature.map(signed);
-                    let mut stresses = elastic.stress_increments(state.data, &du, dt.as_deref())?;
-                    if let Some(stress_part) = &part.stress_part {
-                        for (s, p) in stresses.iter_mut().zip(stress_part) {
-                            for (sc, pc) in s.stress.iter_mut().zip(p) {
-                                *sc += sign * pc;
+                let fields =
+                    |du_free: &[f64], dlambda: &[f64], sign: f64| -> Result<Tangent, WsmError> {
+                        let signed = |v: &[f64]| v.iter().map(|x| sign * x).collect::<Vec<f64>>();
+                        let du = elastic.dofs().expand(du_free, &signed(&part.fixed));
+                        let dt = d_temperature.map(signed);
+                        let mut stresses =
+                            elastic.stress_increments(state.data, &du, dt.as_deref())?;
+                        if let Some(stress_part) = &part.stress_part {
+                            for (s, p) in stresses.iter_mut().zip(stress_part) {
+                                for (sc, pc) in s.stress.iter_mut().zip(p) {
+                                    *sc += sign * pc;
+                                }
                             }
                         }
-                    }
-                    Ok(Tangent {
-                        temperature: dt,
-                        displacement: Some(du),
-                        stresses: Some(stresses),
-                    })
-                };
-                let plus = fields(&tangent.plus, 1.0)?;
-                let minus = match &tangent.minus {
-                    Some(du) => Some(fields(du, -1.0)?),
-                    None => None,
+                        Ok(Tangent {
+                            temperature: dt,
+                            displacement: Some(du),
+                            stresses: Some(stresses),
+                            multipliers: Some(dlambda.to_vec()),
+                        })
+                    };
+                let plus = fields(&tangent.plus, &tangent.plus_multipliers, 1.0)?;
+                let minus = match (&tangent.minus, &tangent.minus_multipliers) {
+                    (Some(du), Some(dlambda)) => Some(fields(du, dlambda, -1.0)?),
+                    (Some(du), None) => Some(fields(du, &[], -1.0)?),
+                    (None, _) => None,
                 };
                 Ok((plus, minus))
             })
@@ -580,7 +603,7 @@ fn contact_point<'a>(
 }
 
 /// The region derivatives of Φ1..Φ6: the forms applied to the tangent fields.
-fn apply_forms(forms: &[Vec<LinearForm>; 6], tangent: &Fields) -> [Vec<f64>; 6] {
+fn apply_forms(forms: &PerCriterion<Vec<LinearForm>>, tangent: &Fields) -> PerCriterion<Vec<f64>> {
     forms
         .each_ref()
         .map(|f| f.iter().map(|form| form.apply(tangent)).collect())

@@ -238,10 +238,10 @@ pub struct Solution {
     pub warm_start: Option<WarmStart>,
     /// Φ1..Φ6 (None when not requested or not defined for the scene): the largest of each Φ's
     /// `region_values`.
-    pub criteria: [Option<f64>; 6],
+    pub criteria: super::PerCriterion<Option<f64>>,
     /// Per Φ, the value of each region of its family (`state::family`; empty where Φ is not
     /// defined or its field was not solved).
-    pub region_values: [Vec<f64>; 6],
+    pub region_values: super::PerCriterion<Vec<f64>>,
     /// Per requested stencil (parameter), the one-sided derivatives of Φ1..Φ6
     /// ([`StateProblem::solve_with_sensitivities`]; empty when none were requested or they
     /// could not be computed, with a warning).
@@ -427,6 +427,43 @@ pub fn zone_summaries(
         .collect()
 }
 
+/// The contact pair of each of the `n_nodes` mesh nodes (the last pair that lists it; `None` off
+/// the contact zones).
+pub(crate) fn pair_of_node(geometry: &ContactGeometry, n_nodes: usize) -> Vec<Option<usize>> {
+    let mut pair = vec![None; n_nodes];
+    for (m, p) in geometry.pairs.iter().enumerate() {
+        for node in p.nodes {
+            pair[node] = Some(m);
+        }
+    }
+    pair
+}
+
+/// The mean of a contact traction over a boundary piece as a form on the multipliers: (row,
+/// coefficient) with the traction λ_row / w of [`contact_results`] (`pressure` the normal rows,
+/// else the tangential ones) and the piece's P1 trace weights, the form of
+/// [`piece_pressures`]. `None` when a node of the piece is in no contact pair.
+pub(crate) fn piece_traction_rows(
+    piece: &crate::regions::PieceRegion,
+    geometry: &ContactGeometry,
+    pair: &[Option<usize>],
+    pressure: bool,
+) -> Option<Vec<(usize, f64)>> {
+    piece
+        .node_weights
+        .iter()
+        .map(|&(i, w)| {
+            let m = pair[i]?;
+            let row = if pressure {
+                normal_row(m)
+            } else {
+                tangential_row(m)
+            };
+            Some((row, w / geometry.pairs[m].weight.max(f64::MIN_POSITIVE)))
+        })
+        .collect()
+}
+
 /// Mean contact pressure over each boundary piece G'_r that lies on a contact segment (the P1
 /// trace of the nodal pressures; design §4.2, the contact-pressure form of Φ6). `None` for pieces
 /// off the contact zones.
@@ -436,12 +473,10 @@ pub fn piece_pressures(
     nodes: &[ContactNode],
     n_nodes: usize,
 ) -> Vec<(String, Option<f64>)> {
-    let mut pressure = vec![None; n_nodes];
-    for (c, p) in nodes.iter().zip(&geometry.pairs) {
-        for node in p.nodes {
-            pressure[node] = Some(c.pressure);
-        }
-    }
+    let pressure: Vec<Option<f64>> = pair_of_node(geometry, n_nodes)
+        .into_iter()
+        .map(|m| m.and_then(|m| nodes.get(m)).map(|c| c.pressure))
+        .collect();
     pieces
         .iter()
         .map(|piece| {

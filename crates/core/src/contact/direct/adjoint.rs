@@ -20,6 +20,9 @@
 //!   ℓ(du) = (z + w + R y₂)ᵀ b + y₁ᵀ (B_d du_d)_F − (B z + C y₁ + Gᵀ y₂)_Aᵀ dλ_A.
 //! ```
 //!
+//! A form that also reads the multipliers, ℓ = aᵀdu + cᵀdλ (the defined contact-traction
+//! criteria, design §4.2), has s = [c_F − (B z)_F; Rᵀa'] and adds c_A to the coefficients of dλ_A.
+//!
 //! z and w of all forms are one multi-right-hand-side solve each. Where the state is only
 //! one-sided differentiable (weakly active rows, or pinched rows whose bounds move apart along a
 //! direction), and on Coulomb zones (slip rows coupled to the normal ones), the forward tangent
@@ -39,6 +42,9 @@ use crate::fem::rigid::remove_components;
 const PIVOT_RATIO: f64 = 1e-12;
 /// Relative size below which the free rows do not see a rigid motion (or a form does not read it).
 const UNSEEN_TOL: f64 = 1e-10;
+
+/// A form ℓ = aᵀ du_free + cᵀ dλ: a over the free DOFs, c as (row of B, coefficient).
+pub type CriterionForm = (Vec<f64>, Vec<(usize, f64)>);
 
 /// Forms of the data derivative equal to given forms of du (see the module doc).
 pub struct AdjointForms {
@@ -79,14 +85,16 @@ impl AdjointForms {
 }
 
 impl DirectContact {
-    /// The adjoint forms of `forms` (each a vector over the free DOFs: ℓ(du) = aᵀ du_free) at the
-    /// converged contact state (`n_fixed` prescribed DOFs), or `None` where the state has weakly
-    /// active rows or M is numerically singular.
+    /// The adjoint forms of `forms` (each a vector over the free DOFs and a sparse vector over
+    /// the rows of B: ℓ = aᵀ du_free + cᵀ dλ) at the converged contact state (`n_fixed`
+    /// prescribed DOFs), or `None` where the state has weakly active rows or M is numerically
+    /// singular. The multiplier part adds c_F to the free rows' adjoint load s and c_A to the
+    /// coefficients of the bound derivatives the other rows follow (module doc).
     pub fn adjoint(
         &self,
         factor: &StiffnessFactor,
         state: &ContactPoint,
-        forms: &[Vec<f64>],
+        forms: &[CriterionForm],
         n_fixed: usize,
     ) -> Result<Option<AdjointForms>, WsmError> {
         // A row that touches no free DOF (both nodes prescribed) moves nothing: its multiplier
@@ -129,8 +137,19 @@ impl DirectContact {
         let free_motions = self
             .kernel
             .free_motions(&self.geometry, state.lower, state.upper)?;
+        // The multiplier parts c, dense over the rows.
+        let c: Vec<Vec<f64>> = forms
+            .iter()
+            .map(|(_, part)| {
+                let mut c = vec![0.0; motions.len()];
+                for &(r, v) in part {
+                    c[r] += v;
+                }
+                c
+            })
+            .collect();
         // z = P K⁺ P a' for all forms.
-        let mut a_projected: Vec<Vec<f64>> = forms.to_vec();
+        let mut a_projected: Vec<Vec<f64>> = forms.iter().map(|(a, _)| a.clone()).collect();
         for a in &mut a_projected {
             remove_components(free_motions.as_ref(), a);
         }
@@ -141,7 +160,13 @@ impl DirectContact {
             .iter()
             .map(|z| rows.iter().map(|row| row.dot(z)).collect())
             .collect();
-        let Some(y) = self.solve_reduced_transpose(factor, &free_rows, &bz, &a_projected)? else {
+        // s₁ = −(B z)_F + c_F: the load of the free rows' adjoint, with the form's own dλ_F.
+        let load: Vec<Vec<f64>> = bz
+            .iter()
+            .zip(&c)
+            .map(|(bz, c)| bz.iter().zip(c).map(|(b, c)| b - c).collect())
+            .collect();
+        let Some(y) = self.solve_reduced_transpose(factor, &free_rows, &load, &a_projected)? else {
             return Ok(None);
         };
         // w = P K⁺ P B_Fᵀ y₁ for all forms.
@@ -186,7 +211,12 @@ impl DirectContact {
                         .map(|(&q, yq)| factor.c[(q, r)] * yq)
                         .sum();
                     let gy: f64 = (0..k).map(|j| self.g[(j, r)] * y2[j]).sum();
-                    -(bz[f][r] + cy + gy)
+                    // Without a multiplier part the coefficient is as before, bit for bit.
+                    if c[f][r] == 0.0 {
+                        -(bz[f][r] + cy + gy)
+                    } else {
+                        c[f][r] - (bz[f][r] + cy + gy)
+                    }
                 })
                 .collect();
             residual.push(v);
@@ -201,7 +231,7 @@ impl DirectContact {
         }))
     }
 
-    /// y = M⁻ᵀ s per form, s = [−(B z)_F; Rᵀa'], with M = [C_FF −G_Fᵀ; G_F 0] scaled by
+    /// y = M⁻ᵀ s per form, s = [−bz_F; Rᵀa'] (`bz` = B z − c, c the form's multiplier part), with M = [C_FF −G_Fᵀ; G_F 0] scaled by
     /// D = diag(C_ii^(−1/2) on F, 1/‖row of G_F D‖ on the equalities); `None` when numerically
     /// singular. An equality that no free row sees (a rigid motion held by rows at their bounds
     /// only, or by none) constrains the data, not the multipliers: it is dropped with y₂ = 0,

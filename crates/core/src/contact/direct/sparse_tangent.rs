@@ -90,25 +90,33 @@ impl DirectContact {
                 .map(|o| TangentDisplacement {
                     plus: normal_form(o.u),
                     minus: None,
+                    plus_multipliers: o.multipliers,
+                    minus_multipliers: None,
                 })
                 .collect());
         }
-        let tangent = |dd: &DataDerivative, sign: f64| -> Result<Vec<f64>, WsmError> {
+        let tangent = |dd: &DataDerivative, sign: f64| -> Result<(Vec<f64>, Vec<f64>), WsmError> {
             let d = data(dd, sign);
             let outcome = sparse::solve(system, &self.tangent_problem(factor, &d), None, Par::Seq)
                 .map_err(explain)?;
-            Ok(normal_form(outcome.u))
+            Ok((normal_form(outcome.u), outcome.multipliers))
         };
         directions
             .iter()
             .map(|dd| {
-                let plus = tangent(dd, 1.0)?;
-                let minus = if weak(dd) {
-                    Some(tangent(dd, -1.0)?)
+                let (plus, plus_multipliers) = tangent(dd, 1.0)?;
+                let (minus, minus_multipliers) = if weak(dd) {
+                    let (u, l) = tangent(dd, -1.0)?;
+                    (Some(u), Some(l))
                 } else {
-                    None
+                    (None, None)
                 };
-                Ok(TangentDisplacement { plus, minus })
+                Ok(TangentDisplacement {
+                    plus,
+                    minus,
+                    plus_multipliers,
+                    minus_multipliers,
+                })
             })
             .collect()
     }

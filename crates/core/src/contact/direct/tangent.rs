@@ -130,6 +130,10 @@ pub struct TangentDisplacement {
     pub plus: Vec<f64>,
     /// du along −ε (the change per unit decrease of the parameter); `None` when it is −`plus`.
     pub minus: Option<Vec<f64>>,
+    /// dλ along +ε, by row of B.
+    pub plus_multipliers: Vec<f64>,
+    /// dλ along −ε, with `minus`.
+    pub minus_multipliers: Option<Vec<f64>>,
 }
 
 impl DirectContact {
@@ -201,20 +205,29 @@ impl DirectContact {
             .collect::<Result<_, _>>()?;
         let plus = recover(&plus_states);
         plus.into_iter()
+            .zip(plus_states)
             .enumerate()
-            .map(|(j, plus)| {
+            .map(|(j, (plus, [_, plus_multipliers, _]))| {
                 let dd = &directions[j];
                 let weak = motions.iter().enumerate().any(|(r, m)| match m {
                     RowMotion::WeakLower | RowMotion::WeakUpper => true,
                     RowMotion::Pinched => dd.lower[r] != dd.upper[r],
                     _ => false,
                 });
-                let minus = if weak {
-                    recover(&[multipliers(j, -1.0)?]).pop()
+                let (minus, minus_multipliers) = if weak {
+                    let state = multipliers(j, -1.0)?;
+                    let minus = recover(std::slice::from_ref(&state)).pop();
+                    let [_, dlambda, _] = state;
+                    (minus, Some(dlambda))
                 } else {
-                    None
+                    (None, None)
                 };
-                Ok(TangentDisplacement { plus, minus })
+                Ok(TangentDisplacement {
+                    plus,
+                    minus,
+                    plus_multipliers,
+                    minus_multipliers,
+                })
             })
             .collect()
     }

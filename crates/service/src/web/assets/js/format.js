@@ -76,7 +76,8 @@ export function criterionLabel(name) {
 /** What a criterion measures and its unit, [what, unit] (bound to one region: over that one). */
 export function criterionInfo(name) {
   const [kind, region] = String(name).split("@");
-  const [what, unit] = CRITERION_INFO[kind] || [kind, ""];
+  // A name that is no Φ is a criterion defined in the scene (`criteria.defined`), in Pa.
+  const [what, unit] = CRITERION_INFO[kind] || [`${kind}: a criterion defined in the scene`, "Pa"];
   return region === undefined ? [what, unit] : [`${what.replace(/ over a (region|boundary piece)$/, "")} over '${region}'`, unit];
 }
 
