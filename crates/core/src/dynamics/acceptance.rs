@@ -459,7 +459,7 @@ fn the_qp_solver_gives_the_pdas_run() {
     let mut qp = scene.clone();
     qp["dynamics"]["contact_solver"] = json!("qp");
     let qp = run(&qp);
-    assert_eq!(qp.history.report.qp_iterations > 0, true);
+    assert!(qp.history.report.qp_iterations > 0);
     let (a, b) = (
         &pdas.history.contact_zones["impact"].normal_force,
         &qp.history.contact_zones["impact"].normal_force,

@@ -21,8 +21,17 @@ pub fn initial_velocity(scene: &Scene, mesh: &Mesh, dofs: &DofMap) -> Vec<f64> {
     dofs.restrict(&global).0
 }
 
-/// The point loads located in the mesh: triangle, barycentric weights, force, time function.
-pub struct PointLoads(Vec<([usize; 3], [f64; 3], [f64; 2], Option<TimeFunction>)>);
+/// One point load located in the mesh.
+struct Located {
+    /// The triangle holding the point and the point's barycentric coordinates in it.
+    nodes: [usize; 3],
+    weights: [f64; 3],
+    force: [f64; 2],
+    function: Option<TimeFunction>,
+}
+
+/// The point loads located in the mesh.
+pub struct PointLoads(Vec<Located>);
 
 impl PointLoads {
     /// Locate every point load; a point in no triangle is an error naming it.
@@ -32,10 +41,15 @@ impl PointLoads {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                let (tri, w) = locate(mesh, p.point).ok_or_else(|| {
+                let (nodes, weights) = locate(mesh, p.point).ok_or_else(|| {
                     SceneError::new(format!("point_loads[{i}].point"), "not inside any body")
                 })?;
-                Ok((tri, w, p.force, p.time_function.clone()))
+                Ok(Located {
+                    nodes,
+                    weights,
+                    force: p.force,
+                    function: p.time_function.clone(),
+                })
             })
             .collect::<Result<_, _>>()
             .map(PointLoads)
@@ -43,11 +57,11 @@ impl PointLoads {
 
     /// f_i += φ_i(point) F s(t) on the global nodal loads (the exact P1 load of a point force).
     pub fn add(&self, t: f64, f: &mut [[f64; 2]]) {
-        for (tri, w, force, function) in &self.0 {
-            let s = function.as_ref().map_or(1.0, |f| f.at(t));
-            for (&n, wi) in tri.iter().zip(w) {
-                f[n][0] += wi * s * force[0];
-                f[n][1] += wi * s * force[1];
+        for p in &self.0 {
+            let s = p.function.as_ref().map_or(1.0, |f| f.at(t));
+            for (&n, w) in p.nodes.iter().zip(&p.weights) {
+                f[n][0] += w * s * p.force[0];
+                f[n][1] += w * s * p.force[1];
             }
         }
     }
