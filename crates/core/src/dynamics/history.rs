@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
 use crate::mesh::Mesh;
-use crate::scene::{Scene, SceneError, TimeScheme};
+use crate::scene::{ContactSolver, Scene, SceneError, TimeScheme};
 
 /// Histories of one receiver: one entry per output time.
 #[derive(Debug, Clone, Default, Serialize, utoipa::ToSchema)]
@@ -74,7 +74,13 @@ pub struct DynamicsReport {
     pub unknowns: usize,
     /// Contact multipliers (2 per node pair).
     pub multipliers: usize,
-    /// QP (semismooth Newton) steps over the run.
+    /// The per-step contact solver.
+    #[schema(value_type = String)]
+    pub contact_solver: ContactSolver,
+    /// Steps where PDAS did not terminate and the QP kernel solved the step.
+    pub pdas_fallbacks: usize,
+    /// Contact solver iterations over the run (PDAS STEP 2 solves, or the QP's semismooth
+    /// Newton steps).
     pub qp_iterations: usize,
     /// Active-set changes over the run.
     pub active_set_changes: usize,
@@ -234,7 +240,7 @@ impl Recorder {
 
 /// The triangle holding `p` and its barycentric coordinates (a point on an edge belongs to
 /// the first triangle found).
-fn locate(mesh: &Mesh, p: [f64; 2]) -> Option<([usize; 3], [f64; 3])> {
+pub(super) fn locate(mesh: &Mesh, p: [f64; 2]) -> Option<([usize; 3], [f64; 3])> {
     let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
     };

@@ -7,13 +7,19 @@
 //! - `scheme`: the paper's semi-implicit scheme (10) with backward-difference velocity, and
 //!   Newmark average acceleration with the contact impulse at the end of the step.
 //! - `step`: one step's contact problem on A = M + a C + c K0 (factorised once), condensed on
-//!   the multipliers and solved by the existing dense box QP.
+//!   the multipliers and solved by `pdas` (the paper's primal–dual active set method (27)) or
+//!   the existing dense box QP.
+//! - `excitation`: initial velocities, point loads, the slip-rate-dependent friction bound.
 //! - `history`: receivers, contact-zone resultants and states, the energy budget.
 //!
 //! [`simulate`] runs a dynamic scene from rest or from its static contact solution.
 
+#[cfg(test)]
+mod acceptance;
+mod excitation;
 mod history;
 mod operators;
+mod pdas;
 pub mod scheme;
 mod step;
 #[cfg(test)]
@@ -29,6 +35,7 @@ use crate::error::WsmError;
 use crate::fem::{ElasticProblem, Par};
 use crate::scene::{BoundaryValue, Data, InitialState, Scene, SceneError};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem};
+use excitation::{initial_velocity, slip_rate_bounds, PointLoads};
 use history::{Recorder, Snapshot};
 use scheme::{constants, dot, rhs, step_energy, velocity, SecondOrderSystem};
 use step::StepContact;
@@ -108,23 +115,30 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
         geometry,
         ops.factor(elastic, k.damping, k.stiffness)?,
         fixed.clone(),
-    );
+    )
+    .with_solver(dynamics.contact_solver);
     let n = dofs.n_free();
     let mut forces = vec![0.0; geometry.dim()];
     let mut u = vec![0.0; n];
     if dynamics.initial == InitialState::Static {
-        let start = static_start(problem, data)?;
+        let start = static_start(problem, data).map_err(|e| {
+            SceneError::new(
+                "dynamics.initial",
+                format!("the static start (the static contact problem at t = 0) fails: {e}"),
+            )
+        })?;
         u = dofs.restrict(&start.displacement).0;
         for (m, (node, pair)) in start.contact.iter().zip(&geometry.pairs).enumerate() {
             forces[normal_row(m)] = node.pressure * pair.weight;
             forces[tangential_row(m)] = node.shear * pair.weight;
         }
     }
-    let mut v = vec![0.0; n];
+    let mut v = initial_velocity(scene, elastic.mesh(), dofs);
+    let point_loads = PointLoads::new(scene, elastic.mesh())?;
     let free_loads = |t: f64| -> Result<Vec<f64>, WsmError> {
-        Ok(dofs
-            .restrict(&elastic.loads(&data_at(scene, data, t), None)?)
-            .0)
+        let mut f = elastic.loads(&data_at(scene, data, t), None)?;
+        point_loads.add(t, &mut f);
+        Ok(dofs.restrict(&f).0)
     };
     let lifted = |f: &[f64]| -> Vec<f64> {
         f.iter()
@@ -154,7 +168,9 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
 
     let mut recorder = Recorder::new(scene, elastic.mesh())?;
     let mut history = recorder.empty(scene);
-    let (_, upper0) = geometry.bounds(data, Some(&forces));
+    let (lower0, upper0) = geometry.bounds(data, Some(&forces));
+    let scaled = |b: &[f64]| -> Vec<f64> { b.iter().map(|x| x * k.force).collect() };
+    contact.start_from(&scaled(&forces), &scaled(&lower0), &scaled(&upper0));
     let mut totals = [0.0; 3]; // viscous, contact, work
     recorder.record(
         &mut history,
@@ -171,7 +187,7 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
         },
     );
     let mut f_now = free_loads(0.0)?;
-    let (mut iterations, mut changes) = (0, 0);
+    let (mut iterations, mut changes, mut fallbacks) = (0, 0, 0);
     for step in 1..=steps {
         let t = step as f64 * dt;
         let f_next = free_loads(t)?;
@@ -184,12 +200,16 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
             &lifted(&f_now),
             &lifted(&f_next),
         );
-        let (lower, upper) = geometry.bounds(data, Some(&forces));
-        let scaled = |b: Vec<f64>| -> Vec<f64> { b.into_iter().map(|x| x * k.force).collect() };
+        let (mut lower, mut upper) = geometry.bounds(data, Some(&forces));
+        let rates = geometry.apply(&v);
+        slip_rate_bounds(
+            scene, geometry, data, &forces, &rates, &mut lower, &mut upper,
+        );
         let (u_next, multipliers, stats) =
-            contact.solve(&load, &u, &scaled(lower), &scaled(upper.clone()))?;
+            contact.solve(&load, &u, &scaled(&lower), &scaled(&upper))?;
         iterations += stats.iterations;
         changes += stats.changes;
+        fallbacks += usize::from(stats.fallback);
         let v_next = velocity(scheme_kind, dt, &u, &u_next, &v);
         let (viscous, work) = step_energy(scheme_kind, dt, &system, &u, &u_next, &f_now, &f_next);
         let increment: Vec<f64> = u_next.iter().zip(&u).map(|(a, b)| a - b).collect();
@@ -200,7 +220,16 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
         totals[2] += work;
         if step % dynamics.output_every == 0 || step == steps {
             let accel: Vec<f64> = v_next.iter().zip(&v).map(|(a, b)| (a - b) / dt).collect();
-            let (_, bounds) = geometry.bounds(data, Some(&new_forces));
+            let (mut below, mut bounds) = geometry.bounds(data, Some(&new_forces));
+            slip_rate_bounds(
+                scene,
+                geometry,
+                data,
+                &new_forces,
+                &geometry.apply(&v_next),
+                &mut below,
+                &mut bounds,
+            );
             recorder.record(
                 &mut history,
                 geometry,
@@ -233,6 +262,8 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
         steps,
         unknowns: n,
         multipliers: geometry.dim(),
+        contact_solver: dynamics.contact_solver,
+        pdas_fallbacks: fallbacks,
         qp_iterations: iterations,
         active_set_changes: changes,
         seconds: started.elapsed().as_secs_f64(),

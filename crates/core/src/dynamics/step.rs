@@ -8,15 +8,27 @@
 //! It is solved as the existing contact solver solves a static problem (design §3.1): condensed
 //! on the multipliers, C_h = B A⁻¹ Bᵀ (A is positive definite through M: no floating-body
 //! kernel), d = B A⁻¹ F + B_d u_d − g0 on normal rows and B A⁻¹ F − B u_n on tangential rows,
-//! the dense box QP [`solve_box_qp`] warm-started from the previous step, then
-//! u = A⁻¹ F − (A⁻¹ Bᵀ) Λ. A⁻¹ Bᵀ is formed once per run.
+//! then u = A⁻¹ F − (A⁻¹ Bᵀ) Λ. A⁻¹ Bᵀ is formed once per run. The condensed problem is solved
+//! by `dynamics.contact_solver`:
+//! - `pdas` (default): the paper's primal–dual active set method (27) (module `pdas`),
+//!   warm-started from the previous step's sets; when it does not terminate (a repeated set,
+//!   the iteration cap, a singular C_FF), the step is solved by the QP kernel instead and
+//!   counted in [`StepStats::fallback`];
+//! - `qp`: the dense box QP [`solve_box_qp`] (semismooth Newton with an MPRGP fallback, design
+//!   §3.1), warm-started from the previous step's Λ.
+//!
+//! In the crate's tests every PDAS step is also solved by the QP kernel and the largest
+//! difference of the two u_{n+1} is recorded (see `qp_check`): the two agree to 1e-10.
 
 use faer::Mat;
 
 use crate::contact::pairs::{is_normal_row, pair_of_row, ContactGeometry};
-use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, QpSolution, WarmStart};
+use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions, WarmStart};
 use crate::error::WsmError;
 use crate::fem::Factor;
+use crate::scene::ContactSolver;
+
+use super::pdas::{self, Status};
 
 /// The per-step contact solver of a run: A's factor, W = A⁻¹ Bᵀ and C_h = B W.
 #[derive(Debug)]
@@ -26,7 +38,9 @@ pub struct StepContact<'a> {
     w: Mat<f64>,
     c: Mat<f64>,
     fixed: Vec<f64>,
+    solver: ContactSolver,
     warm: Option<WarmStart>,
+    sets: Option<Vec<Status>>,
 }
 
 /// What one step's contact solve did.
@@ -36,10 +50,13 @@ pub struct StepStats {
     pub iterations: usize,
     /// Active-set changes of the QP.
     pub changes: usize,
+    /// PDAS did not terminate and the QP kernel solved the step.
+    pub fallback: bool,
 }
 
 impl<'a> StepContact<'a> {
     /// Form W = A⁻¹ Bᵀ and C_h for the factor of A; `fixed` are the prescribed values u_d.
+    /// The steps are solved by PDAS (see [`StepContact::with_solver`]).
     pub fn new(geometry: &'a ContactGeometry, factor: Factor, fixed: Vec<f64>) -> StepContact<'a> {
         let (n, m) = (factor.dim(), geometry.dim());
         let mut w = Mat::<f64>::zeros(n, m);
@@ -67,8 +84,26 @@ impl<'a> StepContact<'a> {
             w,
             c,
             fixed,
+            solver: ContactSolver::default(),
             warm: None,
+            sets: None,
         }
+    }
+
+    /// Solve the steps with `solver`.
+    pub fn with_solver(mut self, solver: ContactSolver) -> StepContact<'a> {
+        self.solver = solver;
+        self
+    }
+
+    /// Start the first step from the multipliers Λ (e.g. of the static start; the PDAS sets
+    /// they stand in, and the QP's warm start).
+    pub fn start_from(&mut self, multipliers: &[f64], lower: &[f64], upper: &[f64]) {
+        self.sets = Some(pdas::sets_of(multipliers, lower, upper));
+        self.warm = Some(WarmStart {
+            x: multipliers.to_vec(),
+            alpha: Vec::new(),
+        });
     }
 
     /// Solve A u = F − BᵀΛ with the step's contact conditions; `u_now` is u_n (the friction
@@ -99,22 +134,115 @@ impl<'a> StepContact<'a> {
                 }
             })
             .collect();
-        let problem = BoxQp::new(self.c.clone(), d, lower.to_vec(), upper.to_vec());
-        let solution: QpSolution =
-            solve_box_qp(&problem, self.warm.as_ref(), &QpOptions::default())
-                .map_err(|e| WsmError::contact(format!("time step contact problem: {e}")))?;
-        for (s, &lambda) in solution.x.iter().enumerate() {
+        let start = self
+            .sets
+            .clone()
+            .unwrap_or_else(|| pdas::sets_of(&vec![0.0; m], lower, upper));
+        let terminated = match self.solver {
+            ContactSolver::Pdas => pdas::solve(&self.c, &d, lower, upper, &start),
+            ContactSolver::Qp => None,
+        };
+        let (x, stats) = match terminated {
+            Some(s) => {
+                #[cfg(test)]
+                qp_check::record(self, &d, lower, upper, &s.x);
+                self.sets = Some(s.sets);
+                let stats = StepStats {
+                    iterations: s.iterations,
+                    changes: s.changes,
+                    fallback: false,
+                };
+                (s.x, stats)
+            }
+            None => {
+                let (x, iterations, changes) = self.qp(&d, lower, upper)?;
+                self.sets = Some(pdas::sets_of(&x, lower, upper));
+                let stats = StepStats {
+                    iterations,
+                    changes,
+                    fallback: self.solver == ContactSolver::Pdas,
+                };
+                (x, stats)
+            }
+        };
+        for (s, &lambda) in x.iter().enumerate() {
             if lambda != 0.0 {
                 for (i, ui) in u.iter_mut().enumerate() {
                     *ui -= self.w[(i, s)] * lambda;
                 }
             }
         }
-        let stats = StepStats {
-            iterations: solution.iterations,
-            changes: solution.active_set_changes,
+        self.warm = Some(WarmStart {
+            x: x.clone(),
+            alpha: Vec::new(),
+        });
+        Ok((u, x, stats))
+    }
+
+    /// The step's condensed problem by the QP kernel, warm-started from the previous step:
+    /// (Λ, Newton steps, active-set changes).
+    fn qp(
+        &self,
+        d: &[f64],
+        lower: &[f64],
+        upper: &[f64],
+    ) -> Result<(Vec<f64>, usize, usize), WsmError> {
+        let problem = BoxQp::new(self.c.clone(), d.to_vec(), lower.to_vec(), upper.to_vec());
+        let solution = solve_box_qp(&problem, self.warm.as_ref(), &QpOptions::default())
+            .map_err(|e| WsmError::contact(format!("time step contact problem: {e}")))?;
+        Ok((solution.x, solution.iterations, solution.active_set_changes))
+    }
+}
+
+/// Test builds: every PDAS step is solved by the QP kernel too, and the largest difference of
+/// the two u_{n+1} (relative to max |u_{n+1} − A⁻¹F|, the contact's effect, and to the step's
+/// displacement) is kept per thread.
+#[cfg(test)]
+pub(super) mod qp_check {
+    use std::cell::Cell;
+
+    use super::StepContact;
+
+    thread_local! {
+        static CHECK: Cell<(usize, f64)> = const { Cell::new((0, 0.0)) };
+    }
+
+    /// Reset the record; returns (steps checked, largest relative difference) so far.
+    pub fn take() -> (usize, f64) {
+        CHECK.with(|c| c.replace((0, 0.0)))
+    }
+
+    pub(super) fn record(
+        contact: &StepContact,
+        d: &[f64],
+        lower: &[f64],
+        upper: &[f64],
+        x: &[f64],
+    ) {
+        let (q, _, _) = contact
+            .qp(d, lower, upper)
+            .expect("the QP kernel solves the step");
+        let n = contact.w.nrows();
+        let effect = |x: &[f64]| -> Vec<f64> {
+            (0..n)
+                .map(|i| {
+                    x.iter()
+                        .enumerate()
+                        .map(|(s, l)| contact.w[(i, s)] * l)
+                        .sum()
+                })
+                .collect()
         };
-        self.warm = Some(WarmStart::from(&solution));
-        Ok((u, solution.x, stats))
+        let (a, b) = (effect(x), effect(&q));
+        let scale = a.iter().chain(&b).fold(0.0_f64, |m, v| m.max(v.abs()));
+        let diff = a
+            .iter()
+            .zip(&b)
+            .fold(0.0_f64, |m, (p, q)| m.max((p - q).abs()));
+        let relative = if scale > 0.0 { diff / scale } else { 0.0 };
+        CHECK.with(|c| {
+            let (steps, worst) = c.get();
+            c.set((steps + 1, worst.max(relative)));
+        });
     }
 }

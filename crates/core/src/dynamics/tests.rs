@@ -2,10 +2,12 @@
 //! a bar's longitudinal vibration (ν = 0, rollers: the 1D wave equation, c = √(E/ρ)),
 //! Newmark's second order in Δt and exact energy balance, the paper's scheme's monotone
 //! energy loss, Kelvin–Voigt creep, a block dropped on a base (free-fall time, no penetration,
-//! no energy gain), and the static start as a fixed point.
+//! no energy gain), and the static start as a fixed point. Every run goes through [`checked`]:
+//! PDAS terminates on every step and the QP kernel gives the same step to 1e-10.
 
 use serde_json::{json, Value};
 
+use super::step::qp_check;
 use super::{simulate, static_start, DynamicRun};
 use crate::scene::parse;
 use crate::state::StateProblem;
@@ -15,13 +17,29 @@ const RHO: f64 = 1000.0;
 /// c = √(E/ρ) = 1000 m/s; the bar is 1 m long.
 const C: f64 = 1000.0;
 
-fn problem(scene: &Value) -> StateProblem {
+pub(super) fn problem(scene: &Value) -> StateProblem {
     StateProblem::new(parse(&scene.to_string()).expect("valid scene")).expect("problem")
 }
 
-fn run(scene: &Value) -> DynamicRun {
-    let p = problem(scene);
-    simulate(&p, &p.nominal).expect("dynamic run")
+pub(super) fn run(scene: &Value) -> DynamicRun {
+    checked(&problem(scene))
+}
+
+/// Simulate; PDAS must terminate on every step (no QP fallback) and agree with the QP kernel
+/// run on the same step systems to 1e-10 (relative to the contact's effect on u).
+pub(super) fn checked(p: &StateProblem) -> DynamicRun {
+    qp_check::take();
+    let run = simulate(p, &p.nominal).expect("dynamic run");
+    let (steps, worst) = qp_check::take();
+    let report = &run.history.report;
+    eprintln!(
+        "PDAS: {steps} steps with contact checked against the QP, max relative difference \
+         {worst:.2e}, {} fallbacks, {} iterations over {} steps",
+        report.pdas_fallbacks, report.qp_iterations, report.steps
+    );
+    assert_eq!(report.pdas_fallbacks, 0, "PDAS did not terminate on a step");
+    assert!(worst <= 1e-10, "PDAS and the QP differ by {worst:e}");
+    run
 }
 
 /// A plane-strain bar [0, 1] × [0, 0.05] with ν = 0, rollers on the long sides, the left end
@@ -305,7 +323,7 @@ fn static_start_reproduces_the_static_solve() {
             json!({"t_end": 1e-3, "dt": 1e-4, "initial": "static", "scheme": scheme});
         let p = problem(&scene);
         let start = static_start(&p, &p.nominal).expect("static solve");
-        let run = simulate(&p, &p.nominal).expect("dynamic run");
+        let run = checked(&p);
         let scale = start
             .displacement
             .iter()

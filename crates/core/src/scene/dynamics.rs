@@ -47,6 +47,12 @@ pub struct Dynamics {
     /// contact impulse at the end of the step; second order, energy never grows).
     #[serde(default)]
     pub scheme: TimeScheme,
+    /// Per-step contact solver: `pdas` (the paper's primal–dual active set method (27),
+    /// warm-started from the previous step's sets, falling back to the QP kernel on a step
+    /// where it does not terminate; default) or `qp` (the dense box QP kernel of the static
+    /// solver). Both give the same step to 1e-10.
+    #[serde(default)]
+    pub contact_solver: ContactSolver,
 }
 
 fn one() -> usize {
@@ -73,6 +79,17 @@ pub enum TimeScheme {
     Paper,
     /// Newmark average acceleration (trapezoidal rule), contact impulse at t_{n+1}.
     Newmark,
+}
+
+/// The per-step contact solver of a dynamic run (design §3.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum ContactSolver {
+    /// The paper's primal–dual active set method (27), QP kernel as fallback.
+    #[default]
+    Pdas,
+    /// The dense box QP kernel (semismooth Newton with an MPRGP fallback).
+    Qp,
 }
 
 /// A load's factor against time: the condition's traction or pressure is multiplied by it.
@@ -122,6 +139,21 @@ pub struct Receiver {
     pub point: Point,
 }
 
+/// A point force (PDAS paper §2: a seismic source is a volume force at the source point):
+/// `force` × `time_function(t)` applied at `point`, distributed exactly on the P1 basis of the
+/// triangle holding it (f_i = φ_i(point) F).
+#[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PointLoad {
+    /// Position `[x, y]` \[m\], inside a body.
+    pub point: Point,
+    /// Force `[Fx, Fy]` \[N/m\] (per unit thickness).
+    pub force: [f64; 2],
+    /// Factor against time (default: constant 1).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_function: Option<TimeFunction>,
+}
+
 /// An absorbing layer (PDAS paper (3)): viscous damping α u′ in the elements whose centroid
 /// lies within `thickness` of the named segments.
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
@@ -153,6 +185,30 @@ pub fn step_count(dynamics: &Dynamics) -> usize {
 pub(super) fn check_dynamics(scene: &Scene) -> Result<(), SceneError> {
     check_material_dynamics(scene)?;
     check_time_functions(scene)?;
+    check_dynamic_contacts(scene)?;
+    for (i, body) in scene.bodies.iter().enumerate() {
+        let Some(v) = body.initial_velocity else {
+            continue;
+        };
+        let path = format!("bodies[{i}].initial_velocity");
+        if scene.dynamics.is_none() {
+            return Err(SceneError::new(path, "only in a scene with `dynamics`"));
+        }
+        finite(&format!("{path}[0]"), v[0])?;
+        finite(&format!("{path}[1]"), v[1])?;
+    }
+    for (i, load) in scene.point_loads.iter().enumerate() {
+        let path = format!("point_loads[{i}]");
+        if scene.dynamics.is_none() {
+            return Err(SceneError::new(path, "only in a scene with `dynamics`"));
+        }
+        check_point(&format!("{path}.point"), load.point)?;
+        finite(&format!("{path}.force[0]"), load.force[0])?;
+        finite(&format!("{path}.force[1]"), load.force[1])?;
+        if let Some(f) = &load.time_function {
+            check_time_function(&format!("{path}.time_function"), f)?;
+        }
+    }
     let Some(dynamics) = &scene.dynamics else {
         if !scene.absorbing.is_empty() {
             return Err(SceneError::new(
@@ -219,6 +275,52 @@ pub(super) fn check_dynamics(scene: &Scene) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// The slip-rate-dependent friction law: only in dynamic scenes, on a Coulomb zone, with its
+/// characteristic slip rate.
+fn check_dynamic_contacts(scene: &Scene) -> Result<(), SceneError> {
+    for (i, c) in scene.contacts.iter().enumerate() {
+        let path = format!("contacts[{i}]");
+        match (c.friction_kinetic, c.slip_rate_scale) {
+            (None, None) => continue,
+            (Some(_), None) => {
+                return Err(SceneError::new(
+                    format!("{path}.slip_rate_scale"),
+                    "`friction_kinetic` needs the characteristic slip rate v_c (m/s)",
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(SceneError::new(
+                    format!("{path}.slip_rate_scale"),
+                    "only with `friction_kinetic`",
+                ))
+            }
+            (Some(kinetic), Some(scale)) => {
+                let field = format!("{path}.friction_kinetic");
+                if scene.dynamics.is_none() {
+                    return Err(SceneError::new(field, "only in a scene with `dynamics`"));
+                }
+                if c.friction_coefficient.is_none() {
+                    return Err(SceneError::new(
+                        field,
+                        "needs `friction_coefficient` (the static coefficient)",
+                    ));
+                }
+                if !(0.0..=super::rules::MAX_FRICTION).contains(&finite(&field, kinetic)?) {
+                    return Err(SceneError::new(
+                        field,
+                        format!("must be in [0, {}]", super::rules::MAX_FRICTION),
+                    ));
+                }
+                let field = format!("{path}.slip_rate_scale");
+                if finite(&field, scale)? <= 0.0 {
+                    return Err(SceneError::new(field, "must be > 0 (m/s)"));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Names of the materials some zone uses.
 fn used_materials(scene: &Scene) -> BTreeSet<&str> {
     scene
@@ -268,39 +370,45 @@ fn check_time_functions(scene: &Scene) -> Result<(), SceneError> {
                 "only on a load (a traction or a pressure condition)",
             ));
         }
-        match function {
-            TimeFunction::Table { times, values } => {
-                if times.is_empty() || times.len() != values.len() || times.len() > MAX_TABLE {
+        check_time_function(&path, function)?;
+    }
+    Ok(())
+}
+
+/// A usable table or wavelet.
+fn check_time_function(path: &str, function: &TimeFunction) -> Result<(), SceneError> {
+    match function {
+        TimeFunction::Table { times, values } => {
+            if times.is_empty() || times.len() != values.len() || times.len() > MAX_TABLE {
+                return Err(SceneError::new(
+                    format!("{path}.table"),
+                    format!(
+                        "times and values need the same length, 1 to {MAX_TABLE} (got {} and {})",
+                        times.len(),
+                        values.len()
+                    ),
+                ));
+            }
+            for (k, (t, v)) in times.iter().zip(values).enumerate() {
+                finite(&format!("{path}.table.times[{k}]"), *t)?;
+                finite(&format!("{path}.table.values[{k}]"), *v)?;
+                if k > 0 && *t <= times[k - 1] {
                     return Err(SceneError::new(
-                        format!("{path}.table"),
-                        format!(
-                            "times and values need the same length, 1 to {MAX_TABLE} (got {} and {})",
-                            times.len(),
-                            values.len()
-                        ),
+                        format!("{path}.table.times[{k}]"),
+                        "times must be strictly increasing",
                     ));
                 }
-                for (k, (t, v)) in times.iter().zip(values).enumerate() {
-                    finite(&format!("{path}.table.times[{k}]"), *t)?;
-                    finite(&format!("{path}.table.values[{k}]"), *v)?;
-                    if k > 0 && *t <= times[k - 1] {
-                        return Err(SceneError::new(
-                            format!("{path}.table.times[{k}]"),
-                            "times must be strictly increasing",
-                        ));
-                    }
-                }
             }
-            TimeFunction::Ricker { frequency, delay } => {
-                let f = finite(&format!("{path}.ricker.frequency"), *frequency)?;
-                if f <= 0.0 {
-                    return Err(SceneError::new(
-                        format!("{path}.ricker.frequency"),
-                        "must be > 0 (Hz)",
-                    ));
-                }
-                finite(&format!("{path}.ricker.delay"), *delay)?;
+        }
+        TimeFunction::Ricker { frequency, delay } => {
+            let f = finite(&format!("{path}.ricker.frequency"), *frequency)?;
+            if f <= 0.0 {
+                return Err(SceneError::new(
+                    format!("{path}.ricker.frequency"),
+                    "must be > 0 (Hz)",
+                ));
             }
+            finite(&format!("{path}.ricker.delay"), *delay)?;
         }
     }
     Ok(())
@@ -375,6 +483,7 @@ mod tests {
             output_every: 1,
             initial: InitialState::Rest,
             scheme: TimeScheme::Paper,
+            contact_solver: ContactSolver::Pdas,
         };
         assert_eq!(step_count(&d(1.0, 0.1)), 10);
         assert_eq!(step_count(&d(1.0, 0.3)), 4);

@@ -29,7 +29,10 @@ pub(crate) use data::piecewise_linear;
 pub use data::{
     BoundaryData, BoundaryValue, Data, Elastic, Expansion, HydrostaticData, MaterialData, SlipData,
 };
-pub use dynamics::{AbsorbingLayer, Dynamics, InitialState, Receiver, TimeFunction, TimeScheme};
+pub use dynamics::{
+    AbsorbingLayer, ContactSolver, Dynamics, InitialState, PointLoad, Receiver, TimeFunction,
+    TimeScheme,
+};
 pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     is_defined_name, Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,

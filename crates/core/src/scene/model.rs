@@ -6,7 +6,7 @@
 //! of uncertain data and the search settings. All quantities are SI (m, Pa, N/m³, K, W/m³, W/m²).
 //! This module only describes the shape of the document; `validate` checks its meaning.
 
-use super::dynamics::{AbsorbingLayer, Dynamics, Receiver, TimeFunction};
+use super::dynamics::{AbsorbingLayer, Dynamics, PointLoad, Receiver, TimeFunction};
 use super::rules::{
     MAX_ANGLE, MAX_CONDUCTIVITY, MAX_FRICTION, MAX_LEVEL, MAX_STRESS, MAX_UNIT_WEIGHT,
     MIN_CONDUCTIVITY, MIN_MODULUS,
@@ -77,6 +77,10 @@ pub struct Scene {
     /// scenes only).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub receivers: Vec<Receiver>,
+    /// Point forces with time functions, e.g. seismic sources (dynamic scenes only; PDAS paper
+    /// §2: a volume force at the source point).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub point_loads: Vec<PointLoad>,
 }
 
 /// One elastic body.
@@ -87,6 +91,10 @@ pub struct Body {
     pub name: String,
     /// Material zones Ω^ι_j; they must not overlap and together form the body.
     pub zones: Vec<Zone>,
+    /// Initial velocity `[vx, vy]` \[m/s\] of every node of the body (dynamic scenes only),
+    /// added on top of the `dynamics.initial` state (design §3.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub initial_velocity: Option<[f64; 2]>,
 }
 
 /// A material zone: a simple polygon (either orientation) with optional holes.
@@ -373,6 +381,18 @@ pub struct Contact {
     /// whose outward normal is the contact normal; default the finer side (body k on a tie).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub slave: Option<String>,
+    /// Kinetic Coulomb coefficient F_k [-] of a slip-rate-dependent friction law (dynamic scenes
+    /// with `friction_coefficient`, the static coefficient F_s; PDAS paper (6)):
+    /// F(v) = F_k + (F_s − F_k) exp(−|v| / v_c), v the pair's slip rate of the previous step and
+    /// v_c = `slip_rate_scale` (design §3.5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(range(min = 0.0, max = MAX_FRICTION))]
+    pub friction_kinetic: Option<f64>,
+    /// Characteristic slip rate v_c \[m/s\] (> 0) of `friction_kinetic`: below it the static
+    /// coefficient holds, far above it the kinetic one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[schemars(extend("exclusiveMinimum" = 0.0))]
+    pub slip_rate_scale: Option<f64>,
 }
 
 /// Coupling of the two sides of a contact zone.
