@@ -30,6 +30,7 @@ mod tangent;
 
 pub use adjoint::AdjointForms;
 pub use tangent::{ContactPoint, DataDerivative};
+pub(crate) use tangent::{classify, tangent_bounds, RowMotion};
 
 use std::sync::{Arc, OnceLock};
 

@@ -15,6 +15,8 @@ mod sensitivity;
 mod solution;
 
 pub use criterion_values::{attaining, family, maxima, per_region, region_name, Fields};
+pub(crate) use criterion_values::{per_region_with, region_forms};
+pub(crate) use sensitivity::{add_scaled, one_sided, tied_regions, TIE_TOL};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
