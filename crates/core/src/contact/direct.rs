@@ -29,8 +29,8 @@ mod sparse_tangent;
 mod tangent;
 
 pub use adjoint::AdjointForms;
-pub use tangent::{ContactPoint, DataDerivative};
 pub(crate) use tangent::{classify, tangent_bounds, RowMotion};
+pub use tangent::{ContactPoint, DataDerivative};
 
 use std::sync::{Arc, OnceLock};
 

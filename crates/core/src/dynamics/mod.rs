@@ -25,8 +25,8 @@ mod tests;
 pub use history::{
     CriterionPeak, DynamicsReport, EnergyHistory, History, ReceiverHistory, ZoneHistory,
 };
-pub use over_time::solve_over_time;
 pub use operators::Operators;
+pub use over_time::solve_over_time;
 
 use std::time::Instant;
 

@@ -52,8 +52,8 @@ use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
 use crate::scene::{Criterion, Data, InitialState, SceneError};
 use crate::state::{
-    add_scaled, attaining, maxima, one_sided, per_region_with, region_forms, region_name, tied_regions, Fields,
-    OneSided, Solution, StateProblem, TIE_TOL,
+    add_scaled, attaining, maxima, one_sided, per_region_with, region_forms, region_name,
+    tied_regions, Fields, OneSided, Solution, StateProblem, TIE_TOL,
 };
 
 /// The requested criteria of a dynamic scene as maxima over time, with their exact one-sided
@@ -226,18 +226,16 @@ impl<'a> OverTime<'a> {
         let directions = stencils
             .iter()
             .map(|stencil| {
-                let moves = |same: &dyn Fn(&Data) -> bool| {
-                    stencil.points.iter().any(|(_, _, d)| !same(d))
-                };
-                let operators = if moves(&|d| {
-                    d.materials == data.materials && d.dynamic == data.dynamic
-                }) {
-                    let sum = weighted_operators(problem, stencil)?;
-                    let da = sum.combination(constants.damping, constants.stiffness);
-                    Some((sum, da))
-                } else {
-                    None
-                };
+                let moves =
+                    |same: &dyn Fn(&Data) -> bool| stencil.points.iter().any(|(_, _, d)| !same(d));
+                let operators =
+                    if moves(&|d| d.materials == data.materials && d.dynamic == data.dynamic) {
+                        let sum = weighted_operators(problem, stencil)?;
+                        let da = sum.combination(constants.damping, constants.stiffness);
+                        Some((sum, da))
+                    } else {
+                        None
+                    };
                 let mut fixed = vec![0.0; elastic.dofs().n_fixed()];
                 for (_, w, d) in &stencil.points {
                     add_scaled(&mut fixed, *w, &elastic.fixed_values(d)?);
@@ -246,9 +244,7 @@ impl<'a> OverTime<'a> {
                     stencil,
                     operators,
                     fixed,
-                    loads: moves(&|d| {
-                        d.boundary == data.boundary && d.materials == data.materials
-                    }),
+                    loads: moves(&|d| d.boundary == data.boundary && d.materials == data.materials),
                     bounds: moves(&|d| d.slip == data.slip && d.friction == data.friction),
                     law: moves(&|d| d.materials == data.materials),
                     load_now: Vec::new(),
@@ -363,15 +359,12 @@ impl<'a> OverTime<'a> {
     }
 
     /// Σ_k w_k τ(D_k; u) at the criteria's elements: the part of dτ from the law's change.
-    fn law_part(
-        &self,
-        stencil: &Stencil,
-        global: &[[f64; 2]],
-    ) -> Result<Vec<[f64; 4]>, WsmError> {
+    fn law_part(&self, stencil: &Stencil, global: &[[f64; 2]]) -> Result<Vec<[f64; 4]>, WsmError> {
         let elastic = &self.problem.elastic;
         let mut sum = vec![[0.0; 4]; self.elements.len()];
         for (_, w, d) in &stencil.points {
-            let stresses: Vec<ElementStress> = elastic.stresses_at(d, global, None, &self.elements)?;
+            let stresses: Vec<ElementStress> =
+                elastic.stresses_at(d, global, None, &self.elements)?;
             for (acc, s) in sum.iter_mut().zip(&stresses) {
                 for (a, c) in acc.iter_mut().zip(&s.stress) {
                     *a += w * c;
@@ -415,10 +408,7 @@ impl<'a> OverTime<'a> {
             lower: view.lower,
             upper: view.upper,
             friction: &friction,
-            displacement_scale: view
-                .u_next
-                .iter()
-                .fold(0.0_f64, |a, x| a.max(x.abs())),
+            displacement_scale: view.u_next.iter().fold(0.0_f64, |a, x| a.max(x.abs())),
         });
         let step = Step {
             context,
@@ -477,7 +467,8 @@ impl<'a> OverTime<'a> {
             if direction.minus.is_none() && step.one_sided(&plus_rates) {
                 direction.minus = Some(direction.plus.negated());
             }
-            direction.plus = step.tangent(&direction.plus, &g, &direction.fixed, 1.0, &plus_rates)?;
+            direction.plus =
+                step.tangent(&direction.plus, &g, &direction.fixed, 1.0, &plus_rates)?;
             if let Some(minus) = &direction.minus {
                 let rates = step.rates(&bound_rates, -1.0, minus);
                 direction.minus = Some(step.tangent(minus, &g, &direction.fixed, -1.0, &rates)?);
@@ -488,8 +479,14 @@ impl<'a> OverTime<'a> {
 
     /// Fill a solution's criteria, their times and derivatives from the maxima over time.
     fn fill(&self, solution: &mut Solution) {
-        solution.region_values = self.peaks.each_ref().map(|p| p.iter().map(|p| p.value).collect());
-        solution.peak_times = self.peaks.each_ref().map(|p| p.iter().map(|p| p.time).collect());
+        solution.region_values = self
+            .peaks
+            .each_ref()
+            .map(|p| p.iter().map(|p| p.value).collect());
+        solution.peak_times = self
+            .peaks
+            .each_ref()
+            .map(|p| p.iter().map(|p| p.time).collect());
         solution.criteria = maxima(&solution.region_values);
         let values = &solution.region_values;
         let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
@@ -584,7 +581,11 @@ impl Step<'_> {
                     self.view.forces[normal_row(p)],
                     tangent.dforces[normal_row(p)],
                 );
-                let d = if lambda > 0.0 { dlambda } else { dlambda.max(0.0) };
+                let d = if lambda > 0.0 {
+                    dlambda
+                } else {
+                    dlambda.max(0.0)
+                };
                 *rate += s * f * d;
             }
         }
@@ -607,16 +608,19 @@ impl Step<'_> {
     /// weakly active row, a pinched row whose bounds move apart, or a Coulomb bound at an open
     /// pair (max(λ_n, 0) at its kink).
     fn one_sided(&self, (lower, upper): &(Vec<f64>, Vec<f64>)) -> bool {
-        self.motions.iter().enumerate().any(|(r, motion)| match motion {
-            RowMotion::WeakLower | RowMotion::WeakUpper => true,
-            RowMotion::Pinched => {
-                lower[r] != upper[r]
-                    || (is_tangential_row(r)
-                        && self.friction[pair_of_row(r)].is_some()
-                        && self.view.forces[normal_row(pair_of_row(r))] <= 0.0)
-            }
-            _ => false,
-        })
+        self.motions
+            .iter()
+            .enumerate()
+            .any(|(r, motion)| match motion {
+                RowMotion::WeakLower | RowMotion::WeakUpper => true,
+                RowMotion::Pinched => {
+                    lower[r] != upper[r]
+                        || (is_tangential_row(r)
+                            && self.friction[pair_of_row(r)].is_some()
+                            && self.view.forces[normal_row(pair_of_row(r))] <= 0.0)
+                }
+                _ => false,
+            })
     }
 
     /// The tangent after the step along the signed direction: y = A⁻¹(F(du, dv) + sign g),

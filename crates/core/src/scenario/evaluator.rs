@@ -21,11 +21,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::contact::qp::WarmStart;
+use crate::dynamics::solve_over_time;
 use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
 use crate::fem::Par;
 use crate::scene::params::{apply, stencil, Parameter, Stencil};
-use crate::dynamics::solve_over_time;
 use crate::scene::{Criterion, CriterionSpec};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem, Target, Timings};
 use wsm_search::{Answer, Evaluator, OneSided, Outcome};

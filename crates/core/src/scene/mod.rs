@@ -26,8 +26,8 @@ mod warnings;
 
 pub(crate) use data::piecewise_linear;
 pub use data::{
-    BoundaryData, BoundaryValue, Data, DynamicData, Elastic, Expansion, HydrostaticData, MaterialData,
-    SlipData,
+    BoundaryData, BoundaryValue, Data, DynamicData, Elastic, Expansion, HydrostaticData,
+    MaterialData, SlipData,
 };
 pub use dynamics::{AbsorbingLayer, Dynamics, InitialState, Receiver, TimeFunction, TimeScheme};
 pub use law::{Orthotropic, PlaneStrainLaw};

@@ -367,29 +367,28 @@ fn resolve_field(scene: &Scene, field_path: &str, field: &str) -> Result<ParamTa
     let unknown = |why: &str| SceneError::new(field_path, format!("'{field}': {why}"));
     let toks = tokens(field).ok_or_else(|| unknown("not a valid field path"))?;
     use Token::Name as N;
-    let target = match toks.as_slice() {
-        [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
-        [N("boundary"), entry, rest @ ..] => {
-            let b = entry_index("boundary", boundary_names(scene), *entry, &unknown)?;
-            boundary_target(scene, b, rest, &unknown)?
-        }
-        [N("contacts"), entry, rest @ ..] => {
-            let c = entry_index("contacts", contact_names(scene), *entry, &unknown)?;
-            contact_target(scene, c, rest, &unknown)?
-        }
-        [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
-            ParamTarget::ReferenceTemperature
-        }
-        [N("absorbing"), Token::Index(k), N("damping")] if *k < scene.absorbing.len() => {
-            ParamTarget::AbsorbingDamping(*k)
-        }
-        [N("absorbing"), ..] => {
-            return Err(unknown(
+    let target =
+        match toks.as_slice() {
+            [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
+            [N("boundary"), entry, rest @ ..] => {
+                let b = entry_index("boundary", boundary_names(scene), *entry, &unknown)?;
+                boundary_target(scene, b, rest, &unknown)?
+            }
+            [N("contacts"), entry, rest @ ..] => {
+                let c = entry_index("contacts", contact_names(scene), *entry, &unknown)?;
+                contact_target(scene, c, rest, &unknown)?
+            }
+            [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
+                ParamTarget::ReferenceTemperature
+            }
+            [N("absorbing"), Token::Index(k), N("damping")] if *k < scene.absorbing.len() => {
+                ParamTarget::AbsorbingDamping(*k)
+            }
+            [N("absorbing"), ..] => return Err(unknown(
                 "an absorbing layer's number is `absorbing[k].damping` with k an existing layer",
-            ))
-        }
-        _ => return Err(unknown("unknown field")),
-    };
+            )),
+            _ => return Err(unknown("unknown field")),
+        };
     Ok(target)
 }
 
