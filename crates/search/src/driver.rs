@@ -361,6 +361,7 @@ fn objective_result(
         value: best.as_ref().map(|p| p.value),
         point: best_point,
         region: None,
+        time: None,
         status,
         at_vertex: best.as_ref().is_some_and(|p| is_vertex(&p.unit)),
         vertex_optimal: optima::vertex_optimal(&ranked),

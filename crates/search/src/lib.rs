@@ -371,6 +371,10 @@ pub struct ObjectiveResult {
     /// criterion: the area or boundary piece whose mean it is).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub region: Option<String>,
+    /// When the criterion takes `value` \[s\], filled in by the caller that knows (for a
+    /// criterion of a dynamic scene, the maximum over time: the first time it is reached).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<f64>,
     /// Why the search for this objective ended.
     pub status: Status,
     /// The best point is a vertex of the box (every free coordinate within 1e-9 of a bound).
@@ -418,6 +422,7 @@ impl ObjectiveResult {
             value: None,
             point: None,
             region: None,
+            time: None,
             status,
             at_vertex: false,
             vertex_optimal: false,

@@ -57,6 +57,7 @@ pub fn two_blocks_with(nx: usize, g: f64, top: BoundaryValue) -> Result<DdProble
         }],
         friction: vec![None],
         reference_temperature: 0.0,
+        dynamic: Default::default(),
     };
     let elastic = ElasticProblem::new(&mesh, &data)?;
     let coefs = elastic.coefficients(&data)?;

@@ -101,6 +101,19 @@ pub struct History {
     pub energy: EnergyHistory,
     /// Counters.
     pub report: DynamicsReport,
+    /// Per criterion the scene defines (`phi1`…), its maximum over the time steps.
+    pub criteria: BTreeMap<String, CriterionPeak>,
+}
+
+/// The largest value of a criterion over the time steps (design §3.5).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, utoipa::ToSchema)]
+pub struct CriterionPeak {
+    /// max over the steps t_n (t = 0 included) of the criterion at u(t_n).
+    pub value: f64,
+    /// The first time where it is reached \[s\].
+    pub time: f64,
+    /// The region of the criterion's family where it is reached.
+    pub region: String,
 }
 
 /// One state of the run, as the recorder reads it (global nodal fields).

@@ -11,6 +11,8 @@
 //!   the existing dense box QP.
 //! - `excitation`: initial velocities, point loads, the slip-rate-dependent friction bound.
 //! - `history`: receivers, contact-zone resultants and states, the energy budget.
+//! - `over_time`: the criteria as maxima over the time steps, with the time they occur, and
+//!   their exact one-sided derivatives by forward differentiation through the time loop.
 //!
 //! [`simulate`] runs a dynamic scene from rest or from its static contact solution.
 
@@ -19,25 +21,30 @@ mod acceptance;
 mod excitation;
 mod history;
 mod operators;
+mod over_time;
 mod pdas;
 pub mod scheme;
 mod step;
 #[cfg(test)]
 mod tests;
 
-pub use history::{DynamicsReport, EnergyHistory, History, ReceiverHistory, ZoneHistory};
+pub use history::{
+    CriterionPeak, DynamicsReport, EnergyHistory, History, ReceiverHistory, ZoneHistory,
+};
 pub use operators::Operators;
+pub use over_time::solve_over_time;
 
 use std::time::Instant;
 
 use crate::contact::pairs::{is_normal_row, normal_row, pair_of_row, tangential_row};
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, Par};
-use crate::scene::{BoundaryValue, Data, InitialState, Scene, SceneError};
+use crate::scene::{BoundaryValue, Criterion, Data, InitialState, Scene, SceneError, TimeScheme};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem};
 use excitation::{initial_velocity, slip_rate_bounds, PointLoads};
 use history::{Recorder, Snapshot};
-use scheme::{constants, dot, rhs, step_energy, velocity, SecondOrderSystem};
+use over_time::OverTime;
+use scheme::{constants, dot, rhs, step_energy, velocity, SecondOrderSystem, StepConstants};
 use step::StepContact;
 
 /// The result of a dynamic run: the history and the final state.
@@ -94,8 +101,59 @@ impl SecondOrderSystem for FemSystem<'_> {
     }
 }
 
-/// Run the dynamic scene of `problem` with `data` (design §3.5).
+/// Run the dynamic scene of `problem` with `data` (design §3.5); the history carries the
+/// maximum over time of every criterion the scene defines (design §3.5, criteria over time).
 pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmError> {
+    let mut peaks = OverTime::new(problem, data, &Criterion::ALL, &[])?;
+    let mut run = simulate_observed(problem, data, &mut peaks)?;
+    run.history.criteria = peaks.history_entries();
+    Ok(run)
+}
+
+/// What the time loop shares with a [`StepObserver`]: the run's operators and scheme.
+struct RunContext<'a> {
+    system: &'a FemSystem<'a>,
+    constants: StepConstants,
+    scheme: TimeScheme,
+    dt: f64,
+    /// Prescribed values u_d.
+    fixed: &'a [f64],
+}
+
+/// One step n → n + 1 as an observer sees it (free-DOF vectors; multipliers and bounds of the
+/// step system, Λ = s λ).
+struct StepView<'a> {
+    t: f64,
+    u: &'a [f64],
+    v: &'a [f64],
+    u_next: &'a [f64],
+    multipliers: &'a [f64],
+    lower: &'a [f64],
+    upper: &'a [f64],
+    /// λ of the previous level (the friction bound's).
+    forces: &'a [f64],
+}
+
+/// Sees the initial state and every step of a run (criteria over time and their forward
+/// tangents, [`over_time`]).
+trait StepObserver {
+    /// The state at t = 0 (free DOFs).
+    fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError>;
+    /// One step, solved by `contact` (its factor of A, W and C_h).
+    fn step(
+        &mut self,
+        context: &RunContext,
+        contact: &StepContact,
+        view: &StepView,
+    ) -> Result<(), WsmError>;
+}
+
+/// [`simulate`] with `observer` shown every step.
+fn simulate_observed(
+    problem: &StateProblem,
+    data: &Data,
+    observer: &mut dyn StepObserver,
+) -> Result<DynamicRun, WsmError> {
     let started = Instant::now();
     let scene = &problem.scene;
     let dynamics = scene
@@ -135,6 +193,14 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
     }
     let mut v = initial_velocity(scene, elastic.mesh(), dofs);
     let point_loads = PointLoads::new(scene, elastic.mesh())?;
+    let context = RunContext {
+        system: &system,
+        constants: k,
+        scheme: scheme_kind,
+        dt,
+        fixed: &fixed,
+    };
+    observer.start(&context, &u)?;
     let free_loads = |t: f64| -> Result<Vec<f64>, WsmError> {
         let mut f = elastic.loads(&data_at(scene, data, t), None)?;
         point_loads.add(t, &mut f);
@@ -205,12 +271,26 @@ pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmEr
         slip_rate_bounds(
             scene, geometry, data, &forces, &rates, &mut lower, &mut upper,
         );
-        let (u_next, multipliers, stats) =
-            contact.solve(&load, &u, &scaled(&lower), &scaled(&upper))?;
+        let (lower, upper) = (scaled(&lower), scaled(&upper));
+        let (u_next, multipliers, stats) = contact.solve(&load, &u, &lower, &upper)?;
         iterations += stats.iterations;
         changes += stats.changes;
         fallbacks += usize::from(stats.fallback);
         let v_next = velocity(scheme_kind, dt, &u, &u_next, &v);
+        observer.step(
+            &context,
+            &contact,
+            &StepView {
+                t,
+                u: &u,
+                v: &v,
+                u_next: &u_next,
+                multipliers: &multipliers,
+                lower: &lower,
+                upper: &upper,
+                forces: &forces,
+            },
+        )?;
         let (viscous, work) = step_energy(scheme_kind, dt, &system, &u, &u_next, &f_now, &f_next);
         let increment: Vec<f64> = u_next.iter().zip(&u).map(|(a, b)| a - b).collect();
         let new_forces: Vec<f64> = multipliers.iter().map(|x| x / k.force).collect();

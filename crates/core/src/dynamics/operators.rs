@@ -33,8 +33,8 @@ pub struct Operators {
 }
 
 impl Operators {
-    /// Assemble M, C and K0 for the scene's densities, retardation times and absorbing layers
-    /// and the data's elastic constants.
+    /// Assemble M, C and K0 for the data's densities, retardation times, absorbing-layer
+    /// dampings and elastic constants (the layers' geometry from the scene).
     pub fn new(
         elastic: &ElasticProblem,
         scene: &Scene,
@@ -44,13 +44,14 @@ impl Operators {
         let operator = elastic.operator();
         let coefficients = elastic.coefficients(data)?;
         let stiffness = operator.assemble(&coefficients)?;
-        let materials: Vec<_> = scene.materials.values().collect();
-        let zone_value = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
-            mesh.zones.iter().map(|z| f(z.material)).collect()
+        let zone_value = |values: &[f64]| -> Vec<f64> {
+            mesh.zones
+                .iter()
+                .map(|z| values.get(z.material).copied().unwrap_or(0.0))
+                .collect()
         };
-        let density = zone_value(&|m| materials.get(m).and_then(|m| m.density).unwrap_or(0.0));
-        let retardation =
-            zone_value(&|m| materials.get(m).and_then(|m| m.viscosity).unwrap_or(0.0));
+        let density = zone_value(&data.dynamic.density);
+        let retardation = zone_value(&data.dynamic.viscosity);
         let viscous: Vec<ElasticCoefficients> = coefficients
             .iter()
             .zip(&retardation)
@@ -58,7 +59,7 @@ impl Operators {
             .collect();
         let mut damping = operator.assemble(&viscous)?;
         let mut mass = vec![0.0; stiffness.len()];
-        let alpha = element_damping(scene, mesh);
+        let alpha = element_damping(scene, data, mesh);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let area = mesh.triangle_area(t);
             let rho = density[mesh.triangle_zone[t]];
@@ -104,11 +105,12 @@ type Layer = (f64, f64, Vec<[[f64; 2]; 2]>);
 
 /// α per element: the largest damping of the absorbing layers whose segments lie within the
 /// layer's thickness of the element's centroid (0 outside every layer).
-fn element_damping(scene: &Scene, mesh: &Mesh) -> Vec<f64> {
+fn element_damping(scene: &Scene, data: &Data, mesh: &Mesh) -> Vec<f64> {
     let layers: Vec<Layer> = scene
         .absorbing
         .iter()
-        .map(|layer| {
+        .zip(&data.dynamic.absorbing)
+        .map(|(layer, &damping)| {
             let edges = layer
                 .segments
                 .iter()
@@ -116,7 +118,7 @@ fn element_damping(scene: &Scene, mesh: &Mesh) -> Vec<f64> {
                 .flat_map(|s| &mesh.segments[s].edges)
                 .map(|&[a, b]| [mesh.nodes[a], mesh.nodes[b]])
                 .collect();
-            (layer.thickness, layer.damping, edges)
+            (layer.thickness, damping, edges)
         })
         .collect();
     mesh.triangles

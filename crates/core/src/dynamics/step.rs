@@ -106,6 +106,26 @@ impl<'a> StepContact<'a> {
         });
     }
 
+    /// The factor of A.
+    pub fn factor(&self) -> &Factor {
+        &self.factor
+    }
+
+    /// W = A⁻¹ Bᵀ.
+    pub fn w(&self) -> &Mat<f64> {
+        &self.w
+    }
+
+    /// C_h = B A⁻¹ Bᵀ (symmetrised).
+    pub fn condensed(&self) -> &Mat<f64> {
+        &self.c
+    }
+
+    /// The contact geometry.
+    pub fn geometry(&self) -> &ContactGeometry {
+        self.geometry
+    }
+
     /// Solve A u = F − BᵀΛ with the step's contact conditions; `u_now` is u_n (the friction
     /// acts on B_t (u − u_n)); `lower`, `upper` the bounds of Λ. Returns u_{n+1} and Λ.
     pub fn solve(

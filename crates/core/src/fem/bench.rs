@@ -67,6 +67,7 @@ fn cantilever_data(mesh: &crate::mesh::Mesh, e: f64) -> Data {
         slip: Vec::new(),
         friction: Vec::new(),
         reference_temperature: 0.0,
+        dynamic: Default::default(),
     }
 }
 

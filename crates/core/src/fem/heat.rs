@@ -617,6 +617,7 @@ mod tests {
             slip: Vec::new(),
             friction: Vec::new(),
             reference_temperature: 0.0,
+            dynamic: Default::default(),
         };
         let problem = HeatProblem::new(&mesh, &data).unwrap();
         let unknowns = problem.operator().n_free() + problem.operator().n_fixed();

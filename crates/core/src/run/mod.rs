@@ -283,14 +283,14 @@ pub fn worst(
     request: &WorstRequest,
     control: &RunControl,
 ) -> Result<WorstOutcome, WsmError> {
-    if scene.dynamics.is_some() {
+    let settings = request.settings(&scene)?;
+    if scene.dynamics.is_some() && settings.target_error.is_some() {
         return Err(crate::scene::SceneError::new(
-            "dynamics",
-            "the worst scenario over time is not built yet; `wsm solve` runs a dynamic scene",
+            "target_error",
+            "the mesh choice by a target error is built for static scenes; give a dynamic scene's mesh",
         )
         .into());
     }
-    let settings = request.settings(&scene)?;
     if let Some(limit) = control.max_solve_bytes {
         estimate_solve_cost(&scene)?.check(limit)?;
     }
@@ -544,7 +544,14 @@ impl Run<'_> {
         outcome
             .warnings
             .extend(crate::scenario::unproven::warnings(outcome));
-        if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) {
+        let dynamic = problem.scene.dynamics.is_some();
+        if dynamic {
+            outcome.warnings.push(
+                "the accuracy statement (refined meshes) is built for static scenes; a dynamic                  scene's values carry the discretisation error of its mesh and time step"
+                    .into(),
+            );
+        }
+        if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) && !dynamic {
             if let Some((statement, asked)) = self.accuracy(problem, outcome)? {
                 outcome.warnings.extend(statement.warnings(asked));
                 outcome.accuracy = Some(statement);

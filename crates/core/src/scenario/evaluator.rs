@@ -4,6 +4,10 @@
 //! derivatives on, the same solve also gives the exact one-sided dΦ_i/dθ_j along every
 //! uncertain datum (`state::sensitivity`), which drive and certify the search.
 //!
+//! A dynamic scene's evaluation is one simulation at θ: the criteria are maxima over time and
+//! their derivatives come by forward differentiation through the time loop
+//! ([`crate::dynamics::solve_over_time`], design §3.5).
+//!
 //! Evaluations of a batch run in parallel (rayon, sequential factorisations inside); each
 //! warm-starts its contact solve from the nominal solution, so results do not depend on the
 //! thread count or the evaluation order. An observer sees every evaluation as it completes (the
@@ -17,11 +21,12 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::contact::qp::WarmStart;
+use crate::dynamics::solve_over_time;
 use crate::error::WsmError;
 use crate::fault::{injected, FaultSite, SolveFault};
 use crate::fem::Par;
 use crate::scene::params::{apply, stencil, Parameter, Stencil};
-use crate::scene::CriterionSpec;
+use crate::scene::{Criterion, CriterionSpec};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem, Target, Timings};
 use wsm_search::{Answer, Evaluator, OneSided, Outcome};
 
@@ -126,7 +131,9 @@ impl<'a> ScenarioEvaluator<'a> {
         criteria: &'a [CriterionSpec],
     ) -> Result<ScenarioEvaluator<'a>, WsmError> {
         let mut evaluator = ScenarioEvaluator::warmed(problem, params, criteria, None)?;
-        if evaluator.needs.elastic && problem.contact.geometry.dim() > 0 {
+        // A dynamic run starts from its own initial state: no static warm start.
+        let dynamic = problem.scene.dynamics.is_some();
+        if evaluator.needs.elastic && problem.contact.geometry.dim() > 0 && !dynamic {
             let nominal = problem.solve(&problem.nominal, &evaluator.options(Par::rayon(0)))?;
             evaluator.warm = nominal.warm_start;
         }
@@ -176,13 +183,19 @@ impl<'a> ScenarioEvaluator<'a> {
     }
 
     /// Also compute the exact derivatives of the criteria along every uncertain datum at each
-    /// evaluation (off by default; never for a Coulomb state on the sparse contact path, which
-    /// has none).
+    /// evaluation (off by default; never for a Coulomb state on the sparse contact path, nor for
+    /// a dynamic run from the static solution, which have none).
     pub fn with_derivatives(mut self, derivatives: bool) -> Self {
+        let scene = &self.problem.scene;
         let coulomb_sparse = self.problem.contact.is_sparse()
             && self.needs.elastic
-            && self.problem.nominal.has_coulomb();
-        self.derivatives = derivatives && !coulomb_sparse;
+            && self.problem.nominal.has_coulomb()
+            && scene.dynamics.is_none();
+        let static_start = scene
+            .dynamics
+            .as_ref()
+            .is_some_and(|d| d.initial == crate::scene::InitialState::Static);
+        self.derivatives = derivatives && !coulomb_sparse && !static_start;
         self
     }
 
@@ -211,6 +224,10 @@ impl<'a> ScenarioEvaluator<'a> {
         );
         let result = match injected(self.fault, FaultSite::Evaluation { point: theta }) {
             Some(reason) => Err(WsmError::contact(reason)),
+            None if self.problem.scene.dynamics.is_some() => {
+                let kinds: Vec<Criterion> = self.targets.iter().map(|t| t.criterion).collect();
+                solve_over_time(self.problem, &data, &kinds, &self.stencils(theta))
+            }
             None => self.problem.solve_with_sensitivities(
                 &data,
                 &self.options(Par::Seq),

@@ -72,6 +72,10 @@ pub fn check_admissible_box(
     stop: &dyn Fn() -> bool,
 ) -> Result<(), WsmError> {
     check_feasibility_on_box(problem, params)?;
+    // A dynamic step's operator contains the mass: floating bodies need no balance (§3.5).
+    if problem.scene.dynamics.is_some() {
+        return Ok(());
+    }
     check_balance(problem, params, stop)
 }
 

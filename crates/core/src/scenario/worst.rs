@@ -328,12 +328,14 @@ fn report_applied_data(
 /// Name the region where each extremum is attained (design §4.2): a bound criterion's own region;
 /// a criterion with one region in its family, that one; else the region of its family where the
 /// criterion is largest at the extremum's data — one solve without derivatives per distinct
-/// point, in parallel (a point that does not solve again leaves the region unnamed).
+/// point, in parallel (a point that does not solve again leaves the region unnamed). For a
+/// dynamic scene the solve is the run's criteria over time, which also give the time of the
+/// extremum (design §3.5).
 fn name_regions(problem: &StateProblem, params: &[Parameter], criteria: &mut [CriterionOutcome]) {
     let mut points: Vec<Vec<f64>> = Vec::new();
     for c in criteria.iter() {
         let members = family(&problem.criteria, c.criterion.criterion).len();
-        if c.criterion.region.is_some() || members < 2 {
+        if (c.criterion.region.is_some() || members < 2) && problem.scene.dynamics.is_none() {
             continue;
         }
         for point in [&c.worst.point, &c.best.point].into_iter().flatten() {
@@ -352,13 +354,33 @@ fn name_regions(problem: &StateProblem, params: &[Parameter], criteria: &mut [Cr
         .par_iter()
         .map(|point| {
             let data = apply(&problem.scene, &problem.nominal, params, point);
-            problem.solve(&data, &options).ok()
+            match problem.scene.dynamics {
+                Some(_) => crate::dynamics::solve_over_time(problem, &data, &kinds, &[]).ok(),
+                None => problem.solve(&data, &options).ok(),
+            }
         })
         .collect();
     for c in criteria.iter_mut() {
         let spec = c.criterion.clone();
         let members = family(&problem.criteria, spec.criterion).len();
         for extremum in [&mut c.worst, &mut c.best] {
+            let solution = extremum
+                .point
+                .as_ref()
+                .and_then(|point| points.iter().position(|p| p == point))
+                .and_then(|i| solutions[i].as_ref());
+            // The bound region, or the one where the criterion is largest.
+            let attained = |s: &Solution| match &spec.region {
+                Some(_) => problem
+                    .targets(std::slice::from_ref(&spec))
+                    .ok()
+                    .and_then(|t| t.first().and_then(|t| t.region)),
+                None => crate::state::attaining(&s.region_values[spec.criterion as usize]),
+            };
+            extremum.time = solution.and_then(|s| {
+                let r = attained(s)?;
+                s.peak_times[spec.criterion as usize].get(r).copied()
+            });
             extremum.region = match (&spec.region, &extremum.point) {
                 // A defined criterion's region is the area or piece it averages over.
                 (Some(name), _) if spec.criterion == Criterion::Defined => problem

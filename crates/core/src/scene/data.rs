@@ -215,6 +215,21 @@ pub struct Data {
     pub friction: Vec<Option<f64>>,
     /// Reference temperature T0 \[K\] of the stress-free state (0 without a thermal part).
     pub reference_temperature: f64,
+    /// The numbers of a dynamic scene (empty without `dynamics`' entries).
+    pub dynamic: DynamicData,
+}
+
+/// The numbers only a dynamic run reads (design §3.5): densities and Kelvin–Voigt retardation
+/// times per material (name order, 0 where not given), and the damping α of each absorbing
+/// layer (list order).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DynamicData {
+    /// Density ρ \[kg/m³\] per material.
+    pub density: Vec<f64>,
+    /// Retardation time τ_v \[s\] per material.
+    pub viscosity: Vec<f64>,
+    /// Damping α \[kg/(m³ s)\] per absorbing layer.
+    pub absorbing: Vec<f64>,
 }
 
 impl Data {
@@ -259,6 +274,19 @@ impl Data {
                 .thermal
                 .as_ref()
                 .map_or(0.0, |t| t.reference_temperature),
+            dynamic: DynamicData {
+                density: scene
+                    .materials
+                    .values()
+                    .map(|m| m.density.unwrap_or(0.0))
+                    .collect(),
+                viscosity: scene
+                    .materials
+                    .values()
+                    .map(|m| m.viscosity.unwrap_or(0.0))
+                    .collect(),
+                absorbing: scene.absorbing.iter().map(|a| a.damping).collect(),
+            },
         }
     }
 }

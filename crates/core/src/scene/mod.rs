@@ -27,7 +27,8 @@ mod warnings;
 
 pub(crate) use data::piecewise_linear;
 pub use data::{
-    BoundaryData, BoundaryValue, Data, Elastic, Expansion, HydrostaticData, MaterialData, SlipData,
+    BoundaryData, BoundaryValue, Data, DynamicData, Elastic, Expansion, HydrostaticData,
+    MaterialData, SlipData,
 };
 pub use dynamics::{
     AbsorbingLayer, ContactSolver, Dynamics, InitialState, PointLoad, Receiver, TimeFunction,

@@ -10,7 +10,9 @@
 //! `contacts[i].slip_limit.values[k]` (knot values of a piecewise linear g),
 //! `contacts[i].friction_coefficient` (Coulomb's F; it scales the state-dependent slip bound
 //! F |λ_n|, so the data map is affine in it like every other datum), and
-//! `thermal.reference_temperature`. A boundary condition or contact zone is picked by its index
+//! `thermal.reference_temperature`; in a dynamic scene (design §3.5) also
+//! `materials.M.{density, viscosity}` (where the material gives them) and
+//! `absorbing[k].damping`. A boundary condition or contact zone is picked by its index
 //! `[i]` or by its `name` (`boundary[water_up1].pressure`, `contacts[joint].slip_limit`): a name
 //! keeps pointing at its entry when entries are inserted, an index does not, so an index whose
 //! entry has a name gets a warning ([`index_path_warnings`]).
@@ -110,6 +112,12 @@ pub enum ParamTarget {
     FrictionCoefficient(usize),
     /// `thermal.reference_temperature`.
     ReferenceTemperature,
+    /// `materials.M.density` of a dynamic scene.
+    Density(usize),
+    /// `materials.M.viscosity` (the retardation time τ_v) of a dynamic scene.
+    Viscosity(usize),
+    /// `absorbing[k].damping` of a dynamic scene.
+    AbsorbingDamping(usize),
 }
 
 impl ParamTarget {
@@ -136,6 +144,9 @@ impl ParamTarget {
             ParamTarget::Angle(_) => Some(Constant::Angle),
             ParamTarget::HydrostaticLevel(_) => Some(Constant::Level),
             ParamTarget::UnitWeight(_) => Some(Constant::UnitWeight),
+            ParamTarget::Density(_) => Some(Constant::Density),
+            ParamTarget::Viscosity(_) => Some(Constant::Retardation),
+            ParamTarget::AbsorbingDamping(_) => Some(Constant::Damping),
             _ => None,
         }
     }
@@ -361,21 +372,28 @@ fn resolve_field(scene: &Scene, field_path: &str, field: &str) -> Result<ParamTa
     let unknown = |why: &str| SceneError::new(field_path, format!("'{field}': {why}"));
     let toks = tokens(field).ok_or_else(|| unknown("not a valid field path"))?;
     use Token::Name as N;
-    let target = match toks.as_slice() {
-        [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
-        [N("boundary"), entry, rest @ ..] => {
-            let b = entry_index("boundary", boundary_names(scene), *entry, &unknown)?;
-            boundary_target(scene, b, rest, &unknown)?
-        }
-        [N("contacts"), entry, rest @ ..] => {
-            let c = entry_index("contacts", contact_names(scene), *entry, &unknown)?;
-            contact_target(scene, c, rest, &unknown)?
-        }
-        [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
-            ParamTarget::ReferenceTemperature
-        }
-        _ => return Err(unknown("unknown field")),
-    };
+    let target =
+        match toks.as_slice() {
+            [N("materials"), N(m), rest @ ..] => material_target(scene, m, rest, &unknown)?,
+            [N("boundary"), entry, rest @ ..] => {
+                let b = entry_index("boundary", boundary_names(scene), *entry, &unknown)?;
+                boundary_target(scene, b, rest, &unknown)?
+            }
+            [N("contacts"), entry, rest @ ..] => {
+                let c = entry_index("contacts", contact_names(scene), *entry, &unknown)?;
+                contact_target(scene, c, rest, &unknown)?
+            }
+            [N("thermal"), N("reference_temperature")] if scene.thermal.is_some() => {
+                ParamTarget::ReferenceTemperature
+            }
+            [N("absorbing"), Token::Index(k), N("damping")] if *k < scene.absorbing.len() => {
+                ParamTarget::AbsorbingDamping(*k)
+            }
+            [N("absorbing"), ..] => return Err(unknown(
+                "an absorbing layer's number is `absorbing[k].damping` with k an existing layer",
+            )),
+            _ => return Err(unknown("unknown field")),
+        };
     Ok(target)
 }
 
@@ -428,6 +446,11 @@ fn material_target(
             Ok(ParamTarget::ConductivityEntry(idx, *i.min(j), *i.max(j)))
         }
         [N("heat_source")] => Ok(ParamTarget::HeatSource(idx)),
+        [N("density" | "viscosity")] if scene.dynamics.is_none() => Err(unknown(
+            "a density or viscosity varies only a scene with `dynamics`",
+        )),
+        [N("density")] if mat.density.is_some() => Ok(ParamTarget::Density(idx)),
+        [N("viscosity")] if mat.viscosity.is_some() => Ok(ParamTarget::Viscosity(idx)),
         [N("expansion")] if mat.beta.is_none() => Ok(ParamTarget::Expansion(idx)),
         [N("beta")]
             if mat.expansion.is_none() && !matches!(mat.beta, Some(ThermalStress::Voigt(_))) =>
@@ -1097,6 +1120,9 @@ fn value(data: &Data, target: ParamTarget) -> f64 {
         T::SlipKnot(c, k) => data.slip[c].values[k],
         T::FrictionCoefficient(c) => data.friction[c].unwrap_or(0.0),
         T::ReferenceTemperature => data.reference_temperature,
+        T::Density(m) => data.dynamic.density[m],
+        T::Viscosity(m) => data.dynamic.viscosity[m],
+        T::AbsorbingDamping(k) => data.dynamic.absorbing[k],
     }
 }
 
@@ -1174,6 +1200,9 @@ fn set(data: &mut Data, target: ParamTarget, v: f64) {
         T::SlipKnot(c, k) => data.slip[c].values[k] = v,
         T::FrictionCoefficient(c) => data.friction[c] = Some(v),
         T::ReferenceTemperature => data.reference_temperature = v,
+        T::Density(m) => data.dynamic.density[m] = v,
+        T::Viscosity(m) => data.dynamic.viscosity[m] = v,
+        T::AbsorbingDamping(k) => data.dynamic.absorbing[k] = v,
     }
 }
 

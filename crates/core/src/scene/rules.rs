@@ -40,6 +40,12 @@ pub(crate) enum Constant {
     Level,
     /// The unit weight γ of a hydrostatic pressure's liquid \[N/m³\].
     UnitWeight,
+    /// A density ρ \[kg/m³\] of a dynamic scene.
+    Density,
+    /// A Kelvin–Voigt retardation time τ_v \[s\].
+    Retardation,
+    /// The damping α of an absorbing layer \[kg/(m³ s)\].
+    Damping,
 }
 
 /// Largest modulus, load or slip limit \[Pa, N/m³\].
@@ -59,6 +65,10 @@ pub(crate) const MAX_FRICTION: f64 = 100.0;
 pub(crate) const MAX_LEVEL: f64 = 1e6;
 /// Largest unit weight of a liquid \[N/m³\] (mercury is 1.3e5).
 pub(crate) const MAX_UNIT_WEIGHT: f64 = 1e8;
+/// Largest density \[kg/m³\] (osmium is 2.3e4; beyond, the mass swamps the stiffness).
+const MAX_DENSITY: f64 = 1e8;
+/// Largest retardation time \[s\].
+const MAX_RETARDATION: f64 = 1e9;
 /// Smallest conductivity \[W/(m K)\].
 pub(crate) const MIN_CONDUCTIVITY: f64 = 1e-9;
 /// Largest conductivity \[W/(m K)\].
@@ -81,6 +91,9 @@ impl Constant {
             Constant::Angle => v.abs() <= MAX_ANGLE,
             Constant::Level => v.abs() <= MAX_LEVEL,
             Constant::UnitWeight => (0.0..=MAX_UNIT_WEIGHT).contains(&v),
+            Constant::Density => v > 0.0 && v <= MAX_DENSITY,
+            Constant::Retardation => (0.0..=MAX_RETARDATION).contains(&v),
+            Constant::Damping => (0.0..=MAX_STRESS).contains(&v),
         }
     }
 
@@ -114,6 +127,13 @@ impl Constant {
             Constant::Level => "the level of a hydrostatic pressure must lie in [-1e6, 1e6] m",
             Constant::UnitWeight => {
                 "the unit weight of a hydrostatic pressure must be >= 0 and at most 1e8 N/m3 (water is 9810)"
+            }
+            Constant::Density => "the density must be > 0 and at most 1e8 kg/m3",
+            Constant::Retardation => {
+                "the retardation time (viscosity) must be >= 0 and at most 1e9 s"
+            }
+            Constant::Damping => {
+                "the damping of an absorbing layer must be >= 0 and at most 1e15 kg/(m3 s)"
             }
         }
     }

@@ -17,6 +17,8 @@ mod solution;
 pub use criterion_values::{
     attaining, family, maxima, per_region, region_name, Fields, PerCriterion,
 };
+pub(crate) use criterion_values::{per_region_with, region_forms};
+pub(crate) use sensitivity::{add_scaled, one_sided, tied_regions, TIE_TOL};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{

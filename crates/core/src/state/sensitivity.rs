@@ -33,7 +33,7 @@ use crate::scene::{Criterion, Data};
 pub use wsm_search::OneSided;
 
 /// Relative distance to the maximum within which a region ties with the maximising one.
-const TIE_TOL: f64 = 1e-12;
+pub(crate) const TIE_TOL: f64 = 1e-12;
 
 /// Per parameter, the derivatives of Φ1..Φ6 (None where the criterion was not computed; always
 /// None for the defined criteria, which have no maximum).
@@ -552,7 +552,7 @@ impl StateProblem {
 }
 
 /// y += a x.
-fn add_scaled(y: &mut [f64], a: f64, x: &[f64]) {
+pub(crate) fn add_scaled(y: &mut [f64], a: f64, x: &[f64]) {
     for (yi, xi) in y.iter_mut().zip(x) {
         *yi += a * xi;
     }
@@ -610,7 +610,7 @@ fn apply_forms(forms: &PerCriterion<Vec<LinearForm>>, tangent: &Fields) -> PerCr
 }
 
 /// Which regions tie for the maximum of the region values (within [`TIE_TOL`]).
-fn tied_regions(values: &[f64]) -> Vec<bool> {
+pub(crate) fn tied_regions(values: &[f64]) -> Vec<bool> {
     let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let scale = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
     values.iter().map(|v| *v >= max - TIE_TOL * scale).collect()
@@ -618,7 +618,12 @@ fn tied_regions(values: &[f64]) -> Vec<bool> {
 
 /// The one-sided derivatives of max_r V_r from the region values, the regions that tie for the
 /// maximum and their right and left derivatives.
-fn one_sided(values: &[f64], tied: &[bool], right: &[f64], left: &[f64]) -> Option<OneSided> {
+pub(crate) fn one_sided(
+    values: &[f64],
+    tied: &[bool],
+    right: &[f64],
+    left: &[f64],
+) -> Option<OneSided> {
     if values.is_empty() {
         return None;
     }

@@ -242,6 +242,9 @@ pub struct Solution {
     /// Per Φ, the value of each region of its family (`state::family`; empty where Φ is not
     /// defined or its field was not solved).
     pub region_values: super::PerCriterion<Vec<f64>>,
+    /// Per Φ and region of a dynamic scene's criteria over time: the first time its value
+    /// reaches its maximum (empty for a static solve).
+    pub peak_times: super::PerCriterion<Vec<f64>>,
     /// Per requested stencil (parameter), the one-sided derivatives of Φ1..Φ6
     /// ([`StateProblem::solve_with_sensitivities`]; empty when none were requested or they
     /// could not be computed, with a warning).

@@ -50,7 +50,7 @@ const ROUNDING_TOL: f64 = 1e-12;
 
 /// How a multiplier may move in the tangent problem.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) enum RowMotion {
+pub(crate) enum RowMotion {
     /// Strictly inside its bounds: free.
     Free,
     /// Strictly active at the lower bound: follows it.
@@ -268,7 +268,7 @@ impl DirectContact {
 
 /// The bounds of the multiplier derivatives along the signed direction (module doc): free rows
 /// unconstrained, strictly active ones following their bound, weakly active ones one-sided.
-pub(super) fn tangent_bounds(
+pub(crate) fn tangent_bounds(
     motions: &[RowMotion],
     dd: &DataDerivative,
     sign: f64,
@@ -414,7 +414,7 @@ impl DirectContact {
 }
 
 /// The tangent motion of every multiplier from the converged state.
-pub(super) fn classify(state: &ContactPoint) -> Vec<RowMotion> {
+pub(crate) fn classify(state: &ContactPoint) -> Vec<RowMotion> {
     let finite_max = |v: &[f64]| {
         v.iter()
             .filter(|x| x.is_finite())
