@@ -295,14 +295,22 @@ pub fn schema() -> String {
 /// `--gradients` the cost of the exact derivatives, or with `--mortar` mortar against node-pair
 /// contact rows.
 pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
-    if args.mortar {
-        wsm_study::bench::run_mortar(&args.sizes, args.runs)
-    } else if args.gradients {
-        wsm_study::bench::run_gradients(&args.sizes, args.runs)
-    } else if args.worst {
-        wsm_study::bench::run_worst(&args.sizes, args.budget, args.dd)
+    let sizes = |default: &[usize]| args.sizes.clone().unwrap_or_else(|| default.to_vec());
+    let sizes = if args.dynamics {
+        sizes(&[2500, 5000, 10000])
     } else {
-        wsm_study::bench::run(&args.sizes, args.runs, args.dd)
+        sizes(&[10000, 100000])
+    };
+    if args.dynamics {
+        wsm_study::bench::run_dynamics(&sizes, args.runs)
+    } else if args.mortar {
+        wsm_study::bench::run_mortar(&sizes, args.runs)
+    } else if args.gradients {
+        wsm_study::bench::run_gradients(&sizes, args.runs)
+    } else if args.worst {
+        wsm_study::bench::run_worst(&sizes, args.budget, args.dd)
+    } else {
+        wsm_study::bench::run(&sizes, args.runs, args.dd)
     }
 }
 
