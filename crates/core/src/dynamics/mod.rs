@@ -55,6 +55,9 @@ pub struct DynamicRun {
     pub peaks: PeakFields,
 }
 
+/// Receives the state at each output time; an error stops the run.
+pub type FrameSink<'a> = dyn FnMut(&Frame) -> Result<(), WsmError> + 'a;
+
 /// What the caller of [`simulate_with`] watches and receives during a run.
 #[derive(Default)]
 pub struct Hooks<'a> {
@@ -63,7 +66,7 @@ pub struct Hooks<'a> {
     /// Called after every step with (steps done, steps of the run).
     pub progress: Option<&'a dyn Fn(usize, usize)>,
     /// Called with the state at every output time (t = 0 first); an error stops the run.
-    pub frames: Option<&'a mut dyn FnMut(&Frame) -> Result<(), WsmError>>,
+    pub frames: Option<&'a mut FrameSink<'a>>,
 }
 
 /// The state at one output time, as [`Hooks::frames`] receives it.

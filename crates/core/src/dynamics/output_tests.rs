@@ -55,10 +55,9 @@ fn sliding_block_momentum_slip_and_friction_dissipation() {
     let push = |t: f64| PUSH * HEIGHT * (t / 0.004).min(1.0);
     let mut impulse = 0.0;
     let mut worst: f64 = 0.0;
-    for i in 1..=n {
-        let (a, b) = (h.times[i - 1], h.times[i]);
-        impulse += dt * (0.5 * (push(a) + push(b)) - zone.tangential_force[i]);
-        worst = worst.max((mass * mean[i][0] - impulse).abs());
+    for (k, step) in h.times.windows(2).enumerate() {
+        impulse += dt * (0.5 * (push(step[0]) + push(step[1])) - zone.tangential_force[k + 1]);
+        worst = worst.max((mass * mean[k + 1][0] - impulse).abs());
     }
     let (v_rigid, x_rigid) = rigid_slide(h.times[n]);
     let (v, slip, rate, friction) = (

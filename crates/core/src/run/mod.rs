@@ -59,7 +59,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use crate::dynamics::{simulate_with, Frame, Hooks};
+use crate::dynamics::{simulate_with, Frame, FrameSink, Hooks};
 use crate::error::WsmError;
 use crate::estimate::ladder::scaled;
 use crate::estimate::mesh_choice::choose_mesh;
@@ -175,9 +175,7 @@ pub fn solve_watched(
                 .progress
                 .is_some()
                 .then_some(&progress as &dyn Fn(usize, usize)),
-            frames: frames
-                .as_mut()
-                .map(|f| f as &mut dyn FnMut(&Frame) -> Result<(), WsmError>),
+            frames: frames.as_mut().map(|f| f as &mut FrameSink),
         };
         output.summary.history = Some(simulate_with(&problem, &data, &mut hooks)?.history);
     }
