@@ -423,9 +423,9 @@ impl From<WorkerArgs> for WorkerConfig {
 /// `wsm bench`.
 #[derive(Args)]
 pub struct BenchArgs {
-    /// Target numbers of unknowns.
-    #[arg(long, value_delimiter = ',', default_value = "10000,100000")]
-    pub sizes: Vec<usize>,
+    /// Target numbers of unknowns (default 10000,100000; with --dynamics 2500,5000,10000).
+    #[arg(long, value_delimiter = ',')]
+    pub sizes: Option<Vec<usize>>,
     /// Runs per measurement (the median is reported).
     #[arg(long, default_value_t = 3)]
     pub runs: usize,
@@ -447,6 +447,10 @@ pub struct BenchArgs {
     /// on one mesh (equal unknowns), on the Hertz and tunnel examples (medians over --runs points).
     #[arg(long)]
     pub mortar: bool,
+    /// Instead: a dynamic run of the seismic tunnel example (1000 steps with contact), total and
+    /// per-step time against unknowns (medians over --runs runs).
+    #[arg(long)]
+    pub dynamics: bool,
 }
 
 /// `wsm example`.

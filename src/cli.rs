@@ -81,7 +81,10 @@ fn write(path: &Path, text: &str) -> Result<(), WsmError> {
 }
 
 /// `wsm solve`: the JSON summary; the full result, a VTU file and the contact profiles (CSV) on
-/// request. The report's warnings also go to stderr, as `wsm worst`'s do.
+/// request. The report's warnings also go to stderr, as `wsm worst`'s do. A dynamic scene shows
+/// its time steps as a progress bar on stderr, and with `--vtu FILE` also writes the series of
+/// its output times beside FILE (design §5.6): `STEM-00000.vtu`, … and their index `STEM.pvd`
+/// with the times (FILE itself holds the static solve at t = 0 that the summary describes).
 pub fn solve(
     scene: Scene,
     request: SolveRequest,
@@ -93,7 +96,38 @@ pub fn solve(
         fields: out.is_some() || vtu.is_some() || profiles.is_some(),
         ..request
     };
-    let output = run::solve(scene, &request)?;
+    let dynamic = scene.dynamics.is_some();
+    let bar = ProgressBar::hidden();
+    let mut control = RunControl::new();
+    if dynamic {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} time steps")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let progress_bar = bar.clone();
+        control = control.with_progress(move |event: &ProgressEvent| {
+            progress_bar.set_length(event.budget as u64);
+            progress_bar.set_position(event.evaluations as u64);
+        });
+    }
+    let mut entries = Vec::new();
+    let mut sink = |index: usize, time: f64, text: String| -> Result<(), WsmError> {
+        let Some(p) = vtu else { return Ok(()) };
+        let stem = p.file_stem().unwrap_or_default().to_string_lossy();
+        let file = format!("{stem}-{index:05}.vtu");
+        write(&p.with_file_name(&file), &text)?;
+        entries.push(run::SeriesEntry {
+            file,
+            title: format!("t = {time:e} s"),
+            time: Some(time),
+        });
+        Ok(())
+    };
+    let series = (dynamic && vtu.is_some()).then_some(&mut sink as &mut run::SeriesSink);
+    let output = run::solve_watched(scene, None, &request, &control, series);
+    bar.finish_and_clear();
+    let output = output?;
     for warning in &output.summary.report.warnings {
         eprintln!("warning: {warning}");
     }
@@ -102,6 +136,16 @@ pub fn solve(
     }
     if let (Some(p), Some(text)) = (vtu, &output.vtu) {
         write(p, text)?;
+        if !entries.is_empty() {
+            let index = p.with_extension("pvd");
+            write(&index, &run::write_pvd(&entries))?;
+            eprintln!(
+                "{} output times written as {}-*.vtu, indexed by {}",
+                entries.len(),
+                p.with_extension("").display(),
+                index.display()
+            );
+        }
     }
     if let (Some(p), Some(fields)) = (profiles, &output.fields) {
         write(p, &run::profiles_csv(&fields.contact_profiles))?;
@@ -251,14 +295,22 @@ pub fn schema() -> String {
 /// `--gradients` the cost of the exact derivatives, or with `--mortar` mortar against node-pair
 /// contact rows.
 pub fn bench(args: &crate::args::BenchArgs) -> Result<String, WsmError> {
-    if args.mortar {
-        wsm_study::bench::run_mortar(&args.sizes, args.runs)
-    } else if args.gradients {
-        wsm_study::bench::run_gradients(&args.sizes, args.runs)
-    } else if args.worst {
-        wsm_study::bench::run_worst(&args.sizes, args.budget, args.dd)
+    let sizes = |default: &[usize]| args.sizes.clone().unwrap_or_else(|| default.to_vec());
+    let sizes = if args.dynamics {
+        sizes(&[2500, 5000, 10000])
     } else {
-        wsm_study::bench::run(&args.sizes, args.runs, args.dd)
+        sizes(&[10000, 100000])
+    };
+    if args.dynamics {
+        wsm_study::bench::run_dynamics(&sizes, args.runs)
+    } else if args.mortar {
+        wsm_study::bench::run_mortar(&sizes, args.runs)
+    } else if args.gradients {
+        wsm_study::bench::run_gradients(&sizes, args.runs)
+    } else if args.worst {
+        wsm_study::bench::run_worst(&sizes, args.budget, args.dd)
+    } else {
+        wsm_study::bench::run(&sizes, args.runs, args.dd)
     }
 }
 

@@ -264,3 +264,26 @@ def test_fields_are_on_the_mesh_the_run_chose(run_wsm, tmp_path):
     assert chosen["triangles"] != default
     for path in fields.glob("*.vtu"):
         assert len(meshio.read(path).cells_dict["triangle"]) == chosen["triangles"], path.name
+
+
+def test_dynamic_series_is_read_by_meshio(run_wsm, tmp_path):
+    """A dynamic solve's `--vtu` (design §3.5, §5.6): one VTU per output time indexed by a PVD
+    whose time steps are the history's times; meshio reads every file, with the velocity and the
+    peak fields, whose largest values are the history's `peaks`."""
+    vtu, out = tmp_path / "impact.vtu", tmp_path / "impact.json"
+    run_wsm("solve", "--example", "implant-impact", "--vtu", vtu, "--out", out)
+    history = json.loads(out.read_text())["summary"]["history"]
+    steps = ET.parse(tmp_path / "impact.pvd").getroot().findall(".//DataSet")
+    assert [float(s.get("timestep")) for s in steps] == history["times"]
+    for k, step in enumerate(steps):
+        mesh = meshio.read(tmp_path / step.get("file"))
+        assert text(mesh, "scenario") == f"nominal at t = {step.get('timestep')} s"
+        assert mesh.point_data["velocity"].shape[1] == 3
+    triangles, lines = blocks(mesh)
+    peaks = history["peaks"]
+    assert np.max(mesh.point_data["peak_displacement"]) == peaks["displacement"]["value"]
+    assert np.nanmax(mesh.cell_data["peak_i2_squared"][triangles]) == peaks["i2_squared"]["value"]
+    assert (
+        np.nanmax(mesh.cell_data["peak_contact_pressure"][lines])
+        == peaks["contact_pressure"]["value"]
+    )

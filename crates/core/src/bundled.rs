@@ -21,6 +21,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ),
     ("hertz", include_str!("../../../scenes/hertz.json")),
     (
+        "implant-impact",
+        include_str!("../../../scenes/implant-impact.json"),
+    ),
+    (
         "hertz-nonmatching",
         include_str!("../../../scenes/hertz-nonmatching.json"),
     ),
@@ -81,6 +85,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     (
         "tunnel-fault-nonmatching",
         include_str!("../../../scenes/tunnel-fault-nonmatching.json"),
+    ),
+    (
+        "tunnel-fault-seismic",
+        include_str!("../../../scenes/tunnel-fault-seismic.json"),
     ),
     (
         "tunnel-fault-slip-profile",

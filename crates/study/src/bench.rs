@@ -1,7 +1,7 @@
 //! Benchmarks behind `wsm bench` (not part of the test suite): timings of the FEM pipeline and
 //! of the direct contact solver on the tunnel example at chosen sizes, of the exact derivatives,
-//! of the worst-scenario loop, and of mortar against node-pair contact rows (design §2.4.1).
-//! Medians of a few runs.
+//! of the worst-scenario loop, of mortar against node-pair contact rows (design §2.4.1), and of a
+//! dynamic run (design §3.5). Medians of a few runs.
 
 use std::time::Instant;
 
@@ -545,6 +545,53 @@ pub fn run_mortar(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
                 sparse[1],
             ));
         }
+    }
+    Ok(out)
+}
+
+/// Steps of a `wsm bench --dynamics` run.
+pub const DYNAMIC_STEPS: usize = 1000;
+
+/// `wsm bench --dynamics`: the seismic tunnel example (design §3.5; issue #47's speed target:
+/// about 10⁴ unknowns, 1000 steps with contact in ≤ 10 s on 2 cores) scaled to each size, run for
+/// [`DYNAMIC_STEPS`] steps of its Δt (the pulse crosses the rock mass and the fault, the absorbing
+/// layers take it out) with an output every 10 steps. Medians over `runs` runs of the set-up
+/// (meshing, operators, contact rows) and of the run (static start, factorisation of A,
+/// W = A⁻¹Bᵀ, the steps), one thread.
+pub fn run_dynamics(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
+    let mut out = String::from(
+        "Dynamic run of tunnel-fault-seismic, 1000 steps (newmark, contact on both faults; one thread; medians):\n\n| unknowns | contact pairs | set-up [s] | run [s] | per step [ms] | QP iterations / step | active-set changes |\n|---|---|---|---|---|---|---|\n",
+    );
+    for &n in sizes {
+        let mut scene = scene_of_size("tunnel-fault-seismic", n)?;
+        let dynamics = scene
+            .dynamics
+            .as_mut()
+            .ok_or_else(|| wsm_core::scene::SceneError::new("dynamics", "missing"))?;
+        dynamics.t_end = DYNAMIC_STEPS as f64 * dynamics.dt;
+        dynamics.output_every = 10;
+        let (mut setup, mut total) = (Vec::new(), Vec::new());
+        let mut last = None;
+        for _ in 0..runs.max(1) {
+            let (problem, t) = time(|| StateProblem::new(scene.clone()));
+            let problem = problem?;
+            setup.push(t);
+            let (run, t) = time(|| wsm_core::dynamics::simulate(&problem, &problem.nominal));
+            total.push(t);
+            last = Some((problem.contact.geometry.pairs.len(), run?.history.report));
+        }
+        let Some((pairs, report)) = last else {
+            continue;
+        };
+        let run = median(total);
+        out.push_str(&format!(
+            "| {} | {pairs} | {:.3} | {run:.3} | {:.3} | {:.2} | {} |\n",
+            report.unknowns,
+            median(setup),
+            1e3 * run / report.steps as f64,
+            report.qp_iterations as f64 / report.steps as f64,
+            report.active_set_changes,
+        ));
     }
     Ok(out)
 }

@@ -10,11 +10,14 @@
 //!   the multipliers and solved by `pdas` (the paper's primal–dual active set method (27)) or
 //!   the existing dense box QP.
 //! - `excitation`: initial velocities, point loads, the slip-rate-dependent friction bound.
-//! - `history`: receivers, contact-zone resultants and states, the energy budget.
+//! - `history`: receivers, contact-zone resultants, states, slip and slip rate, bodies' mean
+//!   velocities, the energy budget, the peak-over-time fields.
 //! - `over_time`: the criteria as maxima over the time steps, with the time they occur, and
 //!   their exact one-sided derivatives by forward differentiation through the time loop.
 //!
-//! [`simulate`] runs a dynamic scene from rest or from its static contact solution.
+//! [`simulate`] runs a dynamic scene from rest or from its static contact solution;
+//! [`simulate_with`] also reports progress, honours a cancel flag and hands every output time's
+//! state to the caller (a VTU series, design §5.6).
 
 #[cfg(test)]
 mod acceptance;
@@ -22,6 +25,8 @@ mod excitation;
 mod history;
 mod operators;
 mod over_time;
+#[cfg(test)]
+mod output_tests;
 mod pdas;
 pub mod scheme;
 mod step;
@@ -29,20 +34,22 @@ mod step;
 mod tests;
 
 pub use history::{
-    CriterionPeak, DynamicsReport, EnergyHistory, History, ReceiverHistory, ZoneHistory,
+    BodyHistory, CriterionPeak, DynamicsReport, EnergyHistory, History, Peak, PeakFields, Peaks,
+    ReceiverHistory, ZoneHistory,
 };
 pub use operators::Operators;
 pub use over_time::solve_over_time;
 
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use crate::contact::pairs::{is_normal_row, normal_row, pair_of_row, tangential_row};
 use crate::error::WsmError;
-use crate::fem::{ElasticProblem, Par};
+use crate::fem::{ElasticProblem, ElementStress, Par};
 use crate::scene::{BoundaryValue, Criterion, Data, InitialState, Scene, SceneError, TimeScheme};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem};
 use excitation::{initial_velocity, slip_rate_bounds, PointLoads};
-use history::{Recorder, Snapshot};
+use history::{Energy, Recorder, Snapshot};
 use over_time::OverTime;
 use scheme::{constants, dot, rhs, step_energy, velocity, SecondOrderSystem, StepConstants};
 use step::StepContact;
@@ -56,6 +63,42 @@ pub struct DynamicRun {
     pub displacement: Vec<[f64; 2]>,
     /// Final velocity, global nodal \[m/s\].
     pub velocity: Vec<[f64; 2]>,
+    /// The peak-over-time fields over every step.
+    pub peaks: PeakFields,
+}
+
+/// Receives the state at each output time; an error stops the run.
+pub type FrameSink<'a> = dyn FnMut(&Frame) -> Result<(), WsmError> + 'a;
+
+/// What the caller of [`simulate_with`] watches and receives during a run.
+#[derive(Default)]
+pub struct Hooks<'a> {
+    /// Polled before every step: once raised, the run stops with [`WsmError::Cancelled`].
+    pub cancel: Option<&'a AtomicBool>,
+    /// Called after every step with (steps done, steps of the run).
+    pub progress: Option<&'a dyn Fn(usize, usize)>,
+    /// Called with the state at every output time (t = 0 first); an error stops the run.
+    pub frames: Option<&'a mut FrameSink<'a>>,
+}
+
+/// The state at one output time, as [`Hooks::frames`] receives it.
+pub struct Frame<'a> {
+    /// The output's index (0 at t = 0), as in [`History::times`].
+    pub index: usize,
+    /// Time \[s\].
+    pub t: f64,
+    /// Global nodal displacement \[m\].
+    pub displacement: &'a [[f64; 2]],
+    /// Global nodal velocity \[m/s\].
+    pub velocity: &'a [[f64; 2]],
+    /// Element stresses: the elastic plus the Kelvin–Voigt viscous stress τ(u) + τ_v τ(v).
+    pub stresses: &'a [ElementStress],
+    /// Contact forces per multiplier row (normal, tangential per pair) \[N/m\].
+    pub forces: &'a [f64],
+    /// B u + B_d u_d − g0 per multiplier row (gap on normal rows, slip on tangential ones).
+    pub gaps: &'a [f64],
+    /// The peak-over-time fields up to `t`.
+    pub peaks: &'a PeakFields,
 }
 
 /// `data` with each load that has a time function scaled by its value at `t`.
@@ -104,10 +147,40 @@ impl SecondOrderSystem for FemSystem<'_> {
 /// Run the dynamic scene of `problem` with `data` (design §3.5); the history carries the
 /// maximum over time of every criterion the scene defines (design §3.5, criteria over time).
 pub fn simulate(problem: &StateProblem, data: &Data) -> Result<DynamicRun, WsmError> {
+    simulate_with(problem, data, &mut Hooks::default())
+}
+
+/// [`simulate`] with progress, cancellation and the state at every output time (`hooks`).
+pub fn simulate_with(
+    problem: &StateProblem,
+    data: &Data,
+    hooks: &mut Hooks,
+) -> Result<DynamicRun, WsmError> {
     let mut peaks = OverTime::new(problem, data, &Criterion::ALL, &[])?;
-    let mut run = simulate_observed(problem, data, &mut peaks)?;
+    let mut run = simulate_observed(problem, data, &mut peaks, hooks)?;
     run.history.criteria = peaks.history_entries();
     Ok(run)
+}
+
+/// Element stresses of a state: c⁽⁰⁾e(u) + c⁽¹⁾e(v) = τ(u) + τ_v τ(v), τ_v per element
+/// (`retardation`; τ(v) is skipped when no material is viscous).
+fn state_stresses(
+    elastic: &ElasticProblem,
+    data: &Data,
+    retardation: &[f64],
+    u: &[[f64; 2]],
+    v: &[[f64; 2]],
+) -> Result<Vec<ElementStress>, WsmError> {
+    let mut stresses = elastic.stresses(data, u, None)?;
+    if retardation.iter().any(|&tau| tau > 0.0) {
+        let rate = elastic.stresses(data, v, None)?;
+        for ((s, r), &tau) in stresses.iter_mut().zip(&rate).zip(retardation) {
+            for (a, b) in s.stress.iter_mut().zip(r.stress) {
+                *a += tau * b;
+            }
+        }
+    }
+    Ok(stresses)
 }
 
 /// What the time loop shares with a [`StepObserver`]: the run's operators and scheme.
@@ -148,11 +221,12 @@ trait StepObserver {
     ) -> Result<(), WsmError>;
 }
 
-/// [`simulate`] with `observer` shown every step.
+/// [`simulate_with`] with `observer` shown every step.
 fn simulate_observed(
     problem: &StateProblem,
     data: &Data,
     observer: &mut dyn StepObserver,
+    hooks: &mut Hooks,
 ) -> Result<DynamicRun, WsmError> {
     let started = Instant::now();
     let scene = &problem.scene;
@@ -232,29 +306,79 @@ fn simulate_observed(
     let zero_fixed = vec![0.0; dofs.n_fixed()];
     let global = |x: &[f64], prescribed: &[f64]| dofs.expand(x, prescribed);
 
-    let mut recorder = Recorder::new(scene, elastic.mesh())?;
+    let mesh = elastic.mesh();
+    let materials: Vec<_> = scene.materials.values().collect();
+    let retardation: Vec<f64> = mesh
+        .triangle_zone
+        .iter()
+        .map(|&z| {
+            materials
+                .get(mesh.zones[z].material)
+                .and_then(|m| m.viscosity)
+                .unwrap_or(0.0)
+        })
+        .collect();
+    let layers = !scene.absorbing.is_empty();
+    let viscous = retardation.iter().any(|&tau| tau > 0.0);
+    let mut recorder = Recorder::new(scene, mesh)?;
     let mut history = recorder.empty(scene);
+    let mut peaks = PeakFields::default();
+    let mut outputs = 0;
+    // Record the state at an output time (history, peaks already raised, the caller's frame).
+    let mut output = |history: &mut History,
+                      peaks: &PeakFields,
+                      snapshot: &Snapshot,
+                      stresses: &[ElementStress]|
+     -> Result<(), WsmError> {
+        recorder.record(history, geometry, snapshot);
+        if let Some(frames) = hooks.frames.as_mut() {
+            frames(&Frame {
+                index: outputs,
+                t: snapshot.t,
+                displacement: snapshot.displacement,
+                velocity: snapshot.velocity,
+                stresses,
+                forces: snapshot.forces,
+                gaps: snapshot.gaps,
+                peaks,
+            })?;
+        }
+        outputs += 1;
+        Ok(())
+    };
     let (lower0, upper0) = geometry.bounds(data, Some(&forces));
     let scaled = |b: &[f64]| -> Vec<f64> { b.iter().map(|x| x * k.force).collect() };
     contact.start_from(&scaled(&forces), &scaled(&lower0), &scaled(&upper0));
-    let mut totals = [0.0; 3]; // viscous, contact, work
-    recorder.record(
+    let mut totals = Energy::default();
+    let (u_global, v_global) = (global(&u, &fixed), global(&v, &zero_fixed));
+    let stresses = state_stresses(elastic, data, &retardation, &u_global, &v_global)?;
+    peaks.update(mesh, geometry, 0.0, &u_global, &stresses, &forces);
+    output(
         &mut history,
-        geometry,
+        &peaks,
         &Snapshot {
             t: 0.0,
-            displacement: &global(&u, &fixed),
-            velocity: &global(&v, &zero_fixed),
+            displacement: &u_global,
+            velocity: &v_global,
             acceleration: &global(&vec![0.0; n], &zero_fixed),
             forces: &forces,
             bounds: &upper0,
             gaps: &gaps(&u),
-            energy: [kinetic(&v), strain(&u), 0.0, 0.0, 0.0],
+            rates: &vec![0.0; geometry.dim()],
+            energy: Energy {
+                kinetic: kinetic(&v),
+                strain: strain(&u),
+                ..Energy::default()
+            },
         },
-    );
+        &stresses,
+    )?;
     let mut f_now = free_loads(0.0)?;
     let (mut iterations, mut changes, mut fallbacks) = (0, 0, 0);
     for step in 1..=steps {
+        if hooks.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+            return Err(WsmError::Cancelled);
+        }
         let t = step as f64 * dt;
         let f_next = free_loads(t)?;
         let load = rhs(
@@ -291,13 +415,33 @@ fn simulate_observed(
                 forces: &forces,
             },
         )?;
-        let (viscous, work) = step_energy(scheme_kind, dt, &system, &u, &u_next, &f_now, &f_next);
+        let (damped, work) = step_energy(scheme_kind, dt, &system, &u, &u_next, &f_now, &f_next);
         let increment: Vec<f64> = u_next.iter().zip(&u).map(|(a, b)| a - b).collect();
+        // C = C_α + K1: the absorbing layers' share read from C_α, the viscous one the rest
+        // (each exactly 0 without its cause).
+        let absorbed = match (layers, viscous) {
+            (false, _) => 0.0,
+            (true, false) => damped,
+            (true, true) => {
+                let c_alpha = elastic.operator().apply(&ops.absorbing, &increment);
+                dot(&increment, &c_alpha) / dt
+            }
+        };
         let new_forces: Vec<f64> = multipliers.iter().map(|x| x / k.force).collect();
-        let contact_work = dot(&new_forces, &geometry.apply(&increment));
-        totals[0] += viscous;
-        totals[1] += contact_work;
-        totals[2] += work;
+        let moved = geometry.apply(&increment);
+        for (r, (lambda, db)) in new_forces.iter().zip(&moved).enumerate() {
+            if is_normal_row(r) {
+                totals.contact += lambda * db;
+            } else {
+                totals.friction += lambda * db;
+            }
+        }
+        totals.viscous += damped - absorbed;
+        totals.absorbing += absorbed;
+        totals.work += work;
+        let (u_global, v_global) = (global(&u_next, &fixed), global(&v_next, &zero_fixed));
+        let stresses = state_stresses(elastic, data, &retardation, &u_global, &v_global)?;
+        peaks.update(mesh, geometry, t, &u_global, &stresses, &new_forces);
         if step % dynamics.output_every == 0 || step == steps {
             let accel: Vec<f64> = v_next.iter().zip(&v).map(|(a, b)| (a - b) / dt).collect();
             let (mut below, mut bounds) = geometry.bounds(data, Some(&new_forces));
@@ -310,32 +454,37 @@ fn simulate_observed(
                 &mut below,
                 &mut bounds,
             );
-            recorder.record(
+            let rates: Vec<f64> = moved.iter().map(|x| x / dt).collect();
+            output(
                 &mut history,
-                geometry,
+                &peaks,
                 &Snapshot {
                     t,
-                    displacement: &global(&u_next, &fixed),
-                    velocity: &global(&v_next, &zero_fixed),
+                    displacement: &u_global,
+                    velocity: &v_global,
                     acceleration: &global(&accel, &zero_fixed),
                     forces: &new_forces,
                     bounds: &bounds,
                     gaps: &gaps(&u_next),
-                    energy: [
-                        kinetic(&v_next),
-                        strain(&u_next),
-                        totals[0],
-                        totals[1],
-                        totals[2],
-                    ],
+                    rates: &rates,
+                    energy: Energy {
+                        kinetic: kinetic(&v_next),
+                        strain: strain(&u_next),
+                        ..totals
+                    },
                 },
-            );
+                &stresses,
+            )?;
         }
         u = u_next;
         v = v_next;
         forces = new_forces;
         f_now = f_next;
+        if let Some(progress) = hooks.progress {
+            progress(step, steps);
+        }
     }
+    history.peaks = peaks.summary.clone();
     history.report = DynamicsReport {
         scheme: scheme_kind,
         dt,
@@ -352,5 +501,6 @@ fn simulate_observed(
         history,
         displacement: global(&u, &fixed),
         velocity: global(&v, &zero_fixed),
+        peaks,
     })
 }

@@ -24,6 +24,8 @@ pub struct Operators {
     pub mass: Vec<f64>,
     /// Values of C = C_α + K1.
     pub damping: Vec<f64>,
+    /// Values of C_α alone (the absorbing layers' share of C, for the energy budget).
+    pub absorbing: Vec<f64>,
     /// Values of K0.
     pub stiffness: Vec<f64>,
     /// K_fd u_d: the prescribed displacements' share of K0 u on the free DOFs.
@@ -59,6 +61,7 @@ impl Operators {
             .collect();
         let mut damping = operator.assemble(&viscous)?;
         let mut mass = vec![0.0; stiffness.len()];
+        let mut absorbing = vec![0.0; stiffness.len()];
         let alpha = element_damping(scene, data, mesh);
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let area = mesh.triangle_area(t);
@@ -66,6 +69,7 @@ impl Operators {
             add_weighted_mass(elastic, &mut mass, *tri, rho * area)?;
             if alpha[t] > 0.0 {
                 add_weighted_mass(elastic, &mut damping, *tri, alpha[t] * area)?;
+                add_weighted_mass(elastic, &mut absorbing, *tri, alpha[t] * area)?;
             }
         }
         let fixed = elastic.fixed_values(data)?;
@@ -74,6 +78,7 @@ impl Operators {
         Ok(Operators {
             mass,
             damping,
+            absorbing,
             stiffness,
             prescribed_force: lifted.iter().map(|v| -v).collect(),
             coefficients,

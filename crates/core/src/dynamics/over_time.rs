@@ -68,7 +68,7 @@ pub fn solve_over_time(
 ) -> Result<Solution, WsmError> {
     let started = Instant::now();
     let mut over = OverTime::new(problem, data, criteria, stencils)?;
-    let run = simulate_observed(problem, data, &mut over)?;
+    let run = simulate_observed(problem, data, &mut over, &mut super::Hooks::default())?;
     let mut solution = Solution::default();
     over.fill(&mut solution);
     let mesh = problem.mesh();

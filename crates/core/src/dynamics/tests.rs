@@ -44,7 +44,7 @@ pub(super) fn checked(p: &StateProblem) -> DynamicRun {
 
 /// A plane-strain bar [0, 1] × [0, 0.05] with ν = 0, rollers on the long sides, the left end
 /// held along x, the right end loaded by `traction` with `time_function`.
-fn bar(traction: f64, time_function: Value, dynamics: Value, viscosity: f64) -> Value {
+pub(super) fn bar(traction: f64, time_function: Value, dynamics: Value, viscosity: f64) -> Value {
     json!({
         "version": 1,
         "bodies": [{"name": "bar", "zones": [{"name": "bar", "material": "steel",
@@ -418,43 +418,53 @@ fn bad_dynamic_input_names_the_field() {
     );
 }
 
+/// Density of [`pushed_block`] \[kg/m³\].
+pub(super) const PUSHED_RHO: f64 = 2500.0;
+/// The Tresca slip limit g of [`pushed_block`]'s joint \[Pa\].
+pub(super) const PUSHED_SLIP_LIMIT: f64 = 2e4;
+
+/// A 0.5 × 0.25 m block on a clamped base, joint with slip limit g, pushed on its left side by
+/// `push` ramped in over 4 ms; 10 ms in steps of 50 µs (newmark).
+pub(super) fn pushed_block(push: f64) -> Value {
+    let (rho, g_limit) = (PUSHED_RHO, PUSHED_SLIP_LIMIT);
+    json!({
+        "version": 1,
+        "bodies": [
+            {"name": "base", "zones": [{"name": "base", "material": "rock",
+                "polygon": [[0, 0], [1, 0], [1, 0.25], [0, 0.25]]}]},
+            {"name": "block", "zones": [{"name": "block", "material": "rock",
+                "polygon": [[0.25, 0.25], [0.75, 0.25], [0.75, 0.5], [0.25, 0.5]]}]}
+        ],
+        "segments": {
+            "bottom": {"body": "base", "from": [0, 0], "to": [1, 0]},
+            "base_top": {"body": "base", "from": [0.25, 0.25], "to": [0.75, 0.25]},
+            "block_bottom": {"body": "block", "from": [0.25, 0.25], "to": [0.75, 0.25]},
+            "push": {"body": "block", "from": [0.25, 0.5], "to": [0.25, 0.25]}
+        },
+        "materials": {"rock": {"E": 1e10, "nu": 0.25, "density": rho,
+            "specific_weight": 245000.0}},
+        "boundary": [
+            {"segment": "bottom", "displacement": [0, 0]},
+            {"segment": "push", "traction": [push, 0],
+             "time_function": {"table": {"times": [0.0, 0.004], "values": [0.0, 1.0]}}}
+        ],
+        "contacts": [{"name": "joint", "between": ["block_bottom", "base_top"],
+            "slip_limit": g_limit}],
+        "mesh": {"max_size": 0.0625},
+        "receivers": [{"name": "centre", "point": [0.5, 0.375]}],
+        "dynamics": {"t_end": 0.01, "dt": 5e-5, "scheme": "newmark"}
+    })
+}
+
 /// A block pushed along a clamped base against a Tresca slip limit g: it sticks while the push
 /// Q h stays below g ℓ, and slides with acceleration (Q h − g ℓ)/m beyond (friction on each
 /// step's slip, bound g w). A body force ten times the weight keeps the block flat (with its
 /// weight alone the push on its side would tip it over).
 #[test]
 fn pushed_block_sticks_below_and_slides_at_the_predicted_acceleration_above() {
-    let (rho, g_limit) = (2500.0, 2e4);
+    let (rho, g_limit) = (PUSHED_RHO, PUSHED_SLIP_LIMIT);
     let (height, length) = (0.25, 0.5);
-    let scene = |push: f64| {
-        json!({
-            "version": 1,
-            "bodies": [
-                {"name": "base", "zones": [{"name": "base", "material": "rock",
-                    "polygon": [[0, 0], [1, 0], [1, 0.25], [0, 0.25]]}]},
-                {"name": "block", "zones": [{"name": "block", "material": "rock",
-                    "polygon": [[0.25, 0.25], [0.75, 0.25], [0.75, 0.5], [0.25, 0.5]]}]}
-            ],
-            "segments": {
-                "bottom": {"body": "base", "from": [0, 0], "to": [1, 0]},
-                "base_top": {"body": "base", "from": [0.25, 0.25], "to": [0.75, 0.25]},
-                "block_bottom": {"body": "block", "from": [0.25, 0.25], "to": [0.75, 0.25]},
-                "push": {"body": "block", "from": [0.25, 0.5], "to": [0.25, 0.25]}
-            },
-            "materials": {"rock": {"E": 1e10, "nu": 0.25, "density": rho,
-                "specific_weight": 245000.0}},
-            "boundary": [
-                {"segment": "bottom", "displacement": [0, 0]},
-                {"segment": "push", "traction": [push, 0],
-                 "time_function": {"table": {"times": [0.0, 0.004], "values": [0.0, 1.0]}}}
-            ],
-            "contacts": [{"name": "joint", "between": ["block_bottom", "base_top"],
-                "slip_limit": g_limit}],
-            "mesh": {"max_size": 0.0625},
-            "receivers": [{"name": "centre", "point": [0.5, 0.375]}],
-            "dynamics": {"t_end": 0.01, "dt": 5e-5, "scheme": "newmark"}
-        })
-    };
+    let scene = pushed_block;
     let mass = rho * height * length;
     for push in [1e5, 3e4] {
         let run = run(&scene(push));

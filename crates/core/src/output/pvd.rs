@@ -1,6 +1,6 @@
 //! The ParaView data (.pvd) index of a series of VTU files (design §5.6): ParaView and PyVista
-//! open the series in one go, one file per time step; step k is the k-th file, and an XML
-//! comment lists what each step holds.
+//! open the series in one go, one file per time step; step k is the k-th file (or the file at
+//! its time, for a dynamic run's series), and an XML comment lists what each step holds.
 
 use std::fmt::Write;
 
@@ -11,6 +11,8 @@ pub struct SeriesEntry {
     pub file: String,
     /// What it holds, in words (`worst phi3`).
     pub title: String,
+    /// Its time \[s\] (a dynamic run's output time); `None`: its index in the series.
+    pub time: Option<f64>,
 }
 
 /// The .pvd document of `entries`, step k being entry k.
@@ -22,9 +24,12 @@ pub fn write_pvd(entries: &[SeriesEntry]) -> String {
     }
     s.push_str("-->\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n<Collection>\n");
     for (k, entry) in entries.iter().enumerate() {
+        let step = entry
+            .time
+            .map_or_else(|| k.to_string(), |t| format!("{t:e}"));
         let _ = writeln!(
             s,
-            "<DataSet timestep=\"{k}\" group=\"\" part=\"0\" file=\"{}\"/>",
+            "<DataSet timestep=\"{step}\" group=\"\" part=\"0\" file=\"{}\"/>",
             attribute(&entry.file)
         );
     }
@@ -49,10 +54,12 @@ mod tests {
             SeriesEntry {
                 file: "nominal.vtu".into(),
                 title: "nominal".into(),
+                time: None,
             },
             SeriesEntry {
                 file: "worst-phi3.vtu".into(),
                 title: "worst phi3 -- roof".into(),
+                time: None,
             },
         ];
         let text = write_pvd(&entries);

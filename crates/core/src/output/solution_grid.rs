@@ -11,6 +11,10 @@
 //! Every cell carries every cell array: the triangle arrays are NaN (integers −1) on the lines,
 //! and the contact arrays NaN (−1) on the triangles; `body_id` is set on both (a line's body is
 //! its pair's body k).
+//!
+//! A state of a dynamic run (design §3.5, one file of the VTU series) adds its [`Motion`]: the
+//! nodal `velocity`, and the peak-over-time fields up to its time, `peak_displacement` (max |u|,
+//! nodal), `peak_i2_squared` (triangles) and `peak_contact_pressure` (contact lines).
 
 use std::collections::HashMap;
 
@@ -49,8 +53,31 @@ struct ContactLine {
     pair: usize,
 }
 
+/// What a state of a dynamic run adds to its grid.
+#[derive(Debug, Clone, Copy)]
+pub struct Motion<'a> {
+    /// Nodal velocity \[m/s\].
+    pub velocity: &'a [[f64; 2]],
+    /// max |u| per node up to the state's time \[m\].
+    pub peak_displacement: &'a [f64],
+    /// max I2² per element up to the state's time \[Pa²\].
+    pub peak_i2_squared: &'a [f64],
+    /// max contact pressure per pair up to the state's time \[Pa\].
+    pub peak_contact_pressure: &'a [f64],
+}
+
 /// The grid of `solution` labelled with `label`.
 pub fn solution_grid(problem: &StateProblem, solution: &Solution, label: &ScenarioLabel) -> Grid {
+    state_grid(problem, solution, label, None)
+}
+
+/// The grid of `solution` labelled with `label`, with a dynamic state's `motion`.
+pub fn state_grid(
+    problem: &StateProblem,
+    solution: &Solution,
+    label: &ScenarioLabel,
+    motion: Option<&Motion>,
+) -> Grid {
     let mesh = problem.mesh();
     let mut grid = Grid {
         points: mesh.nodes.iter().map(|p| [p[0], p[1], 0.0]).collect(),
@@ -75,15 +102,46 @@ pub fn solution_grid(problem: &StateProblem, solution: &Solution, label: &Scenar
         grid.push_cell(CellKind::Line, &line.points);
     }
     grid.point_data = point_data(solution, &midpoints);
+    if let Some(m) = motion {
+        let v = on_points(m.velocity, &midpoints, |a, b| {
+            [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
+        });
+        grid.point_data.push(DataArray::float(
+            "velocity",
+            3,
+            v.iter().flat_map(|v| [v[0], v[1], 0.0]).collect(),
+        ));
+        // A midpoint's peak is its ends' mean (a P1 reading of the nodal peaks).
+        let peak = on_points(m.peak_displacement, &midpoints, |a, b| 0.5 * (a + b));
+        grid.point_data
+            .push(DataArray::float("peak_displacement", 1, peak));
+    }
     let pairs = &problem.contact.geometry.pairs;
     let line_bodies: Vec<usize> = lines
         .iter()
         .map(|l| mesh.node_body[pairs[l.pair].nodes[0]])
         .collect();
     grid.cell_data = triangle_data(mesh, solution, &line_bodies);
+    if let Some(m) = motion {
+        let values = m
+            .peak_i2_squared
+            .iter()
+            .copied()
+            .chain(std::iter::repeat_n(f64::NAN, lines.len()))
+            .collect();
+        grid.cell_data
+            .push(DataArray::float("peak_i2_squared", 1, values));
+    }
     if !lines.is_empty() {
         grid.cell_data
             .extend(contact_data(problem, solution, &lines));
+        if let Some(m) = motion {
+            let values = std::iter::repeat_n(f64::NAN, mesh.triangles.len())
+                .chain(lines.iter().map(|l| m.peak_contact_pressure[l.pair]))
+                .collect();
+            grid.cell_data
+                .push(DataArray::float("peak_contact_pressure", 1, values));
+        }
     }
     grid.field_data = field_data(problem, label);
     grid

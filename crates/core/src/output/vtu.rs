@@ -267,11 +267,11 @@ fn xml_escape(text: &str) -> String {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The payload of the array named `name` in `text`, decoded: (byte count, bytes).
-    fn decoded(text: &str, name: &str) -> (u64, Vec<u8>) {
+    pub(crate) fn decoded(text: &str, name: &str) -> (u64, Vec<u8>) {
         let start = text
             .find(&format!("Name=\"{name}\""))
             .expect("array present");

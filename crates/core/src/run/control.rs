@@ -45,6 +45,9 @@ pub enum RunPhase {
     Multistart,
     /// The accuracy statement: worst and best data re-solved on refined meshes.
     Accuracy,
+    /// The time steps of a dynamic solve (design §3.5): `evaluations` counts the steps taken,
+    /// `budget` the steps of the run.
+    TimeSteps,
     /// The run has ended (the outcome's status says how).
     Finished,
 }

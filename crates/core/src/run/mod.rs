@@ -46,6 +46,7 @@ pub use crate::estimate::statement::{
 pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::mesh::with_inline_mesh;
 pub use crate::output::contact_profile::{profiles_csv, ContactProfile, PROFILE_CSV_HEADER};
+pub use crate::output::pvd::{write_pvd, SeriesEntry};
 pub use crate::output::result::{CriteriaValues, MeshSummary, SolveFields, SolveSummary};
 pub use crate::scenario::evaluator::{Evaluation, InnerSummary};
 pub use crate::scenario::worst::{CriterionOutcome, ParameterInfo, WorstOutcome};
@@ -58,6 +59,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
+use crate::dynamics::{simulate_with, Frame, FrameSink, Hooks};
 use crate::error::WsmError;
 use crate::estimate::ladder::scaled;
 use crate::estimate::mesh_choice::choose_mesh;
@@ -65,7 +67,7 @@ use crate::estimate::statement::{
     default_refinements, refinement_factor, statement, AccuracyStatement, StatementControl,
 };
 use crate::fem::Par;
-use crate::output::solution_grid::{solution_grid, ScenarioLabel};
+use crate::output::solution_grid::{solution_grid, state_grid, Motion, ScenarioLabel};
 use crate::output::vtu::write_vtu;
 use crate::scenario::evaluator::ScenarioEvaluator;
 use crate::scenario::solvability::check_admissible_box;
@@ -116,6 +118,24 @@ pub fn solve_at(
     point: Option<&[f64]>,
     request: &SolveRequest,
 ) -> Result<SolveOutput, WsmError> {
+    solve_watched(scene, point, request, &RunControl::new(), None)
+}
+
+/// Where a dynamic solve's VTU series goes: (output index, time \[s\], VTU document) at every
+/// output time, t = 0 first.
+pub type SeriesSink<'a> = dyn FnMut(usize, f64, String) -> Result<(), WsmError> + 'a;
+
+/// [`solve_at`] watched by `control`: the time steps of a dynamic scene report progress (phase
+/// [`RunPhase::TimeSteps`]) and stop at the cancel flag with [`WsmError::Cancelled`]; with
+/// `series`, the state at every output time goes there as a VTU document labelled with its time
+/// (design §5.6), with the velocity and the peak-over-time fields up to that time.
+pub fn solve_watched(
+    scene: Scene,
+    point: Option<&[f64]>,
+    request: &SolveRequest,
+    control: &RunControl,
+    series: Option<&mut SeriesSink>,
+) -> Result<SolveOutput, WsmError> {
     let scene = with_solver(scene, request);
     let params = parameters(&scene)?;
     if let Some(p) = point {
@@ -131,9 +151,88 @@ pub fn solve_at(
     );
     let mut output = solve_output(&problem, &data, &solution, &label, request);
     if problem.scene.dynamics.is_some() {
-        output.summary.history = Some(crate::dynamics::simulate(&problem, &data)?.history);
+        let start = Instant::now();
+        let progress = |step: usize, steps: usize| {
+            control.report(&ProgressEvent {
+                phase: RunPhase::TimeSteps,
+                objective: None,
+                evaluations: step,
+                failures: 0,
+                budget: steps,
+                best: Vec::new(),
+                elapsed_seconds: start.elapsed().as_secs_f64(),
+            });
+        };
+        let mut frames = series.map(|sink| {
+            let (problem, data, label) = (&problem, &data, &label);
+            move |frame: &Frame| -> Result<(), WsmError> {
+                sink(frame.index, frame.t, frame_vtu(problem, data, label, frame))
+            }
+        });
+        let mut hooks = Hooks {
+            cancel: Some(&control.cancel),
+            progress: control
+                .progress
+                .is_some()
+                .then_some(&progress as &dyn Fn(usize, usize)),
+            frames: frames.as_mut().map(|f| f as &mut FrameSink),
+        };
+        output.summary.history = Some(simulate_with(&problem, &data, &mut hooks)?.history);
     }
     Ok(output)
+}
+
+/// The VTU document of one output time of a dynamic run: its state as a solution (contact
+/// pressures, states and slips from the forces and gaps of the time) with its [`Motion`],
+/// labelled `label` at its time.
+fn frame_vtu(
+    problem: &StateProblem,
+    data: &crate::scene::Data,
+    label: &ScenarioLabel,
+    frame: &Frame,
+) -> String {
+    let mesh = problem.mesh();
+    let scale = frame
+        .displacement
+        .iter()
+        .fold(0.0_f64, |m, v| m.max(v[0].abs()).max(v[1].abs()));
+    let contact = crate::contact::direct::ContactSolution {
+        u_free: Vec::new(),
+        multipliers: frame.forces.to_vec(),
+        rigid: Vec::new(),
+        gaps: frame.gaps.to_vec(),
+        qp: None,
+        equilibrium_residual: 0.0,
+        free_motions: 0,
+        qp_seconds: 0.0,
+        refinements: 0,
+        coulomb: None,
+        sparse: None,
+    };
+    let (nodes, _) = crate::state::contact_results(
+        &problem.contact.geometry,
+        &contact,
+        data,
+        &mesh.nodes,
+        scale,
+    );
+    let solution = crate::state::Solution {
+        displacement: frame.displacement.to_vec(),
+        stresses: frame.stresses.to_vec(),
+        contact: nodes,
+        ..Default::default()
+    };
+    let label = ScenarioLabel {
+        scenario: format!("{} at t = {:e} s", label.scenario, frame.t),
+        ..label.clone()
+    };
+    let motion = Motion {
+        velocity: frame.velocity,
+        peak_displacement: &frame.peaks.displacement,
+        peak_i2_squared: &frame.peaks.i2_squared,
+        peak_contact_pressure: &frame.peaks.contact_pressure,
+    };
+    write_vtu(&state_grid(problem, &solution, &label, Some(&motion)))
 }
 
 /// `scene` with the request's inner solver, if it names one.

@@ -262,6 +262,7 @@ pub fn series_index(series: &[ScenarioFields]) -> String {
         .map(|s| SeriesEntry {
             file: s.file.clone(),
             title: s.scenario.title(),
+            time: None,
         })
         .collect();
     write_pvd(&entries)

@@ -59,7 +59,7 @@ export const PHASES = {
   queued: "queued", mesh_choice: "choosing the mesh for the target error", meshing: "meshing", admissible_check: "checking the admissible set",
   nominal_solve: "nominal solve", vertex_walk: "vertex walk (gradients)", screening: "screening vertices", swarm: "swarm search",
   polish: "polishing", sensitivities: "sensitivities", multistart: "looking for other local optima",
-  accuracy: "accuracy statement", finished: "finished",
+  accuracy: "accuracy statement", time_steps: "time steps", finished: "finished",
 };
 
 export const CRITERIA = {
