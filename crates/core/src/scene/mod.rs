@@ -33,7 +33,7 @@ pub use law::{Orthotropic, PlaneStrainLaw};
 pub use model::{
     Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind, ContactMethod,
     CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion, CriterionSpec,
-    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, Driven, Hydrostatic, InitialGap,
+    DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, Driven, Element, Hydrostatic, InitialGap,
     InlineMesh, Material, MeshControls, Point, Refinement, Roller, Scene, SearchSettings, Segment,
     SlipLimit, SolverKind, SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone,
     MAX_SUBDIVIDE,

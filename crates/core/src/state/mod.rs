@@ -37,7 +37,9 @@ use crate::memo::{self, Memo};
 use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
 use crate::scene::params::Stencil;
-use crate::scene::{BoundaryValue, Criterion, CriterionSpec, Data, Scene, SceneError, SolverKind};
+use crate::scene::{
+    BoundaryValue, Criterion, CriterionSpec, Data, Element, Scene, SceneError, SolverKind,
+};
 pub use sensitivity::DerivativeRoute;
 use sensitivity::{ElasticState, SolvedState};
 
@@ -178,7 +180,7 @@ impl StateProblem {
             Some(_) => Some(HeatProblem::new(&mesh, &nominal)?),
             None => None,
         };
-        let elastic = ElasticProblem::new(&mesh, &nominal)?;
+        let elastic = ElasticProblem::with_element(&mesh, &nominal, scene.mesh.element)?;
         let contact = DirectContact::new(&scene, &elastic)?;
         let body_factors = contact
             .bodies()
@@ -365,6 +367,12 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
+        if elastic.is_some() && self.elastic.element() == Element::Mixed {
+            return Err(WsmError::Scene(SceneError::new(
+                "mesh.element",
+                "derivatives of the elastic criteria are not implemented for \"mixed\" elements",
+            )));
+        }
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
@@ -402,11 +410,13 @@ impl StateProblem {
             .feasibility
             .check(&self.scene, self.mesh(), &self.contact.geometry, data)?;
         let coefficients = elastic.coefficients(data)?;
-        report.warnings.extend(
-            locking_warnings(&coefficients, elastic.mesh())
-                .into_iter()
-                .map(|(_, w)| w),
-        );
+        if elastic.element() == Element::P1 {
+            report.warnings.extend(
+                locking_warnings(&coefficients, elastic.mesh())
+                    .into_iter()
+                    .map(|(_, w)| w),
+            );
+        }
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
