@@ -40,7 +40,7 @@ pub struct ElasticProblem {
     /// Load weights per zone and per boundary condition.
     unit_loads: UnitLoads,
     floating: Vec<usize>,
-    /// The MINI system when `mesh.element` is `mixed` (design §2.7).
+    /// The pressure side of the MINI element when `mesh.element` is `mixed` (design §2.7).
     mixed: Option<MixedOperator>,
 }
 
@@ -94,7 +94,7 @@ impl ElasticProblem {
         }
     }
 
-    /// The mixed system, or the error that `what` is not available with mixed elements.
+    /// Ok for P1; for the mixed element the error that `what` is not available with it.
     fn p1_only(&self, what: &str) -> Result<(), FemError> {
         match self.mixed {
             None => Ok(()),

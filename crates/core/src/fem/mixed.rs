@@ -130,12 +130,9 @@ pub fn mixed_system(
         let bases = tri.map(|n| dofs.basis(n));
         if bases.iter().any(|basis| *basis != identity) {
             // The same change of basis as the P1 stiffness, on K_μ and on the columns of G.
-            let mut per = [[[0.0; 6]; 6]; 6];
-            for i in 0..6 {
-                for j in 0..6 {
-                    per[i][j][0] = b.k[i][j];
-                }
-            }
+            let mut per: [[[f64; 6]; 6]; 6] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| [b.k[i][j], 0.0, 0.0, 0.0, 0.0, 0.0])
+            });
             rotate(&mut per, bases);
             b.k = std::array::from_fn(|i| std::array::from_fn(|j| per[i][j][0]));
             for row in &mut b.g {
