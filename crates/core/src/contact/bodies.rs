@@ -44,6 +44,8 @@ pub struct BodyBlock {
     pinned: Vec<usize>,
     symbolic: Symbolic,
     blocks: Vec<SchurBlock>,
+    /// The block is quasi-definite (mixed u–p element, design §2.7): LDLᵀ instead of LLᵀ.
+    quasi_definite: bool,
 }
 
 /// A body's block factorised, with its share of C: per Schur block the lower triangle of WᵀW.
@@ -74,6 +76,9 @@ pub fn body_blocks(
             if let Slot::Free(i) = slot {
                 body_of[i] = mesh.node_body[node];
             }
+        }
+        if let Some(offset) = elastic.pressure_offset() {
+            body_of[offset + node] = mesh.node_body[node];
         }
     }
     let pattern = op.pattern();
@@ -158,6 +163,7 @@ impl BodyBlock {
             pinned,
             symbolic,
             blocks,
+            quasi_definite: op.is_quasi_definite(),
         })
     }
 
@@ -185,10 +191,12 @@ impl BodyBlock {
     pub fn factor(&self, values: &[f64]) -> Result<BodyFactor, WsmError> {
         let mut local: Vec<f64> = self.source.iter().map(|&p| values[p]).collect();
         pin(self.pattern.as_ref(), &mut local, &self.pinned);
-        let factor = self.symbolic.factorize(
-            SparseColMatRef::new(self.pattern.as_ref(), &local),
-            Par::Seq,
-        )?;
+        let matrix = SparseColMatRef::new(self.pattern.as_ref(), &local);
+        let factor = if self.quasi_definite {
+            self.symbolic.factorize_quasi_definite(matrix, Par::Seq)?
+        } else {
+            self.symbolic.factorize(matrix, Par::Seq)?
+        };
         let wtw = self
             .blocks
             .iter()

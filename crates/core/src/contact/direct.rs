@@ -277,7 +277,9 @@ impl DirectContact {
             }
             modes.push(elastic.rigid_modes(body)?);
         }
-        let n = elastic.dofs().n_free();
+        // The operator's unknowns: the free DOFs (and, for the mixed element, the pressures,
+        // on which a rigid motion is zero: its divergence vanishes).
+        let n = elastic.operator().n_free();
         let k: usize = modes.iter().map(|m| m.modes.ncols()).sum();
         let mut all = Mat::<f64>::zeros(n, k);
         let mut labels = Vec::with_capacity(k);
@@ -285,7 +287,7 @@ impl DirectContact {
         let mut col = 0;
         for rm in &modes {
             for j in 0..rm.modes.ncols() {
-                for i in 0..n {
+                for i in 0..rm.modes.nrows() {
                     all[(i, col)] = rm.modes[(i, j)];
                 }
                 labels.push((
@@ -298,11 +300,14 @@ impl DirectContact {
             pinned.extend(pick_pinned(rm.modes.as_ref()));
         }
         pinned.sort_unstable();
-        let wants_sparse = match scene.solver.contact {
-            ContactMethod::Dense => false,
-            ContactMethod::Sparse => true,
-            ContactMethod::Auto => geometry.pairs.len() >= sparse::AUTO_PAIRS,
-        };
+        // The sparse path factorises K augmented by contact rows as SPD-like LDLᵀ: P1 only (the
+        // scene's validation refuses `solver.contact: "sparse"` with the mixed element).
+        let wants_sparse = elastic.pressure_offset().is_none()
+            && match scene.solver.contact {
+                ContactMethod::Dense => false,
+                ContactMethod::Sparse => true,
+                ContactMethod::Auto => geometry.pairs.len() >= sparse::AUTO_PAIRS,
+            };
         let mut sparse_system = None;
         if wants_sparse {
             let off_pairs = pinned_off_pairs(&all, &geometry, &modes);

@@ -16,16 +16,17 @@ use faer::Par;
 
 use crate::mesh::Mesh;
 use crate::scene::law::{symmetric_eigenvalues, ENTRIES};
-use crate::scene::{BoundaryValue, Data, Scene};
+use crate::scene::{BoundaryValue, Data, Element, Scene};
 
 use super::dofs::DofMap;
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::hydrostatic::add_hydrostatic;
+use super::mixed::{mixed_system, MixedOperator};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{
-    element_stress, element_stresses, internal_forces, plane_strain_stress, ElementStress,
-    ZoneMaterial,
+    element_displacements, element_stress, element_stresses, internal_forces, plane_strain_stress,
+    ElementStress, ZoneMaterial,
 };
 use super::{expect_len, material_of, ElasticCoefficients, FemError};
 
@@ -39,16 +40,34 @@ pub struct ElasticProblem {
     /// Load weights per zone and per boundary condition.
     unit_loads: UnitLoads,
     floating: Vec<usize>,
+    /// The pressure side of the MINI element when `mesh.element` is `mixed` (design §2.7).
+    mixed: Option<MixedOperator>,
 }
 
 impl ElasticProblem {
     /// Build DOFs, the operator on its pattern, unit loads and the symbolic factorisation. The
     /// topology (condition kinds, prescribed components) is read from `data`; values are not.
     pub fn new(mesh: &Mesh, data: &Data) -> Result<ElasticProblem, FemError> {
+        ElasticProblem::with_element(mesh, data, Element::P1)
+    }
+
+    /// [`ElasticProblem::new`] with the finite element `element` (P1 or the MINI mixed element,
+    /// whose factor and solve work on the u–p system; the DOFs and loads are the same).
+    pub fn with_element(
+        mesh: &Mesh,
+        data: &Data,
+        element: Element,
+    ) -> Result<ElasticProblem, FemError> {
         check_mesh(mesh)?;
         let dofs = DofMap::new(mesh, &data.boundary)?;
         let gradients = element_gradients(mesh);
-        let operator = build_operator(mesh, &dofs, &gradients)?;
+        let (operator, mixed) = match element {
+            Element::P1 => (build_operator(mesh, &dofs, &gradients)?, None),
+            Element::Mixed => {
+                let (system, mixed) = mixed_system(mesh, &dofs, &gradients)?;
+                (system, Some(mixed))
+            }
+        };
         let floating = floating_bodies(mesh, &dofs)?;
         Ok(ElasticProblem {
             unit_loads: UnitLoads::new(mesh, &data.boundary, &gradients),
@@ -57,12 +76,49 @@ impl ElasticProblem {
             operator,
             gradients,
             floating,
+            mixed,
         })
     }
 
-    /// [`ElasticProblem::new`] with the data of a validated scene.
+    /// [`ElasticProblem::with_element`] with the data and `mesh.element` of a validated scene.
     pub fn from_scene(mesh: &Mesh, scene: &Scene) -> Result<ElasticProblem, FemError> {
-        ElasticProblem::new(mesh, &Data::from_scene(scene))
+        ElasticProblem::with_element(mesh, &Data::from_scene(scene), scene.mesh.element)
+    }
+
+    /// The finite element the problem was built with.
+    pub fn element(&self) -> Element {
+        if self.mixed.is_some() {
+            Element::Mixed
+        } else {
+            Element::P1
+        }
+    }
+
+    /// Ok for P1; for the mixed element the error that `what` is not available with it.
+    fn p1_only(&self, what: &str) -> Result<(), FemError> {
+        match self.mixed {
+            None => Ok(()),
+            Some(_) => Err(FemError::Input(format!(
+                "{what} is not available with mesh.element \"mixed\" (design §2.7)"
+            ))),
+        }
+    }
+
+    /// (λ, μ) per zone for the mixed element (isotropic zones only).
+    fn lame(&self, data: &Data) -> Result<Vec<(f64, f64)>, FemError> {
+        let names: Vec<String> = self.mesh.zones.iter().map(|z| z.name.clone()).collect();
+        let entries: Vec<ElasticCoefficients> = self
+            .zone_materials(data)?
+            .iter()
+            .map(|m| m.law.coefficients())
+            .collect();
+        MixedOperator::lame(&entries, &names)
+    }
+
+    /// The first pressure unknown of the operator (the number of free displacement DOFs) when
+    /// the element is mixed: unknown `offset + n` is the pressure of node n.
+    pub fn pressure_offset(&self) -> Option<usize> {
+        self.mixed.as_ref().map(MixedOperator::n_displacement)
     }
 
     /// The mesh the problem was built on.
@@ -75,7 +131,10 @@ impl ElasticProblem {
         &self.dofs
     }
 
-    /// The reduced operator K_ff(D) with the six entries of D_z per zone as coefficients.
+    /// The reduced operator K_ff(D) with the six entries of D_z per zone as coefficients; for
+    /// the mixed element the quasi-definite (u, p̂) system (pressure unknowns after the free
+    /// displacement DOFs, [`Self::pressure_offset`]) with the coefficients of
+    /// [`MixedOperator::coefficients`] (design §2.7).
     pub fn operator(&self) -> &ZonedOperator<6> {
         &self.operator
     }
@@ -99,6 +158,7 @@ impl ElasticProblem {
         t: usize,
         coefs: &[ElasticCoefficients],
     ) -> Result<([Slot; 6], [[f64; 6]; 6]), FemError> {
+        self.p1_only("the element matrix (domain decomposition)")?;
         let tri = *self
             .mesh
             .triangles
@@ -156,8 +216,11 @@ impl ElasticProblem {
     }
 
     /// Operator coefficients per zone: the six independent entries of D_z
-    /// ([`crate::scene::law::ENTRIES`]).
+    /// ([`crate::scene::law::ENTRIES`]); for the mixed element (μ, s, s²/μ, s²/λ, 0, 0).
     pub fn coefficients(&self, data: &Data) -> Result<Vec<ElasticCoefficients>, FemError> {
+        if let Some(mixed) = &self.mixed {
+            return Ok(mixed.coefficients(&self.lame(data)?));
+        }
         Ok(self
             .zone_materials(data)?
             .iter()
@@ -187,6 +250,7 @@ impl ElasticProblem {
         self.add_body_forces(data, &mut f)?;
         self.add_boundary_loads(data, &mut f)?;
         if let Some(t) = temperature {
+            self.p1_only("a thermal load")?;
             self.add_thermal_load(data, t, &mut f)?;
         }
         Ok(f)
@@ -274,7 +338,8 @@ impl ElasticProblem {
         )
     }
 
-    /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values.
+    /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values
+    /// (for the mixed element extended by the pressure rows, zero before the lifting).
     pub fn rhs_with(
         &self,
         coefficients: &[ElasticCoefficients],
@@ -283,6 +348,7 @@ impl ElasticProblem {
     ) -> Result<Vec<f64>, FemError> {
         expect_len("nodal loads", loads.len(), self.mesh.nodes.len())?;
         let (mut b, _) = self.dofs.restrict(loads);
+        b.resize(self.operator.n_free(), 0.0);
         self.operator.lift(coefficients, fixed, &mut b)?;
         Ok(b)
     }
@@ -315,7 +381,7 @@ impl ElasticProblem {
     ) -> Result<Vec<[f64; 2]>, FemError> {
         let b = self.rhs_with(&factor.coefficients, loads, fixed)?;
         let x = factor.factor.solve(&b);
-        Ok(self.dofs.expand(&x, fixed))
+        Ok(self.dofs.expand(&x[..self.dofs.n_free()], fixed))
     }
 
     /// Element strains and stresses (τ11, τ22, τ12, τ33) of a displacement field.
@@ -341,14 +407,17 @@ impl ElasticProblem {
         if let Some(t) = temperature {
             self.check_temperature(t)?;
         }
+        if let Some(e) = elements.iter().find(|&&e| e >= self.mesh.triangles.len()) {
+            return Err(FemError::Input(format!("triangle {e} out of range")));
+        }
+        if let Some(mixed) = &self.mixed {
+            return self.mixed_stresses(mixed, data, u, temperature, elements);
+        }
         let materials = self.zone_materials(data)?;
         let thermal = temperature.map(|t| (t, data.reference_temperature));
         elements
             .iter()
             .map(|&e| {
-                if e >= self.mesh.triangles.len() {
-                    return Err(FemError::Input(format!("triangle {e} out of range")));
-                }
                 Ok(element_stress(
                     &self.mesh,
                     &self.gradients,
@@ -383,6 +452,7 @@ impl ElasticProblem {
         displacement: &mut [[f64; 2]],
         temperature: &mut [f64],
     ) -> Result<(), FemError> {
+        self.p1_only("the transpose of the stress map (derivatives of stress criteria)")?;
         expect_len(
             "nodal coefficients",
             displacement.len(),
@@ -427,6 +497,10 @@ impl ElasticProblem {
         if let Some(t) = temperature {
             self.check_temperature(t)?;
         }
+        if let Some(mixed) = &self.mixed {
+            let all: Vec<usize> = (0..self.mesh.triangles.len()).collect();
+            return self.mixed_stresses(mixed, data, u, temperature, &all);
+        }
         let materials = self.zone_materials(data)?;
         Ok(element_stresses(
             &self.mesh,
@@ -435,6 +509,41 @@ impl ElasticProblem {
             u,
             temperature.map(|t| (t, reference)),
         ))
+    }
+
+    /// Element stresses of the mixed element at `elements` (in range): τ = 2μ e(u) + p̄ I,
+    /// τ33 = p̄, with the nodal pressure recovered from u (design §2.7).
+    fn mixed_stresses(
+        &self,
+        mixed: &MixedOperator,
+        data: &Data,
+        u: &[[f64; 2]],
+        temperature: Option<&[f64]>,
+        elements: &[usize],
+    ) -> Result<Vec<ElementStress>, FemError> {
+        if temperature.is_some() {
+            self.p1_only("a temperature field")?;
+        }
+        let lame = self.lame(data)?;
+        let p = mixed.pressure(&self.mesh, &self.gradients, &lame, u)?;
+        Ok(elements
+            .iter()
+            .map(|&e| {
+                let tri = self.mesh.triangles[e];
+                let [e11, e22, gamma] = self.gradients[e].strain(&element_displacements(u, tri));
+                let mu = lame[self.mesh.triangle_zone[e]].1;
+                let mean = tri.iter().map(|&n| p[n]).sum::<f64>() / 3.0;
+                ElementStress {
+                    strain: [e11, e22, gamma / 2.0],
+                    stress: [
+                        2.0 * mu * e11 + mean,
+                        2.0 * mu * e22 + mean,
+                        mu * gamma,
+                        mean,
+                    ],
+                }
+            })
+            .collect())
     }
 
     /// Nodal residual K u − f in global components (thermal part included through the stress):
@@ -461,7 +570,7 @@ impl ElasticProblem {
 /// Per element and independent entry k = (p, q) of D: K^k_e = area Bᵀ E_k B in global xy, E_k
 /// the symmetric unit matrix of (p, q): area (s_a[p] s_b[q] + s_a[q] s_b[p]) for p ≠ q and
 /// area s_a[p] s_b[p] for p = q, s_a the strain (e11, e22, γ12) of the shape function's unknown.
-fn element_matrices(g: &TriangleGradients) -> [[[f64; 6]; 6]; 6] {
+pub(super) fn element_matrices(g: &TriangleGradients) -> [[[f64; 6]; 6]; 6] {
     // e(φ_a e_x) = (xa, 0, ya), e(φ_a e_y) = (0, ya, xa) as (e11, e22, γ12).
     let strain = |i: usize| {
         let (x, y) = (g.dx[i / 2], g.dy[i / 2]);
@@ -491,7 +600,7 @@ fn element_matrices(g: &TriangleGradients) -> [[[f64; 6]; 6]; 6] {
 
 /// K_loc = Tᵀ K T with T = blockdiag(R_a), R_a = [e0 e1] the local basis of node a:
 /// (K_loc)_ij = e_i(a)ᵀ K_ab e_j(b) for local DOF i of node a and j of node b.
-fn rotate(k: &mut [[[f64; 6]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
+pub(super) fn rotate(k: &mut [[[f64; 6]; 6]; 6], bases: [[[f64; 2]; 2]; 3]) {
     let global = *k;
     for (i, row) in k.iter_mut().enumerate() {
         for (j, entry) in row.iter_mut().enumerate() {

@@ -8,16 +8,22 @@
 //! permuted K = [K₁₁ K₁c; K_c1 K_cc] = L Lᵀ with L = [L₁₁ 0; L_c1 L₂₂], the Schur complement
 //! S = K_cc − K_c1 K₁₁⁻¹ K₁c equals L₂₂ L₂₂ᵀ, hence (K⁻¹)_cc = S⁻¹ = (L₂₂ L₂₂ᵀ)⁻¹ exactly.
 //! [`Factor::trailing_block`] reads diagonal blocks of the dense L₂₂ from the supernodes.
+//!
+//! Symmetric quasi-definite matrices [[A, Bᵀ], [B, −C]] (A, C positive definite: the mixed u–p
+//! element, design §2.7) are factorised as LDLᵀ without pivoting on the same symbolic analysis
+//! ([`Symbolic::factorize_quasi_definite`]): every symmetric permutation of a quasi-definite
+//! matrix has such a factorisation, with D > 0 on the pivots of A and D < 0 on those of C
+//! (Vanderbei 1995, its Schur complements are quasi-definite again).
 
 use std::sync::Arc;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::solvers::LltError;
+use faer::linalg::solvers::{LdltError, LltError};
 use faer::perm::PermRef;
 use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
@@ -211,6 +217,42 @@ impl Symbolic {
             symbolic: self.clone(),
             values,
             par,
+            quasi_definite: false,
+        })
+    }
+
+    /// Numeric LDLᵀ factorisation without pivoting of a symmetric quasi-definite `matrix` (lower
+    /// triangle, same pattern as analysed; module doc). A zero pivot (the matrix is not
+    /// quasi-definite) is an error.
+    pub fn factorize_quasi_definite(
+        &self,
+        matrix: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Result<Factor, FemError> {
+        let mut values = vec![0.0; self.inner.len_val()];
+        let scratch = self
+            .inner
+            .factorize_numeric_ldlt_scratch::<f64>(par, Default::default());
+        let mut buffer = MemBuffer::try_new(scratch)
+            .map_err(|_| FemError::Solver("out of memory in numeric LDLT".into()))?;
+        self.inner
+            .factorize_numeric_ldlt(
+                &mut values,
+                matrix,
+                Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut buffer),
+                Default::default(),
+            )
+            .map_err(|e| match e {
+                LdltError::ZeroPivot { index } => FemError::NotPositiveDefinite { pivot: index },
+            })?;
+        Ok(Factor {
+            symbolic: self.clone(),
+            values,
+            par,
+            quasi_definite: true,
         })
     }
 }
@@ -252,13 +294,15 @@ fn amd_order(pattern: SymbolicSparseColMatRef<'_, usize>) -> Result<Vec<usize>, 
     Ok(fwd)
 }
 
-/// Numeric Cholesky factor of a symmetric positive definite matrix: solves K x = b for one or
-/// many right-hand sides.
+/// Numeric Cholesky factor of a symmetric positive definite matrix (or LDLᵀ factor of a
+/// quasi-definite one): solves K x = b for one or many right-hand sides.
 #[derive(Debug, Clone)]
 pub struct Factor {
     symbolic: Symbolic,
     values: Vec<f64>,
     par: Par,
+    /// LDLᵀ of a quasi-definite matrix rather than LLᵀ.
+    quasi_definite: bool,
 }
 
 impl Factor {
@@ -279,16 +323,27 @@ impl Factor {
             .inner
             .solve_in_place_scratch::<f64>(rhs.ncols(), self.par);
         let mut buffer = MemBuffer::new(scratch);
-        LltRef::new(&self.symbolic.inner, &self.values).solve_in_place_with_conj(
-            Conj::No,
-            rhs,
-            self.par,
-            MemStack::new(&mut buffer),
-        );
+        let stack = MemStack::new(&mut buffer);
+        if self.quasi_definite {
+            LdltRef::new(&self.symbolic.inner, &self.values).solve_in_place_with_conj(
+                Conj::No,
+                rhs,
+                self.par,
+                stack,
+            );
+        } else {
+            LltRef::new(&self.symbolic.inner, &self.values).solve_in_place_with_conj(
+                Conj::No,
+                rhs,
+                self.par,
+                stack,
+            );
+        }
     }
 
     /// The diagonal block L₂₂[range, range] (dense, lower triangular, zero above the diagonal)
-    /// of the trailing block of L, `range` in the trailing numbering (the order given to
+    /// of the trailing block of L (of L D^½ for an LDLᵀ factor, whose trailing pivots must then
+    /// be positive), `range` in the trailing numbering (the order given to
     /// [`Symbolic::analyse_with_trailing`]).
     pub fn trailing_block(&self, range: std::ops::Range<usize>) -> Result<Mat<f64>, FemError> {
         let t = self.symbolic.trailing;
@@ -323,6 +378,23 @@ impl Factor {
                     if r < hi {
                         block[(r - lo, j - lo)] = val[(k, j - begin)];
                     }
+                }
+            }
+        }
+        if self.quasi_definite {
+            // Unit L with D on the diagonal: the Cholesky factor of the trailing Schur
+            // complement is L₂₂ D₂₂^½, D₂₂ > 0 when every negative pivot is eliminated earlier.
+            for j in 0..range.len() {
+                let d = block[(j, j)];
+                if d.is_nan() || d <= 0.0 {
+                    return Err(FemError::NotPositiveDefinite {
+                        pivot: start + range.start + j,
+                    });
+                }
+                let root = d.sqrt();
+                block[(j, j)] = root;
+                for r in j + 1..range.len() {
+                    block[(r, j)] *= root;
                 }
             }
         }

@@ -10,6 +10,7 @@
 //!   combination, factorised by faer Cholesky on a symbolic analysis computed once ([`Factor`]).
 //! - [`stress`]: element stresses τ11, τ22, τ12, τ33 and I2²; reactions K u − f.
 //! - [`rigid`]: floating bodies and their rigid-motion kernels (design §2.3).
+//! - [`MixedOperator`]: the MINI u–p element for nearly incompressible zones (design §2.7).
 //!
 //! Typical use: `let p = ElasticProblem::new(&mesh, &data)?; let k = p.factor(&data, Par::Seq)?;
 //! let u = p.solve(&k, &data, None)?;` and for a new data set only `factor` and `solve` again.
@@ -21,6 +22,7 @@ mod geometry;
 mod heat;
 mod hydrostatic;
 mod linear;
+mod mixed;
 mod operator;
 pub mod rigid;
 pub mod stress;
@@ -30,6 +32,7 @@ pub use elasticity::ElasticProblem;
 pub use geometry::{segment_node_normals, TriangleGradients};
 pub use heat::{HeatProblem, Thermal};
 pub use linear::{symmetric_apply, Factor, Symbolic};
+pub use mixed::{mixed_system, MixedOperator};
 pub use operator::{OperatorFactor, Slot, ZonedOperator};
 pub use rigid::RigidModes;
 pub use stress::{ElementStress, ZoneMaterial};

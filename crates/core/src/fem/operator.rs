@@ -128,6 +128,7 @@ impl<const NC: usize> OperatorBuilder<NC> {
             zones,
             coupling,
             symbolic,
+            quasi_definite: false,
         })
     }
 }
@@ -172,9 +173,38 @@ pub struct ZonedOperator<const NC: usize> {
     zones: Vec<ZoneBlock<NC>>,
     coupling: Vec<CouplingBlock<NC>>,
     symbolic: Symbolic,
+    /// Symmetric quasi-definite (the mixed u–p system): factorised as LDLᵀ, not LLᵀ.
+    quasi_definite: bool,
 }
 
 impl<const NC: usize> ZonedOperator<NC> {
+    /// The same operator marked symmetric quasi-definite: [`Self::factor`] then computes an
+    /// LDLᵀ factorisation without pivoting ([`Symbolic::factorize_quasi_definite`]).
+    pub fn into_quasi_definite(mut self) -> Self {
+        self.quasi_definite = true;
+        self
+    }
+
+    /// Whether the operator is quasi-definite (LDLᵀ) rather than positive definite (LLᵀ).
+    pub fn is_quasi_definite(&self) -> bool {
+        self.quasi_definite
+    }
+
+    /// Numeric factorisation of a matrix on this operator's pattern (or a sub-pattern analysed
+    /// by `symbolic`): LLᵀ, or LDLᵀ for a quasi-definite operator.
+    pub fn factorize_with(
+        &self,
+        symbolic: &Symbolic,
+        matrix: SparseColMatRef<'_, usize, f64>,
+        par: Par,
+    ) -> Result<Factor, FemError> {
+        if self.quasi_definite {
+            symbolic.factorize_quasi_definite(matrix, par)
+        } else {
+            symbolic.factorize(matrix, par)
+        }
+    }
+
     /// Number of free unknowns (dimension of K_ff).
     pub fn n_free(&self) -> usize {
         self.pattern.nrows()
@@ -262,7 +292,7 @@ impl<const NC: usize> ZonedOperator<NC> {
     /// Assemble K_ff(c) and factorise it numerically on the shared symbolic analysis.
     pub fn factor(&self, coefs: &[[f64; NC]], par: Par) -> Result<OperatorFactor<NC>, FemError> {
         let values = self.assemble(coefs)?;
-        let factor = self.symbolic.factorize(self.matrix(&values), par)?;
+        let factor = self.factorize_with(&self.symbolic, self.matrix(&values), par)?;
         Ok(OperatorFactor {
             coefficients: coefs.to_vec(),
             factor,

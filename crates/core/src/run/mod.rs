@@ -717,6 +717,10 @@ impl Run<'_> {
         problem: &StateProblem,
         outcome: &WorstOutcome,
     ) -> Result<Vec<Warning>, WsmError> {
+        if problem.elastic.element() == crate::scene::Element::Mixed {
+            // The mixed element does not lock (design §2.7).
+            return Ok(Vec::new());
+        }
         let mut data = vec![problem.nominal.clone()];
         for [worst, best] in outcome.extrema() {
             for (_, point) in [worst, best].into_iter().flatten() {

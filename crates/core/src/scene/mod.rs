@@ -39,7 +39,7 @@ pub use model::{
     is_defined_name, Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
     ContactMethod, CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion,
     CriterionSpec, DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, DefinedCriterion,
-    DefinedQuantity, Driven, Hydrostatic, InitialGap, InlineMesh, Material, MeshControls, Point,
+    DefinedQuantity, Driven, Element, Hydrostatic, InitialGap, InlineMesh, Material, MeshControls, Point,
     Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings,
     StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
 };

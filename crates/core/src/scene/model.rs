@@ -540,6 +540,29 @@ pub struct MeshControls {
     #[serde(default, skip_serializing_if = "is_zero")]
     #[schemars(range(max = MAX_SUBDIVIDE))]
     pub subdivide: u32,
+    /// The finite element (design §2.7): `p1` linear triangles (default), or `mixed`, the MINI
+    /// u–p element (P1 + bubble displacement, P1 pressure) that does not lock as ν → ½, for
+    /// isotropic materials, on the same nodes.
+    #[serde(default, skip_serializing_if = "Element::is_p1")]
+    pub element: Element,
+}
+
+/// The finite element of the elastic problem (`mesh.element`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum Element {
+    /// Linear triangles (displacement only).
+    #[default]
+    P1,
+    /// MINI: P1 + cubic bubble displacement, continuous P1 pressure (locking-free).
+    Mixed,
+}
+
+impl Element {
+    /// Whether this is the default P1 element.
+    pub fn is_p1(&self) -> bool {
+        *self == Element::P1
+    }
 }
 
 /// Most uniform subdivisions of an imported mesh (each multiplies its triangles by 4).

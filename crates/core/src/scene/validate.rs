@@ -129,6 +129,7 @@ pub fn validate(scene: &Scene) -> Result<(), SceneError> {
     check_boundary(scene)?;
     check_contacts(scene)?;
     check_mesh(&scene.mesh, scene)?;
+    check_element(scene)?;
     check_criteria(scene)?;
     check_search(scene)?;
     super::dynamics::check_dynamics(scene)?;
@@ -1005,6 +1006,48 @@ impl MeshControls {
             )
         })
     }
+}
+
+/// `mesh.element: "mixed"` (design §2.7) with what it supports: isotropic materials, no
+/// thermal part, no dynamics, the direct solver on its dense contact path.
+fn check_element(scene: &Scene) -> Result<(), SceneError> {
+    if scene.mesh.element.is_p1() {
+        return Ok(());
+    }
+    let refuse = |what: &str| {
+        Err(SceneError::new(
+            "mesh.element",
+            format!("\"mixed\" {what} (design §2.7); use \"p1\""),
+        ))
+    };
+    if scene.solver.contact == ContactMethod::Sparse {
+        return refuse("takes the dense contact path only: solver.contact \"sparse\" is refused");
+    }
+    if scene.thermal.is_some() {
+        return refuse("is not implemented with a thermal part (thermal stress) yet");
+    }
+    if scene.dynamics.is_some() {
+        return refuse("is static only: no dynamics");
+    }
+    if scene.solver.kind == SolverKind::Dd {
+        return refuse("is solved by the direct solver only: solver.kind \"dd\" is refused");
+    }
+    for body in &scene.bodies {
+        for zone in &body.zones {
+            if let Some(m) = scene.materials.get(&zone.material) {
+                let isotropic =
+                    (m.young.is_some() && m.nu.is_some()) || (m.lambda.is_some() && m.mu.is_some());
+                if !isotropic {
+                    return Err(SceneError::new(
+                        format!("materials.{}", zone.material),
+                        "mesh.element \"mixed\" needs an isotropic material (young and nu, or \
+                         lambda and mu)",
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn check_mesh(mesh: &MeshControls, scene: &Scene) -> Result<(), SceneError> {

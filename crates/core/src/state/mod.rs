@@ -42,7 +42,7 @@ use crate::mesh::Mesh;
 use crate::regions::CriteriaGeometry;
 use crate::scene::params::Stencil;
 use crate::scene::{
-    BoundaryValue, Criterion, CriterionSpec, Data, Scene, SceneError, SolverKind, Warning,
+    BoundaryValue, Criterion, CriterionSpec, Data, Element, Scene, SceneError, SolverKind, Warning,
     WarningKind,
 };
 pub use sensitivity::DerivativeRoute;
@@ -185,7 +185,7 @@ impl StateProblem {
             Some(_) => Some(HeatProblem::new(&mesh, &nominal)?),
             None => None,
         };
-        let elastic = ElasticProblem::new(&mesh, &nominal)?;
+        let elastic = ElasticProblem::with_element(&mesh, &nominal, scene.mesh.element)?;
         let contact = DirectContact::new(&scene, &elastic)?;
         criterion_values::attach_contact_rows(
             &mut criteria,
@@ -380,6 +380,12 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
+        if elastic.is_some() && self.elastic.element() == Element::Mixed {
+            return Err(WsmError::Scene(SceneError::new(
+                "mesh.element",
+                "derivatives of the elastic criteria are not implemented for \"mixed\" elements",
+            )));
+        }
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
@@ -417,11 +423,13 @@ impl StateProblem {
             .feasibility
             .check(&self.scene, self.mesh(), &self.contact.geometry, data)?;
         let coefficients = elastic.coefficients(data)?;
-        report.warnings.extend(
-            locking_warnings(&coefficients, elastic.mesh())
-                .into_iter()
-                .map(|(_, w)| w),
-        );
+        if elastic.element() == Element::P1 {
+            report.warnings.extend(
+                locking_warnings(&coefficients, elastic.mesh())
+                    .into_iter()
+                    .map(|(_, w)| w),
+            );
+        }
         let fixed = elastic.fixed_values(data)?;
         let loads = elastic.loads(data, temperature)?;
         let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
