@@ -42,6 +42,7 @@ fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
         slip: Vec::new(),
         friction: Vec::new(),
         reference_temperature: 0.0,
+        dynamic: Default::default(),
     }
 }
 

@@ -24,9 +24,9 @@ mod acceptance;
 mod excitation;
 mod history;
 mod operators;
-mod over_time;
 #[cfg(test)]
 mod output_tests;
+mod over_time;
 mod pdas;
 pub mod scheme;
 mod step;
@@ -38,7 +38,7 @@ pub use history::{
     ReceiverHistory, ZoneHistory,
 };
 pub use operators::Operators;
-pub use over_time::solve_over_time;
+pub use over_time::{derivatives_unavailable, solve_over_time};
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;

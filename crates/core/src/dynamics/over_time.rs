@@ -50,11 +50,33 @@ use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
 use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
-use crate::scene::{Criterion, Data, InitialState, SceneError};
+use crate::scene::{Criterion, Data, InitialState, Scene, SceneError};
 use crate::state::{
     add_scaled, attaining, maxima, one_sided, per_region_with, region_forms, region_name,
-    tied_regions, Fields, OneSided, Solution, StateProblem, TIE_TOL,
+    tied_regions, Fields, OneSided, PerCriterion, Solution, StateProblem, TIE_TOL,
 };
+
+/// Why a dynamic scene has no exact derivatives over time (the field and the reason), if it
+/// has none: a run from the static solution would need the static tangent as its initial
+/// tangent, and a slip-rate-dependent friction coefficient a tangent of the slip rate in the
+/// bound; neither is built, so the search runs on values there.
+pub fn derivatives_unavailable(scene: &Scene) -> Option<(&'static str, &'static str)> {
+    let dynamics = scene.dynamics.as_ref()?;
+    if dynamics.initial == InitialState::Static {
+        return Some((
+            "dynamics.initial",
+            "exact derivatives over time are built for runs that start at rest; a run from the \
+             static solution has none yet",
+        ));
+    }
+    if scene.contacts.iter().any(|c| c.friction_kinetic.is_some()) {
+        return Some((
+            "contacts.friction_kinetic",
+            "exact derivatives over time are not built for slip-rate-dependent friction",
+        ));
+    }
+    None
+}
 
 /// The requested criteria of a dynamic scene as maxima over time, with their exact one-sided
 /// derivatives along the parameter of every stencil (none without stencils): a [`Solution`]
@@ -174,12 +196,12 @@ pub(super) struct OverTime<'a> {
     problem: &'a StateProblem,
     data: &'a Data,
     /// Φ1..Φ6 asked for.
-    wanted: [bool; 6],
+    wanted: PerCriterion<bool>,
     /// Whether the stresses are needed (Φ5 or Φ6 asked for).
     stresses: bool,
     /// Elements the criteria regions read (where the law's change enters dτ).
     elements: Vec<usize>,
-    peaks: [Vec<Peak>; 6],
+    peaks: PerCriterion<Vec<Peak>>,
     directions: Vec<Direction<'a>>,
 }
 
@@ -192,16 +214,13 @@ impl<'a> OverTime<'a> {
         stencils: &'a [Stencil],
     ) -> Result<OverTime<'a>, WsmError> {
         let scene = &problem.scene;
-        let initial = scene.dynamics.as_ref().map(|d| d.initial);
-        if !stencils.is_empty() && initial == Some(InitialState::Static) {
-            return Err(SceneError::new(
-                "dynamics.initial",
-                "exact derivatives over time are built for runs that start at rest; a run from \
-                 the static solution has none yet",
-            )
-            .into());
+        if let Some((field, reason)) =
+            derivatives_unavailable(scene).filter(|_| !stencils.is_empty())
+        {
+            return Err(SceneError::new(field, reason).into());
         }
-        let wanted: [bool; 6] = std::array::from_fn(|i| criteria.iter().any(|c| *c as usize == i));
+        let wanted: PerCriterion<bool> =
+            std::array::from_fn(|i| criteria.iter().any(|c| *c as usize == i));
         let stresses = wanted[Criterion::Phi5 as usize] || wanted[Criterion::Phi6 as usize];
         let mut elements: Vec<usize> = problem
             .criteria
@@ -280,6 +299,7 @@ impl<'a> OverTime<'a> {
             temperature: None,
             displacement: Some(&global),
             stresses: stresses.as_deref(),
+            multipliers: None,
         };
         let mut forms = region_forms(&problem.criteria, &fields);
         for (i, f) in forms.iter_mut().enumerate() {
@@ -294,39 +314,41 @@ impl<'a> OverTime<'a> {
             }
         }
         // Per direction, per Φ, per region: the right and left derivatives.
-        let mut right: Vec<[Vec<f64>; 6]> = Vec::with_capacity(self.directions.len());
-        let mut left: Vec<[Vec<f64>; 6]> = Vec::with_capacity(self.directions.len());
+        let mut right: Vec<PerCriterion<Vec<f64>>> = Vec::with_capacity(self.directions.len());
+        let mut left: Vec<PerCriterion<Vec<f64>>> = Vec::with_capacity(self.directions.len());
         for direction in &self.directions {
             let law = match self.stresses && direction.law {
                 true => Some(self.law_part(direction.stencil, &global)?),
                 false => None,
             };
-            let along = |tangent: &Tangent, sign: f64| -> Result<[Vec<f64>; 6], WsmError> {
-                let fixed: Vec<f64> = direction.fixed.iter().map(|x| sign * x).collect();
-                let du = elastic.dofs().expand(&tangent.du, &fixed);
-                let dtau = match self.stresses {
-                    true => {
-                        let mut s = elastic.stress_increments(data, &du, None)?;
-                        if let Some(law) = &law {
-                            for (&e, part) in self.elements.iter().zip(law) {
-                                for (sc, pc) in s[e].stress.iter_mut().zip(part) {
-                                    *sc += sign * pc;
+            let along =
+                |tangent: &Tangent, sign: f64| -> Result<PerCriterion<Vec<f64>>, WsmError> {
+                    let fixed: Vec<f64> = direction.fixed.iter().map(|x| sign * x).collect();
+                    let du = elastic.dofs().expand(&tangent.du, &fixed);
+                    let dtau = match self.stresses {
+                        true => {
+                            let mut s = elastic.stress_increments(data, &du, None)?;
+                            if let Some(law) = &law {
+                                for (&e, part) in self.elements.iter().zip(law) {
+                                    for (sc, pc) in s[e].stress.iter_mut().zip(part) {
+                                        *sc += sign * pc;
+                                    }
                                 }
                             }
+                            Some(s)
                         }
-                        Some(s)
-                    }
-                    false => None,
+                        false => None,
+                    };
+                    let tangent_fields = Fields {
+                        temperature: None,
+                        displacement: Some(&du),
+                        stresses: dtau.as_deref(),
+                        multipliers: None,
+                    };
+                    Ok(forms
+                        .each_ref()
+                        .map(|f| f.iter().map(|form| form.apply(&tangent_fields)).collect()))
                 };
-                let tangent_fields = Fields {
-                    temperature: None,
-                    displacement: Some(&du),
-                    stresses: dtau.as_deref(),
-                };
-                Ok(forms
-                    .each_ref()
-                    .map(|f| f.iter().map(|form| form.apply(&tangent_fields)).collect()))
-            };
             let plus = along(&direction.plus, 1.0)?;
             let minus = match &direction.minus {
                 Some(tangent) => along(tangent, -1.0)?.map(|d| d.iter().map(|v| -v).collect()),
@@ -489,7 +511,7 @@ impl<'a> OverTime<'a> {
             .map(|p| p.iter().map(|p| p.time).collect());
         solution.criteria = maxima(&solution.region_values);
         let values = &solution.region_values;
-        let tied: [Vec<bool>; 6] = std::array::from_fn(|i| tied_regions(&values[i]));
+        let tied: PerCriterion<Vec<bool>> = std::array::from_fn(|i| tied_regions(&values[i]));
         solution.sensitivities = (0..self.directions.len())
             .map(|j| {
                 std::array::from_fn(|i| {

@@ -645,10 +645,12 @@ impl Run<'_> {
             .extend(crate::scenario::unproven::warnings(outcome));
         let dynamic = problem.scene.dynamics.is_some();
         if dynamic {
-            outcome.warnings.push(
-                "the accuracy statement (refined meshes) is built for static scenes; a dynamic                  scene's values carry the discretisation error of its mesh and time step"
-                    .into(),
-            );
+            outcome.warnings.push(Warning::new(
+                WarningKind::Accuracy,
+                "accuracy statement",
+                "built for static scenes; a dynamic scene's values carry the discretisation error \
+                 of its mesh and time step",
+            ));
         }
         if !matches!(outcome.status, Status::Cancelled | Status::TimeLimit) && !dynamic {
             if let Some((statement, asked)) = self.accuracy(problem, outcome)? {

@@ -184,18 +184,15 @@ impl<'a> ScenarioEvaluator<'a> {
 
     /// Also compute the exact derivatives of the criteria along every uncertain datum at each
     /// evaluation (off by default; never for a Coulomb state on the sparse contact path, nor for
-    /// a dynamic run from the static solution, which have none).
+    /// a dynamic run without them, [`crate::dynamics::derivatives_unavailable`]).
     pub fn with_derivatives(mut self, derivatives: bool) -> Self {
         let scene = &self.problem.scene;
         let coulomb_sparse = self.problem.contact.is_sparse()
             && self.needs.elastic
             && self.problem.nominal.has_coulomb()
             && scene.dynamics.is_none();
-        let static_start = scene
-            .dynamics
-            .as_ref()
-            .is_some_and(|d| d.initial == crate::scene::InitialState::Static);
-        self.derivatives = derivatives && !coulomb_sparse && !static_start;
+        let over_time_unavailable = crate::dynamics::derivatives_unavailable(scene).is_some();
+        self.derivatives = derivatives && !coulomb_sparse && !over_time_unavailable;
         self
     }
 

@@ -39,9 +39,9 @@ pub use model::{
     is_defined_name, Body, BoundaryCondition, BoundaryPiece, Conductivity, Contact, ContactKind,
     ContactMethod, CoulombAcceleration, Coupling, CriteriaRegions, Criterion, CriterionRegion,
     CriterionSpec, DdCoarse, DdIteration, DdPcg1, DdSettings, DdWeights, DefinedCriterion,
-    DefinedQuantity, Driven, Element, Hydrostatic, InitialGap, InlineMesh, Material, MeshControls, Point,
-    Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind, SolverSettings,
-    StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
+    DefinedQuantity, Driven, Element, Hydrostatic, InitialGap, InlineMesh, Material, MeshControls,
+    Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
+    SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
 };
 pub(crate) use planar::{cross, orient, signed_area2, sub};
 pub use schema::{scene_schema, scene_schema_json, SCENE_SCHEMA_DIALECT};
