@@ -11,7 +11,7 @@ mod solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
-use wsm_core::output::stress_measures::principal;
+use wsm_core::fem::stress_measures::principal;
 use wsm_core::run::{worst as run_worst, RunControl, WorstRequest};
 use wsm_core::scene::{parse, SolverKind, StopRule};
 use wsm_core::state::{Solution, StateProblem};

@@ -1,6 +1,7 @@
 //! The pipeline order of `lib.rs`, kept by a test: no module of the engine uses a module that
 //! comes later in the pipeline (design §1; `cargo test -p wsm-core layering`). Test code
-//! (`#[cfg(test)] mod tests` at the end of a file, `tests.rs` files) may use anything.
+//! (`#[cfg(test)] mod tests` at the end of a file, files named `tests.rs` or `*_tests.rs`) may use
+//! anything.
 
 /// The pipeline, earliest first, as the crate documentation states it.
 const PIPELINE: [&str; 16] = [
@@ -37,7 +38,10 @@ fn sources(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
         if path.is_dir() {
             sources(&path, out);
         } else if path.extension().is_some_and(|e| e == "rs")
-            && path.file_name().is_some_and(|n| n != "tests.rs")
+            && path
+                .file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| !n.ends_with("tests.rs"))
         {
             out.push(path);
         }

@@ -391,6 +391,16 @@ fn bad_dynamic_input_names_the_field() {
         "materials.steel.density"
     );
     scene["materials"]["steel"]["density"] = json!(RHO);
+    scene["criteria"]["defined"] =
+        json!([{"name": "mean_sxx", "region": 0, "quantity": "sigma_xx"}]);
+    assert_eq!(
+        parse(&scene.to_string()).expect_err("refused").path,
+        "criteria.defined"
+    );
+    scene["criteria"]
+        .as_object_mut()
+        .expect("object")
+        .remove("defined");
     scene["boundary"][0]["time_function"] = json!({"ricker": {"frequency": 1.0, "delay": 0.0}});
     assert_eq!(
         parse(&scene.to_string()).expect_err("refused").path,

@@ -26,6 +26,7 @@ mod mixed;
 mod operator;
 pub mod rigid;
 pub mod stress;
+pub mod stress_measures;
 
 pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;

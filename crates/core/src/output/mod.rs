@@ -5,5 +5,4 @@ pub mod contact_profile;
 pub mod pvd;
 pub mod result;
 pub mod solution_grid;
-pub mod stress_measures;
 pub mod vtu;

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::contact_profile::{contact_profiles, ContactProfile};
-use super::stress_measures::{principal, von_mises};
+use crate::fem::stress_measures::{principal, von_mises};
 use crate::scene::{Criterion, Data};
 use crate::state::{
     piece_pressures, region_name, zone_summaries, ContactNode, PerCriterion, Solution, SolveReport,

@@ -18,8 +18,8 @@
 
 use std::collections::HashMap;
 
-use super::stress_measures::{principal, tensor6, von_mises};
 use super::vtu::{CellKind, DataArray, Grid};
+use crate::fem::stress_measures::{principal, tensor6, von_mises};
 use crate::mesh::Mesh;
 use crate::state::{ContactState, Solution, StateProblem};
 

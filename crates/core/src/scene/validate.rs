@@ -1139,6 +1139,13 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
             }
         }
     }
+    if scene.dynamics.is_some() && !scene.criteria.defined.is_empty() {
+        return Err(SceneError::new(
+            "criteria.defined",
+            "defined criteria are not built over time yet: a scene with `dynamics` takes phi1 … \
+             phi6 (each its maximum over the time steps)",
+        ));
+    }
     let mut defined = BTreeSet::new();
     for (k, d) in scene.criteria.defined.iter().enumerate() {
         let path = format!("criteria.defined[{k}]");

@@ -15,7 +15,7 @@
 //! The defined criteria (`criteria.defined`, [`Criterion::Defined`]) are the family after Φ6: the
 //! k-th member is the mean of a stress quantity q over its area, Σ_e w_e q(τ_e), with the form
 //! Σ_e w_e ∇q(τ_e)·dτ_e (q linear for a component; σ1, σ2 and von Mises linearised at τ_e,
-//! `output::stress_measures::stress_quantity_gradient`), or the mean of a contact traction over a
+//! `fem::stress_measures::stress_quantity_gradient`), or the mean of a contact traction over a
 //! boundary piece, Σ_i w_i λ_{r(i)} / w_{pair(i)}, a linear form on the multipliers whose
 //! derivative reads dλ. The family has no maximum: each member is
 //! requested by its name, as a criterion bound to it.
@@ -23,8 +23,8 @@
 use super::solution::{pair_of_node, piece_traction_rows};
 use crate::contact::pairs::ContactGeometry;
 use crate::fem::stress::i2_bilinear;
+use crate::fem::stress_measures::{stress_quantity, stress_quantity_gradient};
 use crate::fem::ElementStress;
-use crate::output::stress_measures::{stress_quantity, stress_quantity_gradient};
 use crate::regions::{AreaRegion, CriteriaGeometry};
 use crate::scene::{Criterion, DefinedQuantity, SceneError};
 

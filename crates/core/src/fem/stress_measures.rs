@@ -1,4 +1,4 @@
-//! Derived stress measures of the written fields (design §5.6): the symmetric tensor in
+//! Derived stress measures (design §5.6, the written fields; §4.2, the defined criteria): the symmetric tensor in
 //! ParaView's component order, the von Mises stress and the principal stresses of a
 //! plane-strain stress (τ11, τ22, τ12, τ33), τ33 = σ_zz being the out-of-plane stress, and the
 //! stress quantities of the defined criteria with their gradients (design §4.2).
