@@ -392,7 +392,7 @@ fn bad_dynamic_input_names_the_field() {
     );
     scene["materials"]["steel"]["density"] = json!(RHO);
     scene["criteria"]["defined"] =
-        json!([{"name": "mean_sxx", "region": 0, "quantity": "sigma_xx"}]);
+        json!([{"name": "mean_sxx", "region": "r", "quantity": "sigma_xx"}]);
     assert_eq!(
         parse(&scene.to_string()).expect_err("refused").path,
         "criteria.defined"
