@@ -130,14 +130,17 @@ def hip():
                 {"name": "calcar", "polygon": box(0.006, -0.06, 0.02, -0.03), "normal_at": [0.02, -0.045]},
                 {"name": "bone at the stem's tip", "polygon": box(-0.02, -0.17, 0.02, -0.15), "normal_at": [0.02, -0.16]},
                 {"name": "cup's pole", "polygon": box(-0.005, 0.022, 0.005, 0.028), "normal": [0.0, 1.0]},
-            ]
+            ],
+            # The calcar is where a stiff stem shields the bone from stress: its mean von Mises
+            # stress, a defined criterion (design §4.2), is searched beside Φ3 and Φ5.
+            "defined": [{"name": "calcar_von_mises", "region": "calcar", "quantity": "von_mises"}],
         },
         "uncertain": [
             {"name": "bone E", "field": "materials.bone.E", "interval": [1.6e9, 2.4e9]},
             {"name": "implant E", "field": "materials.implant.E", "interval": [1.8e10, 2.2e10]},
             {"name": "load", "field": "boundary[2].pressure", "interval": [0.35e6, 0.45e6]},
         ],
-        "search": {"criteria": ["phi3", "phi5"], "budget": 40, "seed": 1},
+        "search": {"criteria": ["phi3", "phi5", "calcar_von_mises"], "budget": 40, "seed": 1},
     }
 
 

@@ -12,7 +12,7 @@ mod solves;
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
 use wsm_core::fem::stress_measures::principal;
-use wsm_core::run::{worst as run_worst, RunControl, WorstRequest};
+use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
 use wsm_core::scene::{parse, SolverKind, StopRule};
 use wsm_core::state::{Solution, StateProblem};
 
@@ -152,6 +152,36 @@ fn every_models_worst_scenario_run_finishes() {
             }
         }
     }
+}
+
+/// The hip's worst-scenario run with the scene's own settings (budget 40, the default global
+/// stop, no refined solves) certifies every extremum, including those of its defined criterion,
+/// the calcar's mean von Mises stress (design §4.2), whose worst data say what stress shielding
+/// says: the bone stiffest, the stem softest, the load highest.
+#[test]
+fn the_hips_defined_calcar_criterion_is_certified() {
+    let scene = parse(&scene("hip-replacement").to_string()).unwrap();
+    let params = wsm_core::scene::params::parameters(&scene).unwrap();
+    let request = WorstRequest {
+        accuracy_refinements: Some(0),
+        ..WorstRequest::default()
+    };
+    let r = run_worst(scene, &request, &RunControl::new()).unwrap();
+    let names: Vec<String> = r.criteria.iter().map(|c| c.criterion.name()).collect();
+    assert_eq!(names, ["phi3", "phi5", "calcar_von_mises"]);
+    assert_eq!(r.status, Status::LocallyCertified, "{:?}", r.warnings);
+    let calcar = &r.criteria[2];
+    for o in [&calcar.worst, &calcar.best] {
+        assert_eq!(o.status, Status::LocallyCertified, "{:?}", o.certificate);
+        assert_eq!(o.region.as_deref(), Some("calcar"));
+    }
+    let worst = calcar.worst.point.as_ref().unwrap();
+    let best = calcar.best.point.as_ref().unwrap();
+    assert_eq!(worst, &vec![params[0].hi, params[1].lo, params[2].hi]);
+    assert_eq!(best, &vec![params[0].lo, params[1].hi, params[2].lo]);
+    let (w, b) = (calcar.worst.value.unwrap(), calcar.best.value.unwrap());
+    eprintln!("calcar mean von Mises: worst {w:.6e} Pa, best {b:.6e} Pa");
+    assert!(b > 0.0 && w > b, "{w} {b}");
 }
 
 /// One DD solve with the `solver.dd` options `dd` and its report as JSON.
