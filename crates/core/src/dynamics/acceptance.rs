@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use serde_json::{json, Value};
 
-use super::tests::{checked, problem, run};
+use super::tests::{checked, problem, pushed_block, run, PUSHED_RHO};
 use super::{static_start, DynamicRun};
 use crate::scene::parse;
 use crate::state::StateProblem;
@@ -329,37 +329,17 @@ fn damped_run_converges_to_the_static_contact_solution() {
 /// slides at (Q h − F_k N)/m within 2 % (kinetic friction).
 #[test]
 fn static_friction_holds_and_kinetic_friction_drives_the_slide() {
-    let (rho, weight) = (2500.0, 245000.0);
+    let (rho, weight) = (PUSHED_RHO, 245000.0);
     let (height, length) = (0.25, 0.5);
     let (f_s, f_k) = (0.6, 0.4);
+    // The pushed block of `tests`, its joint Coulomb with a slip-rate-dependent coefficient,
+    // started from its static solution.
     let scene = |push: f64| {
-        json!({
-            "version": 1,
-            "bodies": [
-                {"name": "base", "zones": [{"name": "base", "material": "rock",
-                    "polygon": [[0, 0], [1, 0], [1, 0.25], [0, 0.25]]}]},
-                {"name": "block", "zones": [{"name": "block", "material": "rock",
-                    "polygon": [[0.25, 0.25], [0.75, 0.25], [0.75, 0.5], [0.25, 0.5]]}]}
-            ],
-            "segments": {
-                "bottom": {"body": "base", "from": [0, 0], "to": [1, 0]},
-                "base_top": {"body": "base", "from": [0.25, 0.25], "to": [0.75, 0.25]},
-                "block_bottom": {"body": "block", "from": [0.25, 0.25], "to": [0.75, 0.25]},
-                "push": {"body": "block", "from": [0.25, 0.5], "to": [0.25, 0.25]}
-            },
-            "materials": {"rock": {"E": 1e10, "nu": 0.25, "density": rho,
-                "specific_weight": weight}},
-            "boundary": [
-                {"segment": "bottom", "displacement": [0, 0]},
-                {"segment": "push", "traction": [push, 0],
-                 "time_function": {"table": {"times": [0.0, 0.004], "values": [0.0, 1.0]}}}
-            ],
-            "contacts": [{"name": "joint", "between": ["block_bottom", "base_top"],
-                "friction_coefficient": f_s, "friction_kinetic": f_k, "slip_rate_scale": 1e-2}],
-            "mesh": {"max_size": 0.0625},
-            "receivers": [{"name": "centre", "point": [0.5, 0.375]}],
-            "dynamics": {"t_end": 0.01, "dt": 5e-5, "scheme": "newmark", "initial": "static"}
-        })
+        let mut scene = pushed_block(push);
+        scene["contacts"][0] = json!({"name": "joint", "between": ["block_bottom", "base_top"],
+            "friction_coefficient": f_s, "friction_kinetic": f_k, "slip_rate_scale": 1e-2});
+        scene["dynamics"]["initial"] = json!("static");
+        scene
     };
     let mass = rho * height * length;
     let normal = weight * height * length;
