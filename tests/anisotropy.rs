@@ -4,42 +4,16 @@
 //! plane-strain compliance; the patch test with a general matrix; free anisotropic thermal
 //! expansion is stress-free.
 
+mod solves;
+
+use solves::{bc, data, material};
+
 use wsm_core::fem::{ElasticProblem, Par};
 use wsm_core::mesh::structured::{perturb_interior, rectangle, rotate};
 use wsm_core::mesh::{Mesh, MeshSegment};
 use wsm_core::scene::{
-    BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, Orthotropic,
-    PlaneStrainLaw,
+    BoundaryData, BoundaryValue, Data, Elastic, Expansion, Orthotropic, PlaneStrainLaw,
 };
-
-fn material(elastic: Elastic) -> MaterialData {
-    MaterialData {
-        elastic,
-        specific_weight: 0.0,
-        body_force: [0.0, 0.0],
-        conductivity: [1.0, 0.0, 1.0],
-        heat_source: 0.0,
-        expansion: Expansion::Beta(0.0),
-    }
-}
-
-fn bc(mesh: &Mesh, segment: &str, value: BoundaryValue) -> BoundaryData {
-    BoundaryData {
-        segment: mesh.segment_index(segment).expect("segment exists"),
-        value,
-    }
-}
-
-fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
-    Data {
-        materials,
-        boundary,
-        slip: Vec::new(),
-        friction: Vec::new(),
-        reference_temperature: 0.0,
-        dynamic: Default::default(),
-    }
-}
 
 /// Single-node segment (a point support) added to the mesh.
 fn point_segment(mesh: &mut Mesh, name: &str, at: [f64; 2]) {

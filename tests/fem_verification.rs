@@ -2,6 +2,10 @@
 //! convergence rates, the thick-walled cylinder (Lamé), free thermal expansion, heat across a
 //! perfect thermal contact, floating bodies and conflicting constraints.
 
+mod solves;
+
+use solves::{bc, data, material};
+
 use std::f64::consts::PI;
 
 use wsm_core::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
@@ -14,37 +18,8 @@ use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder, Manufa
 
 // ---------- helpers ----------
 
-fn material(elastic: Elastic) -> MaterialData {
-    MaterialData {
-        elastic,
-        specific_weight: 0.0,
-        body_force: [0.0, 0.0],
-        conductivity: [1.0, 0.0, 1.0],
-        heat_source: 0.0,
-        expansion: Expansion::Beta(0.0),
-    }
-}
-
 fn lame(lambda: f64, mu: f64) -> MaterialData {
     material(Elastic::Lame { lambda, mu })
-}
-
-fn bc(mesh: &Mesh, segment: &str, value: BoundaryValue) -> BoundaryData {
-    BoundaryData {
-        segment: mesh.segment_index(segment).expect("segment exists"),
-        value,
-    }
-}
-
-fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
-    Data {
-        materials,
-        boundary,
-        slip: Vec::new(),
-        friction: Vec::new(),
-        reference_temperature: 0.0,
-        dynamic: Default::default(),
-    }
 }
 
 fn clamp_all(mesh: &Mesh) -> Vec<BoundaryData> {

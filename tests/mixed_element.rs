@@ -5,46 +5,17 @@
 
 mod solves;
 
+use solves::{bc, data, material};
+
 use std::f64::consts::PI;
 
 use serde_json::{json, Value};
 use wsm_core::fem::{ElasticProblem, Par};
 use wsm_core::mesh::structured::{perturb_interior, rectangle};
 use wsm_core::mesh::Mesh;
-use wsm_core::scene::{
-    parse, BoundaryData, BoundaryValue, Data, Elastic, Element, Expansion, MaterialData, Scene,
-};
+use wsm_core::scene::{parse, BoundaryValue, Elastic, Element, Scene};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder};
-
-fn material(elastic: Elastic) -> MaterialData {
-    MaterialData {
-        elastic,
-        specific_weight: 0.0,
-        body_force: [0.0, 0.0],
-        conductivity: [1.0, 0.0, 1.0],
-        heat_source: 0.0,
-        expansion: Expansion::Beta(0.0),
-    }
-}
-
-fn bc(mesh: &Mesh, segment: &str, value: BoundaryValue) -> BoundaryData {
-    BoundaryData {
-        segment: mesh.segment_index(segment).expect("segment exists"),
-        value,
-    }
-}
-
-fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
-    Data {
-        materials,
-        boundary,
-        slip: Vec::new(),
-        friction: Vec::new(),
-        reference_temperature: 0.0,
-        dynamic: Default::default(),
-    }
-}
 
 fn rate(errors: &[f64]) -> Vec<f64> {
     errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect()

@@ -1,10 +1,15 @@
 //! Helpers shared by the tests that solve scenes in-process with either inner solver
-//! (tests/dd_vs_direct.rs, tests/coulomb.rs, tests/knee_papers.rs, tests/mortar.rs).
+//! (tests/dd_vs_direct.rs, tests/coulomb.rs, tests/knee_papers.rs, tests/mortar.rs), and the
+//! data builders of the tests that assemble FEM problems by hand (tests/fem_verification.rs,
+//! tests/anisotropy.rs, tests/mixed_element.rs).
 
 #![allow(dead_code)] // each test binary uses its own subset
 
 use serde_json::{json, Value};
-use wsm_core::scene::{parse, SolverKind};
+use wsm_core::mesh::Mesh;
+use wsm_core::scene::{
+    parse, BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SolverKind,
+};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 
 /// Solve `scene` at its nominal data with `kind` (DD tolerance 1e-12), sequentially.
@@ -128,4 +133,37 @@ pub fn stacked_blocks_mortar(pressure: f64, slip_limit: f64, h: f64, ratio: f64)
     v["contacts"][0]["coupling"] = json!("mortar");
     v["mesh"]["refine"] = json!([{"segments": ["upper_bottom"], "max_size": h / ratio}]);
     v
+}
+
+/// Material data with the elastic law `elastic`: no weight, body force, heat source or
+/// expansion, unit isotropic conductivity.
+pub fn material(elastic: Elastic) -> MaterialData {
+    MaterialData {
+        elastic,
+        specific_weight: 0.0,
+        body_force: [0.0, 0.0],
+        conductivity: [1.0, 0.0, 1.0],
+        heat_source: 0.0,
+        expansion: Expansion::Beta(0.0),
+    }
+}
+
+/// The boundary condition `value` on the mesh's segment named `segment`.
+pub fn bc(mesh: &Mesh, segment: &str, value: BoundaryValue) -> BoundaryData {
+    BoundaryData {
+        segment: mesh.segment_index(segment).expect("segment exists"),
+        value,
+    }
+}
+
+/// Data of `materials` and `boundary`: no contact data, reference temperature 0, no dynamic data.
+pub fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
+    Data {
+        materials,
+        boundary,
+        slip: Vec::new(),
+        friction: Vec::new(),
+        reference_temperature: 0.0,
+        dynamic: Default::default(),
+    }
 }
