@@ -29,7 +29,7 @@ mod sparse_tangent;
 mod tangent;
 
 pub use adjoint::AdjointForms;
-pub(crate) use tangent::{classify, tangent_bounds, RowMotion};
+pub(crate) use tangent::{classify, tangent_bounds, RowMotion, TangentDisplacement};
 pub use tangent::{ContactPoint, DataDerivative};
 
 use std::sync::{Arc, OnceLock};

@@ -67,9 +67,50 @@ impl PointLoads {
     }
 }
 
-/// F(v) = F_k + (F_s − F_k) exp(−|v| / v_c).
-pub fn friction_coefficient(stat: f64, kinetic: f64, scale: f64, rate: f64) -> f64 {
-    kinetic + (stat - kinetic) * (-rate.abs() / scale).exp()
+/// The slip-rate-dependent friction coefficient of a zone (paper (6)):
+/// F(v) = F_k + (F_s − F_k) exp(−|v| / v_c), F_s the data's coefficient, F_k and v_c the zone's.
+#[derive(Debug, Clone, Copy)]
+pub struct SlipRateLaw {
+    stat: f64,
+    kinetic: f64,
+    scale: f64,
+}
+
+impl SlipRateLaw {
+    /// The law of contact zone `zone` with the data's F_s (`None` on a zone without
+    /// `friction_kinetic` or without a Coulomb coefficient).
+    pub fn of(scene: &Scene, data: &Data, zone: usize) -> Option<SlipRateLaw> {
+        let contact = &scene.contacts[zone];
+        match (
+            contact.friction_kinetic,
+            contact.slip_rate_scale,
+            data.friction.get(zone).copied(),
+        ) {
+            (Some(kinetic), Some(scale), Some(Some(stat))) => Some(SlipRateLaw {
+                stat,
+                kinetic,
+                scale,
+            }),
+            _ => None,
+        }
+    }
+
+    /// F(v) at the slip rate `rate`.
+    pub fn coefficient(&self, rate: f64) -> f64 {
+        self.kinetic + (self.stat - self.kinetic) * (-rate.abs() / self.scale).exp()
+    }
+
+    /// The directional derivative of F at `rate` along a change `d_rate` of the slip rate:
+    /// −(F_s − F_k)/v_c exp(−|v|/v_c) d|v|, with d|v| = sign(v) dv, and |dv| at v = 0 (the kink
+    /// of |v|: the one-sided derivative along the change).
+    pub fn rate_derivative(&self, rate: f64, d_rate: f64) -> f64 {
+        let d_abs = if rate == 0.0 {
+            d_rate.abs()
+        } else {
+            rate.signum() * d_rate
+        };
+        -(self.stat - self.kinetic) / self.scale * (-rate.abs() / self.scale).exp() * d_abs
+    }
 }
 
 /// On the zones with `friction_kinetic`, the friction bounds ±F(v_p) max(λ_n, 0) of each pair
@@ -85,17 +126,11 @@ pub fn slip_rate_bounds(
     upper: &mut [f64],
 ) {
     for (m, pair) in geometry.pairs.iter().enumerate() {
-        let contact = &scene.contacts[pair.zone];
-        let (Some(kinetic), Some(scale), Some(Some(stat))) = (
-            contact.friction_kinetic,
-            contact.slip_rate_scale,
-            data.friction.get(pair.zone).copied(),
-        ) else {
+        let Some(law) = SlipRateLaw::of(scene, data, pair.zone) else {
             continue;
         };
         let t = tangential_row(m);
-        let f = friction_coefficient(stat, kinetic, scale, rates[t]);
-        let bound = f * forces[normal_row(m)].max(0.0);
+        let bound = law.coefficient(rates[t]) * forces[normal_row(m)].max(0.0);
         lower[t] = -bound;
         upper[t] = bound;
     }

@@ -43,9 +43,11 @@ pub use over_time::{derivatives_unavailable, solve_over_time};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+use crate::contact::direct::TangentDisplacement;
 use crate::contact::pairs::{is_normal_row, normal_row, pair_of_row, tangential_row};
 use crate::error::WsmError;
 use crate::fem::{ElasticProblem, ElementStress, Par};
+use crate::scene::params::Stencil;
 use crate::scene::{BoundaryValue, Criterion, Data, InitialState, Scene, SceneError, TimeScheme};
 use crate::state::{Needs, Solution, SolveOptions, StateProblem};
 use excitation::{initial_velocity, slip_rate_bounds, PointLoads};
@@ -118,12 +120,32 @@ pub fn data_at(scene: &Scene, data: &Data, t: f64) -> Data {
 
 /// The static contact solution of the scene with the loads at t = 0 (the paper's u0, (8)).
 pub fn static_start(problem: &StateProblem, data: &Data) -> Result<Solution, WsmError> {
-    let options = SolveOptions {
+    problem.solve(
+        &data_at(&problem.scene, data, 0.0),
+        &static_options(problem),
+    )
+}
+
+/// [`static_start`] with the static state's tangents along `stencils` (their data at t = 0).
+fn static_start_with_tangents(
+    problem: &StateProblem,
+    data: &Data,
+    stencils: &[Stencil],
+) -> Result<(Solution, Result<Vec<TangentDisplacement>, WsmError>), WsmError> {
+    problem.solve_with_tangents(
+        &data_at(&problem.scene, data, 0.0),
+        &static_options(problem),
+        stencils,
+    )
+}
+
+/// The options of the static start: everything the scene has, sequential, cold.
+fn static_options(problem: &StateProblem) -> SolveOptions {
+    SolveOptions {
         needs: Needs::all(&problem.scene),
         par: Par::Seq,
         warm: None,
-    };
-    problem.solve(&data_at(&problem.scene, data, 0.0), &options)
+    }
 }
 
 /// The FEM operators as a [`SecondOrderSystem`].
@@ -210,6 +232,8 @@ struct StepView<'a> {
 /// Sees the initial state and every step of a run (criteria over time and their forward
 /// tangents, [`over_time`]).
 trait StepObserver {
+    /// The static contact solution a run from `dynamics.initial = "static"` starts from.
+    fn static_start(&mut self, problem: &StateProblem, data: &Data) -> Result<Solution, WsmError>;
     /// The state at t = 0 (free DOFs).
     fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError>;
     /// One step, solved by `contact` (its factor of A, W and C_h).
@@ -253,7 +277,7 @@ fn simulate_observed(
     let mut forces = vec![0.0; geometry.dim()];
     let mut u = vec![0.0; n];
     if dynamics.initial == InitialState::Static {
-        let start = static_start(problem, data).map_err(|e| {
+        let start = observer.static_start(problem, data).map_err(|e| {
             SceneError::new(
                 "dynamics.initial",
                 format!("the static start (the static contact problem at t = 0) fails: {e}"),

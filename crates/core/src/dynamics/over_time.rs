@@ -31,51 +31,59 @@
 //! apart, a Coulomb bound at a closing pair); from there on the tangent along −θ_j is carried
 //! separately, so both one-sided derivatives are exact directional derivatives of the run.
 //!
-//! Derivatives are given for runs that start at rest; a run started from the static contact
-//! solution would need the static state's tangent as its initial tangent (not built: the
-//! derivatives are refused with a reason).
+//! **Initial tangent.** A run from rest starts from the zero tangent; a run from the static
+//! contact solution (`dynamics.initial = "static"`) from the static state's own forward tangent
+//! (design §4.4, `StateProblem::solve_with_tangents`) along the same datum at t = 0: du_0 and
+//! dλ_0 from the static solve, dv_0 = 0 (initial velocities are not uncertain), and the static
+//! tangent along −θ_j where the static state is only one-sided differentiable.
+//!
+//! **Slip-rate friction** (paper (6)): the bound of a slipping pair is
+//! G = F(v) max(λ_n, 0) with F(v) = F_k + (F_s − F_k) e^{−|v|/v_c}, v = (B v_n)_t and λ_n of the
+//! previous level, so dG = F(v) d max(λ_n, 0) + max(λ_n, 0) F′(v; dv) + (the data's part), with
+//! dv = (B dv_n)_t of the carried tangent and F′(v; dv) = −(F_s − F_k)/v_c e^{−|v|/v_c} d|v|,
+//! d|v| = sign(v) dv and |dv| at v = 0 (a directional derivative; at that kink the tangent
+//! along −θ_j is carried separately). The data's part comes from the stencil's bounds, F(v) at
+//! each point's F_s (F is affine in F_s).
 
 use std::time::Instant;
 
 use faer::Mat;
 
+use super::excitation::{slip_rate_bounds, SlipRateLaw};
 use super::history::CriterionPeak;
 use super::operators::Operators;
 use super::scheme::{rhs, velocity, SecondOrderSystem};
 use super::step::StepContact;
 use super::{simulate_observed, FemSystem, RunContext, StepObserver, StepView};
-use crate::contact::direct::{classify, tangent_bounds, ContactPoint, DataDerivative, RowMotion};
-use crate::contact::pairs::{is_normal_row, is_tangential_row, normal_row, pair_of_row};
+use crate::contact::direct::{
+    classify, tangent_bounds, ContactPoint, DataDerivative, RowMotion, TangentDisplacement,
+};
+use crate::contact::pairs::{
+    is_normal_row, is_tangential_row, normal_row, pair_of_row, tangential_row,
+};
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};
 use crate::error::WsmError;
 use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
-use crate::scene::{Criterion, Data, InitialState, Scene, SceneError};
+use crate::scene::{Criterion, Data, InitialState, SceneError, Warning, WarningKind};
 use crate::state::{
     add_scaled, attaining, maxima, one_sided, per_region_with, region_forms, region_name,
     tied_regions, Fields, OneSided, PerCriterion, Solution, StateProblem, TIE_TOL,
 };
 
 /// Why a dynamic scene has no exact derivatives over time (the field and the reason), if it
-/// has none: a run from the static solution would need the static tangent as its initial
-/// tangent, and a slip-rate-dependent friction coefficient a tangent of the slip rate in the
-/// bound; neither is built, so the search runs on values there.
-pub fn derivatives_unavailable(scene: &Scene) -> Option<(&'static str, &'static str)> {
-    let dynamics = scene.dynamics.as_ref()?;
-    if dynamics.initial == InitialState::Static {
-        return Some((
-            "dynamics.initial",
-            "exact derivatives over time are built for runs that start at rest; a run from the \
-             static solution has none yet",
-        ));
-    }
-    if scene.contacts.iter().any(|c| c.friction_kinetic.is_some()) {
-        return Some((
-            "contacts.friction_kinetic",
-            "exact derivatives over time are not built for slip-rate-dependent friction",
-        ));
-    }
-    None
+/// has none: a run from the static solution of a scene with a Coulomb zone on the sparse
+/// contact path, whose static state has no derivative there (the search runs on values).
+pub fn derivatives_unavailable(problem: &StateProblem) -> Option<(&'static str, &'static str)> {
+    let dynamics = problem.scene.dynamics.as_ref()?;
+    (dynamics.initial == InitialState::Static
+        && problem.contact.is_sparse()
+        && problem.nominal.has_coulomb())
+    .then_some((
+        "solver.contact",
+        "a run from the static solution starts from the static state's tangent, and a Coulomb \
+         state has none on the sparse contact path (solver.contact: \"dense\" gives it)",
+    ))
 }
 
 /// The requested criteria of a dynamic scene as maxima over time, with their exact one-sided
@@ -203,6 +211,8 @@ pub(super) struct OverTime<'a> {
     elements: Vec<usize>,
     peaks: PerCriterion<Vec<Peak>>,
     directions: Vec<Direction<'a>>,
+    /// Why the static start's tangent is not available (then no direction is carried).
+    unavailable: Option<String>,
 }
 
 impl<'a> OverTime<'a> {
@@ -215,7 +225,7 @@ impl<'a> OverTime<'a> {
     ) -> Result<OverTime<'a>, WsmError> {
         let scene = &problem.scene;
         if let Some((field, reason)) =
-            derivatives_unavailable(scene).filter(|_| !stencils.is_empty())
+            derivatives_unavailable(problem).filter(|_| !stencils.is_empty())
         {
             return Err(SceneError::new(field, reason).into());
         }
@@ -282,7 +292,38 @@ impl<'a> OverTime<'a> {
             elements,
             peaks: Default::default(),
             directions,
+            unavailable: None,
         })
+    }
+
+    /// The static start with every direction's initial tangent: the static state's tangent
+    /// along the datum's stencil at t = 0 (no direction is carried when it has none).
+    fn static_start(&mut self, problem: &StateProblem, data: &Data) -> Result<Solution, WsmError> {
+        if self.directions.is_empty() {
+            return super::static_start(problem, data);
+        }
+        let at_start: Vec<Stencil> = self
+            .directions
+            .iter()
+            .map(|d| Stencil {
+                points: (d.stencil.points.iter())
+                    .map(|(t, w, point)| (*t, *w, super::data_at(&problem.scene, point, 0.0)))
+                    .collect(),
+            })
+            .collect();
+        let (start, tangents) = super::static_start_with_tangents(problem, data, &at_start)?;
+        match tangents {
+            Ok(tangents) => {
+                for (direction, tangent) in self.directions.iter_mut().zip(tangents) {
+                    (direction.plus, direction.minus) = initial_tangents(tangent, &direction.plus);
+                }
+            }
+            Err(e) => {
+                self.unavailable = Some(e.to_string());
+                self.directions.clear();
+            }
+        }
+        Ok(start)
     }
 
     /// The region values at the state `u` (free DOFs) at time `t`, and their derivatives along
@@ -419,10 +460,25 @@ impl<'a> OverTime<'a> {
                 }
             })
             .collect();
+        // Per pair its slip-rate law, and the Coulomb coefficient of the step's bound (F(v) of
+        // the previous level's slip rate on a slip-rate zone).
+        let slip_rates = geometry.apply(view.v);
+        let laws: Vec<Option<SlipRateLaw>> = geometry
+            .pairs
+            .iter()
+            .map(|p| SlipRateLaw::of(&problem.scene, data, p.zone).filter(|_| !p.bilateral))
+            .collect();
         let friction: Vec<Option<f64>> = geometry
             .pairs
             .iter()
-            .map(|p| data.friction[p.zone].filter(|_| !p.bilateral))
+            .zip(&laws)
+            .enumerate()
+            .map(|(m, (p, law))| {
+                let coefficient = data.friction[p.zone].filter(|_| !p.bilateral)?;
+                Some(law.map_or(coefficient, |l| {
+                    l.coefficient(slip_rates[tangential_row(m)])
+                }))
+            })
             .collect();
         let motions = classify(&ContactPoint {
             multipliers: view.multipliers,
@@ -438,6 +494,8 @@ impl<'a> OverTime<'a> {
             view,
             motions: &motions,
             friction: &friction,
+            laws: &laws,
+            slip_rates: &slip_rates,
         };
         for direction in &mut self.directions {
             // The step's data part g (unsigned).
@@ -477,7 +535,16 @@ impl<'a> OverTime<'a> {
                 for (_, w, d) in &direction.stencil.points {
                     // The upper bounds carry the rates (tangential rows: G, lower −G; normal
                     // rows' infinite bounds do not move).
-                    let (_, hi) = geometry.bounds(d, Some(view.forces));
+                    let (mut lo, mut hi) = geometry.bounds(d, Some(view.forces));
+                    slip_rate_bounds(
+                        &problem.scene,
+                        geometry,
+                        d,
+                        view.forces,
+                        &slip_rates,
+                        &mut lo,
+                        &mut hi,
+                    );
                     for (rate, b) in bound_rates.iter_mut().zip(&hi) {
                         if b.is_finite() {
                             *rate += w * s * b;
@@ -486,7 +553,7 @@ impl<'a> OverTime<'a> {
                 }
             }
             let plus_rates = step.rates(&bound_rates, 1.0, &direction.plus);
-            if direction.minus.is_none() && step.one_sided(&plus_rates) {
+            if direction.minus.is_none() && step.one_sided(&plus_rates, &direction.plus) {
                 direction.minus = Some(direction.plus.negated());
             }
             direction.plus =
@@ -501,6 +568,13 @@ impl<'a> OverTime<'a> {
 
     /// Fill a solution's criteria, their times and derivatives from the maxima over time.
     fn fill(&self, solution: &mut Solution) {
+        if let Some(reason) = &self.unavailable {
+            solution.report.warnings.push(Warning::new(
+                WarningKind::Sensitivities,
+                "dynamics.initial",
+                format!("the derivatives over time are not available: the static start has no tangent: {reason}"),
+            ));
+        }
         solution.region_values = self
             .peaks
             .each_ref()
@@ -560,6 +634,10 @@ impl<'a> OverTime<'a> {
 }
 
 impl StepObserver for OverTime<'_> {
+    fn static_start(&mut self, problem: &StateProblem, data: &Data) -> Result<Solution, WsmError> {
+        OverTime::static_start(self, problem, data)
+    }
+
     fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError> {
         self.record(context, 0.0, u)
     }
@@ -583,13 +661,19 @@ struct Step<'s> {
     contact: &'s StepContact<'s>,
     view: &'s StepView<'s>,
     motions: &'s [RowMotion],
+    /// Per pair the Coulomb coefficient of the step's bound (`None`: Tresca or bilateral).
     friction: &'s [Option<f64>],
+    /// Per pair its slip-rate law (`None`: a constant coefficient).
+    laws: &'s [Option<SlipRateLaw>],
+    /// B v of the previous level (the slip rates on tangential rows).
+    slip_rates: &'s [f64],
 }
 
 impl Step<'_> {
     /// The signed derivatives (lower, upper) of the step's multiplier bounds along a tangent:
     /// `sign` × the data rates, plus on a Coulomb pair's tangential rows s F d max(λ_n, 0) of
-    /// the previous level.
+    /// the previous level, and on a slip-rate pair s max(λ_n, 0) F′(v; dv) with dv the
+    /// tangent's slip rate.
     fn rates(&self, data_rates: &[f64], sign: f64, tangent: &Tangent) -> (Vec<f64>, Vec<f64>) {
         let s = self.context.constants.force;
         let mut upper: Vec<f64> = data_rates.iter().map(|r| sign * r).collect();
@@ -609,6 +693,10 @@ impl Step<'_> {
                     dlambda.max(0.0)
                 };
                 *rate += s * f * d;
+                if let Some(law) = &self.laws[p] {
+                    let dv = self.contact.geometry().rows[r].dot(&tangent.dv);
+                    *rate += s * lambda.max(0.0) * law.rate_derivative(self.slip_rates[r], dv);
+                }
             }
         }
         // Tangential bounds are ±G: the lower one moves opposite to the upper one; normal rows'
@@ -627,22 +715,35 @@ impl Step<'_> {
     }
 
     /// Whether the step is only one-sided differentiable along the tangent with these rates: a
-    /// weakly active row, a pinched row whose bounds move apart, or a Coulomb bound at an open
-    /// pair (max(λ_n, 0) at its kink).
-    fn one_sided(&self, (lower, upper): &(Vec<f64>, Vec<f64>)) -> bool {
-        self.motions
-            .iter()
-            .enumerate()
-            .any(|(r, motion)| match motion {
-                RowMotion::WeakLower | RowMotion::WeakUpper => true,
-                RowMotion::Pinched => {
-                    lower[r] != upper[r]
-                        || (is_tangential_row(r)
-                            && self.friction[pair_of_row(r)].is_some()
-                            && self.view.forces[normal_row(pair_of_row(r))] <= 0.0)
-                }
-                _ => false,
-            })
+    /// weakly active row, a pinched row whose bounds move apart, a Coulomb bound at an open
+    /// pair whose normal force moves (max(λ_n, 0) at its kink with dλ_n ≠ 0), or a slip-rate bound of a closed pair at rest that the
+    /// tangent sets sliding (|v| at its kink).
+    fn one_sided(&self, (lower, upper): &(Vec<f64>, Vec<f64>), tangent: &Tangent) -> bool {
+        let rows = &self.contact.geometry().rows;
+        let rate_kink = self.laws.iter().enumerate().any(|(p, law)| {
+            let t = tangential_row(p);
+            law.is_some()
+                && self.slip_rates[t] == 0.0
+                && self.view.forces[normal_row(p)] > 0.0
+                && rows[t].dot(&tangent.dv) != 0.0
+        });
+        rate_kink
+            || self
+                .motions
+                .iter()
+                .enumerate()
+                .any(|(r, motion)| match motion {
+                    RowMotion::WeakLower | RowMotion::WeakUpper => true,
+                    RowMotion::Pinched => {
+                        let n = normal_row(pair_of_row(r));
+                        lower[r] != upper[r]
+                            || (is_tangential_row(r)
+                                && self.friction[pair_of_row(r)].is_some()
+                                && self.view.forces[n] <= 0.0
+                                && tangent.dforces[n] != 0.0)
+                    }
+                    _ => false,
+                })
     }
 
     /// The tangent after the step along the signed direction: y = A⁻¹(F(du, dv) + sign g),
@@ -710,6 +811,21 @@ impl Step<'_> {
         let dv = velocity(context.scheme, context.dt, &tangent.du, &du, &tangent.dv);
         Ok(Tangent { du, dv, dforces })
     }
+}
+
+/// A run's initial tangents (along +θ_j, and along −θ_j when one-sided) from the static
+/// state's tangent: du_0 and dλ_0, dv_0 = 0 (`zero` gives its size).
+fn initial_tangents(tangent: TangentDisplacement, zero: &Tangent) -> (Tangent, Option<Tangent>) {
+    let at_rest = |du: Vec<f64>, dforces: Vec<f64>| Tangent {
+        du,
+        dv: zero.dv.clone(),
+        dforces,
+    };
+    let minus = tangent
+        .minus
+        .zip(tangent.minus_multipliers)
+        .map(|(du, dlambda)| at_rest(du, dlambda));
+    (at_rest(tangent.plus, tangent.plus_multipliers), minus)
 }
 
 /// d(f − K_fd u_d) at time `t` along the direction (free DOFs): the stencil's loads when they

@@ -629,7 +629,18 @@ impl Run<'_> {
         if let Some(warning) = outcome.failures.warning(outcome.evaluations, &names) {
             outcome.warnings.insert(0, warning);
         }
-        if self.settings.derivatives && problem.contact.is_sparse() && problem.nominal.has_coulomb()
+        let dynamic = problem.scene.dynamics.is_some();
+        let over_time = crate::dynamics::derivatives_unavailable(problem);
+        if let Some((field, reason)) = over_time.filter(|_| self.settings.derivatives) {
+            outcome.warnings.push(Warning::new(
+                WarningKind::Derivatives,
+                field,
+                format!("exact derivatives over time are not available ({reason}): the search ran on values alone"),
+            ));
+        } else if self.settings.derivatives
+            && !dynamic
+            && problem.contact.is_sparse()
+            && problem.nominal.has_coulomb()
         {
             outcome.warnings.push(Warning::new(
                 WarningKind::Derivatives,
@@ -643,7 +654,6 @@ impl Run<'_> {
         outcome
             .warnings
             .extend(crate::scenario::unproven::warnings(outcome));
-        let dynamic = problem.scene.dynamics.is_some();
         if dynamic {
             outcome.warnings.push(Warning::new(
                 WarningKind::Accuracy,

@@ -191,7 +191,8 @@ impl<'a> ScenarioEvaluator<'a> {
             && self.needs.elastic
             && self.problem.nominal.has_coulomb()
             && scene.dynamics.is_none();
-        let over_time_unavailable = crate::dynamics::derivatives_unavailable(scene).is_some();
+        let over_time_unavailable =
+            crate::dynamics::derivatives_unavailable(self.problem).is_some();
         self.derivatives = derivatives && !coulomb_sparse && !over_time_unavailable;
         self
     }

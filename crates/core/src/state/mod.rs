@@ -31,7 +31,9 @@ use std::sync::{Arc, OnceLock};
 use std::time::Instant;
 
 use crate::contact::bodies::BodyFactor;
-use crate::contact::direct::{ContactSolution, DirectContact, StiffnessFactor};
+use crate::contact::direct::{
+    ContactSolution, DirectContact, StiffnessFactor, TangentDisplacement,
+};
 use crate::contact::qp::WarmStart;
 use crate::dd::DirectAnswer;
 use crate::error::WsmError;
@@ -290,6 +292,62 @@ impl StateProblem {
         route: DerivativeRoute,
     ) -> Result<Solution, WsmError> {
         let start = Instant::now();
+        let (mut solution, elastic, mut report) = self.solve_parts(data, options)?;
+        if !stencils.is_empty() {
+            let t0 = Instant::now();
+            let sensitivities =
+                self.differentiate(data, options, elastic.as_ref(), &solution, stencils, route);
+            match sensitivities {
+                Ok((s, regions, adjoint)) => {
+                    solution.sensitivities = s;
+                    solution.region_sensitivities = regions;
+                    report.adjoint_directions = adjoint;
+                }
+                Err(e) => report.warnings.push(Warning::new(
+                    WarningKind::Sensitivities,
+                    "",
+                    format!("the sensitivities are not available: {e}"),
+                )),
+            }
+            report.timings.sensitivities = t0.elapsed().as_secs_f64();
+        }
+        report.timings.total = start.elapsed().as_secs_f64();
+        solution.report = report;
+        Ok(solution)
+    }
+
+    /// Solve the elastic state for `data` and take its derivative along every stencil (§4.4's
+    /// forward tangent: per stencil du on the free DOFs and dλ per multiplier row along +θ_j,
+    /// and along −θ_j where the state is only one-sided differentiable). The tangents are an
+    /// error of their own (the solution stands without them); scenes without a thermal part.
+    pub(crate) fn solve_with_tangents(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        stencils: &[Stencil],
+    ) -> Result<(Solution, Result<Vec<TangentDisplacement>, WsmError>), WsmError> {
+        let start = Instant::now();
+        let (mut solution, elastic, mut report) = self.solve_parts(data, options)?;
+        let t0 = Instant::now();
+        let tangents = match elastic {
+            Some(parts) => self.with_solved_state(data, options, &parts, &solution, |state| {
+                self.state_tangents(state, stencils)
+            }),
+            None => Err(WsmError::contact("the elastic state was not solved")),
+        };
+        report.timings.sensitivities = t0.elapsed().as_secs_f64();
+        report.timings.total = start.elapsed().as_secs_f64();
+        solution.report = report;
+        Ok((solution, tangents))
+    }
+
+    /// The state for `data` (heat when needed, elastic contact, criteria) with its elastic
+    /// parts and its report (total time not set).
+    fn solve_parts(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+    ) -> Result<(Solution, Option<ElasticParts>, SolveReport), WsmError> {
         let mesh = self.mesh();
         let mut report = SolveReport {
             solver: SolverUsed::Direct,
@@ -347,27 +405,7 @@ impl StateProblem {
         solution.criteria = maxima(&solution.region_values);
         report.timings.post += t0.elapsed().as_secs_f64();
         solution.temperature = temperature.map(|t| t.as_ref().clone());
-        if !stencils.is_empty() {
-            let t0 = Instant::now();
-            let sensitivities =
-                self.differentiate(data, options, elastic.as_ref(), &solution, stencils, route);
-            match sensitivities {
-                Ok((s, regions, adjoint)) => {
-                    solution.sensitivities = s;
-                    solution.region_sensitivities = regions;
-                    report.adjoint_directions = adjoint;
-                }
-                Err(e) => report.warnings.push(Warning::new(
-                    WarningKind::Sensitivities,
-                    "",
-                    format!("the sensitivities are not available: {e}"),
-                )),
-            }
-            report.timings.sensitivities = t0.elapsed().as_secs_f64();
-        }
-        report.timings.total = start.elapsed().as_secs_f64();
-        solution.report = report;
-        Ok(solution)
+        Ok((solution, elastic, report))
     }
 
     /// The sensitivities of a solved state (the direct factor is built for a DD state).
@@ -380,33 +418,54 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
-        if elastic.is_some() && self.elastic.element() == Element::Mixed {
+        let bound = &options.needs.bound_regions;
+        match elastic {
+            Some(parts) => self.with_solved_state(data, options, parts, solution, |state| {
+                self.sensitivities(state, stencils, route, bound)
+            }),
+            None => {
+                let state = SolvedState {
+                    data,
+                    temperature: solution.temperature.as_deref(),
+                    elastic: None,
+                };
+                self.sensitivities(&state, stencils, route, bound)
+            }
+        }
+    }
+
+    /// `f` of the solved state with its elastic part (the direct factor is built for a DD
+    /// state); mixed elements have no derivatives.
+    fn with_solved_state<T>(
+        &self,
+        data: &Data,
+        options: &SolveOptions,
+        parts: &ElasticParts,
+        solution: &Solution,
+        f: impl FnOnce(&SolvedState) -> Result<T, WsmError>,
+    ) -> Result<T, WsmError> {
+        if self.elastic.element() == Element::Mixed {
             return Err(WsmError::Scene(SceneError::new(
                 "mesh.element",
                 "derivatives of the elastic criteria are not implemented for \"mixed\" elements",
             )));
         }
-        let factor = match elastic {
-            Some(ElasticParts {
-                factor: Some(f), ..
-            }) => Some(f.clone()),
-            Some(parts) => Some(self.stiffness_factor(&parts.coefficients, options.par)?.0),
-            None => None,
+        let factor = match &parts.factor {
+            Some(f) => f.clone(),
+            None => self.stiffness_factor(&parts.coefficients, options.par)?.0,
         };
         let state = SolvedState {
             data,
             temperature: solution.temperature.as_deref(),
-            elastic: elastic
-                .zip(factor.as_deref())
-                .map(|(parts, factor)| ElasticState {
-                    coefficients: &parts.coefficients,
-                    factor,
-                    contact: &parts.contact,
-                    displacement: &solution.displacement,
-                    stresses: &solution.stresses,
-                }),
+            elastic: Some(ElasticState {
+                coefficients: &parts.coefficients,
+                factor: &factor,
+                contact: &parts.contact,
+                displacement: &solution.displacement,
+                stresses: &solution.stresses,
+            }),
         };
-        self.sensitivities(&state, stencils, route, &options.needs.bound_regions)
+        f(&state)
     }
 
     fn solve_elastic(

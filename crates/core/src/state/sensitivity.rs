@@ -25,6 +25,7 @@ use super::criterion_values::{per_region_with, region_forms, Fields, LinearForm,
 use super::{thermal_key, StateProblem};
 use crate::contact::direct::{
     AdjointForms, ContactPoint, ContactSolution, DataDerivative, StiffnessFactor,
+    TangentDisplacement,
 };
 use crate::error::WsmError;
 use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients};
@@ -238,17 +239,7 @@ impl StateProblem {
                         self.elastic_derivative(state, el, stencil, dt.as_deref(), &elements)
                     })
                     .collect::<Result<_, _>>()?;
-                let (lo, hi) = self
-                    .contact
-                    .geometry
-                    .bounds(state.data, Some(&el.contact.multipliers));
-                let friction: Vec<Option<f64>> = self
-                    .contact
-                    .geometry
-                    .pairs
-                    .iter()
-                    .map(|p| state.data.friction[p.zone].filter(|_| !p.bilateral))
-                    .collect();
+                let (lo, hi, friction) = self.bounds_at(state.data, el);
                 let point = contact_point(el, &lo, &hi, &friction);
                 // The adjoint is built on the dense path's C; the sparse path takes the forward
                 // tangents (design §3.1).
@@ -314,6 +305,48 @@ impl StateProblem {
             })
             .collect();
         Ok((sensitivities, regions, adjoint_directions))
+    }
+
+    /// The multiplier bounds at the state (Coulomb ones at its normal forces) and each pair's
+    /// Coulomb coefficient (`None`: Tresca or bilateral).
+    #[allow(clippy::type_complexity)]
+    fn bounds_at(&self, data: &Data, el: &ElasticState) -> (Vec<f64>, Vec<f64>, Vec<Option<f64>>) {
+        let geometry = &self.contact.geometry;
+        let (lo, hi) = geometry.bounds(data, Some(&el.contact.multipliers));
+        let friction = geometry
+            .pairs
+            .iter()
+            .map(|p| data.friction[p.zone].filter(|_| !p.bilateral))
+            .collect();
+        (lo, hi, friction)
+    }
+
+    /// The state's own derivative along every stencil (du on the free DOFs and dλ per row,
+    /// along +θ_j and, where one-sided, −θ_j): the contact tangents of §4.4 on the data
+    /// derivatives of [`Self::elastic_derivative`].
+    pub(super) fn state_tangents(
+        &self,
+        state: &SolvedState,
+        stencils: &[Stencil],
+    ) -> Result<Vec<TangentDisplacement>, WsmError> {
+        let el = state
+            .elastic
+            .as_ref()
+            .ok_or_else(|| WsmError::contact("the elastic state was not solved"))?;
+        let parts: Vec<ElasticDerivative> = stencils
+            .iter()
+            .map(|stencil| {
+                let dt = state
+                    .temperature
+                    .map(|t| self.temperature_derivative(state.data, t, stencil))
+                    .transpose()?;
+                self.elastic_derivative(state, el, stencil, dt.as_deref(), &[])
+            })
+            .collect::<Result<_, WsmError>>()?;
+        let (lo, hi, friction) = self.bounds_at(state.data, el);
+        let point = contact_point(el, &lo, &hi, &friction);
+        let derivatives: Vec<DataDerivative> = parts.iter().map(|p| p.view()).collect();
+        self.contact.tangents(el.factor, &point, &derivatives)
     }
 
     /// The adjoint of every `needed` region form of the criteria (design §4.4): the contact
