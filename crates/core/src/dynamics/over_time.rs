@@ -28,8 +28,9 @@
 //! smallest left one, and the maximum over regions is treated as the static criteria treat it
 //! ([`crate::state`]'s one-sided rule). Along −θ_j the tangent is −(the tangent along +θ_j) until
 //! a step is only one-sided differentiable (a weakly active row, a pinched row whose bounds move
-//! apart, a Coulomb bound at a closing pair); from there on the tangent along −θ_j is carried
-//! separately, so both one-sided derivatives are exact directional derivatives of the run.
+//! apart, a Coulomb bound at an open pair whose normal force moves, a slip-rate bound at v = 0);
+//! from there on the tangent along −θ_j is carried separately, so both one-sided derivatives are
+//! exact directional derivatives of the run.
 //!
 //! **Initial tangent.** A run from rest starts from the zero tangent; a run from the static
 //! contact solution (`dynamics.initial = "static"`) from the static state's own forward tangent
