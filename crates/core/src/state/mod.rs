@@ -380,12 +380,6 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
-        if elastic.is_some() && self.elastic.element() == Element::Mixed {
-            return Err(WsmError::Scene(SceneError::new(
-                "mesh.element",
-                "derivatives of the elastic criteria are not implemented for \"mixed\" elements",
-            )));
-        }
         let factor = match elastic {
             Some(ElasticParts {
                 factor: Some(f), ..
