@@ -4,7 +4,8 @@
 //!
 //! - Their exact derivatives (adjoint, and the forward tangent) equal central differences of
 //!   whole solves to 1e-6 relative where the state is smooth (the difference with step h agreeing
-//!   with the one of step h/2), on the block on a base (Tresca friction, three data) and Hertz.
+//!   with the one of step h/2), on the block on a base (Tresca friction, three data) and Hertz
+//!   (P1, and the MINI mixed element at ν = 0.499).
 //! - At the nominal data their values equal the outputs they average: `piece_contact_pressure`,
 //!   the region means of the `von_mises` and principal-stress fields, and −(Φ6's region value)
 //!   for σyy where the region's normal is vertical.
@@ -218,6 +219,23 @@ fn derivatives_equal_central_differences_on_hertz() {
     let (compared, worst, kinks) = check_derivatives(scene, |lo, hi| lo + 0.37 * (hi - lo));
     eprintln!("hertz: {compared} compared, worst relative {worst:.1e}, {kinks} kinks");
     assert!(compared >= 8, "{compared} compared, {kinks} kinks");
+}
+
+/// Hertz with the MINI mixed element at ν = 0.499 (design §2.7), Young's modulus and Poisson's
+/// ratio uncertain besides the load: the stress means read the recovered pressure, whose
+/// derivative and adjoint are the mixed element's own.
+#[test]
+fn derivatives_equal_central_differences_on_mixed_hertz() {
+    let mut v = hertz();
+    v["mesh"]["element"] = json!("mixed");
+    v["materials"]["steel"]["nu"] = json!(0.499);
+    let uncertain = v["uncertain"].as_array_mut().unwrap();
+    uncertain.push(json!({"field": "materials.steel.E", "interval": [1.8e11, 2.2e11]}));
+    uncertain.push(json!({"field": "materials.steel.nu", "interval": [0.49, 0.4995]}));
+    let scene = parse(&v.to_string()).unwrap();
+    let (compared, worst, kinks) = check_derivatives(scene, |lo, hi| lo + 0.37 * (hi - lo));
+    eprintln!("mixed hertz: {compared} compared, worst relative {worst:.1e}, {kinks} kinks");
+    assert!(compared >= 8 * 3, "{compared} compared, {kinks} kinks");
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! The MINI mixed element (`mesh.element: "mixed"`, design §2.7) at ν → ½: the Lamé thick
 //! cylinder against the analytic solution where P1 locks, convergence rates on a divergence-free
 //! manufactured solution, Hertz contact at ν = 0.499, the contact patch test (node-to-node and
-//! mortar), and the refusals (DD, sparse contact, anisotropic material, thermal load).
+//! mortar), a worst-scenario run with exact derivatives and its accuracy statement (the tibia
+//! with marrow), and the refusals (DD, sparse contact, anisotropic material, thermal load).
 
 mod solves;
 
@@ -13,6 +14,7 @@ use serde_json::{json, Value};
 use wsm_core::fem::{ElasticProblem, Par};
 use wsm_core::mesh::structured::{perturb_interior, rectangle};
 use wsm_core::mesh::Mesh;
+use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
 use wsm_core::scene::{parse, BoundaryValue, Elastic, Element, Scene};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder};
@@ -280,6 +282,82 @@ fn stacked_blocks_with_mixed_elements_transmit_uniform_pressure() {
         );
         assert!(worst <= 1e-8, "{name}: {worst}");
         assert!(sol.report.kkt.max() <= 1e-9, "{name}: {:?}", sol.report.kkt);
+    }
+}
+
+// ---------- exact derivatives in a worst-scenario run, the accuracy statement ----------
+
+/// The bundled tibia with marrow (marrow at ν = 0.49, bilateral contact) with the mixed element,
+/// run with its own settings (Φ3 and Φ5, budget 40, exact derivatives) and one refinement of
+/// the accuracy statement: every extremum is certified by its derivatives (the certificate has a
+/// first-order residual, which only derivatives give), and the statement is complete, its
+/// refined values those of independent mixed solves on the halved mesh at the same data.
+#[test]
+fn a_worst_scenario_run_on_the_mixed_tibia_is_certified_with_its_accuracy_statement() {
+    let mut v: Value =
+        serde_json::from_str(wsm_core::bundled::example("tibia-marrow").unwrap()).unwrap();
+    v["mesh"]["element"] = json!("mixed");
+    let scene = parse(&v.to_string()).unwrap();
+    let request = WorstRequest {
+        accuracy_refinements: Some(1),
+        ..WorstRequest::default()
+    };
+    let start = std::time::Instant::now();
+    let r = run_worst(scene.clone(), &request, &RunControl::new()).unwrap();
+    eprintln!(
+        "mixed tibia-marrow: {} evaluations, {:.1} s, status {:?}",
+        r.evaluations,
+        start.elapsed().as_secs_f64(),
+        r.status
+    );
+    for c in &r.criteria {
+        for (sense, o) in [("worst", &c.worst), ("best", &c.best)] {
+            eprintln!(
+                "{} {sense}: {:?} at {:?}, certificate {:?}",
+                c.criterion.name(),
+                o.value,
+                o.point,
+                o.certificate
+            );
+            assert_eq!(o.status, Status::LocallyCertified, "{:?}", o.certificate);
+            let residual = o.certificate.as_ref().and_then(|c| c.residual);
+            assert!(residual.is_some(), "no derivatives: {:?}", o.certificate);
+        }
+    }
+    assert!(
+        !r.warnings
+            .iter()
+            .any(|w| w.message.contains("sensitivities")),
+        "{:?}",
+        r.warnings
+    );
+    let statement = r.accuracy.as_ref().expect("an accuracy statement");
+    assert!(statement.complete, "{:?}", statement.failures);
+    let fine = StateProblem::new(wsm_core::estimate::ladder::scaled(&scene, 0.5).unwrap()).unwrap();
+    assert_eq!(fine.elastic.element(), Element::Mixed);
+    let params = wsm_core::scene::params::parameters(&scene).unwrap();
+    for (c, a) in r.criteria.iter().zip(&statement.criteria) {
+        let target = fine.targets(std::slice::from_ref(&c.criterion)).unwrap()[0];
+        for (o, e) in [(&c.worst, &a.worst), (&c.best, &a.best)] {
+            let point = o.point.as_ref().unwrap();
+            let e = e.as_ref().unwrap();
+            let data = wsm_core::scene::params::apply(&scene, &fine.nominal, &params, point);
+            let solution = fine.solve(&data, &options(&fine.scene)).unwrap();
+            let independent = solution.value(target).unwrap();
+            let refined = e.refined[0].unwrap();
+            eprintln!(
+                "{}: value {:.6e}, refined {refined:.6e} (independent {independent:.6e}), \
+                 estimate {:?} ({:?} relative)",
+                c.criterion.name(),
+                e.value,
+                e.estimate,
+                e.relative
+            );
+            assert!(
+                (refined - independent).abs() <= 1e-9 * independent.abs(),
+                "{refined} vs {independent}"
+            );
+        }
     }
 }
 

@@ -105,7 +105,7 @@ impl ElasticProblem {
     }
 
     /// (λ, μ) per zone for the mixed element (isotropic zones only).
-    fn lame(&self, data: &Data) -> Result<Vec<(f64, f64)>, FemError> {
+    pub(crate) fn lame(&self, data: &Data) -> Result<Vec<(f64, f64)>, FemError> {
         let names: Vec<String> = self.mesh.zones.iter().map(|z| z.name.clone()).collect();
         let entries: Vec<ElasticCoefficients> = self
             .zone_materials(data)?
@@ -452,13 +452,15 @@ impl ElasticProblem {
         displacement: &mut [[f64; 2]],
         temperature: &mut [f64],
     ) -> Result<(), FemError> {
-        self.p1_only("the transpose of the stress map (derivatives of stress criteria)")?;
         expect_len(
             "nodal coefficients",
             displacement.len(),
             self.mesh.nodes.len(),
         )?;
         self.check_temperature(temperature)?;
+        if let Some(mixed) = &self.mixed {
+            return self.add_mixed_stress_form_transpose(mixed, data, form, displacement);
+        }
         let materials = self.zone_materials(data)?;
         let dot = |g: &[f64; 4], s: [f64; 4]| (0..4).map(|k| g[k] * s[k]).sum::<f64>();
         for &(e, g) in form {
@@ -564,6 +566,96 @@ impl ElasticProblem {
             ri[1] -= fi[1];
         }
         Ok(r)
+    }
+}
+
+/// The derivatives of the mixed element's operator and stresses along the data (design §2.7,
+/// "Derivatives"), in the Lamé derivatives (dλ, dμ) per zone.
+impl ElasticProblem {
+    /// The derivative of the operator's zone coefficients along the Lamé derivatives `d_lame`
+    /// at `data` ([`MixedOperator::coefficient_derivatives`]); an error for P1, whose
+    /// coefficients are the entries of D themselves.
+    pub(crate) fn mixed_coefficient_derivatives(
+        &self,
+        data: &Data,
+        d_lame: &[(f64, f64)],
+    ) -> Result<Vec<ElasticCoefficients>, FemError> {
+        let mixed = self.mixed_operator()?;
+        Ok(mixed.coefficient_derivatives(&self.lame(data)?, d_lame))
+    }
+
+    /// The derivative of the mixed element's stresses τ = 2μ e(u) + p̄ (1, 1, 0, 1) at fixed u
+    /// along `d_lame`, at `elements` (in range): 2 dμ e(u) + dp̄ with dp = P⁻¹ (C_b dμ/μ² +
+    /// M dλ/λ²) p the pressure recovery's derivative.
+    pub(crate) fn mixed_stress_rates(
+        &self,
+        data: &Data,
+        d_lame: &[(f64, f64)],
+        u: &[[f64; 2]],
+        elements: &[usize],
+    ) -> Result<Vec<[f64; 4]>, FemError> {
+        let mixed = self.mixed_operator()?;
+        let lame = self.lame(data)?;
+        let p = mixed.pressure(&self.mesh, &self.gradients, &lame, u)?;
+        let dp = mixed.pressure_rate_at_fixed_displacement(&lame, d_lame, &p)?;
+        Ok(elements
+            .iter()
+            .map(|&e| {
+                let tri = self.mesh.triangles[e];
+                let [e11, e22, gamma] = self.gradients[e].strain(&element_displacements(u, tri));
+                let dmu = d_lame[self.mesh.triangle_zone[e]].1;
+                let mean = tri.iter().map(|&n| dp[n]).sum::<f64>() / 3.0;
+                [
+                    2.0 * dmu * e11 + mean,
+                    2.0 * dmu * e22 + mean,
+                    dmu * gamma,
+                    mean,
+                ]
+            })
+            .collect())
+    }
+
+    /// The mixed element's side of [`Self::add_stress_form_transpose`]: with dτ = 2μ e(du) +
+    /// p̄(du) (1, 1, 0, 1), the strain part as for P1 with D = μ diag(2, 2, 1) and the pressure
+    /// part Σ_e (g0 + g1 + g3) p̄_e = qᵀ p(du) = (Gᵀ P⁻¹ q)·du.
+    fn add_mixed_stress_form_transpose(
+        &self,
+        mixed: &MixedOperator,
+        data: &Data,
+        form: &[(usize, [f64; 4])],
+        displacement: &mut [[f64; 2]],
+    ) -> Result<(), FemError> {
+        let lame = self.lame(data)?;
+        let mut q = vec![0.0; self.mesh.nodes.len()];
+        for &(e, g) in form {
+            let tri = *self
+                .mesh
+                .triangles
+                .get(e)
+                .ok_or_else(|| FemError::Input(format!("triangle {e} out of range")))?;
+            let mu = lame[self.mesh.triangle_zone[e]].1;
+            let grads = &self.gradients[e];
+            let per_area = grads.nodal_forces([2.0 * mu * g[0], 2.0 * mu * g[1], mu * g[2]]);
+            let pressure = (g[0] + g[1] + g[3]) / 3.0;
+            for (i, &node) in tri.iter().enumerate() {
+                displacement[node][0] += per_area[2 * i] / grads.area;
+                displacement[node][1] += per_area[2 * i + 1] / grads.area;
+                q[node] += pressure;
+            }
+        }
+        let from_pressure = mixed.pressure_transpose(&self.mesh, &self.gradients, &lame, &q)?;
+        for (a, b) in displacement.iter_mut().zip(from_pressure) {
+            a[0] += b[0];
+            a[1] += b[1];
+        }
+        Ok(())
+    }
+
+    /// The mixed element's pressure side, or the error that the element is P1.
+    fn mixed_operator(&self) -> Result<&MixedOperator, FemError> {
+        self.mixed.as_ref().ok_or_else(|| {
+            FemError::Input("the mixed element's derivatives need mesh.element \"mixed\"".into())
+        })
     }
 }
 

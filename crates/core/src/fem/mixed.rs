@@ -31,7 +31,7 @@ use crate::mesh::Mesh;
 use super::dofs::DofMap;
 use super::elasticity::{element_matrices, rotate};
 use super::geometry::TriangleGradients;
-use super::operator::{OperatorBuilder, Slot, ZonedOperator};
+use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::{ElasticCoefficients, FemError};
 
 /// The pressure side of the mixed element of a mesh: the SPD pressure block and the pressure
@@ -240,8 +240,72 @@ impl MixedOperator {
                 gu[n] += g.area / 3.0 * div;
             }
         }
+        Ok(self.pressure_factor(lame)?.factor.solve(&gu))
+    }
+
+    /// The Cholesky factor of the pressure block C_b/μ + M/λ (coefficients (1/μ, 1/λ)).
+    fn pressure_factor(&self, lame: &[(f64, f64)]) -> Result<OperatorFactor<2>, FemError> {
         let coefs: Vec<[f64; 2]> = lame.iter().map(|&(l, m)| [1.0 / m, 1.0 / l]).collect();
-        let factor = self.pressure.factor(&coefs, Par::Seq)?;
-        Ok(factor.factor.solve(&gu))
+        self.pressure.factor(&coefs, Par::Seq)
+    }
+}
+
+/// Derivatives along the data (design §2.7, "Derivatives"): the operator's zone coefficients
+/// and the pressure recovery p = P⁻¹ G u, P = C_b/μ + M/λ, differentiated in the Lamé constants
+/// (dλ, dμ) per zone.
+impl MixedOperator {
+    /// d(μ, s, s²/μ, s²/λ, 0, 0) per zone for the Lamé derivatives `d_lame`, the pressure scale s
+    /// held at its value for `lame`: s only scales the pressure unknown (p = s p̂), so u and p do
+    /// not depend on it and the derivative of (u, p̂) at fixed s gives their exact derivatives.
+    pub fn coefficient_derivatives(
+        &self,
+        lame: &[(f64, f64)],
+        d_lame: &[(f64, f64)],
+    ) -> Vec<ElasticCoefficients> {
+        let s2 = self.scale(lame).powi(2);
+        lame.iter()
+            .zip(d_lame)
+            .map(|(&(l, m), &(dl, dm))| [dm, 0.0, -s2 * dm / (m * m), -s2 * dl / (l * l), 0.0, 0.0])
+            .collect()
+    }
+
+    /// The derivative of the nodal pressures p = P⁻¹ G u at fixed u along `d_lame`:
+    /// dp = −P⁻¹ dP p = P⁻¹ (C_b dμ/μ² + M dλ/λ²) p.
+    pub fn pressure_rate_at_fixed_displacement(
+        &self,
+        lame: &[(f64, f64)],
+        d_lame: &[(f64, f64)],
+        p: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        let rates: Vec<[f64; 2]> = lame
+            .iter()
+            .zip(d_lame)
+            .map(|(&(l, m), &(dl, dm))| [dm / (m * m), dl / (l * l)])
+            .collect();
+        let values = self.pressure.assemble(&rates)?;
+        let rhs = self.pressure.apply(&values, p);
+        Ok(self.pressure_factor(lame)?.factor.solve(&rhs))
+    }
+
+    /// The transpose of the pressure recovery: for nodal weights q, the global nodal
+    /// coefficients a = Gᵀ P⁻¹ q with Σ_n q_n p_n(u) = Σ_n a_n·u_n (P symmetric).
+    pub fn pressure_transpose(
+        &self,
+        mesh: &Mesh,
+        gradients: &[TriangleGradients],
+        lame: &[(f64, f64)],
+        q: &[f64],
+    ) -> Result<Vec<[f64; 2]>, FemError> {
+        let y = self.pressure_factor(lame)?.factor.solve(q);
+        let mut a = vec![[0.0; 2]; mesh.nodes.len()];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let g = &gradients[t];
+            let weight = g.area / 3.0 * tri.iter().map(|&n| y[n]).sum::<f64>();
+            for (k, &n) in tri.iter().enumerate() {
+                a[n][0] += weight * g.dx[k];
+                a[n][1] += weight * g.dy[k];
+            }
+        }
+        Ok(a)
     }
 }

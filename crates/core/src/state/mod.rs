@@ -435,7 +435,7 @@ impl StateProblem {
     }
 
     /// `f` of the solved state with its elastic part (the direct factor is built for a DD
-    /// state); mixed elements have no derivatives.
+    /// state).
     fn with_solved_state<T>(
         &self,
         data: &Data,
@@ -444,12 +444,6 @@ impl StateProblem {
         solution: &Solution,
         f: impl FnOnce(&SolvedState) -> Result<T, WsmError>,
     ) -> Result<T, WsmError> {
-        if self.elastic.element() == Element::Mixed {
-            return Err(WsmError::Scene(SceneError::new(
-                "mesh.element",
-                "derivatives of the elastic criteria are not implemented for \"mixed\" elements",
-            )));
-        }
         let factor = match &parts.factor {
             Some(f) => f.clone(),
             None => self.stiffness_factor(&parts.coefficients, options.par)?.0,

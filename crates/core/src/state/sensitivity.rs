@@ -30,7 +30,7 @@ use crate::contact::direct::{
 use crate::error::WsmError;
 use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients};
 use crate::scene::params::Stencil;
-use crate::scene::{Criterion, Data};
+use crate::scene::{Criterion, Data, Element};
 pub use wsm_search::OneSided;
 
 /// Relative distance to the maximum within which a region ties with the maximising one.
@@ -388,7 +388,9 @@ impl StateProblem {
                     &mut a_u,
                     &mut a_t,
                 )?;
-                let (a_free, a_fixed) = elastic.dofs().restrict(&a_u);
+                let (mut a_free, a_fixed) = elastic.dofs().restrict(&a_u);
+                // Zero on the mixed element's pressure unknowns (no form reads them).
+                a_free.resize(elastic.operator().n_free(), 0.0);
                 regions.push((i, r));
                 mechanical.push(form.is_mechanical().then_some(free_forms.len()));
                 if form.is_mechanical() {
@@ -482,18 +484,28 @@ impl StateProblem {
         let geometry = &self.contact.geometry;
         let m = geometry.dim();
         let mut part = ElasticDerivative {
-            residual: vec![0.0; elastic.dofs().n_free()],
+            // The operator's unknowns: the free DOFs (and the mixed element's pressures).
+            residual: vec![0.0; elastic.operator().n_free()],
             fixed: vec![0.0; elastic.dofs().n_fixed()],
             lower: vec![0.0; m],
             upper: vec![0.0; m],
             stress_part: None,
         };
         let materials = elastic.zone_materials(state.data)?;
-        let coefficients: Vec<Vec<ElasticCoefficients>> = stencil
-            .points
-            .iter()
-            .map(|(_, _, d)| elastic.coefficients(d))
-            .collect::<Result<_, _>>()?;
+        let d_lame = self.mixed_lame_derivative(stencil)?;
+        let coefficients: Vec<Vec<ElasticCoefficients>> = match &d_lame {
+            None => stencil
+                .points
+                .iter()
+                .map(|(_, _, d)| elastic.coefficients(d))
+                .collect::<Result<_, _>>()?,
+            Some(d_lame) => {
+                // The mixed element's coefficients are rational in the data: the stencil sees
+                // them linearised, c + t_k dc, with dc exact (design §2.7).
+                let dc = elastic.mixed_coefficient_derivatives(state.data, d_lame)?;
+                linearised(el.coefficients, &dc, stencil)
+            }
+        };
         let stiffness_varies = coefficients.iter().any(|c| c != el.coefficients);
         // Whether the law τ(D; u, T) changes along the stencil: then every point's stresses
         // enter, the unchanged one (t = 0 of a one-sided stencil) included.
@@ -517,7 +529,7 @@ impl StateProblem {
             let (lo, hi) = geometry.bounds(d, Some(&el.contact.multipliers));
             add_scaled(&mut part.lower, *w, &finite_or_zero(&lo));
             add_scaled(&mut part.upper, *w, &finite_or_zero(&hi));
-            if law_varies {
+            if law_varies && d_lame.is_none() {
                 let stresses =
                     elastic.stresses_at(d, el.displacement, state.temperature, elements)?;
                 let sum = part
@@ -530,6 +542,16 @@ impl StateProblem {
                 }
             }
         }
+        if let Some(d_lame) = d_lame.filter(|_| law_varies) {
+            // The mixed element's law is rational in λ, μ: its exact derivative at fixed u.
+            let rates =
+                elastic.mixed_stress_rates(state.data, &d_lame, el.displacement, elements)?;
+            let mut sum = vec![[0.0; 4]; el.stresses.len()];
+            for (&e, rate) in elements.iter().zip(rates) {
+                sum[e] = rate;
+            }
+            part.stress_part = Some(sum);
+        }
         if stiffness_varies {
             // K is linear in the zone coefficients: Σ w_k K(c_k) u = K(Σ w_k c_k) u.
             let values = elastic
@@ -539,6 +561,26 @@ impl StateProblem {
             add_scaled(&mut part.residual, -1.0, &ku);
         }
         Ok(part)
+    }
+
+    /// For the mixed element, the derivative of the Lamé constants (λ, μ) per zone along the
+    /// stencil's parameter, Σ_k w_k (λ, μ)(D_k) (exact for E, λ and μ, which they are linear
+    /// in; order 4 for ν); `None` for P1.
+    fn mixed_lame_derivative(
+        &self,
+        stencil: &Stencil,
+    ) -> Result<Option<Vec<(f64, f64)>>, WsmError> {
+        if self.elastic.element() != Element::Mixed {
+            return Ok(None);
+        }
+        let mut sum = vec![(0.0, 0.0); self.mesh().zones.len()];
+        for (_, w, d) in &stencil.points {
+            for (s, (l, m)) in sum.iter_mut().zip(self.elastic.lame(d)?) {
+                s.0 += w * l;
+                s.1 += w * m;
+            }
+        }
+        Ok(Some(sum))
     }
 
     /// dT along the stencil's parameter: K_h dT_f = Σ_k w_k (q(D_k) − K_h(D_k) T_f) on the free
@@ -605,6 +647,25 @@ fn weighted_sum<const NC: usize>(
         }
     }
     sum
+}
+
+/// Per stencil point, the coefficients c + t_k dc (Σ_k w_k of them is dc; the stencil combines
+/// them with the loads and prescribed values exactly, as it does P1's affine coefficients).
+fn linearised(
+    c: &[ElasticCoefficients],
+    dc: &[ElasticCoefficients],
+    stencil: &Stencil,
+) -> Vec<Vec<ElasticCoefficients>> {
+    stencil
+        .points
+        .iter()
+        .map(|(t, _, _)| {
+            c.iter()
+                .zip(dc)
+                .map(|(c, dc)| std::array::from_fn(|k| c[k] + t * dc[k]))
+                .collect()
+        })
+        .collect()
 }
 
 /// The bounds with infinite entries replaced by 0 (an infinite bound does not move).
