@@ -185,7 +185,7 @@ pub fn step_count(dynamics: &Dynamics) -> usize {
 pub fn output_count(dynamics: &Dynamics) -> usize {
     let steps = step_count(dynamics);
     let every = dynamics.output_every.max(1);
-    1 + steps / every + usize::from(steps % every != 0)
+    1 + steps / every + usize::from(!steps.is_multiple_of(every))
 }
 
 /// Check the dynamic entries of a scene; errors name the field.
