@@ -135,6 +135,7 @@ impl From<&SolveArgs> for SolveRequest {
         SolveRequest {
             solver: args.solver.map(SolverKind::from),
             fields: false,
+            frames: false,
         }
     }
 }

@@ -17,6 +17,7 @@ fn fields_of(example: &str) -> SolveFields {
     let request = SolveRequest {
         solver: None,
         fields: true,
+        frames: false,
     };
     let output = run::solve(scene, &request).unwrap();
     assert!(output.summary.report.kkt.max() <= 1e-9);

@@ -505,6 +505,66 @@ def test_a_token_server_is_read_and_downloaded_with_the_token(page):
     page.goto(BASE + "/#/")
 
 
+def test_a_dynamic_example_plots_its_histories_and_steps_through_time(page):
+    """A dynamic scene (design §3.5) from the form's "Solve once": the history plots (with units
+    on the axes) and the mesh view's time slider; moving the slider changes the time shown, the
+    plots' marker and the drawn mesh, and Play advances the frames."""
+    page.goto(BASE + "/#/")
+    page.get_by_label("Bundled example").check()
+    page.get_by_label("Example", exact=True).select_option("implant-impact")
+    page.get_by_role("button", name="Solve once").click()
+    page.wait_for_url("**/#/solve/implant-impact")
+    expect(page.locator("#solve-canvas[data-ready='implant-impact']")).to_be_attached(timeout=120_000)
+    plots = page.locator("#history-plots figure.plot")
+    for plot in ("receiver-displacement", "receiver-velocity", "zone-forces", "energy"):
+        expect(page.locator(f"#history-plots figure[data-plot='{plot}'] canvas")).to_be_visible()
+    assert plots.count() >= 4
+    expect(page.locator("#history-plots figure[data-plot='receiver-displacement'] h3")).to_contain_text("[m]")
+    expect(page.locator("#history-plots figure[data-plot='zone-forces'] h3")).to_contain_text("[N/m]")
+    expect(page.locator("#history-plots figure[data-plot='energy'] h3")).to_contain_text("[J/m]")
+    expect(page.locator("#history-plots figure[data-plot='energy'] .u-legend")).to_contain_text("residual (numerical)")
+    units = {f.get_attribute("data-plot"): (f.get_attribute("data-x-label"), f.get_attribute("data-y-label"))
+             for f in plots.all()}
+    assert units["receiver-velocity"] == ("time [s]", "m/s") and units["energy"] == ("time [s]", "J/m"), units
+    # The API's history: its times are what the slider steps through.
+    solved = page.request.post(BASE + "/v1/solve", data=json.dumps(
+        {"example": "implant-impact", "settings": {"frames": True}}),
+        headers={"content-type": "application/json"}).json()
+    times = solved["summary"]["history"]["times"]
+    assert len(solved["frames"]) == len(times)
+    slider = page.locator("#time-slider")
+    expect(slider).to_have_attribute("max", str(len(times) - 1))
+    expect(page.locator("#time-out")).to_contain_text("t = 0 s")
+    canvas = page.locator("#solve-canvas")
+    before = canvas_stats(page, "#solve-canvas")
+    assert before["painted"] > 0.05 * before["samples"], before
+    marker_before = page.locator("#history-plots figure[data-plot='energy']").get_attribute("data-time")
+    assert float(marker_before) == times[0]
+    shot(page, "13-dynamic-t0")
+    # The slider by keyboard: to the last output time.
+    slider.focus()
+    page.keyboard.press("End")
+    last = len(times) - 1
+    expect(canvas).to_have_attribute("data-frame", str(last))
+    expect(page.locator("#time-out")).to_contain_text(f"({last + 1} of {len(times)})")
+    assert float(canvas.get_attribute("data-time")) == times[last]
+    for figure in plots.all():
+        assert float(figure.get_attribute("data-time")) == times[last]
+    page.wait_for_timeout(200)  # the mesh redraws on the next animation frame
+    after = canvas_stats(page, "#solve-canvas")
+    assert after["sum"] != before["sum"], "the mesh drawn at the last time equals the first"
+    shot(page, "14-dynamic-last")
+    # Halfway with the arrow keys, then Play runs on to the end and stops.
+    page.keyboard.press("Home")
+    for _ in range(3):
+        page.keyboard.press("ArrowRight")
+    expect(canvas).to_have_attribute("data-frame", "3")
+    page.get_by_role("button", name="Play").click()
+    expect(page.get_by_role("button", name="Pause")).to_have_attribute("aria-pressed", "true")
+    expect(canvas).to_have_attribute("data-frame", str(last), timeout=30_000)
+    expect(page.get_by_role("button", name="Play")).to_have_attribute("aria-pressed", "false")
+
+
 def test_no_console_errors(page):
     assert STATE["errors"] == [], "\n".join(STATE["errors"])
 

@@ -27,6 +27,15 @@ pub struct ReceiverHistory {
     pub acceleration: Vec<[f64; 2]>,
 }
 
+/// The nodal displacement at one output time of a dynamic run (a solve's `frames`).
+#[derive(Debug, Clone, Serialize, utoipa::ToSchema)]
+pub struct DisplacementFrame {
+    /// Time \[s\] (one of [`History::times`]).
+    pub time: f64,
+    /// Nodal displacement (x, y) \[m\], in the order of the fields' `nodes`.
+    pub displacement: Vec<[f64; 2]>,
+}
+
 /// Histories of one contact zone: one entry per output time.
 #[derive(Debug, Clone, Default, Serialize, utoipa::ToSchema)]
 pub struct ZoneHistory {

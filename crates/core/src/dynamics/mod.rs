@@ -34,8 +34,8 @@ mod step;
 mod tests;
 
 pub use history::{
-    BodyHistory, CriterionPeak, DynamicsReport, EnergyHistory, History, Peak, PeakFields, Peaks,
-    ReceiverHistory, ZoneHistory,
+    BodyHistory, CriterionPeak, DisplacementFrame, DynamicsReport, EnergyHistory, History, Peak,
+    PeakFields, Peaks, ReceiverHistory, ZoneHistory,
 };
 pub use operators::Operators;
 pub use over_time::{derivatives_unavailable, solve_over_time};

@@ -59,7 +59,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use crate::dynamics::{simulate_with, Frame, FrameSink, Hooks};
+use crate::dynamics::{simulate_with, DisplacementFrame, Frame, FrameSink, Hooks};
 use crate::error::WsmError;
 use crate::estimate::ladder::scaled;
 use crate::estimate::mesh_choice::choose_mesh;
@@ -87,6 +87,10 @@ pub struct SolveOutput {
     /// The fields, when requested.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fields: Option<SolveFields>,
+    /// A dynamic scene's nodal displacement at every output time (t = 0 first, the times of
+    /// `summary.history.times`), when requested.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames: Option<Vec<DisplacementFrame>>,
     /// The solution as a VTU document (binary, design §5.6) for ParaView, PyVista and meshio,
     /// when fields were requested.
     #[serde(skip)]
@@ -136,6 +140,7 @@ pub fn solve_watched(
     control: &RunControl,
     series: Option<&mut SeriesSink>,
 ) -> Result<SolveOutput, WsmError> {
+    request.check(&scene)?;
     let scene = with_solver(scene, request);
     let params = parameters(&scene)?;
     if let Some(p) = point {
@@ -163,21 +168,35 @@ pub fn solve_watched(
                 elapsed_seconds: start.elapsed().as_secs_f64(),
             });
         };
-        let mut frames = series.map(|sink| {
-            let (problem, data, label) = (&problem, &data, &label);
-            move |frame: &Frame| -> Result<(), WsmError> {
-                sink(frame.index, frame.t, frame_vtu(problem, data, label, frame))
+        let mut kept = request.frames.then(Vec::new);
+        let watched = series.is_some() || kept.is_some();
+        let mut series = series;
+        let mut frames = |frame: &Frame| -> Result<(), WsmError> {
+            if let Some(kept) = kept.as_mut() {
+                kept.push(DisplacementFrame {
+                    time: frame.t,
+                    displacement: frame.displacement.to_vec(),
+                });
             }
-        });
+            match series.as_mut() {
+                Some(sink) => sink(
+                    frame.index,
+                    frame.t,
+                    frame_vtu(&problem, &data, &label, frame),
+                ),
+                None => Ok(()),
+            }
+        };
         let mut hooks = Hooks {
             cancel: Some(&control.cancel),
             progress: control
                 .progress
                 .is_some()
                 .then_some(&progress as &dyn Fn(usize, usize)),
-            frames: frames.as_mut().map(|f| f as &mut FrameSink),
+            frames: watched.then_some(&mut frames as &mut FrameSink),
         };
         output.summary.history = Some(simulate_with(&problem, &data, &mut hooks)?.history);
+        output.frames = kept;
     }
     Ok(output)
 }
@@ -329,6 +348,7 @@ fn solve_output(
     SolveOutput {
         summary,
         fields,
+        frames: None,
         vtu,
     }
 }

@@ -19,6 +19,24 @@ pub struct SolveRequest {
     /// Also return the nodal and element fields.
     #[serde(default)]
     pub fields: bool,
+    /// Also return a dynamic scene's nodal displacement at every output time (`frames`, design
+    /// §3.5); refused on a static scene.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub frames: bool,
+}
+
+impl SolveRequest {
+    /// Refuse what `scene` cannot answer: `frames` of a static scene (named `frames`).
+    pub fn check(&self, scene: &Scene) -> Result<(), WsmError> {
+        if self.frames && scene.dynamics.is_none() {
+            return Err(SceneError::new(
+                "frames",
+                "the scene has no `dynamics`: a static solve has no frames over time",
+            )
+            .into());
+        }
+        Ok(())
+    }
 }
 
 /// A worst-scenario search. Every field left out takes the scene's `search` value.

@@ -181,6 +181,13 @@ pub fn step_count(dynamics: &Dynamics) -> usize {
     }
 }
 
+/// The output times of a run: t = 0, every `output_every` steps, and the last step.
+pub fn output_count(dynamics: &Dynamics) -> usize {
+    let steps = step_count(dynamics);
+    let every = dynamics.output_every.max(1);
+    1 + steps / every + usize::from(!steps.is_multiple_of(every))
+}
+
 /// Check the dynamic entries of a scene; errors name the field.
 pub(super) fn check_dynamics(scene: &Scene) -> Result<(), SceneError> {
     check_material_dynamics(scene)?;

@@ -106,6 +106,7 @@ pub async fn job_fields(
     let request = SolveRequest {
         solver: None,
         fields: true,
+        frames: false,
     };
     let place = state.solves.take()?;
     let output = blocking(move || {

@@ -19,6 +19,7 @@ use super::schema::SceneDocument;
 use super::{blocking, AppState, CanWrite, Limits};
 use crate::jobs::{JobState, NewJob};
 use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
+use wsm_core::scene::dynamics::output_count;
 use wsm_core::scene::Scene;
 
 /// A scene given inline or by the name of a bundled example.
@@ -104,7 +105,7 @@ fn check_cost(
     max_triangles: usize,
     max_bytes: u64,
     what: &str,
-) -> Result<(), ApiError> {
+) -> Result<run::SolveCost, ApiError> {
     let cost = run::estimate_solve_cost(scene).map_err(|e| ApiError::engine(e, "scene"))?;
     cost.check(max_bytes as f64)
         .map_err(|r| ApiError::invalid(format!("scene.{}", r.path), r.message))?;
@@ -117,7 +118,7 @@ fn check_cost(
             ),
         ));
     }
-    Ok(())
+    Ok(cost)
 }
 
 fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Result<(), ApiError> {
@@ -250,16 +251,30 @@ pub async fn submit_job(
 /// solve (validation, cost estimate, meshing and the solve: a blocking thread's work).
 fn solve_now(submission: SolveSubmission, limits: &Limits) -> Result<SolveOutput, ApiError> {
     let (scene, _) = scene_of(submission.scene, submission.example)?;
-    check_cost(
+    let settings = submission.settings;
+    settings.check(&scene).map_err(ApiError::settings)?;
+    let cost = check_cost(
         &scene,
         limits.max_solve_triangles,
         limits.max_solve_memory,
         "a synchronous solve (submit a job)",
     )?;
-    run::solve(scene, &submission.settings).map_err(|e| ApiError::engine(e, "scene"))
+    if let (true, Some(dynamics)) = (settings.frames, &scene.dynamics) {
+        super::solves::check_frames(
+            output_count(dynamics),
+            cost.triangles.round() as usize,
+            limits.max_field_triangles,
+            "about ",
+        )?;
+    }
+    run::solve(scene, &settings).map_err(|e| ApiError::engine(e, "scene"))
 }
 
 /// Solve one small scene now (its nominal data) and return the summary (and fields on request).
+/// A dynamic scene's summary carries its time histories (`summary.history`: times, receivers,
+/// contact zones, bodies, energy); with `settings.frames` the response also carries the nodal
+/// displacement at every output time (`frames`), refused with 422 at `settings.frames` when
+/// output times × triangles exceed the server's field cap (`--max-field-triangles`).
 #[utoipa::path(
     post,
     path = "/v1/solve",
@@ -271,7 +286,7 @@ fn solve_now(submission: SolveSubmission, limits: &Limits) -> Result<SolveOutput
         (status = 401, description = "Token required", body = ErrorBody),
         (status = 413, description = "Body too large", body = ErrorBody),
         (status = 415, description = "Body not declared as JSON", body = ErrorBody),
-        (status = 422, description = "Invalid scene, too large, or unsolvable", body = ErrorBody),
+        (status = 422, description = "Invalid scene, too large (fields or frames beyond the server's cap), or unsolvable", body = ErrorBody),
         (status = 503, description = "As many solves running as the server runs at once (see Retry-After)", body = ErrorBody),
     )
 )]

@@ -1,9 +1,11 @@
 //! The web dashboard of `wsm serve` (design §5.5): a single page at `/` that lists jobs, submits
 //! new ones (a bundled example or an uploaded scene), follows them live (server-sent events,
 //! polling as fallback) and shows a finished job's convergence, worst/best data, solver
-//! statistics and the mesh of its worst or best scenario. It is plain JavaScript over the public
-//! HTTP API (`/v1/...`) with a vendored uPlot for the plots; the files under `src/web/assets/`
-//! are embedded in the binary (rust-embed), so a fresh machine needs no front-end build step.
+//! statistics and the mesh of its worst or best scenario; a solve view runs one synchronous solve
+//! and, for a dynamic scene, plots its time histories and steps the mesh through its frames. It
+//! is plain JavaScript over the public HTTP API (`/v1/...`) with a vendored uPlot for the plots;
+//! the files under `src/web/assets/` are embedded in the binary (rust-embed), so a fresh
+//! machine needs no front-end build step.
 //!
 //! Routes: `/` (the page, always revalidated), `/assets/{path}` (the scripts, styles and icon,
 //! with an `ETag` from the file's SHA-256 and `304 Not Modified` on a matching `If-None-Match`;

@@ -73,6 +73,7 @@ export const api = {
   fields: (id, scenario, criterion) =>
     request("GET", `/v1/jobs/${id}/fields?scenario=${scenario}&criterion=${criterion}`),
   submit: (body) => request("POST", "/v1/jobs", body),
+  solve: (body) => request("POST", "/v1/solve", body),
   cancel: (id) => request("POST", `/v1/jobs/${id}/cancel`),
   eventsUrl: (id) => `/v1/jobs/${id}/events`,
   resultUrl: (id) => `/v1/jobs/${id}/result`,

@@ -1,16 +1,25 @@
-// The dashboard's entry: hash routes `#/` (jobs and submit), `#/submit`, `#/jobs/{id}`.
+// The dashboard's entry: hash routes `#/` (jobs and submit), `#/submit`, `#/jobs/{id}`,
+// `#/solve/{example}` and `#/solve/upload`.
 import { initHome, showHome, hideHome } from "./home.js";
 import { initJob, showJob, hideJob } from "./job.js";
+import { initSolve, showSolve, hideSolve } from "./solve.js";
 import { $ } from "./format.js";
 
 function route() {
   const hash = location.hash || "#/";
   const job = hash.match(/^#\/jobs\/([0-9a-fA-F-]+)$/);
-  $("view-home").hidden = !!job;
+  const solve = hash.match(/^#\/solve\/([A-Za-z0-9_.-]+)$/);
+  $("view-home").hidden = !!(job || solve);
   $("view-job").hidden = !job;
+  $("view-solve").hidden = !solve;
+  if (!solve) hideSolve();
   if (job) {
     hideHome();
     showJob(job[1]);
+  } else if (solve) {
+    hideHome();
+    hideJob();
+    showSolve(solve[1]);
   } else {
     hideJob();
     document.title = "wsm — worst-scenario dashboard";
@@ -22,6 +31,7 @@ function route() {
 function start() {
   initHome();
   initJob();
+  initSolve();
   window.addEventListener("hashchange", route);
   route();
 }

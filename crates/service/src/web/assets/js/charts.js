@@ -159,3 +159,118 @@ export function sensitivityChart(container, parameters, criterion) {
   svg.append(s("text", { x: label + 126, y: ly }, "min (best)"));
   container.replaceChildren(svg);
 }
+
+const CURVE_COLORS = ["#1f5fbf", "#c0392b", "#1b7f3b", "#a15c00", "#7b3fa0", "#00838f", "#5b6475", "#d81b60", "#6d4c41"];
+const MARKER_COLOR = "#f0a202";
+
+/**
+ * The curves of a dynamic run's history (GET/POST /v1/solve `summary.history`), one plot per
+ * quantity: [id, title, unit, [[label, values]]]; plots without curves are left out.
+ */
+function historyCurves(h) {
+  const xy = (name, key, values) => [[`${name} ${key}x`, values.map((p) => p[0])], [`${name} ${key}y`, values.map((p) => p[1])]];
+  const receivers = Object.entries(h.receivers || {});
+  const zones = Object.entries(h.contact_zones || {});
+  const bodies = Object.entries(h.bodies || {});
+  const e = h.energy || {};
+  const energy = [["kinetic", e.kinetic], ["strain", e.strain], ["viscous", e.viscous], ["absorbing", e.absorbing],
+    ["contact", e.contact], ["friction", e.friction], ["work of loads", e.work], ["residual (numerical)", e.numerical]];
+  return [
+    ["receiver-displacement", "Receiver displacement", "m", receivers.flatMap(([n, r]) => xy(n, "u", r.displacement))],
+    ["receiver-velocity", "Receiver velocity", "m/s", receivers.flatMap(([n, r]) => xy(n, "v", r.velocity))],
+    ["zone-forces", "Contact-zone forces (normal: compression > 0)", "N/m",
+      zones.flatMap(([n, z]) => [[`${n} normal`, z.normal_force], [`${n} tangential`, z.tangential_force]])],
+    ["zone-slip", "Contact-zone largest slip", "m", zones.map(([n, z]) => [`${n} max slip`, z.max_slip])],
+    ["body-velocity", "Bodies' mean velocity", "m/s", bodies.flatMap(([n, b]) => xy(n, "v", b.mean_velocity))],
+    ["energy", "Energy budget (work = Δ(kinetic + strain) + dissipated + residual)", "J/m",
+      energy.filter(([, v]) => Array.isArray(v))],
+  ].filter(([, , , curves]) => curves.length > 0);
+}
+
+/**
+ * Line plots of a dynamic run's history against time, with a marker at the time shown on the
+ * mesh view (`setTime`).
+ */
+export class HistoryPlots {
+  constructor(container) {
+    this.container = container;
+    this.plots = [];
+    this.time = null;
+    this.resize = () => this.fit();
+    window.addEventListener("resize", this.resize);
+  }
+
+  destroy() {
+    window.removeEventListener("resize", this.resize);
+    for (const p of this.plots) p.u.destroy();
+    this.plots = [];
+    this.container.replaceChildren();
+  }
+
+  width() {
+    const box = this.container.firstElementChild || this.container;
+    return Math.max(240, box.clientWidth - 12);
+  }
+
+  /** Plot `history` (replacing what was shown). */
+  show(history) {
+    for (const p of this.plots) p.u.destroy();
+    this.plots = [];
+    this.container.replaceChildren();
+    const marker = (u) => {
+      if (this.time === null) return;
+      const x = u.valToPos(this.time, "x", true);
+      const ctx = u.ctx;
+      ctx.save();
+      ctx.strokeStyle = MARKER_COLOR;
+      ctx.lineWidth = 2 * (window.devicePixelRatio || 1);
+      ctx.beginPath();
+      ctx.moveTo(x, u.bbox.top);
+      ctx.lineTo(x, u.bbox.top + u.bbox.height);
+      ctx.stroke();
+      ctx.restore();
+    };
+    for (const [id, title, unit, curves] of historyCurves(history)) {
+      // The axes' labels are drawn on the canvas: the figure names them for tools and tests.
+      const box = el("figure", { class: "plot", "data-plot": id, "data-curves": String(curves.length),
+        "data-x-label": "time [s]", "data-y-label": unit }, el("h3", {}, `${title} [${unit}]`));
+      this.container.append(box);
+      const opts = {
+        width: this.width(),
+        height: 220,
+        scales: { x: { time: false } },
+        axes: [
+          { label: box.dataset.xLabel, values: (u, s) => s.map((v) => num(v, 3)) },
+          { label: unit, labelSize: 18, size: 80, values: (u, s) => s.map((v) => num(v, 3)) },
+        ],
+        series: [
+          { label: "t [s]", value: (u, v) => num(v) },
+          ...curves.map(([label], i) => ({
+            label, stroke: CURVE_COLORS[i % CURVE_COLORS.length], width: 1.5, value: (u, v) => num(v),
+          })),
+        ],
+        hooks: { draw: [marker] },
+        legend: { live: true },
+      };
+      const u = new window.uPlot(opts, [history.times, ...curves.map(([, v]) => v)], box);
+      const canvas = box.querySelector("canvas");
+      canvas.setAttribute("role", "img");
+      canvas.setAttribute("aria-label", `${title} [${unit}] against time [s]`);
+      this.plots.push({ u, box });
+    }
+  }
+
+  /** Move the marker to time `t` [s]. */
+  setTime(t) {
+    this.time = t;
+    for (const p of this.plots) {
+      p.box.dataset.time = String(t);
+      p.u.redraw(false, false);
+    }
+  }
+
+  fit() {
+    const w = this.width();
+    for (const p of this.plots) p.u.setSize({ width: w, height: 220 });
+  }
+}

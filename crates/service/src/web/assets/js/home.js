@@ -1,6 +1,7 @@
 // The home view: the submit form and the live job list.
 import { api, ApiError } from "./api.js";
 import { $, el, num, count, when, PHASES, CRITERION_INFO, criterionLabel } from "./format.js";
+import { setUploadedScene } from "./solve.js";
 
 const LIST_POLL_MS = 2000;
 let listTimer = null;
@@ -278,6 +279,19 @@ async function submit(event) {
   }
 }
 
+/** "Solve once": the solve view of the chosen example, or of the uploaded scene. */
+function solveOnce() {
+  clearErrors();
+  sessionStorage.setItem("wsm-token", $("token").value.trim());
+  if (!sourceIsUpload()) {
+    location.hash = `#/solve/${$("example").value}`;
+    return;
+  }
+  if (!uploaded) return showError("scene", "Choose a scene file (JSON).");
+  setUploadedScene(uploaded.scene);
+  location.hash = "#/solve/upload";
+}
+
 /** Wire the form's controls (once). */
 export function initHome() {
   $("token").value = sessionStorage.getItem("wsm-token") || "";
@@ -289,6 +303,7 @@ export function initHome() {
     refreshList();
   });
   $("submit-form").addEventListener("submit", submit);
+  $("solve-btn").addEventListener("click", solveOnce);
   $("example").addEventListener("change", exampleChanged);
   $("scene-file").addEventListener("change", fileChanged);
   for (const r of document.querySelectorAll("input[name=source]")) {

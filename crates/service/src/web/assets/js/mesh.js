@@ -175,6 +175,23 @@ export class MeshView {
     return count ? [acc[0] / count, acc[1] / count] : [0, 0];
   }
 
+  /**
+   * Show another displacement on the same mesh: a dynamic run's frame at one output time.
+   * `maxU` (the largest |u| over every frame) fixes the magnification and the |u| colours, so
+   * that frames compare.
+   */
+  setDisplacement(disp, maxU) {
+    const d = this.data;
+    if (!d) return;
+    d.disp = disp;
+    d.umag = disp.map(([a, b]) => Math.hypot(a, b));
+    d.maxU = maxU;
+    d.uLimit = maxU;
+    d.contactDisp = d.contact.map((c) => this.nodeDispAt(c.position, null));
+    d.outlines = this.outlines(d.scene);
+    this.updateDeformed();
+  }
+
   /** The displacement at a reference point, interpolated (nearest node off the mesh). */
   dispAt(p, body) {
     const d = this.data;
@@ -271,6 +288,8 @@ export class MeshView {
   range() {
     const v = this.values();
     if (!v) return null;
+    const limit = this.data.uLimit;
+    if (this.field === "u" && limit > 0) return { lo: 0, hi: limit, full: [0, limit], clipped: [false, false] };
     const arr = (v.node || v.tri || v.contact || []).filter((x) => x !== null && Number.isFinite(x));
     if (arr.length === 0) return null;
     const sorted = Float64Array.from(arr).sort();
