@@ -156,7 +156,9 @@ pub fn simulate_with(
     data: &Data,
     hooks: &mut Hooks,
 ) -> Result<DynamicRun, WsmError> {
-    let mut peaks = OverTime::new(problem, data, &Criterion::ALL, &[])?;
+    let mut criteria = Criterion::ALL.to_vec();
+    criteria.push(Criterion::Defined);
+    let mut peaks = OverTime::new(problem, data, &criteria, &[])?;
     let mut run = simulate_observed(problem, data, &mut peaks, hooks)?;
     run.history.criteria = peaks.history_entries();
     Ok(run)
@@ -200,6 +202,7 @@ struct StepView<'a> {
     u: &'a [f64],
     v: &'a [f64],
     u_next: &'a [f64],
+    v_next: &'a [f64],
     multipliers: &'a [f64],
     lower: &'a [f64],
     upper: &'a [f64],
@@ -210,9 +213,15 @@ struct StepView<'a> {
 /// Sees the initial state and every step of a run (criteria over time and their forward
 /// tangents, [`over_time`]).
 trait StepObserver {
-    /// The state at t = 0 (free DOFs).
-    fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError>;
-    /// One step, solved by `contact` (its factor of A, W and C_h).
+    /// The state at t = 0: u, v (free DOFs) and the contact forces λ (per multiplier row).
+    fn start(
+        &mut self,
+        context: &RunContext,
+        u: &[f64],
+        v: &[f64],
+        forces: &[f64],
+    ) -> Result<(), WsmError>;
+    /// One step, solved by `contact` (its factor of A and C_h).
     fn step(
         &mut self,
         context: &RunContext,
@@ -274,7 +283,7 @@ fn simulate_observed(
         dt,
         fixed: &fixed,
     };
-    observer.start(&context, &u)?;
+    observer.start(&context, &u, &v, &forces)?;
     let free_loads = |t: f64| -> Result<Vec<f64>, WsmError> {
         let mut f = elastic.loads(&data_at(scene, data, t), None)?;
         point_loads.add(t, &mut f);
@@ -409,6 +418,7 @@ fn simulate_observed(
                 u: &u,
                 v: &v,
                 u_next: &u_next,
+                v_next: &v_next,
                 multipliers: &multipliers,
                 lower: &lower,
                 upper: &upper,
