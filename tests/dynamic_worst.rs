@@ -422,7 +422,7 @@ fn defined_criteria_gradients_over_time_match_central_differences_with_contact()
             .push(json!({"name": "mid", "segment": "block_contact", "from": [0.7, 0.5], "to": [1.3, 0.5]}));
         scene["criteria"]["defined"] = json!([
             {"name": "corner_speed", "receiver": "corner", "quantity": "peak_velocity"},
-            {"name": "g1_syy", "region": "G1", "quantity": "sigma_yy"},
+            {"name": "g1_von_mises", "region": "G1", "quantity": "von_mises"},
             {"name": "mid_pressure", "region": "mid", "quantity": "contact_pressure"}
         ]);
         let rows = defined_gradient_check(&scene);
