@@ -3,7 +3,9 @@
 //! time loop against central differences of whole runs (a bar without contact, a block on a base
 //! with contact and Tresca friction, both schemes), the uncertain dynamic data (density,
 //! viscosity, absorbing damping), and `wsm worst` on a dynamic scene whose worst and best are
-//! vertices, certified.
+//! vertices, certified. The defined criteria over time likewise: a receiver's peak velocity
+//! (against the receiver's history and by central differences), stress and contact means, and a
+//! worst run that searches a peak velocity.
 
 use serde_json::{json, Value};
 use wsm_core::dynamics::solve_over_time;
@@ -424,5 +426,241 @@ fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
         let t = o.time.expect("the time of the maximum");
         assert!(t > 0.0 && t <= 2e-3, "time {t}");
         assert_eq!(o.region.as_deref(), Some("top"));
+    }
+}
+
+/// Per defined criterion and datum: (exact right derivative, central difference of whole runs
+/// with a relative step of 1e-5, value), as [`gradient_check`] for Φ1–Φ6; the defined
+/// criteria are read by name from the region values and region derivatives.
+fn defined_gradient_check(scene: &Value) -> Vec<(Criterion, String, f64, f64, f64)> {
+    const DEFINED: usize = Criterion::Defined as usize;
+    let p = problem(scene);
+    let params = parameters(&p.scene).expect("parameters");
+    let theta: Vec<f64> = params.iter().map(|q| 0.5 * (q.lo + q.hi)).collect();
+    let stencils: Vec<_> = (0..params.len())
+        .map(|i| stencil(&p.scene, &p.nominal, &params, &theta, i))
+        .collect();
+    let at = |theta: &[f64], stencils: &[_]| {
+        let data = apply(&p.scene, &p.nominal, &params, theta);
+        solve_over_time(&p, &data, &[Criterion::Defined], stencils).expect("dynamic run")
+    };
+    let solution = at(&theta, &stencils);
+    let names: Vec<&str> = p
+        .scene
+        .criteria
+        .defined
+        .iter()
+        .map(|d| d.name.as_str())
+        .collect();
+    assert_eq!(solution.region_values[DEFINED].len(), names.len());
+    let mut out = Vec::new();
+    for (j, q) in params.iter().enumerate() {
+        let h = 1e-5 * theta[j].abs();
+        let mut plus = theta.clone();
+        plus[j] += h;
+        let mut minus = theta.clone();
+        minus[j] -= h;
+        let (up, down) = (at(&plus, &[]), at(&minus, &[]));
+        for (k, name) in names.iter().enumerate() {
+            let value = solution.region_values[DEFINED][k];
+            let fd = (up.region_values[DEFINED][k] - down.region_values[DEFINED][k]) / (2.0 * h);
+            let exact = solution.region_sensitivities[j][DEFINED][k].expect("derivative");
+            assert!(
+                (exact.right - exact.left).abs()
+                    <= 1e-9 * exact.right.abs().max(value.abs() / theta[j].abs()),
+                "{name} along {}: one-sided {exact:?} at a smooth point",
+                q.name
+            );
+            eprintln!(
+                "{name} along {}: exact {:e}, central {fd:e}",
+                q.name, exact.right
+            );
+            out.push((
+                Criterion::Defined,
+                format!("{name}/{}", q.name),
+                exact.right,
+                fd,
+                value,
+            ));
+        }
+    }
+    out
+}
+
+/// The bar of [`bar`] with a receiver near its loaded end: its peak velocity and the mean σxx
+/// next to the end as defined criteria.
+fn bar_with_receiver(scheme: &str) -> Value {
+    let mut scene = bar(scheme);
+    scene["receivers"] = json!([{"name": "near_tip", "point": [0.93, 0.02]}]);
+    scene["criteria"]["defined"] = json!([
+        {"name": "tip_speed", "receiver": "near_tip", "quantity": "peak_velocity"},
+        {"name": "end_sxx", "region": "near_end", "quantity": "sigma_xx"}
+    ]);
+    scene
+}
+
+/// The largest speed over a receiver's velocity history.
+fn history_peak(velocity: &[[f64; 2]], times: &[f64]) -> (f64, f64) {
+    velocity
+        .iter()
+        .zip(times)
+        .map(|(v, &t)| (v[0].hypot(v[1]), t))
+        .fold(
+            (f64::NEG_INFINITY, 0.0),
+            |a, b| if b.0 > a.0 { b } else { a },
+        )
+}
+
+/// A receiver's peak velocity is the largest |v| of its history when every step is an output
+/// (`output_every` 1), reached at the same time; a stress mean as a defined criterion has its
+/// maximum over time in the history too.
+#[test]
+fn peak_velocity_is_the_receiver_history_maximum() {
+    for scheme in ["paper", "newmark"] {
+        let scene = parse(&bar_with_receiver(scheme).to_string()).expect("valid scene");
+        let output = wsm_core::run::solve(scene, &Default::default()).expect("solve");
+        let history = output.summary.history.expect("history");
+        let receiver = &history.receivers["near_tip"];
+        assert_eq!(receiver.velocity.len(), history.times.len());
+        let (speed, time) = history_peak(&receiver.velocity, &history.times);
+        let peak = &history.criteria["tip_speed"];
+        eprintln!(
+            "{scheme}: tip_speed {:.6e} m/s at {:.4e} s, history max {speed:.6e} at {time:.4e}",
+            peak.value, peak.time
+        );
+        assert!(speed > 0.0);
+        assert!(
+            (peak.value - speed).abs() <= 1e-12 * speed,
+            "{} vs {speed}",
+            peak.value
+        );
+        assert_eq!(peak.time, time);
+        assert_eq!(peak.region, "near_tip");
+        let sxx = &history.criteria["end_sxx"];
+        assert!(sxx.value > 0.0 && sxx.time > 0.0, "{sxx:?}");
+        assert_eq!(sxx.region, "near_end");
+    }
+}
+
+#[test]
+fn defined_criteria_gradients_over_time_match_central_differences_without_contact() {
+    for scheme in ["paper", "newmark"] {
+        let scene = bar_with_receiver(scheme);
+        let rows = defined_gradient_check(&scene);
+        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let scale = |name: &str| {
+            let datum = name.split_once('/').map_or(name, |(_, d)| d);
+            let q = params.iter().find(|q| q.name == datum).unwrap();
+            0.5 * (q.lo + q.hi)
+        };
+        eprintln!("bar with a receiver, {scheme}:");
+        assert_close(&rows, &scale);
+        // The pulse's amplitude moves the peak speed (linearly: no contact).
+        assert!(rows
+            .iter()
+            .any(|r| r.1.starts_with("tip_speed/") && r.2 != 0.0));
+    }
+}
+
+#[test]
+fn defined_criteria_gradients_over_time_match_central_differences_with_contact() {
+    for scheme in ["paper", "newmark"] {
+        let mut scene = block(scheme);
+        scene["receivers"] = json!([{"name": "corner", "point": [1.4, 0.9]}]);
+        scene["criteria"]["boundary_pieces"]
+            .as_array_mut()
+            .expect("pieces")
+            .push(json!({"name": "mid", "segment": "block_contact", "from": [0.7, 0.5], "to": [1.3, 0.5]}));
+        scene["criteria"]["defined"] = json!([
+            {"name": "corner_speed", "receiver": "corner", "quantity": "peak_velocity"},
+            {"name": "g1_von_mises", "region": "G1", "quantity": "von_mises"},
+            {"name": "mid_pressure", "region": "mid", "quantity": "contact_pressure"}
+        ]);
+        let rows = defined_gradient_check(&scene);
+        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let scale = |name: &str| {
+            let datum = name.split_once('/').map_or(name, |(_, d)| d);
+            let q = params.iter().find(|q| q.name == datum).unwrap();
+            0.5 * (q.lo + q.hi)
+        };
+        eprintln!("block on base with defined criteria, {scheme}:");
+        assert_close(&rows, &scale);
+    }
+}
+
+/// `wsm worst` on a small dynamic scene searching a receiver's peak velocity: a clamped block
+/// lifted on its top by a ramped traction p with E uncertain. Without contact the run is linear
+/// in p, so the worst is at p's upper end and the best at its lower end; the extrema bound the
+/// corners' values, name the receiver and a time within the run.
+#[test]
+fn worst_peak_velocity_of_a_dynamic_block() {
+    let scene = json!({
+        "version": 1, "name": "dynamic block, peak velocity",
+        "bodies": [{"name": "b", "zones": [{"name": "z", "material": "m",
+            "polygon": [[0,0],[1,0],[1,1],[0,1]]}]}],
+        "segments": {
+            "bottom": {"body": "b", "from": [0,0], "to": [1,0]},
+            "top": {"body": "b", "from": [1,1], "to": [0,1]}
+        },
+        "materials": {"m": {"E": 7.0e9, "nu": 0.3, "density": 2500.0, "viscosity": 1e-4}},
+        "boundary": [
+            {"segment": "bottom", "displacement": [0, 0]},
+            {"segment": "top", "traction": [0, 1.5e6],
+             "time_function": {"table": {"times": [0.0, 5e-4], "values": [0.0, 1.0]}}}
+        ],
+        "mesh": {"max_size": 0.25},
+        "receivers": [{"name": "crest", "point": [0.5, 0.9]}],
+        "criteria": {"defined": [
+            {"name": "crest_speed", "receiver": "crest", "quantity": "peak_velocity"}
+        ]},
+        "uncertain": [
+            {"field": "materials.m.E", "interval": [5e9, 1e10]},
+            {"field": "boundary[1].traction[1]", "interval": [1e6, 2e6]}
+        ],
+        "search": {"criteria": ["crest_speed"], "budget": 60, "seed": 1},
+        "dynamics": {"t_end": 2e-3, "dt": 2.5e-5, "scheme": "newmark"}
+    });
+    let request = WorstRequest {
+        budget: Some(60),
+        derivatives: Some(true),
+        ..WorstRequest::default()
+    };
+    let parsed = parse(&scene.to_string()).unwrap();
+    let outcome = worst(parsed.clone(), &request, &RunControl::new()).expect("worst over time");
+    let c = &outcome.criteria[0];
+    eprintln!(
+        "crest_speed: worst {:?} at {:?} (t = {:?}, {:?}), best {:?} at {:?} (t = {:?}, {:?}); {} evaluations",
+        c.worst.value, c.worst.point, c.worst.time, c.worst.status, c.best.value, c.best.point,
+        c.best.time, c.best.status, outcome.evaluations
+    );
+    let p = StateProblem::new(parsed).unwrap();
+    let params = parameters(&p.scene).unwrap();
+    let corner = |theta: &[f64]| {
+        let data = apply(&p.scene, &p.nominal, &params, theta);
+        solve_over_time(&p, &data, &[Criterion::Defined], &[])
+            .expect("run")
+            .region_values[Criterion::Defined as usize][0]
+    };
+    let corners: Vec<f64> = [[5e9, 1e6], [5e9, 2e6], [1e10, 1e6], [1e10, 2e6]]
+        .iter()
+        .map(|t| corner(t))
+        .collect();
+    let (worst_value, best_value) = (c.worst.value.unwrap(), c.best.value.unwrap());
+    for v in &corners {
+        assert!(
+            worst_value >= v * (1.0 - 1e-9),
+            "worst {worst_value} < corner {v}"
+        );
+        assert!(
+            best_value <= v * (1.0 + 1e-9),
+            "best {best_value} > corner {v}"
+        );
+    }
+    for (o, p_end) in [(&c.worst, 2e6), (&c.best, 1e6)] {
+        let point = o.point.as_ref().expect("a point");
+        assert!((point[1] - p_end).abs() <= 1e-9 * p_end, "{point:?}");
+        let t = o.time.expect("the time of the maximum");
+        assert!(t > 0.0 && t <= 2e-3, "time {t}");
+        assert_eq!(o.region.as_deref(), Some("crest"));
     }
 }

@@ -8,8 +8,6 @@ use crate::fem::DofMap;
 use crate::mesh::Mesh;
 use crate::scene::{Data, Scene, SceneError, TimeFunction};
 
-use super::history::locate;
-
 /// Free-DOF initial velocity: every node of body i moves at `bodies[i].initial_velocity`
 /// (prescribed DOFs keep their prescribed values).
 pub fn initial_velocity(scene: &Scene, mesh: &Mesh, dofs: &DofMap) -> Vec<f64> {
@@ -41,7 +39,7 @@ impl PointLoads {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                let (nodes, weights) = locate(mesh, p.point).ok_or_else(|| {
+                let (nodes, weights) = mesh.locate(p.point).ok_or_else(|| {
                     SceneError::new(format!("point_loads[{i}].point"), "not inside any body")
                 })?;
                 Ok(Located {

@@ -238,7 +238,8 @@ pub struct History {
     pub peaks: Peaks,
     /// Counters.
     pub report: DynamicsReport,
-    /// Per criterion the scene defines (`phi1`…), its maximum over the time steps.
+    /// Per criterion the scene defines (`phi1`…, and each of `criteria.defined` by its name),
+    /// its maximum over the time steps.
     pub criteria: BTreeMap<String, CriterionPeak>,
 }
 
@@ -249,7 +250,8 @@ pub struct CriterionPeak {
     pub value: f64,
     /// The first time where it is reached \[s\].
     pub time: f64,
-    /// The region of the criterion's family where it is reached.
+    /// The region of the criterion's family where it is reached (a defined criterion: its area,
+    /// boundary piece or receiver).
     pub region: String,
 }
 
@@ -303,7 +305,7 @@ impl Recorder {
             .iter()
             .enumerate()
             .map(|(i, r)| {
-                locate(mesh, r.point)
+                mesh.locate(r.point)
                     .map(|(tri, w)| (r.name.clone(), tri, w))
                     .ok_or_else(|| {
                         SceneError::new(format!("receivers[{i}].point"), "not inside any body")
@@ -471,22 +473,4 @@ fn body_weights(scene: &Scene, mesh: &Mesh) -> Vec<(String, Vec<(usize, f64)>)> 
             (name.clone(), weights)
         })
         .collect()
-}
-
-/// The triangle holding `p` and its barycentric coordinates (a point on an edge belongs to
-/// the first triangle found).
-pub(super) fn locate(mesh: &Mesh, p: [f64; 2]) -> Option<([usize; 3], [f64; 3])> {
-    let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
-    };
-    mesh.triangles.iter().find_map(|&tri| {
-        let [a, b, c] = tri.map(|n| mesh.nodes[n]);
-        let area = cross(a, b, c);
-        let w = [
-            cross(p, b, c) / area,
-            cross(a, p, c) / area,
-            cross(a, b, p) / area,
-        ];
-        w.iter().all(|&x| x >= -1e-12).then_some((tri, w))
-    })
 }

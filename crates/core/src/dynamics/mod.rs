@@ -178,7 +178,9 @@ pub fn simulate_with(
     data: &Data,
     hooks: &mut Hooks,
 ) -> Result<DynamicRun, WsmError> {
-    let mut peaks = OverTime::new(problem, data, &Criterion::ALL, &[])?;
+    let mut criteria = Criterion::ALL.to_vec();
+    criteria.push(Criterion::Defined);
+    let mut peaks = OverTime::new(problem, data, &criteria, &[])?;
     let mut run = simulate_observed(problem, data, &mut peaks, hooks)?;
     run.history.criteria = peaks.history_entries();
     Ok(run)
@@ -222,6 +224,7 @@ struct StepView<'a> {
     u: &'a [f64],
     v: &'a [f64],
     u_next: &'a [f64],
+    v_next: &'a [f64],
     multipliers: &'a [f64],
     lower: &'a [f64],
     upper: &'a [f64],
@@ -234,9 +237,15 @@ struct StepView<'a> {
 trait StepObserver {
     /// The static contact solution a run from `dynamics.initial = "static"` starts from.
     fn static_start(&mut self, problem: &StateProblem, data: &Data) -> Result<Solution, WsmError>;
-    /// The state at t = 0 (free DOFs).
-    fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError>;
-    /// One step, solved by `contact` (its factor of A, W and C_h).
+    /// The state at t = 0: u, v (free DOFs) and the contact forces λ (per multiplier row).
+    fn start(
+        &mut self,
+        context: &RunContext,
+        u: &[f64],
+        v: &[f64],
+        forces: &[f64],
+    ) -> Result<(), WsmError>;
+    /// One step, solved by `contact` (its factor of A and C_h).
     fn step(
         &mut self,
         context: &RunContext,
@@ -298,7 +307,7 @@ fn simulate_observed(
         dt,
         fixed: &fixed,
     };
-    observer.start(&context, &u)?;
+    observer.start(&context, &u, &v, &forces)?;
     let free_loads = |t: f64| -> Result<Vec<f64>, WsmError> {
         let mut f = elastic.loads(&data_at(scene, data, t), None)?;
         point_loads.add(t, &mut f);
@@ -433,6 +442,7 @@ fn simulate_observed(
                 u: &u,
                 v: &v,
                 u_next: &u_next,
+                v_next: &v_next,
                 multipliers: &multipliers,
                 lower: &lower,
                 upper: &upper,

@@ -5,8 +5,11 @@
 //! V_r = max_n V_r(u(t_n)), and Φ_i = max_r V_r (a criterion bound to a region reads its V_r).
 //! Every criterion is a function of the displacement, as in statics: Φ3, Φ4 of u, the stress
 //! criteria Φ5 (mean I2²) and Φ6 (mean normal pressure) of the elastic stress c⁽⁰⁾ e(u(t_n)) —
-//! the Kelvin–Voigt part c⁽¹⁾ e(u′) is left out. The time reported is the first step that
-//! reaches the maximum.
+//! the Kelvin–Voigt part c⁽¹⁾ e(u′) is left out. The defined criteria (design §4.2) are taken
+//! the same way, each its own maximum over time: a stress quantity's mean of c⁽⁰⁾ e(u(t_n)), a
+//! contact traction's mean of the step's forces λ_{n+1}, and a receiver's peak velocity
+//! max_n |v_n(x_r)|, v_n the scheme's velocity interpolated in P1 at the receiver. The time
+//! reported is the first step that reaches the maximum.
 //!
 //! **Derivatives.** Forward (direct) differentiation through the time loop: per uncertain datum
 //! θ_j the tangent (du/dθ, dv/dθ, dλ/dθ) is carried through the steps. A step solves
@@ -20,8 +23,14 @@
 //! sticking tangential) unconstrained, rows strictly at a bound follow the bound's derivative —
 //! a slipping Coulomb row s(dF λ_n + F dλ_n) with λ_n of the previous level, a Tresca row
 //! s dg w, an open normal row 0 — and weakly active rows one-sided. Then du_{n+1} = y − W dΛ
-//! with W = A⁻¹ Bᵀ, and dv_{n+1} by the scheme's velocity update. Each step's tangent reuses
-//! the step's factor of A, W and C_h: k data cost k extra solves per step.
+//! with W = A⁻¹ Bᵀ, computed as A⁻¹ (F(du_n, dv_n) + g − Bᵀ dΛ), and dv_{n+1} by the scheme's
+//! velocity update. Each step's tangent reuses the step's factor of A and C_h: k data cost k
+//! extra solves per step (2k where dΛ ≠ 0).
+//!
+//! A criterion reads the tangent through its derivative form (`state`'s region forms): du, dτ
+//! (with the law's change), dλ, and for a receiver (v/|v|)·dv(x_r) — the receiver's velocity is
+//! a linear functional of the state, its speed is not differentiable where v(x_r) = 0, and there
+//! the one-sided derivatives are |dv(x_r)| along the tangent of each side.
 //!
 //! The derivative of a region's maximum over time is the derivative at the maximising step; where
 //! steps tie (relative [`TIE_TOL`]) the right derivative is the largest right one and the left the
@@ -68,9 +77,12 @@ use crate::fem::ElementStress;
 use crate::scene::params::Stencil;
 use crate::scene::{Criterion, Data, InitialState, SceneError, Warning, WarningKind};
 use crate::state::{
-    add_scaled, attaining, maxima, one_sided, per_region_with, region_forms, region_name,
-    tied_regions, Fields, OneSided, PerCriterion, Solution, StateProblem, TIE_TOL,
+    add_scaled, attaining, maxima, one_sided, per_region_with, receiver_velocity, region_forms,
+    region_name, tied_regions, Fields, OneSided, PerCriterion, Solution, StateProblem, TIE_TOL,
 };
+
+/// The index of the defined criteria in the per-criterion arrays.
+const DEFINED: usize = Criterion::Defined as usize;
 
 /// Why a dynamic scene has no exact derivatives over time (the field and the reason), if it
 /// has none: a run from the static solution of a scene with a Coulomb zone on the sparse
@@ -206,8 +218,10 @@ pub(super) struct OverTime<'a> {
     data: &'a Data,
     /// Φ1..Φ6 asked for.
     wanted: PerCriterion<bool>,
-    /// Whether the stresses are needed (Φ5 or Φ6 asked for).
+    /// Whether the stresses are needed (Φ5, Φ6 or a defined criterion asked for).
     stresses: bool,
+    /// Whether the velocity is needed (a receiver's peak velocity asked for).
+    speeds: bool,
     /// Elements the criteria regions read (where the law's change enters dτ).
     elements: Vec<usize>,
     peaks: PerCriterion<Vec<Peak>>,
@@ -232,7 +246,11 @@ impl<'a> OverTime<'a> {
         }
         let wanted: PerCriterion<bool> =
             std::array::from_fn(|i| criteria.iter().any(|c| *c as usize == i));
-        let stresses = wanted[Criterion::Phi5 as usize] || wanted[Criterion::Phi6 as usize];
+        let defined = &problem.criteria.defined;
+        let stresses = wanted[Criterion::Phi5 as usize]
+            || wanted[Criterion::Phi6 as usize]
+            || (wanted[DEFINED] && !defined.is_empty());
+        let speeds = wanted[DEFINED] && defined.iter().any(|d| d.quantity.is_receiver());
         let mut elements: Vec<usize> = problem
             .criteria
             .regions
@@ -290,6 +308,7 @@ impl<'a> OverTime<'a> {
             data,
             wanted,
             stresses,
+            speeds,
             elements,
             peaks: Default::default(),
             directions,
@@ -327,9 +346,16 @@ impl<'a> OverTime<'a> {
         Ok(start)
     }
 
-    /// The region values at the state `u` (free DOFs) at time `t`, and their derivatives along
-    /// every direction, into the maxima.
-    fn record(&mut self, context: &RunContext, t: f64, u: &[f64]) -> Result<(), WsmError> {
+    /// The region values at the state `u`, `v` (free DOFs) and contact forces λ at time `t`,
+    /// and their derivatives along every direction, into the maxima.
+    fn record(
+        &mut self,
+        context: &RunContext,
+        t: f64,
+        u: &[f64],
+        v: &[f64],
+        forces: &[f64],
+    ) -> Result<(), WsmError> {
         let (problem, data) = (self.problem, self.data);
         let elastic = &problem.elastic;
         let global = elastic.dofs().expand(u, context.fixed);
@@ -337,11 +363,15 @@ impl<'a> OverTime<'a> {
             true => Some(elastic.stresses(data, &global, None)?),
             false => None,
         };
+        let zero_fixed = vec![0.0; elastic.dofs().n_fixed()];
+        let nodal_velocity = |v: &[f64]| self.speeds.then(|| elastic.dofs().expand(v, &zero_fixed));
+        let velocity = nodal_velocity(v);
         let fields = Fields {
             temperature: None,
             displacement: Some(&global),
             stresses: stresses.as_deref(),
-            multipliers: None,
+            multipliers: Some(forces),
+            velocity: velocity.as_deref(),
         };
         let mut forms = region_forms(&problem.criteria, &fields);
         for (i, f) in forms.iter_mut().enumerate() {
@@ -355,6 +385,19 @@ impl<'a> OverTime<'a> {
                 v.clear();
             }
         }
+        // Receivers at rest: |v| has only one-sided derivatives there, |dv(x_r)| along every
+        // direction (their forms are empty).
+        let kinks: Vec<usize> = problem
+            .criteria
+            .defined
+            .iter()
+            .enumerate()
+            .filter(|(k, d)| {
+                d.quantity.is_receiver()
+                    && values[DEFINED].get(*k).is_some_and(|&speed| speed == 0.0)
+            })
+            .map(|(k, _)| k)
+            .collect();
         // Per direction, per Φ, per region: the right and left derivatives.
         let mut right: Vec<PerCriterion<Vec<f64>>> = Vec::with_capacity(self.directions.len());
         let mut left: Vec<PerCriterion<Vec<f64>>> = Vec::with_capacity(self.directions.len());
@@ -381,20 +424,34 @@ impl<'a> OverTime<'a> {
                         }
                         false => None,
                     };
+                    let dv = nodal_velocity(&tangent.dv);
                     let tangent_fields = Fields {
                         temperature: None,
                         displacement: Some(&du),
                         stresses: dtau.as_deref(),
-                        multipliers: None,
+                        multipliers: Some(&tangent.dforces),
+                        velocity: dv.as_deref(),
                     };
-                    Ok(forms
+                    let mut out: PerCriterion<Vec<f64>> = forms
                         .each_ref()
-                        .map(|f| f.iter().map(|form| form.apply(&tangent_fields)).collect()))
+                        .map(|f| f.iter().map(|form| form.apply(&tangent_fields)).collect());
+                    for &k in &kinks {
+                        let receiver = &problem.criteria.defined[k].receiver;
+                        let [x, y] = receiver_velocity(receiver, dv.as_deref());
+                        out[DEFINED][k] = x.hypot(y);
+                    }
+                    Ok(out)
                 };
             let plus = along(&direction.plus, 1.0)?;
             let minus = match &direction.minus {
                 Some(tangent) => along(tangent, -1.0)?.map(|d| d.iter().map(|v| -v).collect()),
-                None => plus.clone(),
+                None => {
+                    let mut minus = plus.clone();
+                    for &k in &kinks {
+                        minus[DEFINED][k] = -plus[DEFINED][k];
+                    }
+                    minus
+                }
             };
             right.push(plus);
             left.push(minus);
@@ -587,12 +644,15 @@ impl<'a> OverTime<'a> {
         solution.criteria = maxima(&solution.region_values);
         let values = &solution.region_values;
         let tied: PerCriterion<Vec<bool>> = std::array::from_fn(|i| tied_regions(&values[i]));
+        // The defined criteria have no maximum: only their region derivatives (below).
         solution.sensitivities = (0..self.directions.len())
             .map(|j| {
                 std::array::from_fn(|i| {
                     let right: Vec<f64> = self.peaks[i].iter().map(|p| p.right[j]).collect();
                     let left: Vec<f64> = self.peaks[i].iter().map(|p| p.left[j]).collect();
-                    one_sided(&values[i], &tied[i], &right, &left)
+                    (i != DEFINED)
+                        .then(|| one_sided(&values[i], &tied[i], &right, &left))
+                        .flatten()
                 })
             })
             .collect();
@@ -613,9 +673,21 @@ impl<'a> OverTime<'a> {
             .collect();
     }
 
-    /// Per criterion with a value, its maximum over time, when and where (for the history).
+    /// Per criterion with a value, its maximum over time, when and where (for the history);
+    /// a defined criterion under its name, where its region or receiver.
     pub(super) fn history_entries(&self) -> std::collections::BTreeMap<String, CriterionPeak> {
         let mut out = std::collections::BTreeMap::new();
+        let scene = &self.problem.scene;
+        for (d, peak) in scene.criteria.defined.iter().zip(&self.peaks[DEFINED]) {
+            out.insert(
+                d.name.clone(),
+                CriterionPeak {
+                    value: peak.value,
+                    time: peak.time,
+                    region: d.place().to_string(),
+                },
+            );
+        }
         for criterion in Criterion::ALL {
             let peaks = &self.peaks[criterion as usize];
             let values: Vec<f64> = peaks.iter().map(|p| p.value).collect();
@@ -639,8 +711,14 @@ impl StepObserver for OverTime<'_> {
         OverTime::static_start(self, problem, data)
     }
 
-    fn start(&mut self, context: &RunContext, u: &[f64]) -> Result<(), WsmError> {
-        self.record(context, 0.0, u)
+    fn start(
+        &mut self,
+        context: &RunContext,
+        u: &[f64],
+        v: &[f64],
+        forces: &[f64],
+    ) -> Result<(), WsmError> {
+        self.record(context, 0.0, u, v, forces)
     }
 
     fn step(
@@ -652,7 +730,9 @@ impl StepObserver for OverTime<'_> {
         if !self.directions.is_empty() {
             self.advance(context, contact, view)?;
         }
-        self.record(context, view.t, view.u_next)
+        let scale = context.constants.force;
+        let forces: Vec<f64> = view.multipliers.iter().map(|x| x / scale).collect();
+        self.record(context, view.t, view.u_next, view.v_next, &forces)
     }
 }
 
@@ -748,7 +828,8 @@ impl Step<'_> {
     }
 
     /// The tangent after the step along the signed direction: y = A⁻¹(F(du, dv) + sign g),
-    /// dΛ from the step's tangent QP, du' = y − W dΛ, dv' by the scheme.
+    /// dΛ from the step's tangent QP, du' = y − W dΛ = A⁻¹(F(du, dv) + sign g − Bᵀ dΛ), dv' by
+    /// the scheme.
     fn tangent(
         &self,
         tangent: &Tangent,
@@ -769,7 +850,7 @@ impl Step<'_> {
             &vec![0.0; n],
         );
         add_scaled(&mut r, sign, g);
-        let mut du = contact.factor().solve(&r);
+        let mut y = contact.factor().solve(&r);
         let geometry = contact.geometry();
         let m = geometry.dim();
         let mut dforces = vec![0.0; m];
@@ -780,9 +861,9 @@ impl Step<'_> {
                 .enumerate()
                 .map(|(r, row)| {
                     if is_normal_row(r) {
-                        row.dot(&du) + sign * row.dot_fixed(fixed)
+                        row.dot(&y) + sign * row.dot_fixed(fixed)
                     } else {
-                        row.dot(&du) - row.dot(&tangent.du)
+                        row.dot(&y) - row.dot(&tangent.du)
                     }
                 })
                 .collect();
@@ -798,17 +879,11 @@ impl Step<'_> {
             let solution = solve_box_qp(&problem, None, &QpOptions::default()).map_err(|e| {
                 WsmError::contact(format!("derivative of a time step's contact state: {e}"))
             })?;
-            let w = contact.w();
-            for (s, &dl) in solution.x.iter().enumerate() {
-                if dl != 0.0 {
-                    for (i, x) in du.iter_mut().enumerate() {
-                        *x -= w[(i, s)] * dl;
-                    }
-                }
-            }
             let scale = context.constants.force;
             dforces = solution.x.iter().map(|x| x / scale).collect();
+            y = contact.respond(&r, y, &solution.x);
         }
+        let du = y;
         let dv = velocity(context.scheme, context.dt, &tangent.du, &du, &tangent.dv);
         Ok(Tangent { du, dv, dforces })
     }

@@ -8,8 +8,10 @@
 //! It is solved as the existing contact solver solves a static problem (design §3.1): condensed
 //! on the multipliers, C_h = B A⁻¹ Bᵀ (A is positive definite through M: no floating-body
 //! kernel), d = B A⁻¹ F + B_d u_d − g0 on normal rows and B A⁻¹ F − B u_n on tangential rows,
-//! then u = A⁻¹ F − (A⁻¹ Bᵀ) Λ. A⁻¹ Bᵀ is formed once per run. The condensed problem is solved
-//! by `dynamics.contact_solver`:
+//! then u = A⁻¹ (F − Bᵀ Λ) (a second solve with A's factor, only when Λ ≠ 0). C_h is formed
+//! once per run (A⁻¹ Bᵀ for it, one solve per multiplier, is dropped then: the dense n × m
+//! product W Λ per step would read all of it, far more than the solve). The condensed problem
+//! is solved by `dynamics.contact_solver`:
 //! - `pdas` (default): the paper's primal–dual active set method (27) (module `pdas`),
 //!   warm-started from the previous step's sets; when it does not terminate (a repeated set,
 //!   the iteration cap, a singular C_FF), the step is solved by the QP kernel instead and
@@ -30,12 +32,11 @@ use crate::scene::ContactSolver;
 
 use super::pdas::{self, Status};
 
-/// The per-step contact solver of a run: A's factor, W = A⁻¹ Bᵀ and C_h = B W.
+/// The per-step contact solver of a run: A's factor and C_h = B A⁻¹ Bᵀ.
 #[derive(Debug)]
 pub struct StepContact<'a> {
     geometry: &'a ContactGeometry,
     factor: Factor,
-    w: Mat<f64>,
     c: Mat<f64>,
     fixed: Vec<f64>,
     solver: ContactSolver,
@@ -55,7 +56,7 @@ pub struct StepStats {
 }
 
 impl<'a> StepContact<'a> {
-    /// Form W = A⁻¹ Bᵀ and C_h for the factor of A; `fixed` are the prescribed values u_d.
+    /// Form C_h for the factor of A; `fixed` are the prescribed values u_d.
     /// The steps are solved by PDAS (see [`StepContact::with_solver`]).
     pub fn new(geometry: &'a ContactGeometry, factor: Factor, fixed: Vec<f64>) -> StepContact<'a> {
         let (n, m) = (factor.dim(), geometry.dim());
@@ -81,7 +82,6 @@ impl<'a> StepContact<'a> {
         StepContact {
             geometry,
             factor,
-            w,
             c,
             fixed,
             solver: ContactSolver::default(),
@@ -111,9 +111,16 @@ impl<'a> StepContact<'a> {
         &self.factor
     }
 
-    /// W = A⁻¹ Bᵀ.
-    pub fn w(&self) -> &Mat<f64> {
-        &self.w
+    /// u = A⁻¹ (F − Bᵀ Λ) for the right-hand side F and multipliers Λ, given A⁻¹ F
+    /// (`unconstrained`, returned as it is when Λ = 0).
+    pub fn respond(&self, rhs: &[f64], unconstrained: Vec<f64>, multipliers: &[f64]) -> Vec<f64> {
+        if multipliers.iter().all(|&l| l == 0.0) {
+            return unconstrained;
+        }
+        let mut f = rhs.to_vec();
+        let negated: Vec<f64> = multipliers.iter().map(|l| -l).collect();
+        self.geometry.add_transpose(&negated, &mut f);
+        self.factor.solve(&f)
     }
 
     /// C_h = B A⁻¹ Bᵀ (symmetrised).
@@ -135,7 +142,7 @@ impl<'a> StepContact<'a> {
         lower: &[f64],
         upper: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>, StepStats), WsmError> {
-        let mut u = self.factor.solve(rhs);
+        let u = self.factor.solve(rhs);
         let m = self.geometry.dim();
         if m == 0 {
             return Ok((u, Vec::new(), StepStats::default()));
@@ -185,13 +192,7 @@ impl<'a> StepContact<'a> {
                 (x, stats)
             }
         };
-        for (s, &lambda) in x.iter().enumerate() {
-            if lambda != 0.0 {
-                for (i, ui) in u.iter_mut().enumerate() {
-                    *ui -= self.w[(i, s)] * lambda;
-                }
-            }
-        }
+        let u = self.respond(rhs, u, &x);
         self.warm = Some(WarmStart {
             x: x.clone(),
             alpha: Vec::new(),
@@ -242,16 +243,12 @@ pub(super) mod qp_check {
         let (q, _, _) = contact
             .qp(d, lower, upper)
             .expect("the QP kernel solves the step");
-        let n = contact.w.nrows();
+        // A⁻¹ Bᵀ Λ: the multipliers' effect on u_{n+1}.
+        let n = contact.factor.dim();
         let effect = |x: &[f64]| -> Vec<f64> {
-            (0..n)
-                .map(|i| {
-                    x.iter()
-                        .enumerate()
-                        .map(|(s, l)| contact.w[(i, s)] * l)
-                        .sum()
-                })
-                .collect()
+            let mut f = vec![0.0; n];
+            contact.geometry.add_transpose(x, &mut f);
+            contact.factor.solve(&f)
         };
         let (a, b) = (effect(x), effect(&q));
         let scale = a.iter().chain(&b).fold(0.0_f64, |m, v| m.max(v.abs()));

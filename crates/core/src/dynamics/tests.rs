@@ -391,11 +391,49 @@ fn bad_dynamic_input_names_the_field() {
         "materials.steel.density"
     );
     scene["materials"]["steel"]["density"] = json!(RHO);
+    // A receiver's peak velocity: the receiver must exist, be named in `receiver` (not
+    // `region`), and only `peak_velocity` reads one.
+    for (defined, path) in [
+        (
+            json!({"name": "v", "receiver": "nowhere", "quantity": "peak_velocity"}),
+            "criteria.defined[0].receiver",
+        ),
+        (
+            json!({"name": "v", "quantity": "peak_velocity"}),
+            "criteria.defined[0].receiver",
+        ),
+        (
+            json!({"name": "v", "region": "tip", "quantity": "peak_velocity"}),
+            "criteria.defined[0].region",
+        ),
+        (
+            json!({"name": "v", "receiver": "tip", "quantity": "sigma_xx"}),
+            "criteria.defined[0].receiver",
+        ),
+    ] {
+        scene["criteria"]["defined"] = json!([defined]);
+        let err = parse(&scene.to_string()).expect_err("refused");
+        assert_eq!(err.path, path, "{err}");
+    }
     scene["criteria"]["defined"] =
-        json!([{"name": "mean_sxx", "region": "r", "quantity": "sigma_xx"}]);
+        json!([{"name": "v", "receiver": "tip", "quantity": "peak_velocity"}]);
+    parse(&scene.to_string()).expect("a receiver's peak velocity in a dynamic scene");
+    let mut static_scene = scene.clone();
+    static_scene
+        .as_object_mut()
+        .expect("object")
+        .remove("dynamics");
+    static_scene
+        .as_object_mut()
+        .expect("object")
+        .remove("receivers");
+    static_scene["boundary"][3]
+        .as_object_mut()
+        .expect("object")
+        .remove("time_function");
     assert_eq!(
-        parse(&scene.to_string()).expect_err("refused").path,
-        "criteria.defined"
+        parse(&static_scene.to_string()).expect_err("refused").path,
+        "criteria.defined[0].quantity"
     );
     scene["criteria"]
         .as_object_mut()

@@ -47,7 +47,7 @@ pub fn principal([s11, s22, s12, s33]: [f64; 4]) -> Principal {
 }
 
 /// The value of a stress quantity of (τ11, τ22, τ12, τ33) \[Pa\] (`None` for a contact
-/// traction, which is no function of the stress).
+/// traction or a receiver's peak velocity, which are no functions of the stress).
 pub fn stress_quantity(quantity: DefinedQuantity, stress: [f64; 4]) -> Option<f64> {
     Some(match quantity {
         DefinedQuantity::SigmaXx => stress[0],
@@ -57,7 +57,9 @@ pub fn stress_quantity(quantity: DefinedQuantity, stress: [f64; 4]) -> Option<f6
         DefinedQuantity::Sigma1 => principal(stress).sigma1,
         DefinedQuantity::Sigma2 => principal(stress).sigma2,
         DefinedQuantity::VonMises => von_mises(stress),
-        DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear => return None,
+        DefinedQuantity::ContactPressure
+        | DefinedQuantity::ContactShear
+        | DefinedQuantity::PeakVelocity => return None,
     })
 }
 
@@ -97,7 +99,9 @@ pub fn stress_quantity_gradient(quantity: DefinedQuantity, stress: [f64; 4]) -> 
                 [0.0; 4]
             }
         }
-        DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear => return None,
+        DefinedQuantity::ContactPressure
+        | DefinedQuantity::ContactShear
+        | DefinedQuantity::PeakVelocity => return None,
     })
 }
 

@@ -125,4 +125,22 @@ impl Mesh {
     pub fn segment_index(&self, name: &str) -> Option<usize> {
         self.segments.iter().position(|s| s.name == name)
     }
+
+    /// The triangle holding `p` and its barycentric coordinates (the P1 shape functions'
+    /// values at `p`; a point on an edge belongs to the first triangle found).
+    pub fn locate(&self, p: [f64; 2]) -> Option<([usize; 3], [f64; 3])> {
+        let cross = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+            (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+        };
+        self.triangles.iter().find_map(|&tri| {
+            let [a, b, c] = tri.map(|n| self.nodes[n]);
+            let area = cross(a, b, c);
+            let w = [
+                cross(p, b, c) / area,
+                cross(a, p, c) / area,
+                cross(a, b, p) / area,
+            ];
+            w.iter().all(|&x| x >= -1e-12).then_some((tri, w))
+        })
+    }
 }

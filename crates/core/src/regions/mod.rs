@@ -8,6 +8,8 @@
 //! the projections of two points; its weights integrate the P1 trace exactly, partial edges
 //! included, whether the piece spans many edges or lies inside one (it is measured on the
 //! traces of the edges it crosses, never refused for being shorter than an element). Means are then `Σ w_i f_i` (`mean_p1`, `mean_p0`).
+//! A receiver's peak velocity (a defined criterion of a dynamic scene, design §3.5) reads the
+//! P1 interpolant at the receiver: the shape functions' values there are its weights.
 
 use std::collections::BTreeMap;
 
@@ -17,7 +19,9 @@ use crate::mesh::geom::{
     signed_area, P,
 };
 use crate::mesh::Mesh;
-use crate::scene::{BoundaryPiece, CriterionRegion, DefinedQuantity, Scene, SceneError};
+use crate::scene::{
+    BoundaryPiece, CriterionRegion, DefinedCriterion, DefinedQuantity, Scene, SceneError,
+};
 
 /// X_r may lie at most this many lengths of the nearest boundary edge away from the boundary.
 const NORMAL_REACH: f64 = 3.0;
@@ -88,6 +92,9 @@ pub struct DefinedRegion {
     /// A contact traction's mean as a form on the contact multipliers, (row, coefficient); set
     /// by the state problem once the contact pairs are known (empty for a stress quantity).
     pub multipliers: Vec<(usize, f64)>,
+    /// For `peak_velocity`, the receiver's P1 interpolation, (node, shape function value at the
+    /// receiver); `region` is then the receiver's index in `receivers` (empty otherwise).
+    pub receiver: Vec<(usize, f64)>,
 }
 
 /// Mean of a P1 field: Σ w_i f_i.
@@ -124,18 +131,22 @@ pub fn build(scene: &Scene, mesh: &Mesh) -> Result<CriteriaGeometry, SceneError>
         .enumerate()
         .map(|(k, d)| {
             let criteria = &scene.criteria;
+            let place = d.place();
+            if d.quantity.is_receiver() {
+                return receiver_criterion(scene, mesh, k, d);
+            }
             let region = if d.quantity.is_contact() {
                 criteria
                     .boundary_pieces
                     .iter()
-                    .position(|p| p.name == d.region)
+                    .position(|p| p.name == place)
             } else {
-                criteria.regions.iter().position(|g| g.name == d.region)
+                criteria.regions.iter().position(|g| g.name == place)
             };
             let region = region.ok_or_else(|| {
                 SceneError::new(
                     format!("criteria.defined[{k}].region"),
-                    format!("'{}' is no region of this criterion's kind", d.region),
+                    format!("'{place}' is no region of this criterion's kind"),
                 )
             })?;
             Ok(DefinedRegion {
@@ -143,6 +154,7 @@ pub fn build(scene: &Scene, mesh: &Mesh) -> Result<CriteriaGeometry, SceneError>
                 region,
                 quantity: d.quantity,
                 multipliers: Vec::new(),
+                receiver: Vec::new(),
             })
         })
         .collect::<Result<_, SceneError>>()?;
@@ -150,6 +162,37 @@ pub fn build(scene: &Scene, mesh: &Mesh) -> Result<CriteriaGeometry, SceneError>
         regions,
         pieces,
         defined,
+    })
+}
+
+/// The `k`-th defined criterion `d`, a receiver's peak velocity: the receiver located in the
+/// mesh (its P1 shape functions at the point, design §3.5).
+fn receiver_criterion(
+    scene: &Scene,
+    mesh: &Mesh,
+    k: usize,
+    d: &DefinedCriterion,
+) -> Result<DefinedRegion, SceneError> {
+    let place = d.place();
+    let index = scene
+        .receivers
+        .iter()
+        .position(|r| r.name == place)
+        .ok_or_else(|| {
+            SceneError::new(
+                format!("criteria.defined[{k}].receiver"),
+                format!("'{place}' is not the name of one of the scene's `receivers`"),
+            )
+        })?;
+    let (nodes, weights) = mesh.locate(scene.receivers[index].point).ok_or_else(|| {
+        SceneError::new(format!("receivers[{index}].point"), "not inside any body")
+    })?;
+    Ok(DefinedRegion {
+        name: d.name.clone(),
+        region: index,
+        quantity: d.quantity,
+        multipliers: Vec::new(),
+        receiver: nodes.into_iter().zip(weights).collect(),
     })
 }
 

@@ -382,14 +382,15 @@ fn name_regions(problem: &StateProblem, params: &[Parameter], criteria: &mut [Cr
                 s.peak_times[spec.criterion as usize].get(r).copied()
             });
             extremum.region = match (&spec.region, &extremum.point) {
-                // A defined criterion's region is the area or piece it averages over.
+                // A defined criterion's region is the area or piece it averages over (the
+                // receiver it reads).
                 (Some(name), _) if spec.criterion == Criterion::Defined => problem
                     .scene
                     .criteria
                     .defined
                     .iter()
                     .find(|d| &d.name == name)
-                    .map(|d| d.region.clone()),
+                    .map(|d| d.place().to_string()),
                 (Some(region), _) => Some(region.clone()),
                 (None, Some(_)) if members == 1 => {
                     Some(region_name(&problem.criteria, spec.criterion, 0).to_string())

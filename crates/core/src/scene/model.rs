@@ -644,8 +644,8 @@ pub struct CriteriaRegions {
 }
 
 /// A criterion defined in the scene (design §4.2): the mean of a stress quantity over an area
-/// G_r, or of a contact traction over a boundary piece G'_r on a contact zone; searched like
-/// Φ1–Φ6 under its own name.
+/// G_r, or of a contact traction over a boundary piece G'_r on a contact zone, or (dynamic scenes,
+/// design §3.5) the peak velocity of a receiver; searched like Φ1–Φ6 under its own name.
 #[derive(Debug, Clone, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct DefinedCriterion {
@@ -655,15 +655,31 @@ pub struct DefinedCriterion {
     pub name: String,
     /// Where the mean is taken: an area (`criteria.regions[].name`) for a stress quantity, a
     /// boundary piece (`criteria.boundary_pieces[].name`) on a contact zone's segment for a
-    /// contact traction.
-    pub region: String,
-    /// The quantity averaged.
+    /// contact traction; absent for `peak_velocity`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region: Option<String>,
+    /// The receiver (`receivers[].name`) whose velocity `peak_velocity` reads; absent for the
+    /// other quantities.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receiver: Option<String>,
+    /// The quantity averaged (or, for `peak_velocity`, followed over time).
     pub quantity: DefinedQuantity,
+}
+
+impl DefinedCriterion {
+    /// The region or receiver the criterion reads, by name (empty if the scene gives neither).
+    pub fn place(&self) -> &str {
+        self.region
+            .as_deref()
+            .or(self.receiver.as_deref())
+            .unwrap_or_default()
+    }
 }
 
 /// The quantity of a defined criterion \[Pa\] (design §4.2, §5.8): a component, principal
 /// stress or the von Mises stress of the plane-strain stress (τ11, τ22, τ12, τ33), averaged over
-/// an area; or a contact traction, averaged over a boundary piece on a contact zone.
+/// an area; or a contact traction, averaged over a boundary piece on a contact zone; or, in a
+/// dynamic scene, a receiver's speed \[m/s\] (design §3.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum DefinedQuantity {
@@ -687,6 +703,9 @@ pub enum DefinedQuantity {
     /// The tangential traction (the tangential multiplier per unit length), as the contact
     /// profiles report it.
     ContactShear,
+    /// The speed |v| \[m/s\] at a receiver (`receiver`), its largest value over the time
+    /// steps (dynamic scenes only).
+    PeakVelocity,
 }
 
 impl DefinedQuantity {
@@ -696,6 +715,12 @@ impl DefinedQuantity {
             self,
             DefinedQuantity::ContactPressure | DefinedQuantity::ContactShear
         )
+    }
+
+    /// Whether the quantity is a receiver's peak velocity (read at a receiver, not over a
+    /// region).
+    pub fn is_receiver(self) -> bool {
+        self == DefinedQuantity::PeakVelocity
     }
 }
 

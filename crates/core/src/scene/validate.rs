@@ -1139,13 +1139,6 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
             }
         }
     }
-    if scene.dynamics.is_some() && !scene.criteria.defined.is_empty() {
-        return Err(SceneError::new(
-            "criteria.defined",
-            "defined criteria are not built over time yet: a scene with `dynamics` takes phi1 … \
-             phi6 (each its maximum over the time steps)",
-        ));
-    }
     let mut defined = BTreeSet::new();
     for (k, d) in scene.criteria.defined.iter().enumerate() {
         let path = format!("criteria.defined[{k}]");
@@ -1164,18 +1157,21 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
                 format!("the criterion name '{}' is defined twice", d.name),
             ));
         }
+        let region = defined_place(scene, d, &path)?;
+        if d.quantity.is_receiver() {
+            continue;
+        }
         if d.quantity.is_contact() {
             let piece = scene
                 .criteria
                 .boundary_pieces
                 .iter()
-                .find(|p| p.name == d.region)
+                .find(|p| p.name == region)
                 .ok_or_else(|| {
                     SceneError::new(
                         format!("{path}.region"),
                         format!(
-                            "'{}' is not a boundary piece of criteria.boundary_pieces (a contact traction is averaged over one)",
-                            d.region
+                            "'{region}' is not a boundary piece of criteria.boundary_pieces (a contact traction is averaged over one)"
                         ),
                     )
                 })?;
@@ -1187,22 +1183,65 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
                 return Err(SceneError::new(
                     format!("{path}.region"),
                     format!(
-                        "boundary piece '{}' lies on segment '{}', which is no contact zone's segment",
-                        d.region, piece.segment
+                        "boundary piece '{region}' lies on segment '{}', which is no contact zone's segment",
+                        piece.segment
                     ),
                 ));
             }
-        } else if !scene.criteria.regions.iter().any(|g| g.name == d.region) {
+        } else if !scene.criteria.regions.iter().any(|g| g.name == region) {
             return Err(SceneError::new(
                 format!("{path}.region"),
                 format!(
-                    "'{}' is not an area of criteria.regions (a stress quantity is averaged over one)",
-                    d.region
+                    "'{region}' is not an area of criteria.regions (a stress quantity is averaged over one)"
                 ),
             ));
         }
     }
     Ok(())
+}
+
+/// What a defined criterion reads (at `path`): a receiver of a dynamic scene for `peak_velocity`
+/// (checked here; `Ok` gives its name), otherwise a region by name (checked by the caller), and
+/// never both.
+fn defined_place<'s>(
+    scene: &'s Scene,
+    d: &'s DefinedCriterion,
+    path: &str,
+) -> Result<&'s str, SceneError> {
+    match (d.quantity.is_receiver(), &d.region, &d.receiver) {
+        (true, Some(_), _) => Err(SceneError::new(
+            format!("{path}.region"),
+            "peak_velocity is read at a receiver: give `receiver` (a name of `receivers`), not `region`",
+        )),
+        (true, None, None) => Err(SceneError::new(
+            format!("{path}.receiver"),
+            "peak_velocity needs `receiver`, the name of one of the scene's `receivers`",
+        )),
+        (true, None, Some(name)) => {
+            if scene.dynamics.is_none() {
+                return Err(SceneError::new(
+                    format!("{path}.quantity"),
+                    "peak_velocity is a maximum over the time steps: only in a scene with `dynamics`",
+                ));
+            }
+            if !scene.receivers.iter().any(|r| &r.name == name) {
+                return Err(SceneError::new(
+                    format!("{path}.receiver"),
+                    format!("'{name}' is not the name of one of the scene's `receivers`"),
+                ));
+            }
+            Ok(name)
+        }
+        (false, _, Some(_)) => Err(SceneError::new(
+            format!("{path}.receiver"),
+            "only peak_velocity is read at a receiver; this quantity is a mean over `region`",
+        )),
+        (false, None, None) => Err(SceneError::new(
+            format!("{path}.region"),
+            "this quantity is a mean over a region: give `region`",
+        )),
+        (false, Some(region), None) => Ok(region),
+    }
 }
 
 /// Φ6 is the mean normal stress over the areas adjacent to Γc (FGCS 4.34): at least one region

@@ -17,7 +17,8 @@
 //! Σ_e w_e ∇q(τ_e)·dτ_e (q linear for a component; σ1, σ2 and von Mises linearised at τ_e,
 //! `fem::stress_measures::stress_quantity_gradient`), or the mean of a contact traction over a
 //! boundary piece, Σ_i w_i λ_{r(i)} / w_{pair(i)}, a linear form on the multipliers whose
-//! derivative reads dλ. The family has no maximum: each member is
+//! derivative reads dλ; in a dynamic scene, a receiver's speed |v(x_r)| (v interpolated in
+//! P1 at the receiver), with the form (v/|v|)·dv(x_r) where v(x_r) ≠ 0. The family has no maximum: each member is
 //! requested by its name, as a criterion bound to it.
 
 use super::solution::{pair_of_node, piece_traction_rows};
@@ -41,6 +42,9 @@ pub struct Fields<'a> {
     pub stresses: Option<&'a [ElementStress]>,
     /// Contact multipliers by row of B, for the defined contact tractions (`None`: not solved).
     pub multipliers: Option<&'a [f64]>,
+    /// Nodal velocity (x, y) \[m/s\], for a receiver's peak velocity (`None`: a static state,
+    /// at rest).
+    pub velocity: Option<&'a [[f64; 2]]>,
 }
 
 /// A linear form on (temperature, displacement, stresses, multipliers): Σ t_n T_n + Σ a_n·u_n +
@@ -55,6 +59,8 @@ pub struct LinearForm {
     pub stresses: Vec<(usize, [f64; 4])>,
     /// (row of B, coefficient of its contact multiplier).
     pub multipliers: Vec<(usize, f64)>,
+    /// (node, coefficients of v_node in global x, y).
+    pub velocity: Vec<(usize, [f64; 2])>,
 }
 
 impl LinearForm {
@@ -78,12 +84,22 @@ impl LinearForm {
         let multipliers = fields.multipliers.map_or(0.0, |l| {
             self.multipliers.iter().map(|&(r, c)| c * l[r]).sum()
         });
-        temperature + displacement + stresses + multipliers
+        let velocity = fields.velocity.map_or(0.0, |v| {
+            self.velocity
+                .iter()
+                .map(|&(i, a)| a[0] * v[i][0] + a[1] * v[i][1])
+                .sum()
+        });
+        temperature + displacement + stresses + multipliers + velocity
     }
 
-    /// Whether the form reads the displacement, the stresses or the contact multipliers.
+    /// Whether the form reads the displacement, the stresses, the contact multipliers or the
+    /// velocity.
     pub fn is_mechanical(&self) -> bool {
-        !self.displacement.is_empty() || !self.stresses.is_empty() || !self.multipliers.is_empty()
+        !self.displacement.is_empty()
+            || !self.stresses.is_empty()
+            || !self.multipliers.is_empty()
+            || !self.velocity.is_empty()
     }
 }
 
@@ -206,6 +222,9 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> PerCriterio
                         ..LinearForm::default()
                     };
                 }
+                if d.quantity.is_receiver() {
+                    return speed_form(&d.receiver, fields.velocity);
+                }
                 LinearForm {
                     stresses: geometry.regions[d.region]
                         .element_weights
@@ -221,6 +240,34 @@ pub fn region_forms(geometry: &CriteriaGeometry, fields: &Fields) -> PerCriterio
             .collect();
     }
     out
+}
+
+/// The velocity at a receiver, Σ_i φ_i v_i over its P1 `weights` (zero without a velocity
+/// field: a static state is at rest).
+pub fn receiver_velocity(weights: &[(usize, f64)], velocity: Option<&[[f64; 2]]>) -> [f64; 2] {
+    velocity.map_or([0.0; 2], |v| {
+        weights.iter().fold([0.0; 2], |acc, &(i, w)| {
+            [acc[0] + w * v[i][0], acc[1] + w * v[i][1]]
+        })
+    })
+}
+
+/// The derivative form of the speed |v(x_r)| at a receiver: (v/|v|)·dv(x_r), on the velocity
+/// field; empty where v(x_r) = 0 (|v| has no derivative there, only one-sided ones, |dv(x_r)|
+/// along any direction, which the caller takes).
+fn speed_form(weights: &[(usize, f64)], velocity: Option<&[[f64; 2]]>) -> LinearForm {
+    let v = receiver_velocity(weights, velocity);
+    let speed = v[0].hypot(v[1]);
+    if speed == 0.0 {
+        return LinearForm::default();
+    }
+    LinearForm {
+        velocity: weights
+            .iter()
+            .map(|&(i, w)| (i, [w * v[0] / speed, w * v[1] / speed]))
+            .collect(),
+        ..LinearForm::default()
+    }
 }
 
 /// Sets the multiplier forms of the defined contact tractions (`super::solution::piece_traction_rows`)
@@ -295,6 +342,10 @@ pub fn per_region_with(
             .map(|(d, form)| {
                 if d.quantity.is_contact() {
                     return form.apply(fields);
+                }
+                if d.quantity.is_receiver() {
+                    let v = receiver_velocity(&d.receiver, fields.velocity);
+                    return v[0].hypot(v[1]);
                 }
                 geometry.regions[d.region]
                     .element_weights

@@ -17,7 +17,7 @@ mod solution;
 pub use criterion_values::{
     attaining, family, maxima, per_region, region_name, Fields, PerCriterion,
 };
-pub(crate) use criterion_values::{per_region_with, region_forms};
+pub(crate) use criterion_values::{per_region_with, receiver_velocity, region_forms};
 pub(crate) use sensitivity::{add_scaled, one_sided, tied_regions, TIE_TOL};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
@@ -400,6 +400,7 @@ impl StateProblem {
                     .elastic
                     .then_some(solution.stresses.as_slice()),
                 multipliers: elastic.as_ref().map(|e| e.contact.multipliers.as_slice()),
+                velocity: None,
             },
         );
         solution.criteria = maxima(&solution.region_values);

@@ -156,6 +156,7 @@ impl Tangent {
             displacement: self.displacement.as_deref(),
             stresses: self.stresses.as_deref(),
             multipliers: self.multipliers.as_deref(),
+            velocity: None,
         }
     }
 }
@@ -179,6 +180,7 @@ impl StateProblem {
                 .elastic
                 .as_ref()
                 .map(|e| e.contact.multipliers.as_slice()),
+            velocity: None,
         };
         let forms = region_forms(&self.criteria, &fields);
         let values = per_region_with(&self.criteria, &fields, &forms);
@@ -219,6 +221,7 @@ impl StateProblem {
                         displacement: None,
                         stresses: None,
                         multipliers: None,
+                        velocity: None,
                     };
                     let right = apply_forms(&forms, &tangent);
                     *slot = Some((right.clone(), right));
