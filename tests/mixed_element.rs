@@ -1,7 +1,8 @@
 //! The MINI mixed element (`mesh.element: "mixed"`, design §2.7) at ν → ½: the Lamé thick
 //! cylinder against the analytic solution where P1 locks, convergence rates on a divergence-free
 //! manufactured solution, Hertz contact at ν = 0.499, the contact patch test (node-to-node and
-//! mortar), and the refusals (DD, sparse contact, anisotropic material, thermal load).
+//! mortar), and the refusals (DD, sparse contact, anisotropic material); thermal strain in
+//! tests/mixed_thermal.rs.
 
 mod solves;
 
@@ -317,7 +318,7 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
     // The default stays P1 and P1 scenes are unchanged.
     let scene = parse(&base.to_string()).unwrap();
     assert_eq!(scene.mesh.element, Element::P1);
-    // The DD element matrices and thermal loads are refused by the FEM layer.
+    // The DD element matrices are refused by the FEM layer.
     let mut v = base.clone();
     v["mesh"]["element"] = json!("mixed");
     let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
@@ -325,12 +326,6 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
     let err = problem
         .elastic
         .element_matrix(0, &coefficients)
-        .unwrap_err();
-    assert!(err.to_string().contains("mixed"), "{err}");
-    let temperature = vec![1.0; problem.mesh().nodes.len()];
-    let err = problem
-        .elastic
-        .loads(&problem.nominal, Some(&temperature))
         .unwrap_err();
     assert!(err.to_string().contains("mixed"), "{err}");
 }
