@@ -101,6 +101,73 @@ fn tibia_marrow_stress_extremes_have_the_texts_orders_of_magnitude() {
     );
 }
 
+/// The tibia with its ν = 0.49 marrow on the MINI element (`mesh.element: "mixed"`, design
+/// §2.7) beside P1 on the same mesh: the mixed solve has no locking warning and KKT ≤ 1e-9, the
+/// bone (ν = 0.25, no locking) keeps its extremes, and the marrow's largest |σ| stays within a
+/// factor 4 of the text's colour bar; with the mesh sizes quartered the mixed marrow's largest
+/// σ1 moves by less than 5 % (P1's is printed beside it). The numbers are in
+/// docs/verification.md.
+#[test]
+fn tibia_marrow_on_the_mixed_element() {
+    let (problem, p1) = solve(&scene("tibia-marrow"), SolverKind::Direct);
+    let mut v = scene("tibia-marrow");
+    v["mesh"]["element"] = json!("mixed");
+    let (_, mixed) = solve(&v, SolverKind::Direct);
+    let extremes = |s: &Solution| {
+        [
+            principal_extremes(&problem, s, "bone"),
+            principal_extremes(&problem, s, "marrow"),
+        ]
+    };
+    let ([bone_p1, marrow_p1], [bone, marrow]) = (extremes(&p1), extremes(&mixed));
+    let sci = |(lo, hi): (f64, f64)| format!("({lo:.4e}, {hi:.4e})");
+    eprintln!(
+        "tibia-marrow (σ2 min, σ1 max) [Pa]: bone P1 {}, mixed {} (text -2.8494e7, 1.1893e7); \
+         marrow P1 {}, mixed {} (text -2.24e4, 4.39e3); KKT mixed {:.1e}",
+        sci(bone_p1),
+        sci(bone),
+        sci(marrow_p1),
+        sci(marrow),
+        mixed.report.kkt.max()
+    );
+    assert!(mixed.report.kkt.max() <= 1e-9, "{:?}", mixed.report.kkt);
+    assert!(
+        !mixed.report.warnings.iter().any(|w| w.contains("lock")),
+        "{:?}",
+        mixed.report.warnings
+    );
+    let close = |a: f64, b: f64| (a - b).abs() <= 0.05 * b.abs();
+    assert!(
+        close(bone.0, bone_p1.0) && close(bone.1, bone_p1.1),
+        "bone {bone:?} vs {bone_p1:?}"
+    );
+    let marrow_peak = marrow.0.abs().max(marrow.1.abs());
+    assert!(
+        (2.24e4 / 4.0..=2.24e4 * 4.0).contains(&marrow_peak),
+        "marrow {marrow:?}"
+    );
+    let fine = |element: &str| {
+        let mut w = scene("tibia-marrow");
+        w["mesh"]["element"] = json!(element);
+        w["mesh"]["max_size"] = json!(0.006 / 4.0);
+        w["mesh"]["refine"][0]["max_size"] = json!(0.004 / 4.0);
+        let (problem, solution) = solve(&w, SolverKind::Direct);
+        principal_extremes(&problem, &solution, "marrow")
+    };
+    let (fine_p1, fine_mixed) = (fine("p1"), fine("mixed"));
+    eprintln!(
+        "tibia-marrow, mesh sizes / 4: marrow P1 {}, mixed {}",
+        sci(fine_p1),
+        sci(fine_mixed)
+    );
+    assert!(
+        (fine_mixed.1 - marrow.1).abs() < 0.05 * marrow.1,
+        "mixed marrow σ1 max {} → {}",
+        marrow.1,
+        fine_mixed.1
+    );
+}
+
 /// D03 §5 (hand calculation): each block stands on its frictionless zone alone, held sideways
 /// by its roller, so the zone's normal force is the pressure times the block's width,
 /// 1.8e6 Pa × 0.45 m = 8.1e5 N/m.

@@ -2,7 +2,8 @@
 //! cylinder against the analytic solution where P1 locks, convergence rates on a divergence-free
 //! manufactured solution, Hertz contact at ν = 0.499, the contact patch test (node-to-node and
 //! mortar), a worst-scenario run with exact derivatives and its accuracy statement (the tibia
-//! with marrow), and the refusals (DD, sparse contact, anisotropic material, thermal load).
+//! with marrow), and the refusals (DD, sparse contact, anisotropic material); thermal strain in
+//! tests/mixed_thermal.rs.
 
 mod solves;
 
@@ -259,6 +260,56 @@ fn hertz_at_nu_0499_with_mixed_elements() {
     }
 }
 
+/// The bundled `hertz-nonmatching` (the bodies meshed on their own, dual mortar coupling, the
+/// cylinder's contact side at `cylinder`, the flat's at `flat`) with both bodies at ν = 0.499.
+fn hertz_mortar_scene(element: &str, cylinder: f64, flat: f64) -> Value {
+    let mut v: Value =
+        serde_json::from_str(wsm_core::bundled::example("hertz-nonmatching").unwrap()).unwrap();
+    v["materials"]["steel"]["nu"] = json!(0.499);
+    v["mesh"]["element"] = json!(element);
+    v["mesh"]["refine"][0]["max_size"] = json!(cylinder);
+    v["mesh"]["refine"][1]["max_size"] = json!(flat);
+    v
+}
+
+#[test]
+fn hertz_at_nu_0499_with_mortar_coupling_on_mixed_elements() {
+    let nu: f64 = 0.499;
+    let e_star = 2.0e11 / (2.0 * (1.0 - nu * nu));
+    let a_exact = 2.0 * (solves::HERTZ_LOAD * 0.5 / (PI * e_star)).sqrt();
+    let p0_exact = 2.0 * solves::HERTZ_LOAD / (PI * a_exact);
+    for (element, cylinder, flat) in [
+        ("mixed", 0.002, 0.004),
+        ("mixed", 0.004, 0.002),
+        ("p1", 0.002, 0.004),
+    ] {
+        let (problem, sol) = solve_value(&hertz_mortar_scene(element, cylinder, flat)).unwrap();
+        let m = solves::hertz_measures(&problem, &sol);
+        let (ea, ep) = (
+            (m.half_width - a_exact).abs() / a_exact,
+            (m.peak - p0_exact).abs() / p0_exact,
+        );
+        println!(
+            "Hertz mortar ν = 0.499 {element} (cylinder side {cylinder}, flat side {flat}): \
+             a = {:.5} (exact {a_exact:.5}, err {ea:.2e}), p0 = {:.4e} (exact {p0_exact:.4e}, \
+             err {ep:.2e}), KKT {:.1e}",
+            m.half_width,
+            m.peak,
+            sol.report.kkt.max(),
+        );
+        assert!(
+            (m.total - m.load).abs() <= 1e-8 * m.load,
+            "total {} vs {}",
+            m.total,
+            m.load
+        );
+        assert!(sol.report.kkt.max() <= 1e-9, "{:?}", sol.report.kkt);
+        if element == "mixed" {
+            assert!(ea < 0.03 && ep < 0.03, "mixed errors a {ea}, p0 {ep}");
+        }
+    }
+}
+
 #[test]
 fn stacked_blocks_with_mixed_elements_transmit_uniform_pressure() {
     let p = 3.0e6;
@@ -395,7 +446,7 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
     // The default stays P1 and P1 scenes are unchanged.
     let scene = parse(&base.to_string()).unwrap();
     assert_eq!(scene.mesh.element, Element::P1);
-    // The DD element matrices and thermal loads are refused by the FEM layer.
+    // The DD element matrices are refused by the FEM layer.
     let mut v = base.clone();
     v["mesh"]["element"] = json!("mixed");
     let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
@@ -403,12 +454,6 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
     let err = problem
         .elastic
         .element_matrix(0, &coefficients)
-        .unwrap_err();
-    assert!(err.to_string().contains("mixed"), "{err}");
-    let temperature = vec![1.0; problem.mesh().nodes.len()];
-    let err = problem
-        .elastic
-        .loads(&problem.nominal, Some(&temperature))
         .unwrap_err();
     assert!(err.to_string().contains("mixed"), "{err}");
 }

@@ -21,7 +21,7 @@ use crate::scene::{BoundaryValue, Data, Element, Scene};
 use super::dofs::DofMap;
 use super::geometry::{check_mesh, element_gradients, TriangleGradients, UnitLoads};
 use super::hydrostatic::add_hydrostatic;
-use super::mixed::{mixed_system, MixedOperator};
+use super::mixed::{deviatoric_beta, mean_excess, mixed_system, MixedOperator};
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::rigid::{floating_bodies, rigid_modes, RigidModes};
 use super::stress::{
@@ -250,7 +250,6 @@ impl ElasticProblem {
         self.add_body_forces(data, &mut f)?;
         self.add_boundary_loads(data, &mut f)?;
         if let Some(t) = temperature {
-            self.p1_only("a thermal load")?;
             self.add_thermal_load(data, t, &mut f)?;
         }
         Ok(f)
@@ -294,7 +293,9 @@ impl ElasticProblem {
         Ok(())
     }
 
-    /// f += Σ_e (T̄_e − T0) area_e Bᵀ(β11, β22, β12)_z (the Duhamel–Neumann term of S).
+    /// f += Σ_e (T̄_e − T0) area_e Bᵀ(β11, β22, β12)_z (the Duhamel–Neumann term of S); for the
+    /// mixed element only the part of β that the pressure does not carry
+    /// ([`deviatoric_beta`], design §2.7).
     fn add_thermal_load(
         &self,
         data: &Data,
@@ -304,9 +305,12 @@ impl ElasticProblem {
         self.check_temperature(temperature)?;
         let materials = self.zone_materials(data)?;
         for (t, tri) in self.mesh.triangles.iter().enumerate() {
-            let beta = materials[self.mesh.triangle_zone[t]].beta;
-            let mean = tri.iter().map(|&n| temperature[n]).sum::<f64>() / 3.0;
-            let dt = mean - data.reference_temperature;
+            let zone_beta = &materials[self.mesh.triangle_zone[t]].beta;
+            let beta = match self.mixed {
+                None => [zone_beta[0], zone_beta[1], zone_beta[2]],
+                Some(_) => deviatoric_beta(zone_beta),
+            };
+            let dt = mean_excess(*tri, temperature, data.reference_temperature);
             let fe = self.gradients[t].nodal_forces([beta[0] * dt, beta[1] * dt, beta[2] * dt]);
             for (i, &node) in tri.iter().enumerate() {
                 f[node][0] += fe[2 * i];
@@ -331,11 +335,50 @@ impl ElasticProblem {
 
     /// Reduced right-hand side b = Rᵀf|_free − K_fd(D) u_d for the data.
     pub fn rhs(&self, data: &Data, temperature: Option<&[f64]>) -> Result<Vec<f64>, FemError> {
-        self.rhs_with(
+        self.load_rhs(
+            data,
+            temperature,
             &self.coefficients(data)?,
-            &self.loads(data, temperature)?,
             &self.fixed_values(data)?,
         )
+    }
+
+    /// The reduced right-hand side of the data's loads ([`Self::loads`]) with explicit
+    /// coefficients and prescribed values ([`Self::rhs_with`]); for the mixed element with a
+    /// temperature field also the thermal rows of the pressure equation (design §2.7).
+    pub fn load_rhs(
+        &self,
+        data: &Data,
+        temperature: Option<&[f64]>,
+        coefficients: &[ElasticCoefficients],
+        fixed: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        let mut b = self.rhs_with(coefficients, &self.loads(data, temperature)?, fixed)?;
+        if let (Some(mixed), Some(t)) = (&self.mixed, temperature) {
+            let lame = self.lame(data)?;
+            let rows =
+                self.pressure_thermal_rows(mixed, data, &lame, t, data.reference_temperature)?;
+            mixed.add_thermal_rows(&lame, &rows, &mut b);
+        }
+        Ok(b)
+    }
+
+    /// The mixed element's thermal rows of the pressure equation for the temperature's excess
+    /// over `reference` ([`MixedOperator::thermal_rows`]).
+    fn pressure_thermal_rows(
+        &self,
+        mixed: &MixedOperator,
+        data: &Data,
+        lame: &[(f64, f64)],
+        temperature: &[f64],
+        reference: f64,
+    ) -> Result<Vec<f64>, FemError> {
+        let beta33: Vec<f64> = self
+            .zone_materials(data)?
+            .iter()
+            .map(|m| m.beta[3])
+            .collect();
+        Ok(mixed.thermal_rows(&self.mesh, lame, &beta33, temperature, reference))
     }
 
     /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values
@@ -365,11 +408,9 @@ impl ElasticProblem {
                 "the factor was computed for other material data".into(),
             ));
         }
-        self.solve_with(
-            factor,
-            &self.loads(data, temperature)?,
-            &self.fixed_values(data)?,
-        )
+        let fixed = self.fixed_values(data)?;
+        let b = self.load_rhs(data, temperature, &factor.coefficients, &fixed)?;
+        Ok(self.solve_rhs(factor, &b, &fixed))
     }
 
     /// Solve with explicit nodal loads and prescribed local values.
@@ -380,8 +421,13 @@ impl ElasticProblem {
         fixed: &[f64],
     ) -> Result<Vec<[f64; 2]>, FemError> {
         let b = self.rhs_with(&factor.coefficients, loads, fixed)?;
-        let x = factor.factor.solve(&b);
-        Ok(self.dofs.expand(&x[..self.dofs.n_free()], fixed))
+        Ok(self.solve_rhs(factor, &b, fixed))
+    }
+
+    /// The global nodal displacement of the reduced system with right-hand side `b`.
+    fn solve_rhs(&self, factor: &OperatorFactor<6>, b: &[f64], fixed: &[f64]) -> Vec<[f64; 2]> {
+        let x = factor.factor.solve(b);
+        self.dofs.expand(&x[..self.dofs.n_free()], fixed)
     }
 
     /// Element strains and stresses (τ11, τ22, τ12, τ33) of a displacement field.
@@ -411,7 +457,8 @@ impl ElasticProblem {
             return Err(FemError::Input(format!("triangle {e} out of range")));
         }
         if let Some(mixed) = &self.mixed {
-            return self.mixed_stresses(mixed, data, u, temperature, elements);
+            let thermal = temperature.map(|t| (t, data.reference_temperature));
+            return self.mixed_stresses(mixed, data, u, thermal, elements);
         }
         let materials = self.zone_materials(data)?;
         let thermal = temperature.map(|t| (t, data.reference_temperature));
@@ -501,7 +548,8 @@ impl ElasticProblem {
         }
         if let Some(mixed) = &self.mixed {
             let all: Vec<usize> = (0..self.mesh.triangles.len()).collect();
-            return self.mixed_stresses(mixed, data, u, temperature, &all);
+            let thermal = temperature.map(|t| (t, reference));
+            return self.mixed_stresses(mixed, data, u, thermal, &all);
         }
         let materials = self.zone_materials(data)?;
         Ok(element_stresses(
@@ -513,34 +561,48 @@ impl ElasticProblem {
         ))
     }
 
-    /// Element stresses of the mixed element at `elements` (in range): τ = 2μ e(u) + p̄ I,
-    /// τ33 = p̄, with the nodal pressure recovered from u (design §2.7).
+    /// Element stresses of the mixed element at `elements` (in range), with the temperature
+    /// field's excess over a reference in `thermal`: τ = 2μ e(u) + p̄ I − (β11 − β33, β22 − β33,
+    /// β12) ΔT̄ and τ33 = p̄, with the nodal pressure p = λ div u − β33 ΔT recovered from u
+    /// (design §2.7).
     fn mixed_stresses(
         &self,
         mixed: &MixedOperator,
         data: &Data,
         u: &[[f64; 2]],
-        temperature: Option<&[f64]>,
+        thermal: Option<(&[f64], f64)>,
         elements: &[usize],
     ) -> Result<Vec<ElementStress>, FemError> {
-        if temperature.is_some() {
-            self.p1_only("a temperature field")?;
-        }
         let lame = self.lame(data)?;
-        let p = mixed.pressure(&self.mesh, &self.gradients, &lame, u)?;
+        let p = match thermal {
+            None => mixed.pressure(&self.mesh, &self.gradients, &lame, u)?,
+            Some((t, reference)) => {
+                let rows = self.pressure_thermal_rows(mixed, data, &lame, t, reference)?;
+                mixed.thermo_pressure(&self.mesh, &self.gradients, &lame, u, &rows)?
+            }
+        };
+        let materials = self.zone_materials(data)?;
         Ok(elements
             .iter()
             .map(|&e| {
                 let tri = self.mesh.triangles[e];
                 let [e11, e22, gamma] = self.gradients[e].strain(&element_displacements(u, tri));
-                let mu = lame[self.mesh.triangle_zone[e]].1;
+                let zone = self.mesh.triangle_zone[e];
+                let mu = lame[zone].1;
                 let mean = tri.iter().map(|&n| p[n]).sum::<f64>() / 3.0;
+                let [d11, d22, d12] = match thermal {
+                    None => [0.0; 3],
+                    Some((t, reference)) => {
+                        let dt = mean_excess(tri, t, reference);
+                        deviatoric_beta(&materials[zone].beta).map(|b| b * dt)
+                    }
+                };
                 ElementStress {
                     strain: [e11, e22, gamma / 2.0],
                     stress: [
-                        2.0 * mu * e11 + mean,
-                        2.0 * mu * e22 + mean,
-                        mu * gamma,
+                        2.0 * mu * e11 + mean - d11,
+                        2.0 * mu * e22 + mean - d22,
+                        mu * gamma - d12,
                         mean,
                     ],
                 }

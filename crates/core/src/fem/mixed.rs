@@ -230,17 +230,12 @@ impl MixedOperator {
         lame: &[(f64, f64)],
         u: &[[f64; 2]],
     ) -> Result<Vec<f64>, FemError> {
-        let mut gu = vec![0.0; mesh.nodes.len()];
-        for (t, tri) in mesh.triangles.iter().enumerate() {
-            let g = &gradients[t];
-            let div: f64 = (0..3)
-                .map(|a| g.dx[a] * u[tri[a]][0] + g.dy[a] * u[tri[a]][1])
-                .sum();
-            for &n in tri {
-                gu[n] += g.area / 3.0 * div;
-            }
-        }
-        Ok(self.pressure_factor(lame)?.factor.solve(&gu))
+        self.solve_pressure(lame, &divergence_rows(mesh, gradients, u))
+    }
+
+    /// (C_b/μ + M/λ)⁻¹ `rows` (a Cholesky factor of the SPD pressure block).
+    fn solve_pressure(&self, lame: &[(f64, f64)], rows: &[f64]) -> Result<Vec<f64>, FemError> {
+        Ok(self.pressure_factor(lame)?.factor.solve(rows))
     }
 
     /// The Cholesky factor of the pressure block C_b/μ + M/λ (coefficients (1/μ, 1/λ)).
@@ -307,5 +302,86 @@ impl MixedOperator {
             }
         }
         Ok(a)
+    }
+}
+
+/// G u = ∫ φ_j div u per node of a global nodal displacement.
+fn divergence_rows(mesh: &Mesh, gradients: &[TriangleGradients], u: &[[f64; 2]]) -> Vec<f64> {
+    let mut gu = vec![0.0; mesh.nodes.len()];
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let g = &gradients[t];
+        let div: f64 = (0..3)
+            .map(|a| g.dx[a] * u[tri[a]][0] + g.dy[a] * u[tri[a]][1])
+            .sum();
+        for &n in tri {
+            gu[n] += g.area / 3.0 * div;
+        }
+    }
+    gu
+}
+
+// ---------- thermal strain (design §2.7, "Thermal stress") ----------
+
+/// The thermal stress β ΔT split for Herrmann's form: p = τ33 = λ div u − β33 ΔT carries β33 ΔT
+/// I, the rest (β11 − β33, β22 − β33, β12) ΔT stays a load on the displacement rows (zero for
+/// an isotropic expansion, β = (3λ + 2μ) α (1, 1, 0, 1)).
+pub(super) fn deviatoric_beta(beta: &[f64; 4]) -> [f64; 3] {
+    [beta[0] - beta[3], beta[1] - beta[3], beta[2]]
+}
+
+/// The element mean of the nodal temperature's excess over `reference` (the ΔT of the P1
+/// thermal load, exact against the element-wise constant e(v) and div v).
+pub(super) fn mean_excess(tri: [usize; 3], temperature: &[f64], reference: f64) -> f64 {
+    tri.iter().map(|&n| temperature[n]).sum::<f64>() / 3.0 - reference
+}
+
+impl MixedOperator {
+    /// The thermal rows r_j = Σ_T (|T|/3) β33 ΔT̄_T / λ of the pressure equation
+    /// ∫ q div u − ∫ q (p + β33 ΔT)/λ = 0, i.e. G u − (C_b/μ + M/λ) p = r, for the zones' (λ, μ)
+    /// in `lame`, their β33 in `beta33` and the temperature's excess over `reference`.
+    pub fn thermal_rows(
+        &self,
+        mesh: &Mesh,
+        lame: &[(f64, f64)],
+        beta33: &[f64],
+        temperature: &[f64],
+        reference: f64,
+    ) -> Vec<f64> {
+        let mut r = vec![0.0; mesh.nodes.len()];
+        for (t, &tri) in mesh.triangles.iter().enumerate() {
+            let z = mesh.triangle_zone[t];
+            let area = mesh.triangle_area(t);
+            let v = area / 3.0 * beta33[z] * mean_excess(tri, temperature, reference) / lame[z].0;
+            for n in tri {
+                r[n] += v;
+            }
+        }
+        r
+    }
+
+    /// Adds the thermal rows s r (scaled like the pressure rows of the system, p = s p̂) to the
+    /// pressure rows of the reduced right-hand side `b`.
+    pub fn add_thermal_rows(&self, lame: &[(f64, f64)], rows: &[f64], b: &mut [f64]) {
+        let s = self.scale(lame);
+        for (bi, r) in b[self.n_u..].iter_mut().zip(rows) {
+            *bi += s * r;
+        }
+    }
+
+    /// Nodal pressures p = (C_b/μ + M/λ)⁻¹ (G u − r) with the thermal rows r of
+    /// [`Self::thermal_rows`]: p = τ33 = λ div u − β33 ΔT.
+    pub fn thermo_pressure(
+        &self,
+        mesh: &Mesh,
+        gradients: &[TriangleGradients],
+        lame: &[(f64, f64)],
+        u: &[[f64; 2]],
+        rows: &[f64],
+    ) -> Result<Vec<f64>, FemError> {
+        let mut gu = divergence_rows(mesh, gradients, u);
+        for (g, r) in gu.iter_mut().zip(rows) {
+            *g -= r;
+        }
+        self.solve_pressure(lame, &gu)
     }
 }

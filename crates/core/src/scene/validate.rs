@@ -1008,8 +1008,8 @@ impl MeshControls {
     }
 }
 
-/// `mesh.element: "mixed"` (design §2.7) with what it supports: isotropic materials, no
-/// thermal part, no dynamics, the direct solver on its dense contact path.
+/// `mesh.element: "mixed"` (design §2.7) with what it supports: isotropic materials (a thermal
+/// part included), no dynamics, the direct solver on its dense contact path.
 fn check_element(scene: &Scene) -> Result<(), SceneError> {
     if scene.mesh.element.is_p1() {
         return Ok(());
@@ -1022,9 +1022,6 @@ fn check_element(scene: &Scene) -> Result<(), SceneError> {
     };
     if scene.solver.contact == ContactMethod::Sparse {
         return refuse("takes the dense contact path only: solver.contact \"sparse\" is refused");
-    }
-    if scene.thermal.is_some() {
-        return refuse("is not implemented with a thermal part (thermal stress) yet");
     }
     if scene.dynamics.is_some() {
         return refuse("is static only: no dynamics");

@@ -419,6 +419,14 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
+        if elastic.is_some() && self.elastic.element() == Element::Mixed && self.heat.is_some() {
+            return Err(WsmError::Scene(SceneError::new(
+                "mesh.element",
+                "derivatives of the elastic criteria of a thermo-elastic scene are not \
+                 implemented for \"mixed\" elements (the temperature enters the pressure \
+                 equation, design §2.7)",
+            )));
+        }
         let bound = &options.needs.bound_regions;
         match elastic {
             Some(parts) => self.with_solved_state(data, options, parts, solution, |state| {
@@ -485,8 +493,7 @@ impl StateProblem {
             );
         }
         let fixed = elastic.fixed_values(data)?;
-        let loads = elastic.loads(data, temperature)?;
-        let rhs = elastic.rhs_with(&coefficients, &loads, &fixed)?;
+        let rhs = elastic.load_rhs(data, temperature, &coefficients, &fixed)?;
         report.timings.assembly = t0.elapsed().as_secs_f64();
         self.counters.elastic_solves.fetch_add(1, Ordering::Relaxed);
         let t1 = Instant::now();
