@@ -809,10 +809,12 @@ fn manufactured_solve(
             let (sol, dd) = wsm_core::dd::solve_elastic(
                 elastic,
                 &problem.contact,
-                data,
-                &coefficients,
-                &rhs,
-                &fixed,
+                wsm_core::contact::LoadCase {
+                    data,
+                    coefficients: &coefficients,
+                    rhs: &rhs,
+                    fixed: &fixed,
+                },
                 &options,
                 None,
             )

@@ -8,28 +8,43 @@
 //!
 //! where the columns of ΔF and ΔG are the differences of consecutive residuals and images. The
 //! least-squares problem (m ≤ a few columns) is solved by its normal equations (faer's
-//! Cholesky) with a relative Tikhonov shift of 1e-12 of their trace, so that nearly dependent differences (an iteration
-//! that has almost converged) give a small γ instead of a blow-up. Used by the Coulomb fixed
-//! point (design §3.4), where x is the vector of normal forces on Coulomb pairs.
+//! Cholesky) with a small Tikhonov shift ([`Shift`]), so that nearly dependent differences (an
+//! iteration that has almost converged) give a small γ instead of a blow-up. Used by the Coulomb
+//! fixed point (design §3.4), where x is the vector of normal forces on Coulomb pairs, and by the
+//! papers' domain decomposition when its successive approximations stop contracting (design
+//! §3.3), where x is the interface trace.
 
 use std::collections::VecDeque;
 
 use faer::linalg::solvers::Solve;
 use faer::{Mat, Side};
 
+/// The Tikhonov shift added to the normal equations' diagonal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shift {
+    /// `factor` times the trace of the normal matrix on every diagonal entry (the Coulomb fixed
+    /// point: 1e-12).
+    OfTrace(f64),
+    /// Each diagonal entry times (1 + `factor`) (the domain decomposition's trace: 1e-10).
+    OfDiagonal(f64),
+}
+
 /// The history of an Anderson-mixed fixed-point iteration.
 #[derive(Debug, Clone)]
 pub struct Anderson {
     depth: usize,
+    shift: Shift,
     /// (x_i, G(x_i)), oldest first, at most depth + 1.
     history: VecDeque<(Vec<f64>, Vec<f64>)>,
 }
 
 impl Anderson {
-    /// A mixer keeping `depth` differences (0 = plain iteration).
-    pub fn new(depth: usize) -> Anderson {
+    /// A mixer keeping `depth` differences (0 = plain iteration), its normal equations shifted
+    /// by `shift`.
+    pub fn new(depth: usize, shift: Shift) -> Anderson {
         Anderson {
             depth,
+            shift,
             history: VecDeque::with_capacity(depth + 1),
         }
     }
@@ -63,7 +78,10 @@ impl Anderson {
             return g.to_vec();
         }
         for i in 0..m {
-            gram[(i, i)] += 1e-12 * trace;
+            gram[(i, i)] = match self.shift {
+                Shift::OfTrace(factor) => gram[(i, i)] + factor * trace,
+                Shift::OfDiagonal(factor) => gram[(i, i)] * (1.0 + factor),
+            };
         }
         let Ok(factor) = gram.llt(Side::Lower) else {
             return g.to_vec();
@@ -95,7 +113,7 @@ mod tests {
             [(1.0 + 0.1 * x1) / 0.02, x1]
         };
         let steps = |depth: usize| {
-            let mut mixer = Anderson::new(depth);
+            let mut mixer = Anderson::new(depth, Shift::OfTrace(1e-12));
             let mut x = vec![0.0, 0.0];
             for k in 1..=2000 {
                 let g = map(&x);
@@ -113,7 +131,7 @@ mod tests {
 
     #[test]
     fn restart_falls_back_to_the_plain_step() {
-        let mut mixer = Anderson::new(3);
+        let mut mixer = Anderson::new(3, Shift::OfDiagonal(1e-10));
         assert_eq!(mixer.next(&[0.0], &[1.0]), vec![1.0]);
         mixer.restart();
         assert_eq!(mixer.next(&[1.0], &[1.5]), vec![1.5]);

@@ -38,7 +38,7 @@
 
 use serde::Serialize;
 
-use super::anderson::Anderson;
+use super::anderson::{Anderson, Shift};
 use super::pairs::{is_tangential_row, normal_row, pair_of_row, ContactGeometry};
 use crate::scene::Data;
 
@@ -177,7 +177,7 @@ pub fn solve<S, E>(
         .filter(|(_, p)| !p.bilateral && data.friction.get(p.zone).copied().flatten().is_some())
         .map(|(m, _)| normal_row(m))
         .collect();
-    let mut mixer = Anderson::new(anderson_depth);
+    let mut mixer = Anderson::new(anderson_depth, Shift::OfTrace(1e-12));
     let mut input = multipliers(&state).to_vec();
     let mut mixed_input = false;
     let mut previous_residual = f64::INFINITY;

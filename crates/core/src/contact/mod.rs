@@ -24,3 +24,21 @@ pub(crate) mod feasibility;
 pub(crate) mod pairs;
 pub mod qp;
 pub(crate) mod sparse;
+
+use crate::fem::ElasticCoefficients;
+use crate::scene::Data;
+
+/// One data point's elastic contact problem as the contact solvers take it: the data (friction,
+/// slip limits, gaps), the zones' elastic coefficients, the reduced right-hand side and the
+/// prescribed displacement values.
+#[derive(Debug, Clone, Copy)]
+pub struct LoadCase<'a> {
+    /// The data of the point.
+    pub data: &'a Data,
+    /// The zones' elastic coefficients at the data.
+    pub coefficients: &'a [ElasticCoefficients],
+    /// The reduced right-hand side.
+    pub rhs: &'a [f64],
+    /// The prescribed displacement values.
+    pub fixed: &'a [f64],
+}

@@ -20,7 +20,8 @@ use super::{DdContactPair, DdContactRow, DdError, DdProblem, Partition, Partitio
 use crate::contact::coulomb;
 use crate::contact::direct::{ContactSolution, DirectContact};
 use crate::contact::pairs::{normal_row, tangential_row, ContactGeometry};
-use crate::fem::{ElasticCoefficients, ElasticProblem};
+use crate::contact::LoadCase;
+use crate::fem::ElasticProblem;
 use crate::mesh::geom::point_in_ring;
 use crate::mesh::Mesh;
 use crate::scene::{Data, DdCoarse, DdIteration, DdPcg1, DdWeights, Scene};
@@ -186,17 +187,19 @@ const MULTIPLIER_NOISE: f64 = 1e4;
 /// On Coulomb zones the DD solves the successive Tresca problems of [`coulomb::solve`], each
 /// from the subdomain operators of the first; there the fallback (a whole Coulomb solve) is not
 /// a Tresca step, so a failing step ends the DD solve and the caller answers directly.
-#[allow(clippy::too_many_arguments)]
 pub fn solve_elastic(
     elastic: &ElasticProblem,
     direct: &DirectContact,
-    data: &Data,
-    coefficients: &[ElasticCoefficients],
-    rhs: &[f64],
-    fixed: &[f64],
+    case: LoadCase,
     options: &DdOptions,
     fallback: Option<Fallback>,
 ) -> Result<(ContactSolution, DdSolution), DdError> {
+    let LoadCase {
+        data,
+        coefficients,
+        rhs,
+        fixed,
+    } = case;
     let geometry = &direct.geometry;
     let fallback = if data.has_coulomb() { None } else { fallback };
     // Each step's solution with its multipliers flattened as the direct solver's.

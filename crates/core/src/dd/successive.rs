@@ -32,7 +32,6 @@ use rayon::prelude::*;
 
 use super::coarse::Balancing;
 use super::decomposition::Decomposition;
-use super::dense::Cholesky;
 use super::newton::{line_search, NewtonOperator};
 use super::options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner};
 use super::partition::Partition;
@@ -40,6 +39,7 @@ use super::pcg::pcg;
 use super::report::{DdReport, Times};
 use super::subdomain::rigid_candidates;
 use super::{DdError, DdProblem};
+use crate::contact::anderson::{Anderson, Shift};
 use crate::contact::pairs::{normal_row, tangential_row};
 use crate::contact::qp::WarmStart;
 
@@ -575,7 +575,7 @@ fn outer(
     options: &DdOptions,
     report: &mut DdReport,
 ) -> Result<(Vec<f64>, bool), DdError> {
-    let mut anderson = Anderson::new(options.anderson_depth);
+    let mut anderson = Anderson::new(options.anderson_depth, Shift::OfDiagonal(1e-10));
     let mut switches = Switches::new(options, report);
     let mut pcg2_tol = loosest_pcg2_tol(options);
     for k in 0..options.max_outer {
@@ -651,67 +651,4 @@ fn recover(
         report.floating_modes += state.qp.alpha.len();
     }
     Ok((full, multipliers))
-}
-
-/// Anderson mixing (type II) for U = T(U): U_{k+1} = T(U_k) − ΔT γ, γ = argmin ‖f_k − ΔF γ‖,
-/// f = T(U) − U (Walker & Ni, SIAM J. Numer. Anal. 49 (2011)).
-struct Anderson {
-    depth: usize,
-    u: Vec<Vec<f64>>,
-    t: Vec<Vec<f64>>,
-}
-
-impl Anderson {
-    fn new(depth: usize) -> Anderson {
-        Anderson {
-            depth,
-            u: Vec::new(),
-            t: Vec::new(),
-        }
-    }
-
-    fn next(&mut self, u: &[f64], tu: &[f64]) -> Vec<f64> {
-        self.u.push(u.to_vec());
-        self.t.push(tu.to_vec());
-        if self.u.len() > self.depth + 1 {
-            self.u.remove(0);
-            self.t.remove(0);
-        }
-        let m = self.u.len() - 1;
-        if m == 0 {
-            return tu.to_vec();
-        }
-        let f = |i: usize| -> Vec<f64> {
-            self.t[i]
-                .iter()
-                .zip(&self.u[i])
-                .map(|(a, b)| a - b)
-                .collect()
-        };
-        let fk = f(m);
-        let df: Vec<Vec<f64>> = (0..m)
-            .map(|i| f(i + 1).iter().zip(f(i)).map(|(a, b)| a - b).collect())
-            .collect();
-        // Normal equations with a relative Tikhonov term (the columns may be nearly dependent).
-        let a = Mat::from_fn(m, m, |i, j| {
-            let v: f64 = df[i].iter().zip(&df[j]).map(|(x, y)| x * y).sum();
-            if i == j {
-                v * (1.0 + 1e-10)
-            } else {
-                v
-            }
-        });
-        let rhs = Mat::from_fn(m, 1, |i, _| df[i].iter().zip(&fk).map(|(x, y)| x * y).sum());
-        let Some(gamma) = Cholesky::new(a.as_ref()).map(|c| c.solve(rhs.as_ref())) else {
-            return tu.to_vec();
-        };
-        let mut next = tu.to_vec();
-        for i in 0..m {
-            let g = gamma[(i, 0)];
-            for (j, x) in next.iter_mut().enumerate() {
-                *x -= g * (self.t[i + 1][j] - self.t[i][j]);
-            }
-        }
-        next
-    }
 }

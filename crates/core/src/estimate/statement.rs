@@ -285,6 +285,23 @@ pub fn statement(
     control: StatementControl<'_>,
 ) -> Result<AccuracyStatement, WsmError> {
     let start = Instant::now();
+    let points = distinct_points(extrema);
+    let ladder = solve_ladder(problem, params, criteria, &points, refinements, control)?;
+    let failures = refined_failures(criteria, extrema, &points, &ladder.values);
+    let criteria = criterion_accuracies(criteria, extrema, &points, &ladder);
+    Ok(AccuracyStatement {
+        criteria,
+        points: points.len(),
+        seconds: start.elapsed().as_secs_f64(),
+        complete: !ladder.cut_short && failures.is_empty(),
+        failures,
+        method: method(problem),
+        meshes: ladder.meshes,
+    })
+}
+
+/// The data points of the extrema, each once, in the order of the extrema.
+fn distinct_points(extrema: &Extrema) -> Vec<Vec<f64>> {
     let mut points: Vec<Vec<f64>> = Vec::new();
     for pair in extrema {
         for (_, p) in pair.iter().flatten() {
@@ -293,25 +310,50 @@ pub fn statement(
             }
         }
     }
+    points
+}
+
+/// The run's mesh and its refinements with the criteria at every point on each refinement.
+struct Ladder {
+    /// The run's mesh first, then one per refinement tried.
+    meshes: Vec<StatementMesh>,
+    /// values[level − 1][point][criterion].
+    values: Vec<Vec<RefinedValues>>,
+    /// Whether `control.stop` ended the ladder before its last refinement (or none was asked).
+    cut_short: bool,
+}
+
+/// Solve `points` on `refinements` refined meshes of `problem`'s, as `control` says.
+fn solve_ladder(
+    problem: &StateProblem,
+    params: &[Parameter],
+    criteria: &[CriterionSpec],
+    points: &[Vec<f64>],
+    refinements: usize,
+    control: StatementControl<'_>,
+) -> Result<Ladder, WsmError> {
     let base = StatementMesh {
         size_factor: 1.0,
         unknowns: problem.elastic.dofs().n_free(),
         triangles: problem.mesh().triangles.len(),
         seconds: 0.0,
     };
-    let mut meshes = vec![base];
-    // values[level - 1][point][criterion]
-    let mut values: Vec<Vec<RefinedValues>> = Vec::new();
-    let mut cut_short = refinements == 0;
+    let mut ladder = Ladder {
+        meshes: vec![base],
+        values: Vec::new(),
+        cut_short: refinements == 0,
+    };
     for level in 1..=refinements as u32 {
         if (control.stop)() {
-            cut_short = true;
+            ladder.cut_short = true;
             break;
         }
         if let Some(reason) = control.refuse_level.and_then(|refuse| refuse(level)) {
             // Not built: every solve on it failed with the reason (listed, warned, incomplete).
-            values.push(points.iter().map(|_| Err(reason.clone())).collect());
-            meshes.push(StatementMesh {
+            ladder
+                .values
+                .push(points.iter().map(|_| Err(reason.clone())).collect());
+            ladder.meshes.push(StatementMesh {
                 size_factor: refinement_factor(level),
                 unknowns: 0,
                 triangles: 0,
@@ -322,23 +364,35 @@ pub fn statement(
         let t0 = Instant::now();
         let refined =
             RefinedLevel::new(&problem.scene, params, criteria, level).with_fault(control.fault);
-        let Some(solved) = solve_level(&refined, &points, control)? else {
-            cut_short = true;
+        let Some(solved) = solve_level(&refined, points, control)? else {
+            ladder.cut_short = true;
             break;
         };
         // A mesh that cannot be built failed every solve on it (with the reason).
         let (unknowns, triangles) = refined
             .get()
             .map_or((0, 0), |built| (built.unknowns(), built.triangles()));
-        values.push(solved);
-        meshes.push(StatementMesh {
+        ladder.values.push(solved);
+        ladder.meshes.push(StatementMesh {
             size_factor: refinement_factor(level),
             unknowns,
             triangles,
             seconds: t0.elapsed().as_secs_f64(),
         });
     }
-    let h: Vec<f64> = meshes
+    Ok(ladder)
+}
+
+/// Each criterion's worst and best value with its estimated discretisation error from the
+/// ladder's refined values at its point.
+fn criterion_accuracies(
+    criteria: &[CriterionSpec],
+    extrema: &Extrema,
+    points: &[Vec<f64>],
+    ladder: &Ladder,
+) -> Vec<CriterionAccuracy> {
+    let h: Vec<f64> = ladder
+        .meshes
         .iter()
         .map(|m| (m.unknowns.max(1) as f64).powf(-0.5))
         .collect();
@@ -346,7 +400,8 @@ pub fn statement(
         let (value, point) = extremum.as_ref()?;
         let index = points.iter().position(|q| q == point)?;
         let mut failures = Vec::new();
-        let refined: Vec<Option<f64>> = values
+        let refined: Vec<Option<f64>> = ladder
+            .values
             .iter()
             .zip(1..)
             .map(|(level, number)| match &level[index] {
@@ -360,8 +415,7 @@ pub fn statement(
         let failure = (!failures.is_empty()).then(|| failures.join("; "));
         Some(extremum_accuracy(*value, refined, &h, failure))
     };
-    let failures = refined_failures(criteria, extrema, &points, &values);
-    let criteria = criteria
+    criteria
         .iter()
         .zip(extrema)
         .enumerate()
@@ -370,21 +424,22 @@ pub fn statement(
             worst: accuracy(k, worst),
             best: accuracy(k, best),
         })
-        .collect();
-    let method: String = if problem.scene.mesh.imported().is_some() {
-        "the worst and best data of each criterion re-solved (direct solver, cold) on the run's imported mesh subdivided uniformly (every triangle into four, h halved; and subdivided again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into()
+        .collect()
+}
+
+/// How the statement was made, in words for the result.
+fn method(problem: &StateProblem) -> String {
+    let meshes = if problem.scene.mesh.imported().is_some() {
+        "on the run's imported mesh subdivided uniformly (every triangle into four, h halved; and \
+         subdivided again when affordable)"
     } else {
-        "the worst and best data of each criterion re-solved (direct solver, cold) on the run's mesh with every mesh size halved (and halved again when affordable); estimate = |value − refined value|, or with two refinements |value − Richardson extrapolation| when the three values converge monotonically".into()
+        "on the run's mesh with every mesh size halved (and halved again when affordable)"
     };
-    Ok(AccuracyStatement {
-        meshes,
-        criteria,
-        points: points.len(),
-        seconds: start.elapsed().as_secs_f64(),
-        complete: !cut_short && failures.is_empty(),
-        failures,
-        method,
-    })
+    format!(
+        "the worst and best data of each criterion re-solved (direct solver, cold) {meshes}; \
+         estimate = |value − refined value|, or with two refinements |value − Richardson \
+         extrapolation| when the three values converge monotonically"
+    )
 }
 
 /// The solves of `points` on one refined level, dealt out through the dispatch when there is

@@ -45,7 +45,7 @@
 
 use super::data::{BoundaryValue, Data, Elastic, Expansion};
 use super::law::interval_margin;
-use super::model::{Conductivity, Scene, SlipLimit, ThermalStress, Uncertain};
+use super::model::{Conductivity, Material, Scene, SlipLimit, ThermalStress, Uncertain};
 use super::rules::Constant;
 use super::warning::{Warning, WarningKind};
 use super::SceneError;
@@ -662,25 +662,16 @@ pub fn parameters(scene: &Scene) -> Result<Vec<Parameter>, SceneError> {
 /// of its interval matrix must be positive; the error names the material, its zones and the
 /// margin.
 pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<(), SceneError> {
-    let bounds = |target: ParamTarget, nominal: f64| {
-        params
-            .iter()
-            .flat_map(Parameter::field_intervals)
-            .find(|f| f.0 == target)
-            .map_or((nominal, nominal), |(_, lo, hi)| (lo, hi))
-    };
+    let bounds = FieldBounds(params);
     for (idx, (name, m)) in scene.materials.iter().enumerate() {
-        let uncertain = |f: &dyn Fn(ParamTarget) -> bool| {
-            params.iter().flat_map(Parameter::fields).any(|(t, _)| f(t))
-        };
-        let zones: Vec<&str> = scene
-            .bodies
-            .iter()
-            .flat_map(|b| &b.zones)
-            .filter(|z| &z.material == name)
-            .map(|z| z.name.as_str())
-            .collect();
         let refuse = |field: &str, what: &str, equation: &str, margin: f64| {
+            let zones: Vec<&str> = scene
+                .bodies
+                .iter()
+                .flat_map(|b| &b.zones)
+                .filter(|z| &z.material == name)
+                .map(|z| z.name.as_str())
+                .collect();
             SceneError::new(
                 format!("materials.{name}{field}"),
                 format!(
@@ -692,12 +683,8 @@ pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<()
             )
         };
         if let Some(d) = m.matrix {
-            if uncertain(&|t| matches!(t, ParamTarget::MatrixEntry(k, ..) if k == idx)) {
-                let entry = |i: usize, j: usize| {
-                    bounds(ParamTarget::MatrixEntry(idx, i.min(j), i.max(j)), d[i][j])
-                };
-                let lo = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).0));
-                let hi = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).1));
+            if bounds.any(|t| matches!(t, ParamTarget::MatrixEntry(k, ..) if k == idx)) {
+                let (lo, hi) = bounds.symmetric_box(&d, |i, j| ParamTarget::MatrixEntry(idx, i, j));
                 let margin = interval_margin::<3>(&lo, &hi);
                 if margin <= 0.0 {
                     return Err(refuse(".matrix", "stiffness-matrix entries", "4.6", margin));
@@ -705,79 +692,112 @@ pub fn check_interval_matrices(scene: &Scene, params: &[Parameter]) -> Result<()
             }
         }
         if let Some(Conductivity::Matrix(k)) = m.conductivity {
-            if uncertain(&|t| matches!(t, ParamTarget::ConductivityEntry(c, ..) if c == idx)) {
-                let entry = |i: usize, j: usize| {
-                    bounds(
-                        ParamTarget::ConductivityEntry(idx, i.min(j), i.max(j)),
-                        k[i][j],
-                    )
-                };
-                let lo = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).0));
-                let hi = std::array::from_fn(|i| std::array::from_fn(|j| entry(i, j).1));
+            if bounds.any(|t| matches!(t, ParamTarget::ConductivityEntry(c, ..) if c == idx)) {
+                let (lo, hi) =
+                    bounds.symmetric_box(&k, |i, j| ParamTarget::ConductivityEntry(idx, i, j));
                 let margin = interval_margin::<2>(&lo, &hi);
                 if margin <= 0.0 {
-                    return Err(refuse(
-                        ".conductivity",
-                        "conductivity-matrix entries",
-                        "4.8",
-                        margin,
-                    ));
+                    let what = "conductivity-matrix entries";
+                    return Err(refuse(".conductivity", what, "4.8", margin));
                 }
             }
         }
-        let orthotropic_varies = uncertain(&|t| {
-            matches!(t, ParamTarget::OrthotropicYoung(k, _) | ParamTarget::OrthotropicPoisson(k, _)
-                if k == idx)
-        });
-        if let (true, Some(e1), Some(e2), Some(e3), Some(n12), Some(n13), Some(n23)) =
-            (orthotropic_varies, m.e1, m.e2, m.e3, m.nu12, m.nu13, m.nu23)
-        {
-            let young = [e1, e2, e3]
-                .iter()
-                .enumerate()
-                .map(|(k, &e)| bounds(ParamTarget::OrthotropicYoung(idx, k), e))
-                .collect::<Vec<_>>();
-            let poisson = [n12, n13, n23]
-                .iter()
-                .enumerate()
-                .map(|(k, &n)| bounds(ParamTarget::OrthotropicPoisson(idx, k), n))
-                .collect::<Vec<_>>();
-            // −ν_ij √(E_j/E_i) over the box, by interval arithmetic.
-            let coupling = |i: usize, j: usize, (nlo, nhi): (f64, f64)| {
-                let (rlo, rhi) = (
-                    (young[j].0 / young[i].1).sqrt(),
-                    (young[j].1 / young[i].0).sqrt(),
-                );
-                let corners = [-nlo * rlo, -nlo * rhi, -nhi * rlo, -nhi * rhi];
-                (
-                    corners.iter().copied().fold(f64::INFINITY, f64::min),
-                    corners.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                )
-            };
-            let off = [
-                coupling(0, 1, poisson[0]),
-                coupling(0, 2, poisson[1]),
-                coupling(1, 2, poisson[2]),
-            ];
-            let box_of = |pick: fn((f64, f64)) -> f64| {
-                [
-                    [1.0, pick(off[0]), pick(off[1])],
-                    [pick(off[0]), 1.0, pick(off[2])],
-                    [pick(off[1]), pick(off[2]), 1.0],
-                ]
-            };
-            let margin = interval_margin::<3>(&box_of(|b| b.0), &box_of(|b| b.1));
+        if let Some((lo, hi)) = orthotropic_compliance_box(&bounds, idx, m) {
+            let margin = interval_margin::<3>(&lo, &hi);
             if margin <= 0.0 {
-                return Err(refuse(
-                    "",
-                    "orthotropic constants (their unit-diagonal normal compliance)",
-                    "4.6",
-                    margin,
-                ));
+                let what = "orthotropic constants (their unit-diagonal normal compliance)";
+                return Err(refuse("", what, "4.6", margin));
             }
         }
     }
     Ok(())
+}
+
+/// The entrywise lower and upper bounds of an interval matrix.
+type MatrixBox<const N: usize> = ([[f64; N]; N], [[f64; N]; N]);
+
+/// The intervals of the uncertain fields, as the parameters give them.
+struct FieldBounds<'a>(&'a [Parameter]);
+
+impl FieldBounds<'_> {
+    /// The interval of `target`, or the point `nominal` when no parameter drives it.
+    fn of(&self, target: ParamTarget, nominal: f64) -> (f64, f64) {
+        self.0
+            .iter()
+            .flat_map(Parameter::field_intervals)
+            .find(|f| f.0 == target)
+            .map_or((nominal, nominal), |(_, lo, hi)| (lo, hi))
+    }
+
+    /// Whether a parameter drives a field matching `target`.
+    fn any(&self, target: impl Fn(ParamTarget) -> bool) -> bool {
+        self.0
+            .iter()
+            .flat_map(Parameter::fields)
+            .any(|(t, _)| target(t))
+    }
+
+    /// The entrywise lower and upper bounds of a symmetric matrix whose entry (i, j), i ≤ j, is
+    /// the field `entry(i, j)`.
+    fn symmetric_box<const N: usize>(
+        &self,
+        nominal: &[[f64; N]; N],
+        entry: impl Fn(usize, usize) -> ParamTarget,
+    ) -> MatrixBox<N> {
+        let bound = |i: usize, j: usize| self.of(entry(i.min(j), i.max(j)), nominal[i][j]);
+        (
+            std::array::from_fn(|i| std::array::from_fn(|j| bound(i, j).0)),
+            std::array::from_fn(|i| std::array::from_fn(|j| bound(i, j).1)),
+        )
+    }
+}
+
+/// The interval box of an orthotropic material's unit-diagonal normal compliance, entries
+/// −ν_ij √(E_j/E_i) by interval arithmetic, when material `idx` is orthotropic with uncertain
+/// constants.
+fn orthotropic_compliance_box(
+    bounds: &FieldBounds,
+    idx: usize,
+    m: &Material,
+) -> Option<MatrixBox<3>> {
+    let varies = bounds.any(|t| {
+        matches!(t, ParamTarget::OrthotropicYoung(k, _) | ParamTarget::OrthotropicPoisson(k, _)
+            if k == idx)
+    });
+    let (true, Some(e1), Some(e2), Some(e3), Some(n12), Some(n13), Some(n23)) =
+        (varies, m.e1, m.e2, m.e3, m.nu12, m.nu13, m.nu23)
+    else {
+        return None;
+    };
+    let young: [(f64, f64); 3] =
+        std::array::from_fn(|k| bounds.of(ParamTarget::OrthotropicYoung(idx, k), [e1, e2, e3][k]));
+    let poisson: [(f64, f64); 3] = std::array::from_fn(|k| {
+        bounds.of(ParamTarget::OrthotropicPoisson(idx, k), [n12, n13, n23][k])
+    });
+    let coupling = |i: usize, j: usize, (nlo, nhi): (f64, f64)| {
+        let (rlo, rhi) = (
+            (young[j].0 / young[i].1).sqrt(),
+            (young[j].1 / young[i].0).sqrt(),
+        );
+        let corners = [-nlo * rlo, -nlo * rhi, -nhi * rlo, -nhi * rhi];
+        (
+            corners.iter().copied().fold(f64::INFINITY, f64::min),
+            corners.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
+    };
+    let off = [
+        coupling(0, 1, poisson[0]),
+        coupling(0, 2, poisson[1]),
+        coupling(1, 2, poisson[2]),
+    ];
+    let box_of = |pick: fn((f64, f64)) -> f64| {
+        [
+            [1.0, pick(off[0]), pick(off[1])],
+            [pick(off[0]), 1.0, pick(off[2])],
+            [pick(off[1]), pick(off[2]), 1.0],
+        ]
+    };
+    Some((box_of(|b| b.0), box_of(|b| b.1)))
 }
 
 /// Write θ into a copy of the nominal data, then map slope-limited slip limits onto their sets.

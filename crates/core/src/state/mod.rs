@@ -35,6 +35,7 @@ use crate::contact::direct::{
     ContactSolution, DirectContact, StiffnessFactor, TangentDisplacement,
 };
 use crate::contact::qp::WarmStart;
+use crate::contact::LoadCase;
 use crate::dd::DirectAnswer;
 use crate::error::WsmError;
 use crate::fem::OperatorFactor;
@@ -499,7 +500,16 @@ impl StateProblem {
         let t1 = Instant::now();
         let mut direct_factor = None;
         let sol = if self.scene.solver.kind == SolverKind::Dd {
-            self.solve_dd(data, &coefficients, &rhs, &fixed, options, report)?
+            self.solve_dd(
+                LoadCase {
+                    data,
+                    coefficients: &coefficients,
+                    rhs: &rhs,
+                    fixed: &fixed,
+                },
+                options,
+                report,
+            )?
         } else {
             let (factor, reused) = self.stiffness_factor(&coefficients, options.par)?;
             direct_factor = Some(factor.clone());
@@ -602,14 +612,17 @@ impl StateProblem {
     /// fallback, used (and reported in `report.dd.fallback`) only when DD fails.
     fn solve_dd(
         &self,
-        data: &Data,
-        coefficients: &[ElasticCoefficients],
-        rhs: &[f64],
-        fixed: &[f64],
+        case: LoadCase,
         options: &SolveOptions,
         report: &mut SolveReport,
     ) -> Result<ContactSolution, WsmError> {
         let elastic = &self.elastic;
+        let LoadCase {
+            data,
+            coefficients,
+            rhs,
+            fixed,
+        } = case;
         let direct = || -> Result<DirectAnswer, String> {
             let (factor, _) = self
                 .stiffness_factor(coefficients, options.par)
@@ -635,10 +648,7 @@ impl StateProblem {
         let outcome = crate::dd::from_scene::solve_elastic(
             elastic,
             &self.contact,
-            data,
-            coefficients,
-            rhs,
-            fixed,
+            case,
             &dd_options,
             Some(&direct),
         );
@@ -651,7 +661,7 @@ impl StateProblem {
                     "the result does not balance the loads (relative equilibrium residual {:.1e})",
                     sol.equilibrium_residual
                 );
-                return self.direct_instead(&e, data, coefficients, rhs, fixed, options, report);
+                return self.direct_instead(&e, case, options, report);
             }
             Ok(done) => done,
             // A partition the user fixed is bad input, not a reason to switch solvers.
@@ -663,15 +673,7 @@ impl StateProblem {
             Err(e) => {
                 // DD cannot be set up for this scene (e.g. a cluster with an unsupported
                 // floating part): answer with the direct solver and say why.
-                return self.direct_instead(
-                    &e.to_string(),
-                    data,
-                    coefficients,
-                    rhs,
-                    fixed,
-                    options,
-                    report,
-                );
+                return self.direct_instead(&e.to_string(), case, options, report);
             }
         };
         report.solver = SolverUsed::Dd;
@@ -693,17 +695,19 @@ impl StateProblem {
     }
 
     /// The direct solver's answer when DD cannot give one, with the reason as a warning.
-    #[allow(clippy::too_many_arguments)]
     fn direct_instead(
         &self,
         reason: &str,
-        data: &Data,
-        coefficients: &[ElasticCoefficients],
-        rhs: &[f64],
-        fixed: &[f64],
+        case: LoadCase,
         options: &SolveOptions,
         report: &mut SolveReport,
     ) -> Result<ContactSolution, WsmError> {
+        let LoadCase {
+            data,
+            coefficients,
+            rhs,
+            fixed,
+        } = case;
         report.solver = SolverUsed::DirectDdUnavailable;
         report.warnings.push(Warning::new(
             WarningKind::SolverFallback,
