@@ -1,7 +1,8 @@
 // The dashboard's entry: hash routes `#/` (jobs and submit), `#/submit`, `#/jobs/{id}`.
 import { initHome, showHome, hideHome } from "./home.js";
 import { initJob, showJob, hideJob } from "./job.js";
-import { $ } from "./format.js";
+import { $, loadLabels } from "./format.js";
+import { api } from "./api.js";
 
 function route() {
   const hash = location.hash || "#/";
@@ -19,7 +20,8 @@ function route() {
   }
 }
 
-function start() {
+async function start() {
+  await loadLabels(api.labels);
   initHome();
   initJob();
   window.addEventListener("hashchange", route);
