@@ -11,7 +11,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use common::{postgres_url, PgSchema};
-use wsm_core::run::{Evaluation, OneSided, RefinedValues, WorstRequest};
+use wsm_core::run::{Evaluation, OneSided, RefinedOutcome, WorstRequest};
+use wsm_core::scene::Criterion;
+use wsm_service::error_code::ErrorCode;
 use wsm_service::jobs::sql::SqlStore;
 use wsm_service::jobs::{
     JobEnd, JobState, JobStore, Lease, NewJob, Page, TaskKey, TaskKind, TaskScope,
@@ -51,7 +53,7 @@ fn job(id: &str) -> NewJob {
         scene: "{\"name\": \"scene\"}".into(),
         settings: WorstRequest::default(),
         scene_name: "scene".into(),
-        criteria: vec!["phi3".into()],
+        criteria: vec![Criterion::Phi3.into()],
         budget: 10,
         run_hash: format!("hash-{id}"),
     }
@@ -219,7 +221,10 @@ async fn a_job_whose_workers_keep_dying_fails_after_max_attempts(store: Arc<dyn 
     assert!(store.lease("w5", 30.0, 3).await.unwrap().is_none());
     let failed = store.get("dies").await.unwrap().unwrap();
     assert_eq!(failed.state, JobState::Failed);
-    assert_eq!(failed.error_kind.as_deref(), Some("attempts_exhausted"));
+    assert_eq!(
+        failed.error_kind.map(ErrorCode::name),
+        Some("attempts_exhausted")
+    );
     let error = failed.error.unwrap();
     assert!(error.contains("3 times"), "{error}");
     assert!(error.contains("--max-attempts 3"), "{error}");
@@ -394,7 +399,7 @@ async fn refined_tasks_return_their_values_and_add_no_evaluations(store: Arc<dyn
         .complete_task(&first.key, "w", &[evaluation(1.0)])
         .await
         .unwrap());
-    let mut values: Vec<(u32, Vec<RefinedValues>)> = Vec::new();
+    let mut values: Vec<(u32, Vec<RefinedOutcome>)> = Vec::new();
     while let Some(task) = store
         .lease_task("w", 30.0, TaskScope::Others)
         .await
@@ -405,15 +410,15 @@ async fn refined_tasks_return_their_values_and_add_no_evaluations(store: Arc<dyn
             TaskKind::Refined(2),
             "the level travels with the task"
         );
-        let solved: Vec<RefinedValues> = task
+        let solved: Vec<RefinedOutcome> = task
             .points
             .iter()
             .map(|p| {
-                if p[0] == 0.2 {
+                Some(if p[0] == 0.2 {
                     Err("solver failed".into())
                 } else {
                     Ok(vec![Some(p[0] * 3.0), None])
-                }
+                })
             })
             .collect();
         assert!(!store
@@ -435,9 +440,9 @@ async fn refined_tasks_return_their_values_and_add_no_evaluations(store: Arc<dyn
     assert_eq!(
         results,
         vec![
-            Ok(vec![Some(0.1 * 3.0), None]),
-            Err("solver failed".to_string()),
-            Ok(vec![Some(0.3 * 3.0), None]),
+            Some(Ok(vec![Some(0.1 * 3.0), None])),
+            Some(Err("solver failed".to_string())),
+            Some(Ok(vec![Some(0.3 * 3.0), None])),
         ],
         "part order, point order, failures kept"
     );
@@ -667,7 +672,7 @@ async fn an_idle_worker_finds_the_newest_job_coordinated_elsewhere(store: Arc<dy
             "p",
             "coord",
             JobEnd::Failed {
-                kind: "x".into(),
+                kind: ErrorCode::Solver,
                 error: "y".into(),
             },
         )

@@ -19,7 +19,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::body::Body;
-use axum::http::{header, HeaderValue, Request, Response, StatusCode};
+use axum::http::{Request, Response};
 use axum::Router;
 use hyper::body::Incoming;
 use hyper::server::conn::http1;
@@ -29,6 +29,9 @@ use hyper_util::service::TowerToHyperService;
 use tokio::net::{TcpListener, TcpStream};
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 use tower::ServiceExt;
+
+use crate::api::{closing, ApiError};
+use crate::error_code::ErrorCode;
 
 /// Limits on connections.
 #[derive(Debug, Clone)]
@@ -160,18 +163,11 @@ async fn refuse(stream: TcpStream, app: Router, permit: OwnedSemaphorePermit) {
 }
 
 fn busy_response() -> Response<Body> {
-    let body = serde_json::json!({
-        "error": "busy",
-        "detail": "the server has as many connections open as it takes; try again shortly",
-    });
-    let mut response = Response::new(Body::from(body.to_string()));
-    *response.status_mut() = StatusCode::SERVICE_UNAVAILABLE;
-    let headers = response.headers_mut();
-    headers.insert(
-        header::CONTENT_TYPE,
-        HeaderValue::from_static("application/json"),
-    );
-    headers.insert(header::RETRY_AFTER, HeaderValue::from_static("1"));
-    headers.insert(header::CONNECTION, HeaderValue::from_static("close"));
-    response
+    closing(
+        ApiError::new(
+            ErrorCode::Busy,
+            "the server has as many connections open as it takes; try again shortly",
+        )
+        .retry_after(1),
+    )
 }

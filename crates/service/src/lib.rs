@@ -7,6 +7,7 @@
 //! and `wsm_core::scene` (the document); the engine never depends on this crate.
 
 pub mod api;
+pub mod error_code;
 pub mod http;
 pub mod jobs;
 pub mod server;

@@ -17,6 +17,7 @@ use tower::ServiceExt;
 
 use wsm_core::run::{self, RunControl};
 use wsm_service::api::{self, Access, AppState, Limits, SolveSlots};
+use wsm_service::error_code::ErrorCode;
 use wsm_service::jobs::health::StoreHealth;
 use wsm_service::jobs::runner::Live;
 use wsm_service::jobs::sql::SqlStore;
@@ -177,7 +178,7 @@ async fn jobs(app: &Router, store: &Arc<dyn JobStore>) -> [String; 5] {
     let failed = submit(app, 4).await;
     lease(store, &failed).await;
     let end = JobEnd::Failed {
-        kind: "solver".into(),
+        kind: ErrorCode::Solver,
         error: "made to fail".into(),
     };
     store.finish(&failed, "test", end).await.unwrap();
@@ -209,6 +210,7 @@ fn table() -> Vec<(Method, &'static str, Who, Sent, u16)> {
         (M::GET, "/v1/examples", Nobody, Nothing, 200),
         (M::GET, "/v1/examples/block-on-base", Nobody, Nothing, 200),
         (M::GET, "/v1/examples/nope", Nobody, Nothing, 404),
+        (M::GET, "/v1/labels", Nobody, Nothing, 200),
         (M::GET, "/", Nobody, Nothing, 200),
         (M::GET, "/index.html", Nobody, Nothing, 200),
         (M::GET, "/assets/js/app.js", Nobody, Nothing, 200),

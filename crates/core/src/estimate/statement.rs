@@ -23,7 +23,6 @@
 //! sizes of the built-in mesher does; a level that cannot be made (more subdivisions than
 //! allowed) fails like any mesh that cannot be built.
 
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::OnceLock;
 use std::time::Instant;
 
@@ -148,8 +147,12 @@ pub type Extrema = Vec<[Option<(f64, Vec<f64>)>; 2]>;
 /// not defined), or why the solve failed.
 pub type RefinedValues = Result<Vec<Option<f64>>, String>;
 
+/// What became of one point's refined solve: its values (or why it failed), or `None` — not
+/// solved, because the statement was stopped first (its level is then cut short).
+pub type RefinedOutcome = Option<RefinedValues>;
+
 /// Solves points (physical parameter values) on one refined level, in input order.
-pub type RefinedSolve<'a> = dyn Fn(&[Vec<f64>]) -> Vec<RefinedValues> + Sync + 'a;
+pub type RefinedSolve<'a> = dyn Fn(&[Vec<f64>]) -> Vec<RefinedOutcome> + Sync + 'a;
 
 /// Deals the statement's refined solves to other processes (the service's job store, with worker
 /// processes behind it; the run's evaluation batches go the same way, `run::BatchDispatch`).
@@ -162,7 +165,7 @@ pub trait RefinedDispatch: Send + Sync {
         level: u32,
         points: &[Vec<f64>],
         local: &RefinedSolve<'_>,
-    ) -> Result<Option<Vec<RefinedValues>>, WsmError>;
+    ) -> Result<Option<Vec<RefinedOutcome>>, WsmError>;
 }
 
 /// The mesh size factor of refinement `level` (sizes halved `level` times).
@@ -228,7 +231,7 @@ impl<'a> RefinedLevel<'a> {
         &self,
         points: &[Vec<f64>],
         stop: &(dyn Fn() -> bool + Sync),
-    ) -> Vec<Option<RefinedValues>> {
+    ) -> Vec<RefinedOutcome> {
         let level = match self.get() {
             Ok(level) => level,
             Err(e) => return points.iter().map(|_| Some(Err(e.to_string()))).collect(),
@@ -449,25 +452,14 @@ fn solve_level(
     points: &[Vec<f64>],
     control: StatementControl<'_>,
 ) -> Result<Option<Vec<RefinedValues>>, WsmError> {
-    let stopped = AtomicBool::new(false);
-    let local = |points: &[Vec<f64>]| -> Vec<RefinedValues> {
-        refined
-            .solve(points, control.stop)
-            .into_iter()
-            .map(|v| {
-                v.unwrap_or_else(|| {
-                    stopped.store(true, Ordering::SeqCst);
-                    Err("stopped".into())
-                })
-            })
-            .collect()
-    };
+    let local = |points: &[Vec<f64>]| refined.solve(points, control.stop);
     let dispatched = match control.dispatch {
         Some(d) => d.refined(refined.level(), points, &local)?,
         None => None,
     };
     let solved = dispatched.unwrap_or_else(|| local(points));
-    Ok((!stopped.load(Ordering::SeqCst)).then_some(solved))
+    // One point not solved (stopped) leaves the level without an answer.
+    Ok(solved.into_iter().collect())
 }
 
 /// The failed solves of `values` (by level, then point), with the extrema at their data.
@@ -753,6 +745,14 @@ mod tests {
                     .to_string()
             ]
         );
+        // Stopped inside a level: the points solved before the stop do not make the level an
+        // answer, and the points not solved are no failures.
+        let asked = std::sync::atomic::AtomicUsize::new(0);
+        let after_one_point = || asked.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= 2;
+        let inside = run(&problem, &params, &extrema, 2, &after_one_point);
+        assert!(inside.points >= 2, "a level with a point solved and one stopped");
+        assert!(!inside.complete && inside.failures.is_empty(), "{inside:#?}");
+        assert_eq!(inside.meshes.len(), 1);
         let whole = run(&problem, &params, &extrema, 1, &|| false);
         assert!(whole.complete && whole.warnings(1).is_empty(), "{whole:#?}");
         assert_eq!(

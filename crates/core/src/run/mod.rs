@@ -41,7 +41,7 @@ pub use crate::estimate::ladder::Ladder;
 pub use crate::estimate::mesh_choice::{CandidateMesh, MeshChoice};
 pub use crate::estimate::statement::{
     CriterionAccuracy, ExtremumAccuracy, RefinedDispatch, RefinedFailure, RefinedLevel,
-    RefinedSolve, RefinedValues, StatementMesh,
+    RefinedOutcome, RefinedSolve, RefinedValues, StatementMesh,
 };
 pub use crate::fault::{FaultSite, SolveFault};
 pub use crate::mesh::with_inline_mesh;

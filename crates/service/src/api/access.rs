@@ -6,11 +6,12 @@
 
 use axum::extract::FromRequestParts;
 use axum::http::request::Parts;
-use axum::http::{header, HeaderMap, StatusCode};
+use axum::http::{header, HeaderMap};
 use subtle::ConstantTimeEq;
 
 use super::error::ApiError;
 use super::AppState;
+use crate::error_code::ErrorCode;
 
 /// Who may do what. With a token, every request about jobs needs it — their scenes and results
 /// are their submitters' data — except that a read-only token also opens the reads, and
@@ -89,8 +90,7 @@ fn matches(given: &str, token: &Option<String>) -> bool {
 
 fn unauthorized(what: &str) -> ApiError {
     ApiError::new(
-        StatusCode::UNAUTHORIZED,
-        "unauthorized",
+        ErrorCode::Unauthorized,
         format!("{what} needs the header 'Authorization: Bearer <token>' with the server's token"),
     )
 }

@@ -11,6 +11,7 @@ use serde::de::DeserializeOwned;
 use serde_json::Value;
 
 use super::error::ApiError;
+use crate::error_code::ErrorCode;
 use wsm_core::scene::{plain_message, strict_value, StrictError};
 
 /// Members of a submission that must be JSON objects when given.
@@ -25,16 +26,11 @@ pub fn parse_body<T: DeserializeOwned>(
     let bytes = body.map_err(|rejection| {
         if rejection.status() == StatusCode::PAYLOAD_TOO_LARGE {
             ApiError::new(
-                StatusCode::PAYLOAD_TOO_LARGE,
-                "too_large",
+                ErrorCode::TooLarge,
                 "the request body is larger than the server's limit",
             )
         } else {
-            ApiError::new(
-                StatusCode::BAD_REQUEST,
-                "malformed_json",
-                rejection.body_text(),
-            )
+            ApiError::new(ErrorCode::MalformedJson, rejection.body_text())
         }
     })?;
     check_media_type(headers)?;
@@ -80,8 +76,7 @@ fn check_media_type(headers: &HeaderMap) -> Result<(), ApiError> {
         format!("Content-Type '{declared}'")
     };
     Err(ApiError::new(
-        StatusCode::UNSUPPORTED_MEDIA_TYPE,
-        "unsupported_media_type",
+        ErrorCode::UnsupportedMediaType,
         format!("the body must be JSON sent with 'Content-Type: application/json' (got {given})"),
     ))
 }
@@ -92,8 +87,7 @@ fn check_media_type(headers: &HeaderMap) -> Result<(), ApiError> {
 fn strict_body(bytes: &[u8]) -> Result<Value, ApiError> {
     let not_json = |message: String| {
         ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "malformed_json",
+            ErrorCode::MalformedJson,
             format!("the body is not valid JSON: {message}"),
         )
     };

@@ -9,16 +9,16 @@ use axum::Json;
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use crate::error_code::ErrorCode;
 use crate::jobs::StoreError;
-use wsm_core::error::{ErrorKind, WsmError};
+use wsm_core::error::WsmError;
 
 /// The body of every error response.
 #[derive(Debug, Clone, Serialize, ToSchema)]
 pub struct ErrorBody {
-    /// A stable code: `malformed_json`, `invalid_input`, `not_found`, `conflict`, `too_large`,
-    /// `queue_full`, `busy`, `store_unavailable`, `unauthorized`, `unsolvable`, `solver_failure`,
-    /// `request_timeout`, `internal`.
-    pub error: String,
+    /// A stable code (`malformed_json`, `invalid_input`, `not_found`, …; the README's table
+    /// lists them with their statuses).
+    pub error: ErrorCode,
     /// What is wrong, for a person.
     pub detail: String,
     /// The JSON path of the offending field, where there is one.
@@ -38,17 +38,24 @@ pub struct ApiError {
 }
 
 impl ApiError {
-    /// An error with `status`, the stable code `error` and `detail`; no path, no `Retry-After`.
-    pub fn new(status: StatusCode, error: &str, detail: impl Into<String>) -> ApiError {
+    /// An error with the stable code `error` (its status) and `detail`; no path, no
+    /// `Retry-After`.
+    pub fn new(error: ErrorCode, detail: impl Into<String>) -> ApiError {
         ApiError {
-            status,
+            status: error.status(),
             body: ErrorBody {
-                error: error.into(),
+                error,
                 detail: detail.into(),
                 path: None,
             },
             retry_after: None,
         }
+    }
+
+    /// The same error with `Retry-After: seconds` (a 503 whose condition may pass).
+    pub fn retry_after(mut self, seconds: u32) -> ApiError {
+        self.retry_after = Some(seconds);
+        self
     }
 
     /// The same error naming `path`, the JSON path of the offending field.
@@ -59,50 +66,38 @@ impl ApiError {
 
     /// 422 for a field.
     pub fn invalid(path: impl Into<String>, detail: impl Into<String>) -> ApiError {
-        ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "invalid_input", detail).at(path)
+        ApiError::new(ErrorCode::InvalidInput, detail).at(path)
     }
 
     /// 404 `not_found`: there is no `what` (a job, an example, …) with id `id`.
     pub fn not_found(what: &str, id: &str) -> ApiError {
-        ApiError::new(
-            StatusCode::NOT_FOUND,
-            "not_found",
-            format!("no {what} '{id}'"),
-        )
+        ApiError::new(ErrorCode::NotFound, format!("no {what} '{id}'"))
     }
 
     /// 500 `internal`: the server's own fault (a stored record it cannot read, a task that
     /// panicked).
     pub fn internal(detail: impl Into<String>) -> ApiError {
-        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", detail)
+        ApiError::new(ErrorCode::Internal, detail)
     }
 
     /// 409 `conflict`: the request does not fit the current state (e.g. of a job).
     pub fn conflict(detail: impl Into<String>) -> ApiError {
-        ApiError::new(StatusCode::CONFLICT, "conflict", detail)
+        ApiError::new(ErrorCode::Conflict, detail)
     }
 
-    /// An engine error; bad-input paths get `prefix` (the request field holding the scene).
+    /// An engine error, answered with the code of its kind ([`ErrorCode::of_kind`],
+    /// [`ErrorCode::answer`]); bad-input paths get `prefix` (the request field holding the
+    /// scene), an unsolvable scene's the body's path.
     pub fn engine(error: WsmError, prefix: &str) -> ApiError {
-        let detail = error.to_string();
+        let code = ErrorCode::of_kind(error.kind()).answer();
         let path = error.path().map(|p| join_path(prefix, &p));
-        match error.kind() {
-            ErrorKind::BadInput => {
-                ApiError::invalid(path.unwrap_or_else(|| prefix.to_string()), detail)
+        let answer = ApiError::new(code, error.to_string());
+        match (code, path) {
+            (ErrorCode::InvalidInput, path) => {
+                answer.at(path.unwrap_or_else(|| prefix.to_string()))
             }
-            ErrorKind::NotFound => ApiError::new(StatusCode::NOT_FOUND, "not_found", detail),
-            ErrorKind::Unsolvable => {
-                let error = ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "unsolvable", detail);
-                match path {
-                    Some(path) => error.at(path),
-                    None => error,
-                }
-            }
-            ErrorKind::Cancelled => ApiError::conflict(detail),
-            ErrorKind::Solver => {
-                ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, "solver_failure", detail)
-            }
-            ErrorKind::Io => ApiError::internal(detail),
+            (ErrorCode::Unsolvable, Some(path)) => answer.at(path),
+            _ => answer,
         }
     }
 }
@@ -135,13 +130,8 @@ impl From<StoreError> for ApiError {
     /// else 500.
     fn from(e: StoreError) -> ApiError {
         if e.unavailable {
-            let mut error = ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "store_unavailable",
-                format!("{e}; try again later"),
-            );
-            error.retry_after = Some(5);
-            error
+            ApiError::new(ErrorCode::StoreUnavailable, format!("{e}; try again later"))
+                .retry_after(5)
         } else {
             ApiError::internal(e.to_string())
         }

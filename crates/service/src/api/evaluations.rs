@@ -13,7 +13,6 @@ use super::query::Query;
 use super::{AppState, CanRead};
 use crate::jobs::{JobRecord, Page};
 use wsm_core::run::{self, Evaluation};
-use wsm_core::scene::CriterionSpec;
 
 /// How the evaluations are written.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, ToSchema)]
@@ -88,17 +87,12 @@ pub async fn job_evaluations(
 fn csv_table(job: &JobRecord, evaluations: &[Evaluation]) -> Result<Vec<u8>, ApiError> {
     let parameters = wsm_core::run::parameter_info(&stored_scene(job)?)
         .map_err(|e| ApiError::internal(e.to_string()))?;
-    let criteria: Vec<CriterionSpec> = job
-        .criteria
-        .iter()
-        .filter_map(|c| CriterionSpec::parse(c).ok())
-        .collect();
     let mut buffer = Vec::new();
     run::write_csv(
         &mut buffer,
         "evaluations",
         &parameters,
-        &criteria,
+        &job.criteria,
         evaluations,
     )
     .map_err(|e| ApiError::engine(e, ""))?;

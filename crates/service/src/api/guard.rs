@@ -9,12 +9,13 @@ use std::time::Duration;
 
 use axum::body::{Body, Bytes};
 use axum::extract::{Request, State};
-use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
+use axum::http::{header, HeaderMap, HeaderValue};
 use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use futures_util::StreamExt;
 
 use super::error::ApiError;
+use crate::error_code::ErrorCode;
 
 /// The limits the guard applies.
 #[derive(Debug, Clone, Copy)]
@@ -36,8 +37,7 @@ pub async fn guard(State(limits): State<BodyLimits>, request: Request, next: Nex
         Ok(Err(refusal)) => return closing(refusal),
         Err(_) => {
             return closing(ApiError::new(
-                StatusCode::REQUEST_TIMEOUT,
-                "request_timeout",
+                ErrorCode::RequestTimeout,
                 format!(
                     "the request body did not arrive within {} s",
                     limits.timeout.as_secs_f64()
@@ -53,8 +53,7 @@ pub async fn guard(State(limits): State<BodyLimits>, request: Request, next: Nex
 fn check_head(headers: &HeaderMap, max_bytes: usize) -> Result<(), ApiError> {
     if headers.get_all(header::AUTHORIZATION).iter().count() > 1 {
         return Err(ApiError::new(
-            StatusCode::BAD_REQUEST,
-            "bad_request",
+            ErrorCode::BadRequest,
             "more than one Authorization header; send one",
         ));
     }
@@ -70,8 +69,7 @@ fn check_head(headers: &HeaderMap, max_bytes: usize) -> Result<(), ApiError> {
 
 fn too_large(max_bytes: usize) -> ApiError {
     ApiError::new(
-        StatusCode::PAYLOAD_TOO_LARGE,
-        "too_large",
+        ErrorCode::TooLarge,
         format!("the request body is larger than the server's limit of {max_bytes} bytes"),
     )
 }
@@ -83,8 +81,7 @@ async fn read(body: Body, max_bytes: usize) -> Result<Bytes, ApiError> {
     while let Some(chunk) = stream.next().await {
         let chunk = chunk.map_err(|e| {
             ApiError::new(
-                StatusCode::BAD_REQUEST,
-                "malformed_body",
+                ErrorCode::MalformedBody,
                 format!("the request body could not be read: {e}"),
             )
         })?;
@@ -97,7 +94,7 @@ async fn read(body: Body, max_bytes: usize) -> Result<Bytes, ApiError> {
 }
 
 /// A refusal that also closes the connection.
-fn closing(error: ApiError) -> Response {
+pub(crate) fn closing(error: ApiError) -> Response {
     let mut response = error.into_response();
     response
         .headers_mut()
@@ -108,6 +105,7 @@ fn closing(error: ApiError) -> Response {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use axum::http::StatusCode;
 
     #[test]
     fn two_authorization_headers_or_a_declared_length_over_the_limit_are_refused() {

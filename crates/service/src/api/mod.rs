@@ -12,6 +12,7 @@ mod evaluations;
 mod fields;
 mod guard;
 mod jobs;
+mod labels;
 mod misc;
 mod query;
 mod schema;
@@ -21,6 +22,8 @@ mod submit;
 
 pub use access::{Access, CanRead, CanWrite};
 pub use error::{ApiError, ErrorBody};
+pub(crate) use guard::closing;
+pub use labels::{CriterionLabel, Labels};
 pub use solves::SolveSlots;
 
 use std::sync::Arc;
@@ -121,7 +124,7 @@ async fn blocking<T: Send + 'static>(
         title = "wsm",
         description = "Worst-scenario analysis of multibody elastic contact with Tresca friction. Submit a scene with intervals for its uncertain data; a job finds the worst and best value of each criterion Φ1–Φ6 and the data that attain them. All quantities are SI: m, Pa, N/m³, K, W/(m K), W/m³, s."
     ),
-    components(schemas(ErrorBody))
+    components(schemas(ErrorBody, crate::error_code::ErrorCode))
 )]
 struct ApiDoc;
 
@@ -140,6 +143,7 @@ fn routes() -> OpenApiRouter<AppState> {
         .routes(routes!(submit::solve))
         .routes(routes!(misc::list_examples))
         .routes(routes!(misc::get_example))
+        .routes(routes!(labels::labels))
         .routes(routes!(misc::health))
         .routes(routes!(schema::scene_schema))
 }

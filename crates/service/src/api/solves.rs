@@ -16,10 +16,10 @@
 
 use std::sync::Arc;
 
-use axum::http::StatusCode;
 use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use super::error::ApiError;
+use crate::error_code::ErrorCode;
 use wsm_core::run::SolveOutput;
 
 /// Places for synchronous solves.
@@ -44,17 +44,15 @@ impl SolveSlots {
     /// A place now, or 503 `busy` with `Retry-After`.
     pub fn take(&self) -> Result<SolvePlace, ApiError> {
         self.places.clone().try_acquire_owned().map_err(|_| {
-            let mut error = ApiError::new(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "busy",
+            ApiError::new(
+                ErrorCode::Busy,
                 format!(
                     "{} synchronous solves are running, as many as this server runs at once; \
                      try again shortly, or submit a job",
                     self.count
                 ),
-            );
-            error.retry_after = Some(2);
-            error
+            )
+            .retry_after(2)
         })
     }
 }

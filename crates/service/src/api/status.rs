@@ -5,8 +5,10 @@
 use serde::Serialize;
 use utoipa::ToSchema;
 
+use crate::error_code::ErrorCode;
 use crate::jobs::{now, JobRecord, JobState};
 use wsm_core::run::{self, BestSoFar, RunPhase, WorstOutcome};
+use wsm_core::scene::CriterionSpec;
 
 /// What a job is doing.
 #[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
@@ -20,7 +22,7 @@ pub struct JobStatus {
     /// The scene's name.
     pub scene: String,
     /// The criteria searched (`phi3`, `phi3@crest`, …).
-    pub criteria: Vec<String>,
+    pub criteria: Vec<CriterionSpec>,
     /// Distinct points evaluated so far (stored evaluations while running).
     pub evaluations: usize,
     /// Of `evaluations`, how many failed (listed in the result's `failures`).
@@ -54,7 +56,7 @@ pub struct JobStatus {
     /// Why a failed job failed.
     pub error: Option<String>,
     /// The class of a failed job's error (`bad_input`, `solver`, `damaged`, …).
-    pub error_kind: Option<String>,
+    pub error_kind: Option<ErrorCode>,
     /// The outcome's status once finished (`completed`, `budget_exhausted`, `time_limit`, …).
     pub outcome_status: Option<run::Status>,
 }
@@ -114,8 +116,7 @@ impl JobStatus {
             }),
             error_kind: job
                 .error_kind
-                .clone()
-                .or_else(|| job.damaged.as_ref().map(|_| "damaged".to_string())),
+                .or_else(|| job.damaged.as_ref().map(|_| ErrorCode::Damaged)),
             outcome_status: job.result.as_ref().map(|o| o.status),
         }
     }

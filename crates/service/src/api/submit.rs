@@ -17,6 +17,7 @@ use super::body::parse_body;
 use super::error::{join_path, ApiError, ErrorBody};
 use super::schema::SceneDocument;
 use super::{blocking, AppState, CanWrite, Limits};
+use crate::error_code::ErrorCode;
 use crate::jobs::{JobState, NewJob};
 use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
 use wsm_core::scene::dynamics::output_count;
@@ -180,11 +181,7 @@ fn plan_job(submission: JobSubmission, limits: &Limits) -> Result<NewJob, ApiErr
         scene: text,
         settings: request,
         scene_name: scene.name.clone(),
-        criteria: settings
-            .criteria
-            .iter()
-            .map(|c| c.name().to_string())
-            .collect(),
+        criteria: settings.criteria.clone(),
         budget: settings.budget,
         run_hash: header.run_hash,
     })
@@ -197,13 +194,11 @@ async fn enqueue(state: &AppState, job: NewJob) -> Result<(), ApiError> {
     if state.store.insert(job, max_active).await? {
         return Ok(());
     }
-    let mut error = ApiError::new(
-        StatusCode::SERVICE_UNAVAILABLE,
-        "queue_full",
+    Err(ApiError::new(
+        ErrorCode::QueueFull,
         format!("{max_active} jobs are queued or running; try again later"),
-    );
-    error.retry_after = Some(10);
-    Err(error)
+    )
+    .retry_after(10))
 }
 
 /// Queue a worst-scenario search.

@@ -34,7 +34,9 @@ pub mod task_worker;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
-use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues, WorstOutcome, WorstRequest};
+use crate::error_code::ErrorCode;
+use wsm_core::run::{Evaluation, ProgressEvent, RefinedOutcome, WorstOutcome, WorstRequest};
+use wsm_core::scene::CriterionSpec;
 
 /// The state of a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -53,6 +55,15 @@ pub enum JobState {
 }
 
 impl JobState {
+    /// Every state, in the order of a job's life.
+    pub const ALL: [JobState; 5] = [
+        JobState::Queued,
+        JobState::Running,
+        JobState::Succeeded,
+        JobState::Failed,
+        JobState::Cancelled,
+    ];
+
     /// The state's name as stored in the database and shown by the API (`queued`, …).
     pub fn as_str(self) -> &'static str {
         match self {
@@ -66,15 +77,7 @@ impl JobState {
 
     /// The state named `text` (as written by [`JobState::as_str`]); `None` for an unknown name.
     pub fn parse(text: &str) -> Option<JobState> {
-        [
-            JobState::Queued,
-            JobState::Running,
-            JobState::Succeeded,
-            JobState::Failed,
-            JobState::Cancelled,
-        ]
-        .into_iter()
-        .find(|s| s.as_str() == text)
+        JobState::ALL.into_iter().find(|s| s.as_str() == text)
     }
 
     /// Whether the job has ended: succeeded, failed or cancelled.
@@ -97,8 +100,8 @@ pub struct NewJob {
     pub settings: WorstRequest,
     /// The scene's `name`, shown in listings.
     pub scene_name: String,
-    /// Names of the criteria searched (`phi3`, …).
-    pub criteria: Vec<String>,
+    /// The criteria searched (stored as their names: `phi3`, `phi3@crest`, …).
+    pub criteria: Vec<CriterionSpec>,
     /// The most inner solves the search may spend.
     pub budget: usize,
     /// The run hash of the scene, criteria and target error (`wsm_core::run::hash::run_hash`),
@@ -119,8 +122,8 @@ pub struct JobRecord {
     pub settings: WorstRequest,
     /// The scene's `name`.
     pub scene_name: String,
-    /// Names of the criteria searched.
-    pub criteria: Vec<String>,
+    /// The criteria searched.
+    pub criteria: Vec<CriterionSpec>,
     /// The most inner solves the search may spend.
     pub budget: usize,
     /// The run hash of the scene, criteria and target error.
@@ -144,8 +147,8 @@ pub struct JobRecord {
     /// Why a failed job failed, for a person.
     pub error: Option<String>,
     /// The failure's class: `bad_input`, `unsolvable`, `solver`, `io`, `panic`,
-    /// `attempts_exhausted`, …
-    pub error_kind: Option<String>,
+    /// `attempts_exhausted`, … (stored as the code's name).
+    pub error_kind: Option<ErrorCode>,
     /// When the current lease ends (Unix seconds, database clock); `None` unless running.
     pub lease_expires_at: Option<f64>,
     /// Why part of the stored row could not be read (a damaged row is listed, never run).
@@ -162,7 +165,7 @@ pub enum JobEnd {
     /// The job failed; it is not retried.
     Failed {
         /// The failure's class (`bad_input`, `solver`, `panic`, …), stored as `error_kind`.
-        kind: String,
+        kind: ErrorCode,
         /// What went wrong, for a person.
         error: String,
     },
@@ -402,13 +405,14 @@ pub trait JobStore: Send + Sync + 'static {
         batch: u64,
     ) -> StoreResult<Option<Vec<Evaluation>>>;
     /// Store the refined solves of a [`TaskKind::Refined`] task and mark it done (not in the
-    /// job's evaluations: they are not search points); false (and nothing stored) when the task
-    /// is no longer `owner`'s.
+    /// job's evaluations: they are not search points; a point its coordinator's stop left
+    /// unsolved is stored as `null`); false (and nothing stored) when the task is no longer
+    /// `owner`'s.
     async fn complete_refined_task(
         &self,
         key: &TaskKey,
         owner: &str,
-        values: &[RefinedValues],
+        values: &[RefinedOutcome],
     ) -> StoreResult<bool>;
     /// The refined solves of a batch in part order once every part is done (`None` before).
     async fn refined_results(
@@ -416,7 +420,7 @@ pub trait JobStore: Send + Sync + 'static {
         id: &str,
         attempt: u32,
         batch: u64,
-    ) -> StoreResult<Option<Vec<RefinedValues>>>;
+    ) -> StoreResult<Option<Vec<RefinedOutcome>>>;
     /// Announce a worker process with its evaluation threads (a heartbeat).
     async fn register_worker(&self, owner: &str, threads: usize) -> StoreResult<()>;
     /// Evaluation threads of the workers seen within the last `seconds`.

@@ -16,6 +16,7 @@ use tokio::sync::mpsc;
 use super::task_coordinator::StoreDispatch;
 use super::task_worker::{serve_tasks, TaskConfig};
 use super::{wait, JobEnd, JobRecord, JobStore, Lease};
+use crate::error_code::ErrorCode;
 use wsm_core::error::{ErrorKind, WsmError};
 use wsm_core::run::{
     self, Evaluation, EvaluationLog, FaultSite, LogHeader, ProgressEvent, RunControl, SolveFault,
@@ -350,7 +351,7 @@ async fn run_job(
                     break match cancel.load(Ordering::SeqCst) {
                         true => JobEnd::Cancelled(None),
                         false => JobEnd::Failed {
-                            kind: "io".into(),
+                            kind: ErrorCode::Io,
                             error,
                         },
                     };
@@ -358,7 +359,7 @@ async fn run_job(
             }
             Attempt::StoreFailed(error) => {
                 break JobEnd::Failed {
-                    kind: "io".into(),
+                    kind: ErrorCode::Io,
                     error: format!(
                         "{error} (the store failed {} times in a row while the job ran)",
                         retries + 1
@@ -410,7 +411,7 @@ impl Run<'_> {
         let id = job.id.clone();
         if let Some(why) = &job.damaged {
             return Attempt::Ended(Box::new(JobEnd::Failed {
-                kind: "damaged".into(),
+                kind: ErrorCode::Damaged,
                 error: format!("the stored job is damaged and cannot run: {why}"),
             }));
         }
@@ -419,7 +420,7 @@ impl Run<'_> {
             Err(e) if e.unavailable => return Attempt::StoreFailed(e.to_string()),
             Err(e) => {
                 return Attempt::Ended(Box::new(JobEnd::Failed {
-                    kind: "io".into(),
+                    kind: ErrorCode::Io,
                     error: e.to_string(),
                 }))
             }
@@ -482,15 +483,15 @@ impl Run<'_> {
                 return Attempt::StoreFailed(e.to_string())
             }
             Ok(Err(e)) => JobEnd::Failed {
-                kind: e.kind().name().into(),
+                kind: ErrorCode::of_kind(e.kind()),
                 error: e.to_string(),
             },
             Err(join) if join.is_panic() => JobEnd::Failed {
-                kind: "panic".into(),
+                kind: ErrorCode::Panic,
                 error: format!("the job panicked: {}", panic_message(join.into_panic())),
             },
             Err(join) => JobEnd::Failed {
-                kind: "panic".into(),
+                kind: ErrorCode::Panic,
                 error: format!("the job was aborted: {join}"),
             },
         }))

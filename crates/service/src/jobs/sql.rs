@@ -23,7 +23,8 @@ use super::{
     JobEnd, JobInput, JobRecord, JobState, JobStore, Lease, NewJob, Page, Signal, StoreError,
     StoreResult, TaskKey, TaskKind, TaskRecord, TaskScope,
 };
-use wsm_core::run::{Evaluation, ProgressEvent, RefinedValues};
+use crate::error_code::ErrorCode;
+use wsm_core::run::{Evaluation, ProgressEvent, RefinedOutcome};
 
 /// The database behind the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -272,6 +273,17 @@ fn json_column<T: serde::de::DeserializeOwned>(
         .ok()
 }
 
+/// The `error_kind` column of a job row: the code's name as [`ErrorCode::name`] writes it;
+/// `None` when there is none, or (with the reason added to `damage`) when it names no code.
+fn error_code_column(row: &AnyRow, damage: &mut Vec<String>) -> Option<ErrorCode> {
+    let text: String = column::<Option<String>>(row, "error_kind", damage).flatten()?;
+    let code = ErrorCode::parse(&text);
+    if code.is_none() {
+        damage.push(format!("error_kind: unknown error code '{text}'"));
+    }
+    code
+}
+
 impl SqlStore {
     /// Open the database (a SQLite file, created if needed, or a PostgreSQL URL) and apply the
     /// backend's migrations.
@@ -424,7 +436,7 @@ impl SqlStore {
             evaluations: int("evaluations", d).max(0) as usize,
             result: json_column(row, "result", d).flatten(),
             error: column(row, "error", d).flatten(),
-            error_kind: column(row, "error_kind", d).flatten(),
+            error_kind: error_code_column(row, d),
             lease_expires_at: column(row, "lease_expires_at", d).flatten(),
             damaged: None,
             id,
@@ -718,12 +730,13 @@ impl JobStore for SqlStore {
             );
             sqlx::query(sql(format!(
                 "UPDATE jobs SET state = 'failed', lost_leases = $1, error = $2,
-                     error_kind = 'attempts_exhausted', finished_at = {now},
+                     error_kind = $3, finished_at = {now},
                      lease_owner = NULL, lease_expires_at = NULL
-                 WHERE id = $3"
+                 WHERE id = $4"
             )))
             .bind(lost)
             .bind(error)
+            .bind(ErrorCode::AttemptsExhausted.name())
             .bind(&id)
             .execute(&mut *tx)
             .await
@@ -839,7 +852,9 @@ impl JobStore for SqlStore {
                 None,
                 None,
             ),
-            JobEnd::Failed { kind, error } => (JobState::Failed, None, Some(error), Some(kind)),
+            JobEnd::Failed { kind, error } => {
+                (JobState::Failed, None, Some(error), Some(kind.name()))
+            }
         };
         let finish = db("finishing a job");
         let mut tx = self.pool.begin().await.map_err(&finish)?;
@@ -1150,7 +1165,7 @@ impl JobStore for SqlStore {
         &self,
         key: &TaskKey,
         owner: &str,
-        values: &[RefinedValues],
+        values: &[RefinedOutcome],
     ) -> StoreResult<bool> {
         let complete = db("completing a task");
         let claimed = finish_task(self.backend, key, owner, json(&values)?)
@@ -1170,7 +1185,7 @@ impl JobStore for SqlStore {
         id: &str,
         attempt: u32,
         batch: u64,
-    ) -> StoreResult<Option<Vec<RefinedValues>>> {
+    ) -> StoreResult<Option<Vec<RefinedOutcome>>> {
         self.done_parts(id, attempt, batch).await
     }
 
@@ -1224,6 +1239,7 @@ async fn delete_tasks(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use wsm_core::scene::{Criterion, CriterionSpec};
 
     /// A fresh SQLite store in the temporary folder.
     async fn store() -> SqlStore {
@@ -1239,10 +1255,76 @@ mod tests {
             scene: "{}".into(),
             settings: Default::default(),
             scene_name: "s".into(),
-            criteria: vec!["phi3".into()],
+            criteria: vec![Criterion::Phi3.into()],
             budget: 1,
             run_hash: "h".into(),
         }
+    }
+
+    /// A failed job's row as earlier versions wrote it — criteria and error kind as plain
+    /// names — reads back typed; a job ended now writes the same text again, and a kind no
+    /// version wrote marks the row damaged (listed with the reason, never run).
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn rows_written_with_names_read_back_typed_and_are_written_the_same() {
+        let store = store().await;
+        let old_row = |id: String, kind: &'static str| {
+            let store = &store;
+            async move {
+                sqlx::query(
+                    r#"INSERT INTO jobs (id, state, scene, settings, scene_name, criteria, budget,
+                         run_hash, created_at, error, error_kind)
+                     VALUES ($1, 'failed', '{}', '{}', 's', '["phi3","phi6@G1","peak"]', 1, 'h', 0,
+                         'why', $2)"#,
+                )
+                .bind(id.clone())
+                .bind(kind)
+                .execute(&store.pool)
+                .await
+                .unwrap();
+                store.get(&id).await.unwrap().unwrap()
+            }
+        };
+        for kind in [
+            "bad_input",
+            "solver",
+            "panic",
+            "damaged",
+            "attempts_exhausted",
+        ] {
+            let record = old_row(format!("old-{kind}"), kind).await;
+            assert_eq!(record.damaged, None, "{kind}");
+            assert_eq!(record.error_kind.map(ErrorCode::name), Some(kind));
+            let names: Vec<String> = record.criteria.iter().map(|c| c.name()).collect();
+            assert_eq!(names, ["phi3", "phi6@G1", "peak"]);
+            assert_eq!(record.criteria[2], CriterionSpec::defined("peak"));
+        }
+        let record = old_row("old-unknown".into(), "bogus").await;
+        assert_eq!(record.error_kind, None);
+        assert!(record
+            .damaged
+            .unwrap()
+            .contains("error_kind: unknown error code 'bogus'"));
+
+        let mut new = job("new");
+        new.criteria = vec![
+            Criterion::Phi3.into(),
+            CriterionSpec::parse("phi6@G1").unwrap(),
+            CriterionSpec::defined("peak"),
+        ];
+        assert!(store.insert(new, 10).await.unwrap());
+        store.lease("w", 60.0, 3).await.unwrap().unwrap();
+        let end = JobEnd::Failed {
+            kind: ErrorCode::of_kind(wsm_core::error::ErrorKind::BadInput),
+            error: "why".into(),
+        };
+        store.finish("new", "w", end).await.unwrap();
+        let (criteria, kind): (String, String) =
+            sqlx::query_as("SELECT criteria, error_kind FROM jobs WHERE id = 'new'")
+                .fetch_one(&store.pool)
+                .await
+                .unwrap();
+        assert_eq!(criteria, r#"["phi3","phi6@G1","peak"]"#);
+        assert_eq!(kind, "bad_input");
     }
 
     /// SQLite ends a transaction by itself after an I/O error or a full disk; sqlx's ROLLBACK on

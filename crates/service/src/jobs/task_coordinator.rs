@@ -31,8 +31,8 @@ use tokio::task::JoinHandle;
 use super::{wait, JobStore, StoreError, StoreResult, TaskKey, TaskKind, TaskScope};
 use wsm_core::error::WsmError;
 use wsm_core::run::{
-    BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedDispatch, RefinedSolve,
-    RefinedValues,
+    BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedDispatch, RefinedOutcome,
+    RefinedSolve,
 };
 use wsm_core::scene::Scene;
 
@@ -344,8 +344,8 @@ impl RefinedDispatch for StoreDispatch {
         level: u32,
         points: &[Vec<f64>],
         local: &RefinedSolve<'_>,
-    ) -> Result<Option<Vec<RefinedValues>>, WsmError> {
-        let complete = |key: &TaskKey, values: &[RefinedValues]| {
+    ) -> Result<Option<Vec<RefinedOutcome>>, WsmError> {
+        let complete = |key: &TaskKey, values: &[RefinedOutcome]| {
             self.call(self.store.complete_refined_task(key, &self.owner, values))
         };
         let results =

@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use super::{wait, JobInput, JobStore, TaskKind, TaskRecord, TaskScope};
 use wsm_core::error::WsmError;
-use wsm_core::run::{Evaluation, PreparedModel, RefinedLevel, RefinedValues, WorstRequest};
+use wsm_core::run::{Evaluation, PreparedModel, RefinedLevel, RefinedOutcome, WorstRequest};
 
 /// Prepared models kept per worker process.
 const MODELS_KEPT: usize = 2;
@@ -43,7 +43,7 @@ pub struct TaskConfig {
 /// What a task's points came back with.
 enum Solved {
     Evaluations(Vec<Evaluation>),
-    Refined(Vec<RefinedValues>),
+    Refined(Vec<RefinedOutcome>),
 }
 
 type Reply = mpsc::Sender<Result<Solved, WsmError>>;
@@ -98,7 +98,7 @@ impl Model {
                             };
                             let values = pool.install(|| level.solve(&points, &|| false));
                             refined = Some(level);
-                            Solved::Refined(values.into_iter().flatten().collect())
+                            Solved::Refined(values)
                         }
                     };
                     let _ = reply.send(Ok(solved));

@@ -63,6 +63,7 @@ async function request(method, url, body) {
 }
 
 export const api = {
+  labels: () => request("GET", "/v1/labels"),
   examples: () => request("GET", "/v1/examples"),
   example: (name) => request("GET", `/v1/examples/${encodeURIComponent(name)}`),
   jobs: () => request("GET", "/v1/jobs?limit=50"),

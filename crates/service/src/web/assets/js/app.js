@@ -3,7 +3,8 @@
 import { initHome, showHome, hideHome } from "./home.js";
 import { initJob, showJob, hideJob } from "./job.js";
 import { initSolve, showSolve, hideSolve } from "./solve.js";
-import { $ } from "./format.js";
+import { $, loadLabels } from "./format.js";
+import { api } from "./api.js";
 
 function route() {
   const hash = location.hash || "#/";
@@ -28,7 +29,8 @@ function route() {
   }
 }
 
-function start() {
+async function start() {
+  await loadLabels(api.labels);
   initHome();
   initJob();
   initSolve();

@@ -55,38 +55,37 @@ export function facts(dl, pairs) {
 
 export const $ = (id) => document.getElementById(id);
 
-export const PHASES = {
-  queued: "queued", mesh_choice: "choosing the mesh for the target error", meshing: "meshing", admissible_check: "checking the admissible set",
-  nominal_solve: "nominal solve", vertex_walk: "vertex walk (gradients)", screening: "screening vertices", swarm: "swarm search",
-  polish: "polishing", sensitivities: "sensitivities", multistart: "looking for other local optima",
-  accuracy: "accuracy statement", time_steps: "time steps", finished: "finished",
-};
+/** The display names the server gives (`GET /v1/labels`): criteria, phases, verdicts, job states,
+ * warning kinds and error codes, each keyed by its JSON name; loaded once by `loadLabels`. */
+export const labels = { criteria: {}, phases: {}, verdicts: {}, states: {}, warning_kinds: {}, error_codes: {} };
 
-export const CRITERIA = {
-  phi1: "Φ1", phi2: "Φ2", phi3: "Φ3", phi4: "Φ4", phi5: "Φ5", phi6: "Φ6",
-};
+/** Fetch the labels once (without them, names show as they are). */
+export async function loadLabels(fetchLabels) {
+  try {
+    Object.assign(labels, await fetchLabels());
+  } catch {
+    // The names themselves are readable; the dashboard works on.
+  }
+}
+
+/** The label of `name` in the table `table` of `labels` (the name itself when it has none). */
+export function label(table, name) {
+  return (labels[table] && labels[table][name]) || name;
+}
 
 /** A criterion's symbol: `phi3` → Φ3, `phi3@crest` (bound to one region) → Φ3@crest. */
 export function criterionLabel(name) {
   const [kind, region] = String(name).split("@");
-  const symbol = CRITERIA[kind] || kind;
+  const c = labels.criteria[kind];
+  const symbol = c ? c.symbol : kind;
   return region === undefined ? symbol : `${symbol}@${region}`;
 }
 
 /** What a criterion measures and its unit, [what, unit] (bound to one region: over that one). */
 export function criterionInfo(name) {
   const [kind, region] = String(name).split("@");
+  const c = labels.criteria[kind];
   // A name that is no Φ is a criterion defined in the scene (`criteria.defined`), in Pa.
-  const [what, unit] = CRITERION_INFO[kind] || [`${kind}: a criterion defined in the scene`, "Pa"];
-  return region === undefined ? [what, unit] : [`${what.replace(/ over a (region|boundary piece)$/, "")} over '${region}'`, unit];
+  if (!c) return [`${kind}: a criterion defined in the scene`, "Pa"];
+  return [`${c.quantity} over ${region === undefined ? c.over : `'${region}'`}`, c.unit];
 }
-
-/** What each criterion measures, and its unit. */
-export const CRITERION_INFO = {
-  phi1: ["mean temperature over a region", "K"],
-  phi2: ["mean temperature over a boundary piece", "K"],
-  phi3: ["mean normal displacement over a region", "m"],
-  phi4: ["mean normal displacement over a boundary piece", "m"],
-  phi5: ["mean I2² (shear-stress intensity) over a region", "Pa²"],
-  phi6: ["mean normal pressure −τn over a region", "Pa"],
-};

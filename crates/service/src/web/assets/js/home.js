@@ -1,6 +1,6 @@
 // The home view: the submit form and the live job list.
 import { api, ApiError } from "./api.js";
-import { $, el, num, count, when, PHASES, CRITERION_INFO, criterionLabel } from "./format.js";
+import { $, el, num, count, when, labels, label, criterionLabel, criterionInfo } from "./format.js";
 import { setUploadedScene } from "./solve.js";
 
 const LIST_POLL_MS = 2000;
@@ -49,9 +49,9 @@ function jobRow(job) {
     "tr",
     { "data-id": job.id, "data-state": job.state, "data-warnings": String(job.warnings) },
     el("td", { class: "scene", "data-label": "Scene" }, el("a", { href }, job.scene || job.id.slice(0, 8))),
-    el("td", { "data-label": "State" }, el("span", { class: `badge ${job.state}` }, job.state),
+    el("td", { "data-label": "State" }, el("span", { class: `badge ${job.state}` }, label("states", job.state)),
       job.warnings ? el("span", { class: "warn-flag", title: "The result has warnings: read them on the job's page" }, `⚠ ${count(job.warnings, "warning")}`) : null),
-    el("td", { "data-label": "Phase" }, PHASES[job.phase] || job.phase),
+    el("td", { "data-label": "Phase" }, label("phases", job.phase)),
     el(
       "td",
       { class: "num", "data-label": "Progress" },
@@ -174,7 +174,8 @@ function fillFromScene(scene) {
 
 async function loadExamples() {
   const checks = $("criteria");
-  for (const [c, [what, unit]] of Object.entries(CRITERION_INFO)) {
+  for (const c of Object.keys(labels.criteria)) {
+    const [what, unit] = criterionInfo(c);
     checks.append(
       el("label", { title: `${what} [${unit}]` },
         el("input", { type: "checkbox", value: c, name: "criteria" }), ` ${criterionLabel(c)} `,

@@ -2,7 +2,7 @@
 // worst/best data, sensitivities, solver statistics, the scenario mesh and downloads.
 import { api, ApiError, download, hasToken } from "./api.js";
 import { ConvergencePlots, sensitivityChart } from "./charts.js";
-import { $, el, facts, num, count, duration, when, PHASES, criterionLabel, criterionInfo } from "./format.js";
+import { $, el, facts, num, count, duration, when, label, criterionLabel, criterionInfo } from "./format.js";
 import { FIELDS, MeshView, drawColorbar } from "./mesh.js";
 import { ProfilePlot } from "./profiles.js";
 
@@ -156,17 +156,17 @@ function onStatus(s) {
   current.status = s;
   $("job-title").textContent = s.scene || "Job";
   document.title = `${s.scene} — ${s.state} — wsm`;
-  $("job-state").textContent = s.state;
+  $("job-state").textContent = label("states", s.state);
   $("job-state").className = `badge ${s.state}`;
   const progress = $("job-progress");
   progress.max = s.budget;
   progress.value = Math.min(s.evaluations, s.budget);
   const failed = s.failures ? ` · ${s.failures} failed` : "";
-  $("job-progress-text").textContent = `${s.evaluations} / ${s.budget} evaluations${failed} · ${PHASES[s.phase] || s.phase}`;
+  $("job-progress-text").textContent = `${s.evaluations} / ${s.budget} evaluations${failed} · ${label("phases", s.phase)}`;
   $("job-progress-text").dataset.evaluations = s.evaluations;
   $("job-progress-text").dataset.failures = s.failures || 0;
   facts($("job-facts"), [
-    ["Phase", PHASES[s.phase] || s.phase],
+    ["Phase", label("phases", s.phase)],
     ["Criteria", s.criteria.map((c) => criterionLabel(c)).join(", ")],
     ["Created", when(s.created_at)],
     ["Started", when(s.started_at)],
@@ -183,7 +183,7 @@ function onStatus(s) {
   const cancel = $("cancel-btn");
   cancel.disabled = finished(s) || s.cancel_requested;
   cancel.textContent = s.cancel_requested && !finished(s) ? "Cancelling…" : "Cancel job";
-  showJobError(s.error ? `${s.error_kind ? `${s.error_kind}: ` : ""}${s.error}` : "");
+  showJobError(s.error ? `${s.error_kind ? `${label("error_codes", s.error_kind)}: ` : ""}${s.error}` : "");
   if (!finished(s)) {
     for (const b of s.best) current.plots.add(b.criterion, b.sense, s.evaluations, b.value);
     current.plots.extendTo(s.evaluations);
@@ -345,12 +345,12 @@ function globalCell(name, sense, g, unit) {
 /** What the exact derivatives prove about an extremum (`parameters` name a kink's datum). */
 function proofText(c, parameters) {
   if (!c) return "—";
-  const words = { locally_certified: "locally certified", not_optimal: "not proven optimal", no_derivatives: "no derivatives" };
-  if (c.residual === null || c.residual === undefined) return words[c.verdict];
+  const verdict = label("verdicts", c.verdict);
+  if (c.residual === null || c.residual === undefined) return verdict;
   const starts = c.starts > 1 ? ` · ${c.starts} local searches agree` : "";
   const p = c.kink ? parameters[c.kink.parameter] : null;
   const kink = p ? ` · at a kink along ${p.name || p.field}` : "";
-  return `${words[c.verdict]} (${num(c.residual, 2)})${starts}${kink}`;
+  return `${verdict} (${num(c.residual, 2)})${starts}${kink}`;
 }
 
 /** A warning's readable text, `subject: message` (results stored before warnings were typed
