@@ -2,6 +2,7 @@
 //! convergence rates, the thick-walled cylinder (Lamé), free thermal expansion, heat across a
 //! perfect thermal contact, floating bodies and conflicting constraints.
 
+#[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
 use solves::{bc, data, material};

@@ -3,6 +3,7 @@
 //! manufactured solution, Hertz contact at ν = 0.499, the contact patch test (node-to-node and
 //! mortar), and the refusals (DD, sparse contact, anisotropic material, thermal load).
 
+#[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
 use solves::{bc, data, material};

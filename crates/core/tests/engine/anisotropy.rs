@@ -4,7 +4,7 @@
 //! plane-strain compliance; the patch test with a general matrix; free anisotropic thermal
 //! expansion is stress-free.
 
-mod solves;
+use crate::solves;
 
 use solves::{bc, data, material};
 

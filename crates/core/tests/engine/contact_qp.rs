@@ -503,7 +503,7 @@ fn median(mut v: Vec<Duration>) -> Duration {
     v[v.len() / 2]
 }
 
-/// `cargo test --release --test contact_qp timings -- --ignored --nocapture`
+/// `cargo test --release -p wsm-core --test engine contact_qp::timings -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn timings() {

@@ -14,7 +14,11 @@ use wsm_core::scene::{parse, Scene};
 use wsm_core::state::StateProblem;
 
 fn dam() -> Scene {
-    parse(include_str!("data/dam-coulomb-3data.json")).unwrap()
+    parse(include_str!(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/dam-coulomb-3data.json"
+    )))
+    .unwrap()
 }
 
 /// The run as `wsm worst` makes it, without the accuracy statement.
