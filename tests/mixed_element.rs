@@ -12,7 +12,7 @@ use std::f64::consts::PI;
 
 use serde_json::{json, Value};
 use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::mesh::structured::{perturb_interior, rectangle};
+use wsm_core::fixtures::{perturb_interior, rectangle};
 use wsm_core::mesh::Mesh;
 use wsm_core::scene::{parse, BoundaryValue, Elastic, Element, Scene};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
