@@ -574,7 +574,9 @@ fn a_ray_through_coupled_variables_is_reported_unbounded_in_bounded_time() {
         }
         other => panic!("expected Unbounded, got {other:?}"),
     }
-    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+    // A hang guard, not a benchmark: microseconds when alone; 10 s leaves room for a loaded
+    // 2-core machine running the other test binaries.
+    assert!(elapsed < Duration::from_secs(10), "{elapsed:?}");
 }
 
 #[test]
