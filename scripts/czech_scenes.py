@@ -18,10 +18,10 @@ they have any. Lines refer to papers/000_c5a0b0f1845f98aa.txt (CZ = the Czech te
   displacement, bilateral contact (a roller on the femur's shaft and the tied tibia-fibula
   joint), unilateral contact cartilage-cartilage, 1e6 Pa on the femur's top.
 - tibia-marrow (CZ 1675-1775): bone 1.71e10/0.25, marrow 2e6/0.49 (P1 locks at nu = 0.49: the
-  scene warns; `mesh.element: "mixed"` is the remedy, compared in tests/czech_models.rs; the
+  scene warns; `mesh.element: "mixed"` is the remedy, compared in crates/core/tests/engine/czech_models.rs; the
   scene stays P1 while mixed has no exact derivatives), clamped bottom, 0.2e7 Pa on
   the plateau, bilateral (tied) contact marrow-bone. The text's colour-bar extremes are compared
-  in tests/czech_models.rs.
+  in crates/core/tests/engine/czech_models.rs.
 - thermo-contact-fault (FGCS 2006, (2.1)-(2.13), (4.7)-(4.15)): heat with uncertain
   conductivity kappa, heat source W, boundary temperature T1 and expansion beta, Tresca contact
   on a fault; FGCS section 5 gives no thermal data, so all thermal numbers are ours.

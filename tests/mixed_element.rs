@@ -5,6 +5,7 @@
 //! with marrow), and the refusals (DD, sparse contact, anisotropic material); thermal strain in
 //! tests/mixed_thermal.rs.
 
+#[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
 use solves::{bc, data, material};
@@ -13,7 +14,7 @@ use std::f64::consts::PI;
 
 use serde_json::{json, Value};
 use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::mesh::structured::{perturb_interior, rectangle};
+use wsm_core::fixtures::{perturb_interior, rectangle};
 use wsm_core::mesh::Mesh;
 use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
 use wsm_core::scene::{parse, BoundaryValue, Elastic, Element, Scene};

@@ -4,6 +4,7 @@
 //! and the contact profile of the Hertz example against p(x) = p0 √(1 − x²/a²); the CSV of
 //! `wsm solve --profiles` carries the same numbers.
 
+#[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
 use std::process::Command;

@@ -9,6 +9,7 @@
 //! straddles a kink): such components are counted and must stay rare. A derivative so small that
 //! the solver's rounding of Φ dominates its difference (counted as negligible) must be as small.
 
+use wsm_core::fixtures;
 use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
 use wsm_core::scene::{Criterion, Scene};
 use wsm_core::state::{DerivativeRoute, Needs, PerCriterion, SolveOptions, StateProblem};
@@ -31,15 +32,14 @@ fn criteria_at(
     problem.solve(&data, &options(problem)).unwrap().criteria
 }
 
-/// A small deterministic generator (SplitMix64).
-struct Rng(u64);
+/// The shared seeded generator (`fixtures::rng`) drawing uniforms in [0, 1).
+struct Rng(fixtures::Rng);
 impl Rng {
+    fn new(seed: u64) -> Rng {
+        Rng(fixtures::rng(seed))
+    }
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        fixtures::uniform(&mut self.0)
     }
 }
 
@@ -56,7 +56,7 @@ struct Tally {
 fn check(scene: Scene, points: usize, seed: u64) -> Tally {
     let problem = StateProblem::new(scene).unwrap();
     let params = parameters(&problem.scene).unwrap();
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut tally = Tally::default();
     for point in 0..points {
         // Odd points are random vertices of the box (one-sided stencils and differences).
@@ -225,7 +225,7 @@ fn compare_routes(name: &str, problem: &StateProblem, rng: &mut Rng) -> (usize, 
 /// ([`compare_routes`]) on every bundled example, and the adjoint gave most directions.
 #[test]
 fn adjoint_equals_forward_on_every_example() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     for name in wsm_core::bundled::names() {
         let coarsen = if name.starts_with("tunnel") || name == "knee" {
             2.0

@@ -4,9 +4,9 @@
 //! anything.
 
 /// The pipeline, earliest first, as the crate documentation states it.
-const PIPELINE: [&str; 16] = [
-    "memo", "scene", "mesh", "fem", "error", "fault", "bundled", "contact", "dd", "regions",
-    "state", "dynamics", "output", "estimate", "scenario", "run",
+const PIPELINE: [&str; 17] = [
+    "memo", "scene", "mesh", "fixtures", "fem", "error", "fault", "bundled", "contact", "dd",
+    "regions", "state", "dynamics", "output", "estimate", "scenario", "run",
 ];
 
 /// `crate::NAME` paths in the library code of one file (comments and test code skipped).

@@ -3,7 +3,8 @@
 //!
 //! The pipeline, one module each, every module using only those before it (a test keeps it so:
 //! `layering`), after the private `memo` (a small value cache): `scene` (the JSON
-//! document and its validation) → `mesh` (P1 triangles, contact node pairs) → `fem` (elasticity
+//! document and its validation) → `mesh` (P1 triangles, contact node pairs) → `fixtures` (structured meshes
+//! and the seeded random generator for tests, studies and benchmarks) → `fem` (elasticity
 //! and heat operators, loads, stresses) → `error` (the engine's error type, over the scene and
 //! FEM errors and the search's) → `fault` (injected solve failures, for the tests of how runs
 //! report them) → `bundled` (the example scenes) → `contact` (the exact direct contact solver) →
@@ -28,6 +29,7 @@ pub mod error;
 pub mod estimate;
 pub mod fault;
 pub mod fem;
+pub mod fixtures;
 mod memo;
 pub mod mesh;
 pub mod output;

@@ -334,7 +334,9 @@ fn time_limit_is_respected() {
     );
     assert_eq!(r.status, Status::TimeLimit);
     assert!(r.elapsed >= Duration::from_millis(200));
-    assert!(r.elapsed < Duration::from_millis(200 + 20 + 150));
+    // Stopped at the limit, not after the budget (5000 × 20 ms = 100 s): the limit, one
+    // evaluation in flight and room for a loaded 2-core machine.
+    assert!(r.elapsed < Duration::from_millis(200 + 20 + 1000));
     assert!(r.objectives[0].value.is_some());
     // An infinite limit is no limit.
     p.max_seconds = Some(f64::INFINITY);

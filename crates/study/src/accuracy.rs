@@ -22,7 +22,7 @@ use wsm_core::error::WsmError;
 use wsm_core::estimate::ladder::{scaled, Ladder};
 use wsm_core::estimate::richardson::{extrapolate, observed_order, Extrapolation};
 use wsm_core::fem::Par;
-use wsm_core::mesh::structured::{perturb_interior, rectangle};
+use wsm_core::fixtures::{perturb_interior, rectangle};
 use wsm_core::scene::{parse, Criterion, Scene, SceneError, SolverKind};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 

@@ -17,7 +17,7 @@ use serde_json::{json, Value};
 use super::condition::stiffness_condition;
 use wsm_core::error::WsmError;
 use wsm_core::fem::Par;
-use wsm_core::mesh::structured::stacked_blocks;
+use wsm_core::fixtures::stacked_blocks;
 use wsm_core::run::{self, RunControl, WorstRequest};
 use wsm_core::scene::{parse, Criterion, Scene, SolverKind};
 use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};

@@ -11,7 +11,7 @@ use super::options::{CoarseKind, DdOptions, Pcg1Preconditioner};
 use super::successive::solve;
 use super::{DdContactPair, DdContactRow, DdError, DdProblem, PartitionRequest};
 use crate::fem::{ElasticProblem, Slot};
-use crate::mesh::structured::stacked_blocks;
+use crate::fixtures::stacked_blocks;
 use crate::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SlipData};
 
 fn material(e: f64, weight: f64) -> MaterialData {

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use faer::Par;
 
-use crate::mesh::structured::rectangle;
+use crate::fixtures::rectangle;
 use crate::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
 
 use super::linear::Symbolic;

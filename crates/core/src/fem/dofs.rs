@@ -398,7 +398,7 @@ fn check_dependent(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::structured::rectangle;
+    use crate::fixtures::rectangle;
 
     fn condition(mesh: &Mesh, name: &str, value: BoundaryValue) -> BoundaryData {
         BoundaryData {

@@ -591,7 +591,7 @@ fn build_operator(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::structured::stacked_blocks;
+    use crate::fixtures::stacked_blocks;
     use crate::scene::{BoundaryData, Elastic, Expansion, MaterialData};
 
     #[test]

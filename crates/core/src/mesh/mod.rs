@@ -20,7 +20,6 @@ pub mod normals;
 mod refine;
 mod rows;
 mod size;
-pub mod structured;
 mod subdivide;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -417,13 +417,8 @@ mod tests {
     #[test]
     fn insertions_keep_a_valid_delaunay_triangulation() {
         let mut t = square(&[[0, 1], [1, 2], [2, 3], [3, 0]]);
-        let mut seed = 12345u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = crate::fixtures::rng(12345);
+        let mut rnd = || crate::fixtures::uniform(&mut rng);
         for _ in 0..300 {
             let p = [0.05 + 0.9 * rnd(), 0.05 + 0.9 * rnd()];
             let Walk::Reached(s) = t.walk(

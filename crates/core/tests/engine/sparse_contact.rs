@@ -3,7 +3,7 @@
 //! displacement and contact forces to 1e-10 relative, the same contact states, KKT at rounding
 //! level; the automatic choice by pair count; refusals named.
 
-mod solves;
+use crate::solves;
 
 use serde_json::Value;
 use wsm_core::scene::params::{parameters, stencil};
@@ -62,7 +62,10 @@ fn differences(dense: &Solution, sparse: &Solution) -> (f64, f64) {
 #[test]
 fn sparse_path_equals_dense_on_bundled_examples() {
     let mut compared = 0;
-    let dam = include_str!("data/dam-coulomb-3data.json");
+    let dam = include_str!(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/dam-coulomb-3data.json"
+    ));
     let cases = wsm_core::bundled::names()
         .map(|name| (name, wsm_core::bundled::example(name).unwrap()))
         .chain([("dam (Coulomb joint, tests/data)", dam)]);

@@ -7,7 +7,7 @@
 //! worst-scenario run finishes within its budget; the tied set Γc0 of the DD's auxiliary problem
 //! (D05 4.35, `solver.dd.tied_zones`) changes the iteration, never the answer.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};

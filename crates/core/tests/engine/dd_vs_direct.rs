@@ -3,7 +3,7 @@
 //! states, DD converged by itself (no fallback), partition of unity and coarse orthogonality;
 //! on mortar zones (non-matching meshes, design §2.4.1 and §3.2) the same multipliers as well.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve, stacked_blocks_mortar};

@@ -14,7 +14,11 @@ use wsm_core::scene::{parse, Scene};
 use wsm_core::state::StateProblem;
 
 fn dam() -> Scene {
-    parse(include_str!("data/dam-coulomb-3data.json")).unwrap()
+    parse(include_str!(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/data/dam-coulomb-3data.json"
+    )))
+    .unwrap()
 }
 
 /// The run as `wsm worst` makes it, without the accuracy statement.
@@ -26,7 +30,7 @@ fn worst(scene: Scene) -> WorstOutcome {
     run::worst(scene, &request, &RunControl::new()).unwrap()
 }
 
-/// Every vertex of the box, then `random` points from a fixed generator (SplitMix64).
+/// Every vertex of the box, then `random` points from the shared seeded generator.
 fn points(params: &[Parameter], random: usize) -> Vec<Vec<f64>> {
     let k = params.len();
     let mut out: Vec<Vec<f64>> = (0..1usize << k)
@@ -38,14 +42,8 @@ fn points(params: &[Parameter], random: usize) -> Vec<Vec<f64>> {
                 .collect()
         })
         .collect();
-    let mut state = 0x5EED_u64;
-    let mut uniform = || {
-        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut rng = wsm_core::fixtures::rng(0x5EED);
+    let mut uniform = || wsm_core::fixtures::uniform(&mut rng);
     for _ in 0..random {
         out.push(
             params

@@ -1,11 +1,34 @@
-//! Structured meshes for tests and benchmarks: mapped grids of P1 triangles with alternating
-//! diagonals (no directional bias), their random interior perturbation, rigid rotation, and two
-//! stacked blocks with a contact zone.
+//! Fixtures for tests, studies and benchmarks — not part of the engine's pipeline: structured
+//! meshes (mapped grids of P1 triangles with alternating diagonals, so no directional bias), their
+//! random interior perturbation, rigid rotation, two stacked blocks with a contact zone, and the
+//! one seeded random generator every test draws from (xoshiro256++, as the search's streams of
+//! design §4.3).
 //!
 //! Segments follow the `Mesh` contract: names sorted, nodes and edges ordered counter-clockwise
 //! around the body (edges with the body on their left).
 
-use super::{Mesh, MeshContact, MeshSegment, MeshZone};
+use rand_xoshiro::rand_core::{RngCore, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+use crate::mesh::{Mesh, MeshContact, MeshSegment, MeshZone};
+
+/// The seeded generator of the tests and fixtures.
+pub type Rng = Xoshiro256PlusPlus;
+
+/// The generator whose stream is fixed by `seed`.
+pub fn rng(seed: u64) -> Rng {
+    Rng::seed_from_u64(seed)
+}
+
+/// Uniform in [0, 1) with 53 random bits.
+pub fn uniform(rng: &mut Rng) -> f64 {
+    (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Uniform in {0, …, n − 1} (n ≥ 1; the modulo bias is below n / 2⁶⁴).
+pub fn below(rng: &mut Rng, n: usize) -> usize {
+    (rng.next_u64() % n as u64) as usize
+}
 
 /// A mapped (nu × nv)-cell grid of the unit square through `map`; sides named
 /// `[v = 0, u = 1, v = 1, u = 0]` (counter-clockwise). `map` must preserve orientation.
@@ -85,26 +108,6 @@ pub fn quarter_annulus(r_in: f64, r_out: f64, nr: usize, ntheta: usize) -> Mesh 
     )
 }
 
-/// Minimal deterministic generator (64-bit LCG, Knuth's MMIX constants).
-#[derive(Debug, Clone)]
-pub struct Lcg(u64);
-
-impl Lcg {
-    /// A generator whose stream is fixed by `seed` (XOR-ed with a constant to form the state).
-    pub fn new(seed: u64) -> Lcg {
-        Lcg(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn next_f64(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// Move every node that lies on no segment by a uniform random offset in [−a, a]²
 /// (deterministic for a seed). Keep `amplitude` below about h/4 to keep triangles valid.
 pub fn perturb_interior(mesh: &mut Mesh, amplitude: f64, seed: u64) {
@@ -114,11 +117,11 @@ pub fn perturb_interior(mesh: &mut Mesh, amplitude: f64, seed: u64) {
             on_boundary[n] = true;
         }
     }
-    let mut rng = Lcg::new(seed);
+    let mut rng = rng(seed);
     for (p, boundary) in mesh.nodes.iter_mut().zip(on_boundary) {
         if !boundary {
-            p[0] += amplitude * (2.0 * rng.next_f64() - 1.0);
-            p[1] += amplitude * (2.0 * rng.next_f64() - 1.0);
+            p[0] += amplitude * (2.0 * uniform(&mut rng) - 1.0);
+            p[1] += amplitude * (2.0 * uniform(&mut rng) - 1.0);
         }
     }
 }

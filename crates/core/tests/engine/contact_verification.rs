@@ -1,7 +1,7 @@
 //! Contact verification (design §6, issue "Contact"): 2D Hertz, the contact patch test, Tresca
 //! limits, stick/slip thresholds, and KKT residuals of every example.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use wsm_core::scene::{parse, Data, Scene};

@@ -4,7 +4,7 @@
 //! F (bonded), the Tresca problem with the converged slip bound, the Cattaneo–Mindlin stick zone
 //! of a cylinder on a flat, the DD solver, and finite differences of the sensitivities.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use solves::relative_difference;

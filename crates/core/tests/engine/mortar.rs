@@ -4,9 +4,9 @@
 //! Tresca stick and refusal; refusals named; a Gmsh mesh whose bodies were meshed on their own.
 //! (Exact derivatives on the bundled `hertz-nonmatching` are checked against finite differences in
 //! tests/sensitivities.rs; worst-scenario runs on the bundled mortar examples against their
-//! matching twins in tests/worst_scenario.rs.)
+//! matching twins in crates/core/tests/engine/worst_scenario.rs.)
 
-mod solves;
+use crate::solves;
 
 use std::time::Instant;
 
@@ -337,7 +337,7 @@ fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
 /// tangentially (the block is held by the contact only).
 #[test]
 fn a_gmsh_mesh_with_the_bodies_meshed_on_their_own_is_coupled_by_mortar() {
-    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
     let text = std::fs::read_to_string(data.join("block-on-base-gmsh.json")).unwrap();
     let mut v: Value = serde_json::from_str(&text).unwrap();
     v["mesh"]["gmsh_file"] = json!(data.join("block-on-base-nonmatching.msh"));

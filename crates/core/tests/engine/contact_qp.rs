@@ -7,30 +7,26 @@ use std::time::{Duration, Instant};
 use wsm_core::contact::qp::{
     kkt_residuals, solve_box_qp, BoxQp, QpError, QpMethod, QpOptions, QpSolution, WarmStart,
 };
+use wsm_core::fixtures;
 
-/// Small deterministic generator (xorshift64*), so that cases are reproducible from a seed.
-struct Rng(u64);
+/// The shared seeded generator (`fixtures::rng`) with the draws these cases need, so that
+/// cases are reproducible from a seed.
+struct Rng(fixtures::Rng);
 
 impl Rng {
     fn new(seed: u64) -> Self {
-        Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
-    }
-    fn next_u64(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
+        Self(fixtures::rng(seed))
     }
     /// Uniform in [0, 1).
     fn unif(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
+        fixtures::uniform(&mut self.0)
     }
     /// Uniform in [-1, 1).
     fn sym(&mut self) -> f64 {
         2.0 * self.unif() - 1.0
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next_u64() % n as u64) as usize
+        fixtures::below(&mut self.0, n)
     }
 }
 
@@ -377,19 +373,31 @@ fn warm_start_after_small_perturbation_takes_few_newton_steps() {
     }
 }
 
-/// Found by random search: plain PDAS revisits an active set on this nearly singular,
-/// non-M-matrix Hessian (about 1 case in 1000 of this family).
+/// Plain PDAS revisits an active set on some nearly singular, non-M-matrix Hessians of this
+/// family (about 1 case in 1000): the first such case among the seeds is found by the search
+/// below, and the fallback solves it to clarabel's answer.
 #[test]
 fn pdas_cycle_is_caught_by_the_fallback() {
-    let mut rng = Rng::new(5459);
-    let m = 3 + rng.below(4);
-    let c = random_psd(&mut rng, m, m, 1e-3);
-    let d = (0..m).map(|_| rng.sym()).collect();
-    let p = BoxQp::new(c, d, vec![0.0; m], vec![f64::INFINITY; m]);
-    let s = solve(&p);
-    assert_eq!(s.method, QpMethod::FallbackThenNewton);
+    let case = |seed: u64| {
+        let mut rng = Rng::new(seed);
+        let m = 3 + rng.below(4);
+        let c = random_psd(&mut rng, m, m, 1e-3);
+        let d = (0..m).map(|_| rng.sym()).collect();
+        BoxQp::new(c, d, vec![0.0; m], vec![f64::INFINITY; m])
+    };
+    let (seed, p, s) = (0..20_000)
+        .map(|seed| (seed, case(seed)))
+        .map(|(seed, p)| {
+            let s = solve(&p);
+            (seed, p, s)
+        })
+        .find(|(_, _, s)| s.method == QpMethod::FallbackThenNewton)
+        .expect("a cycling case among 20,000 seeds");
     let reference = clarabel_solve(&p);
-    assert!(max_rel_diff(&p, &s.x, &reference) < 1e-7);
+    assert!(
+        max_rel_diff(&p, &s.x, &reference) < 1e-7,
+        "seed {seed}: {s:?}"
+    );
 }
 
 #[test]
@@ -503,7 +511,7 @@ fn median(mut v: Vec<Duration>) -> Duration {
     v[v.len() / 2]
 }
 
-/// `cargo test --release --test contact_qp timings -- --ignored --nocapture`
+/// `cargo test --release -p wsm-core --test engine contact_qp::timings -- --ignored --nocapture`
 #[test]
 #[ignore]
 fn timings() {
@@ -566,7 +574,9 @@ fn a_ray_through_coupled_variables_is_reported_unbounded_in_bounded_time() {
         }
         other => panic!("expected Unbounded, got {other:?}"),
     }
-    assert!(elapsed < Duration::from_secs(1), "{elapsed:?}");
+    // A hang guard, not a benchmark: microseconds when alone; 10 s leaves room for a loaded
+    // 2-core machine running the other test binaries.
+    assert!(elapsed < Duration::from_secs(10), "{elapsed:?}");
 }
 
 #[test]

@@ -4,7 +4,7 @@
 //! naming the field. The iteration counts at the papers' sizes (docs/verification.md) come from
 //! the ignored test at the end.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
@@ -108,7 +108,7 @@ fn papers_run(scene: &Value, subdomains: usize, dd: &Value) -> (Value, f64) {
 /// The iteration counts of docs/verification.md ("The papers' DD as printed"): the bundled D03
 /// model problem, tunnel and D05 knee at the papers' sizes, wsm's DD, each printed variant and a
 /// smaller tied set Γc0. Slow (minutes):
-/// `cargo test --release --test dd_printed -- --ignored --nocapture`.
+/// `cargo test --release -p wsm-core --test engine dd_printed -- --ignored --nocapture`.
 #[test]
 #[ignore]
 fn iteration_counts_at_the_papers_sizes() {

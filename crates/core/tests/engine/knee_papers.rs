@@ -6,7 +6,7 @@
 //! (docs/verification.md compares the numbers; they depend on the paper's X-ray geometry and mesh,
 //! which were not published, so only the trend and the order of magnitude are asserted).
 
-mod solves;
+use crate::solves;
 
 use wsm_core::scene::SolverKind;
 use wsm_core::state::{Solution, SolverUsed, StateProblem};

@@ -1,7 +1,7 @@
 //! Helpers shared by the tests that solve scenes in-process with either inner solver
-//! (tests/dd_vs_direct.rs, tests/coulomb.rs, tests/knee_papers.rs, tests/mortar.rs), and the
-//! data builders of the tests that assemble FEM problems by hand (tests/fem_verification.rs,
-//! tests/anisotropy.rs, tests/mixed_element.rs).
+//! (dd_vs_direct, coulomb, knee_papers, mortar), and the data builders of the tests that
+//! assemble FEM problems by hand (anisotropy here; tests/fem_verification.rs and
+//! tests/mixed_element.rs of the root package include this file by path).
 
 #![allow(dead_code)] // each test binary uses its own subset
 

@@ -4,12 +4,12 @@
 //! plane-strain compliance; the patch test with a general matrix; free anisotropic thermal
 //! expansion is stress-free.
 
-mod solves;
+use crate::solves;
 
 use solves::{bc, data, material};
 
 use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::mesh::structured::{perturb_interior, rectangle, rotate};
+use wsm_core::fixtures::{perturb_interior, rectangle, rotate};
 use wsm_core::mesh::{Mesh, MeshSegment};
 use wsm_core::scene::{
     BoundaryData, BoundaryValue, Data, Elastic, Expansion, Orthotropic, PlaneStrainLaw,
