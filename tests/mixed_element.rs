@@ -3,7 +3,7 @@
 //! manufactured solution, Hertz contact at ν = 0.499, the contact patch test (node-to-node and
 //! mortar), a worst-scenario run with exact derivatives and its accuracy statement (the tibia
 //! with marrow), and the refusals (DD, sparse contact, anisotropic material); thermal strain in
-//! tests/mixed_thermal.rs.
+//! crates/core/tests/engine/mixed_thermal.rs.
 
 #[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;

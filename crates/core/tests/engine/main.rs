@@ -20,6 +20,7 @@ mod global_search;
 mod hydrostatic;
 mod knee_papers;
 mod mesh_robustness;
+mod mixed_thermal;
 mod mortar;
 mod mortar_poisson;
 mod sparse_contact;

@@ -5,12 +5,12 @@
 //! scene `thermo-contact-fault` solved on the mixed element (KKT, mixed vs P1), and the refusal
 //! of the derivatives of a thermo-elastic mixed scene.
 
-mod solves;
+use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{bc, data, material, relative_difference, solve};
 use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::mesh::structured::{perturb_interior, rectangle};
+use wsm_core::fixtures::{perturb_interior, rectangle};
 use wsm_core::scene::params::{apply, parameters, stencil};
 use wsm_core::scene::{parse, BoundaryValue, Data, Elastic, Element, Expansion, SolverKind};
 use wsm_core::state::{Needs, SolveOptions, StateProblem};
