@@ -545,7 +545,7 @@ fn mixed_elements_match_finite_differences() {
         tally.kinks * 10 <= tally.checked,
         "too many components straddle a kink: {tally:?}"
     );
-    let mut rng = Rng(5);
+    let mut rng = Rng::new(5);
     for (name, scene) in [
         ("mixed hertz", mixed_hertz_scene()),
         ("mixed tibia-marrow", mixed_tibia_scene()),

@@ -91,7 +91,7 @@ async fn jobs_round_trip_and_list_newest_first(store: Arc<dyn JobStore>) {
     }
     let a = store.get("a").await.unwrap().unwrap();
     assert_eq!(a.state, JobState::Queued);
-    assert_eq!(a.criteria, vec!["phi3".to_string()]);
+    assert_eq!(a.criteria, vec![Criterion::Phi3.into()]);
     assert_eq!(a.run_hash, "hash-a");
     assert!(store.get("missing").await.unwrap().is_none());
     let page = Page {

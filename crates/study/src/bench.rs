@@ -468,7 +468,7 @@ fn with_generated_mesh_inline(scene: &Scene) -> Result<Scene, WsmError> {
 }
 
 /// `wsm bench --mortar`: the cost of an evaluation with dual mortar contact rows against one with
-/// node-to-node pairs at equal unknowns (design §2.4.1; acceptance of issue #46: at most 1.3×).
+/// node-to-node pairs at equal unknowns (design §2.4.1; the mortar's cost target: at most 1.3×).
 /// Per example and size the scene's mesh is generated once and given inline, and its contact
 /// zones are coupled once by node pairs and once by mortar (the first segment the slave, so both
 /// have their rows on the same nodes). Medians over `runs` interior points of the box, the two
@@ -552,7 +552,7 @@ pub fn run_mortar(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
 /// Steps of a `wsm bench --dynamics` run.
 pub const DYNAMIC_STEPS: usize = 1000;
 
-/// `wsm bench --dynamics`: the seismic tunnel example (design §3.5; issue #47's speed target:
+/// `wsm bench --dynamics`: the seismic tunnel example (design §3.5; the speed target:
 /// about 10⁴ unknowns, 1000 steps with contact in ≤ 10 s on 2 cores) scaled to each size, run for
 /// [`DYNAMIC_STEPS`] steps of its Δt (the pulse crosses the rock mass and the fault, the absorbing
 /// layers take it out) with an output every 10 steps. Medians over `runs` runs of the set-up

@@ -1,4 +1,4 @@
-//! Acceptance tests of the dynamic solver (issue #47, design §3.5, verification.md): wave
+//! Acceptance tests of the dynamic solver (design §3.5, docs/verification.md "Dynamics"): wave
 //! speeds, the bar impact (uses `initial_velocity`), energy over 10⁴ steps with contact, the
 //! static limit of a damped run, slip-rate-dependent friction, point loads as exact P1 loads,
 //! and the refusals of bad input. Every run goes through `tests::checked` (PDAS terminates on

@@ -1,4 +1,4 @@
-//! The history of a dynamic run (design §3.5; issue #47 item 5): at the output times, u, v and a
+//! The history of a dynamic run (design §3.5, "Outputs"): at the output times, u, v and a
 //! at the receivers (P1 interpolation in the triangle holding the point), per contact zone the
 //! normal and tangential resultants, the open/stick/slip counts, the largest penetration, slip
 //! and slip rate, per body the mean velocity, and the energy budget term by term; over every

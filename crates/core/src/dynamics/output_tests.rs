@@ -1,4 +1,4 @@
-//! The outputs of a dynamic run (design §3.5, issue #47 item 5) against closed forms and
+//! The outputs of a dynamic run (design §3.5, "Outputs") against closed forms and
 //! independent readings: a block sliding against a Tresca slip limit (its mean velocity is its
 //! momentum, the discrete momentum balance to rounding and the rigid-slide closed form; slip,
 //! slip rate and the friction dissipation g ℓ × slip), the energy split of a viscous bar and of a

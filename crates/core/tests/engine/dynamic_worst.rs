@@ -432,7 +432,7 @@ fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
 /// Per defined criterion and datum: (exact right derivative, central difference of whole runs
 /// with a relative step of 1e-5, value), as [`gradient_check`] for Φ1–Φ6; the defined
 /// criteria are read by name from the region values and region derivatives.
-fn defined_gradient_check(scene: &Value) -> Vec<(Criterion, String, f64, f64, f64)> {
+fn defined_gradient_check(scene: &Value) -> Vec<Row> {
     const DEFINED: usize = Criterion::Defined as usize;
     let p = problem(scene);
     let params = parameters(&p.scene).expect("parameters");
@@ -479,6 +479,7 @@ fn defined_gradient_check(scene: &Value) -> Vec<(Criterion, String, f64, f64, f6
                 Criterion::Defined,
                 format!("{name}/{}", q.name),
                 exact.right,
+                exact.left,
                 fd,
                 value,
             ));
