@@ -60,7 +60,7 @@ async fn bench(db: &str, batches: usize) {
                     scene: "{}".into(),
                     settings: WorstRequest::default(),
                     scene_name: "bench".into(),
-                    criteria: vec!["phi3".into()],
+                    criteria: vec![wsm_core::scene::Criterion::Phi3.into()],
                     budget: 1,
                     run_hash: format!("hash{job_no}"),
                 },

@@ -217,9 +217,10 @@ pub fn worst(
         control = control.with_log(log.clone() as Arc<dyn EvaluationLog>);
     }
     let fields_scene = files.fields.as_ref().map(|_| scene.clone());
+    let defined = scene.criteria.defined.clone();
     let outcome = run::worst(scene, &request, &control)?;
     bar.finish_and_clear();
-    eprint!("{}", run::summary(&outcome));
+    eprint!("{}", run::summary(&outcome, &defined));
     if let Some(p) = &files.out {
         write(p, &to_json(&outcome)?)?;
     }

@@ -105,6 +105,7 @@ fn worst(
     let request: WorstRequest =
         serde_json::from_str(request).map_err(|e| bad_json("request", e))?;
     let settings = request.settings(&scene).map_err(raise)?;
+    let defined = scene.criteria.defined.clone();
     let (file_log, memory_log) = match (log, resume) {
         (Some(_), Some(_)) => {
             return Err(raise(
@@ -185,7 +186,7 @@ fn worst(
     let table =
         String::from_utf8(table).map_err(|e| raise(WsmError::io("evaluations table", e)))?;
     let full = to_json(&outcome)?;
-    let summary = run::summary(&outcome);
+    let summary = run::summary(&outcome, &defined);
     let printed = serde_json::to_string_pretty(&outcome.without_histories())
         .map_err(|e| raise(WsmError::io("JSON output", e)))?;
     Ok((full, printed, table, summary))

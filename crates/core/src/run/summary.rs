@@ -6,11 +6,12 @@
 use std::fmt::Write;
 
 use crate::scenario::worst::WorstOutcome;
-use crate::scene::Criterion;
+use crate::scene::{Criterion, DefinedCriterion};
 use wsm_search::{ActiveBound, ObjectiveResult, Sense, Verdict};
 
-/// The summary as lines of text.
-pub fn summary(outcome: &WorstOutcome) -> String {
+/// The summary as lines of text; `defined` are the scene's defined criteria (their units and
+/// what they measure).
+pub fn summary(outcome: &WorstOutcome, defined: &[DefinedCriterion]) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -26,19 +27,25 @@ pub fn summary(outcome: &WorstOutcome) -> String {
     let names: Vec<&str> = outcome.parameters.iter().map(|p| p.name.as_str()).collect();
     for c in &outcome.criteria {
         let kind = c.criterion.criterion;
-        let over = match &c.criterion.region {
-            Some(region) => format!("bound to '{region}'"),
-            None => "the largest over its regions".to_string(),
+        let quantity = (kind == Criterion::Defined)
+            .then(|| defined.iter().find(|d| Some(&d.name) == c.criterion.region.as_ref()))
+            .flatten()
+            .map(|d| d.quantity);
+        let (unit, definition) = quantity.map_or((kind.unit(), kind.definition()), |q| {
+            (q.unit(), q.definition())
+        });
+        let over = match (&c.criterion.region, kind) {
+            (Some(_), Criterion::Defined) => format!("'{}'", c.criterion.name()),
+            (Some(region), _) => format!("bound to '{region}'"),
+            (None, _) => "the largest over its regions".to_string(),
         };
         let _ = writeln!(
             out,
-            "{} [{}]: {}, {over}",
-            c.criterion.symbol(),
-            kind.unit(),
-            kind.definition()
+            "{} [{unit}]: {definition}, {over}",
+            c.criterion.symbol()
         );
         for (which, o) in [("worst", &c.worst), ("best", &c.best)] {
-            extremum(&mut out, kind, which, o, &names);
+            extremum(&mut out, kind, unit, which, o, &names);
         }
     }
     for w in &outcome.warnings {
@@ -50,6 +57,7 @@ pub fn summary(outcome: &WorstOutcome) -> String {
 fn extremum(
     out: &mut String,
     criterion: Criterion,
+    unit: &str,
     which: &str,
     o: &ObjectiveResult,
     names: &[&str],
@@ -68,8 +76,7 @@ fn extremum(
         .map_or(String::new(), |r| format!(" in '{r}'"));
     let _ = writeln!(
         out,
-        "  {which} {value:.6e} {}{equivalent}{region}",
-        criterion.unit()
+        "  {which} {value:.6e} {unit}{equivalent}{region}"
     );
     let data: Vec<String> = names
         .iter()
@@ -104,9 +111,8 @@ fn extremum(
         };
         let _ = writeln!(
             out,
-            "    runner-up local {kind}: {:.6e} {} ({:.2e} relative, less extreme)",
+            "    runner-up local {kind}: {:.6e} {unit} ({:.2e} relative, less extreme)",
             r.value,
-            criterion.unit(),
             r.gap
         );
     }

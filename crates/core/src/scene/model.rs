@@ -722,6 +722,26 @@ impl DefinedQuantity {
     pub fn is_receiver(self) -> bool {
         self == DefinedQuantity::PeakVelocity
     }
+
+    /// The SI unit of the criterion's value.
+    pub fn unit(self) -> &'static str {
+        if self.is_receiver() {
+            "m/s"
+        } else {
+            "Pa"
+        }
+    }
+
+    /// What a criterion of this quantity measures, in words.
+    pub fn definition(self) -> &'static str {
+        if self.is_receiver() {
+            "largest speed |v| at a receiver over the time steps, defined in the scene"
+        } else if self.is_contact() {
+            "mean of a contact traction over a boundary piece G'_r, defined in the scene"
+        } else {
+            "mean of a stress quantity over an area G_r, defined in the scene"
+        }
+    }
 }
 
 /// An area G_r with the point X_r whose outward normal is used by Φ3 and Φ6.
