@@ -246,8 +246,8 @@ impl MixedOperator {
 }
 
 /// Derivatives along the data (design §2.7, "Derivatives"): the operator's zone coefficients
-/// and the pressure recovery p = P⁻¹ G u, P = C_b/μ + M/λ, differentiated in the Lamé constants
-/// (dλ, dμ) per zone.
+/// and the pressure recovery p = P⁻¹ (G u − r), P = C_b/μ + M/λ, differentiated in the Lamé
+/// constants (dλ, dμ) per zone and the thermal rows r.
 impl MixedOperator {
     /// d(μ, s, s²/μ, s²/λ, 0, 0) per zone for the Lamé derivatives `d_lame`, the pressure scale s
     /// held at its value for `lame`: s only scales the pressure unknown (p = s p̂), so u and p do
