@@ -333,10 +333,11 @@ fn thermo_elastic_contact_solves_on_the_mixed_element() {
     );
 }
 
-/// `thermo-contact-fault` on the mixed element on a coarse mesh, with the rock's Young's modulus,
-/// Poisson's ratio and the top-left pressure uncertain besides its conductivity κ, source W, boundary temperature
-/// T1, expansion α and slip limit g, and the top right side as a boundary piece.
-fn coarse_thermo_contact_mixed() -> StateProblem {
+/// `thermo-contact-fault` on the mixed element on a coarse mesh, with the rock's Young's
+/// modulus, Poisson's ratio and the top-left pressure uncertain besides its conductivity κ,
+/// source W, boundary temperature T1, expansion α and slip limit g, and the top right side as a
+/// boundary piece; then `edit`.
+fn coarse_thermo_contact_mixed(edit: impl Fn(&mut Value)) -> StateProblem {
     let mut v = thermo_contact("mixed");
     v["mesh"]["max_size"] = json!(2.0);
     v["mesh"]["refine"][0]["max_size"] = json!(1.0);
@@ -348,18 +349,16 @@ fn coarse_thermo_contact_mixed() -> StateProblem {
     uncertain.push(json!({
         "name": "p", "field": "boundary[top left].pressure", "interval": [4e6, 6e6]
     }));
+    edit(&mut v);
     StateProblem::new(parse(&v.to_string()).unwrap()).unwrap()
 }
 
-/// The exact derivatives of the criteria of a thermo-elastic mixed scene (the temperature enters
-/// the pressure rows, design §2.7 "Derivatives"): at an interior point of the box, along an
-/// elastic data (E, and ν, along which γ = β33/λ of the pressure rows changes), the expansion α, the thermal data (κ, W, T1), a load and the slip limit,
-/// every computed Φ's derivative by the adjoint equals the forward tangent's to 1e-9 and central
+/// The exact derivatives of the criteria of `problem` at an interior point of its box: every
+/// computed Φ's derivative by the adjoint equals the forward tangent's to 1e-9 and central
 /// differences of whole solves to 1e-6 relative where the state is smooth (the difference with
-/// step h agreeing with the one of step h/2).
-#[test]
-fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
-    let problem = coarse_thermo_contact_mixed();
+/// step h agreeing with the one of step h/2); some Φ is compared along each datum of `along`
+/// and Φ3–Φ6 are computed.
+fn check_derivatives(label: &str, problem: &StateProblem, along: &[&str]) {
     let params = parameters(&problem.scene).unwrap();
     let theta: Vec<f64> = params.iter().map(|p| p.lo + 0.37 * (p.hi - p.lo)).collect();
     let d = apply(&problem.scene, &problem.nominal, &params, &theta);
@@ -391,7 +390,7 @@ fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
         problem.solve(&data, &options).unwrap().criteria
     };
     let (mut compared, mut worst, mut worst_routes, mut kinks) = (0, 0.0_f64, 0.0_f64, 0);
-    let mut along = Vec::new();
+    let mut compared_along = Vec::new();
     for (j, p) in params.iter().enumerate() {
         let h = 1e-4 * (p.hi - p.lo);
         let (plus, minus) = (criteria_at(j, h), criteria_at(j, -h));
@@ -432,11 +431,11 @@ fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
             );
             compared += 1;
             worst = worst.max(error);
-            along.push(p.name.clone());
+            compared_along.push(p.name.clone());
         }
     }
     println!(
-        "thermo-contact-fault mixed: {compared} derivatives compared, worst relative {worst:.1e}, \
+        "{label}: {compared} derivatives compared, worst relative {worst:.1e}, \
          adjoint vs forward {worst_routes:.1e}, {kinks} skipped at kinks; adjoint gave {} of {} \
          directions",
         adjoint.report.adjoint_directions,
@@ -450,10 +449,43 @@ fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
     ] {
         assert!(adjoint.criteria[c as usize].is_some(), "{c:?} computed");
     }
-    for name in ["E", "nu", "beta", "kappa", "W", "T1", "p"] {
+    for name in along {
         assert!(
-            along.iter().any(|n| n == name),
+            compared_along.iter().any(|n| n == name),
             "nothing compared along {name}"
         );
     }
+}
+
+/// The exact derivatives of a thermo-elastic mixed scene (the temperature enters the pressure
+/// rows, design §2.7 "Derivatives", item 4) on `thermo-contact-fault`: along the elastic data E
+/// and ν (along which γ = β33/λ of the pressure rows changes), the expansion α, the thermal data
+/// κ, W and T1, a load and the slip limit.
+#[test]
+fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
+    let problem = coarse_thermo_contact_mixed(|_| {});
+    check_derivatives(
+        "thermo-contact-fault mixed",
+        &problem,
+        &["E", "nu", "beta", "kappa", "W", "T1", "p"],
+    );
+}
+
+/// The same with a canister of anisotropic Voigt β (β_d ≠ 0: the displacement rows and the
+/// stresses carry the deviatoric thermal part) and the reference temperature T0 uncertain.
+#[test]
+fn derivatives_with_a_voigt_beta_and_an_uncertain_reference_temperature() {
+    let problem = coarse_thermo_contact_mixed(|v| {
+        let canister = &mut v["materials"]["canister"];
+        canister.as_object_mut().unwrap().remove("expansion");
+        canister["beta"] = json!([6.5e6, 5.0e6, 0.8e6, 5.8e6]);
+        v["uncertain"].as_array_mut().unwrap().push(json!({
+            "name": "T0", "field": "thermal.reference_temperature", "interval": [15.0, 25.0]
+        }));
+    });
+    check_derivatives(
+        "thermo-contact-fault mixed, Voigt β",
+        &problem,
+        &["T0", "kappa", "W", "T1", "E", "nu"],
+    );
 }
