@@ -373,12 +373,18 @@ impl ElasticProblem {
         temperature: &[f64],
         reference: f64,
     ) -> Result<Vec<f64>, FemError> {
-        let beta33: Vec<f64> = self
+        let expansion = self.pressure_expansion(data, lame)?;
+        Ok(mixed.thermal_rows(&self.mesh, &expansion, temperature, reference))
+    }
+
+    /// γ = β33/λ per zone: the thermal rows' coefficient of the mixed element (design §2.7).
+    fn pressure_expansion(&self, data: &Data, lame: &[(f64, f64)]) -> Result<Vec<f64>, FemError> {
+        Ok(self
             .zone_materials(data)?
             .iter()
-            .map(|m| m.beta[3])
-            .collect();
-        Ok(mixed.thermal_rows(&self.mesh, lame, &beta33, temperature, reference))
+            .zip(lame)
+            .map(|(m, &(l, _))| m.beta[3] / l)
+            .collect())
     }
 
     /// Reduced right-hand side from explicit coefficients, nodal loads and prescribed values
@@ -506,7 +512,13 @@ impl ElasticProblem {
         )?;
         self.check_temperature(temperature)?;
         if let Some(mixed) = &self.mixed {
-            return self.add_mixed_stress_form_transpose(mixed, data, form, displacement);
+            return self.add_mixed_stress_form_transpose(
+                mixed,
+                data,
+                form,
+                displacement,
+                temperature,
+            );
         }
         let materials = self.zone_materials(data)?;
         let dot = |g: &[f64; 4], s: [f64; 4]| (0..4).map(|k| g[k] * s[k]).sum::<f64>();
@@ -631,6 +643,18 @@ impl ElasticProblem {
     }
 }
 
+/// The thermal side of the mixed element's derivative along a parameter (design §2.7,
+/// "Derivatives"): the state's temperature and the derivatives of the zones' β and of the
+/// reference temperature.
+pub(crate) struct MixedThermalRate<'a> {
+    /// The state's nodal temperature T.
+    pub temperature: &'a [f64],
+    /// dβ = (dβ11, dβ22, dβ12, dβ33) per zone.
+    pub d_beta: Vec<[f64; 4]>,
+    /// dT0.
+    pub d_reference: f64,
+}
+
 /// The derivatives of the mixed element's operator and stresses along the data (design §2.7,
 /// "Derivatives"), in the Lamé derivatives (dλ, dμ) per zone.
 impl ElasticProblem {
@@ -646,48 +670,136 @@ impl ElasticProblem {
         Ok(mixed.coefficient_derivatives(&self.lame(data)?, d_lame))
     }
 
-    /// The derivative of the mixed element's stresses τ = 2μ e(u) + p̄ (1, 1, 0, 1) at fixed u
-    /// along `d_lame`, at `elements` (in range): 2 dμ e(u) + dp̄ with dp = P⁻¹ (C_b dμ/μ² +
-    /// M dλ/λ²) p the pressure recovery's derivative.
+    /// The derivative of the thermal rows r = R(γ, T − T0) of the pressure equation
+    /// ([`MixedOperator::thermal_rows`], γ = β33/λ) along `d_lame` and the thermal data's
+    /// derivatives `rate`, with the temperature derivative `d_temperature` (None: at fixed T):
+    /// dr = R(dγ, T − T0) + R(γ, dT − dT0), dγ = dβ33/λ − β33 dλ/λ².
+    fn thermal_rows_rate(
+        &self,
+        mixed: &MixedOperator,
+        data: &Data,
+        d_lame: &[(f64, f64)],
+        rate: &MixedThermalRate,
+        d_temperature: Option<&[f64]>,
+    ) -> Result<Vec<f64>, FemError> {
+        let lame = self.lame(data)?;
+        let materials = self.zone_materials(data)?;
+        let expansion = self.pressure_expansion(data, &lame)?;
+        let d_expansion: Vec<f64> = materials
+            .iter()
+            .zip(&lame)
+            .zip(d_lame)
+            .zip(&rate.d_beta)
+            .map(|(((m, &(l, _)), &(dl, _)), db)| db[3] / l - m.beta[3] * dl / (l * l))
+            .collect();
+        let mut dr = mixed.thermal_rows(
+            &self.mesh,
+            &d_expansion,
+            rate.temperature,
+            data.reference_temperature,
+        );
+        let zero;
+        let dt = match d_temperature {
+            Some(dt) => dt,
+            None => {
+                zero = vec![0.0; self.mesh.nodes.len()];
+                &zero
+            }
+        };
+        let from_temperature = mixed.thermal_rows(&self.mesh, &expansion, dt, rate.d_reference);
+        for (a, b) in dr.iter_mut().zip(from_temperature) {
+            *a += b;
+        }
+        Ok(dr)
+    }
+
+    /// Adds to the pressure rows of the reduced residual `b` the derivative s dr of the mixed
+    /// element's thermal rows ([`Self::thermal_rows_rate`] with the temperature derivative
+    /// `d_temperature`), the pressure scale s held at its value for `data` (as in
+    /// [`MixedOperator::coefficient_derivatives`]).
+    pub(crate) fn add_mixed_thermal_rows_rate(
+        &self,
+        data: &Data,
+        d_lame: &[(f64, f64)],
+        rate: &MixedThermalRate,
+        d_temperature: Option<&[f64]>,
+        b: &mut [f64],
+    ) -> Result<(), FemError> {
+        let mixed = self.mixed_operator()?;
+        let dr = self.thermal_rows_rate(mixed, data, d_lame, rate, d_temperature)?;
+        mixed.add_thermal_rows(&self.lame(data)?, &dr, b);
+        Ok(())
+    }
+
+    /// The derivative of the mixed element's stresses τ = 2μ e(u) + p̄ (1, 1, 0, 1) − (β11 − β33,
+    /// β22 − β33, β12, 0) ΔT̄ at fixed u and T along `d_lame` and, for a thermo-elastic state,
+    /// the thermal data's derivatives `thermal`, at `elements` (in range): 2 dμ e(u) + dp̄ −
+    /// d((β11 − β33, β22 − β33, β12) ΔT̄) with dp = −P⁻¹ (dP p + dr) the pressure recovery's
+    /// derivative ([`MixedOperator::pressure_rate_at_fixed_displacement`]).
     pub(crate) fn mixed_stress_rates(
         &self,
         data: &Data,
         d_lame: &[(f64, f64)],
         u: &[[f64; 2]],
+        thermal: Option<&MixedThermalRate>,
         elements: &[usize],
     ) -> Result<Vec<[f64; 4]>, FemError> {
         let mixed = self.mixed_operator()?;
         let lame = self.lame(data)?;
-        let p = mixed.pressure(&self.mesh, &self.gradients, &lame, u)?;
-        let dp = mixed.pressure_rate_at_fixed_displacement(&lame, d_lame, &p)?;
-        Ok(elements
+        let (p, d_rows) = match thermal {
+            None => (mixed.pressure(&self.mesh, &self.gradients, &lame, u)?, None),
+            Some(rate) => {
+                let reference = data.reference_temperature;
+                let rows =
+                    self.pressure_thermal_rows(mixed, data, &lame, rate.temperature, reference)?;
+                let p = mixed.thermo_pressure(&self.mesh, &self.gradients, &lame, u, &rows)?;
+                let dr = self.thermal_rows_rate(mixed, data, d_lame, rate, None)?;
+                (p, Some(dr))
+            }
+        };
+        let dp = mixed.pressure_rate_at_fixed_displacement(&lame, d_lame, &p, d_rows.as_deref())?;
+        let materials = self.zone_materials(data)?;
+        elements
             .iter()
             .map(|&e| {
                 let tri = self.mesh.triangles[e];
                 let [e11, e22, gamma] = self.gradients[e].strain(&element_displacements(u, tri));
-                let dmu = d_lame[self.mesh.triangle_zone[e]].1;
+                let zone = self.mesh.triangle_zone[e];
+                let dmu = d_lame[zone].1;
                 let mean = tri.iter().map(|&n| dp[n]).sum::<f64>() / 3.0;
-                [
-                    2.0 * dmu * e11 + mean,
-                    2.0 * dmu * e22 + mean,
-                    dmu * gamma,
+                let [d11, d22, d12] = match thermal {
+                    None => [0.0; 3],
+                    Some(rate) => {
+                        let dt = mean_excess(tri, rate.temperature, data.reference_temperature);
+                        let beta = deviatoric_beta(&materials[zone].beta);
+                        let d_beta = deviatoric_beta(&rate.d_beta[zone]);
+                        std::array::from_fn(|k| d_beta[k] * dt - beta[k] * rate.d_reference)
+                    }
+                };
+                Ok([
+                    2.0 * dmu * e11 + mean - d11,
+                    2.0 * dmu * e22 + mean - d22,
+                    dmu * gamma - d12,
                     mean,
-                ]
+                ])
             })
-            .collect())
+            .collect()
     }
 
     /// The mixed element's side of [`Self::add_stress_form_transpose`]: with dτ = 2μ e(du) +
-    /// p̄(du) (1, 1, 0, 1), the strain part as for P1 with D = μ diag(2, 2, 1) and the pressure
-    /// part Σ_e (g0 + g1 + g3) p̄_e = qᵀ p(du) = (Gᵀ P⁻¹ q)·du.
+    /// p̄(du, dT) (1, 1, 0, 1) − (β11 − β33, β22 − β33, β12, 0) dT̄, the strain part as for P1
+    /// with D = μ diag(2, 2, 1), the pressure part Σ_e (g0 + g1 + g3) p̄_e = qᵀ p = yᵀ (G du −
+    /// R(γ, dT)), y = P⁻¹ q, and the deviatoric thermal part on the temperature.
     fn add_mixed_stress_form_transpose(
         &self,
         mixed: &MixedOperator,
         data: &Data,
         form: &[(usize, [f64; 4])],
         displacement: &mut [[f64; 2]],
+        temperature: &mut [f64],
     ) -> Result<(), FemError> {
         let lame = self.lame(data)?;
+        let materials = self.zone_materials(data)?;
         let mut q = vec![0.0; self.mesh.nodes.len()];
         for &(e, g) in form {
             let tri = *self
@@ -695,20 +807,30 @@ impl ElasticProblem {
                 .triangles
                 .get(e)
                 .ok_or_else(|| FemError::Input(format!("triangle {e} out of range")))?;
-            let mu = lame[self.mesh.triangle_zone[e]].1;
+            let zone = self.mesh.triangle_zone[e];
+            let mu = lame[zone].1;
             let grads = &self.gradients[e];
             let per_area = grads.nodal_forces([2.0 * mu * g[0], 2.0 * mu * g[1], mu * g[2]]);
             let pressure = (g[0] + g[1] + g[3]) / 3.0;
+            let beta = deviatoric_beta(&materials[zone].beta);
+            let thermal = -(g[0] * beta[0] + g[1] * beta[1] + g[2] * beta[2]) / 3.0;
             for (i, &node) in tri.iter().enumerate() {
                 displacement[node][0] += per_area[2 * i] / grads.area;
                 displacement[node][1] += per_area[2 * i + 1] / grads.area;
                 q[node] += pressure;
+                temperature[node] += thermal;
             }
         }
-        let from_pressure = mixed.pressure_transpose(&self.mesh, &self.gradients, &lame, &q)?;
+        let y = mixed.pressure_weights(&lame, &q)?;
+        let from_pressure = mixed.divergence_transpose(&self.mesh, &self.gradients, &y);
         for (a, b) in displacement.iter_mut().zip(from_pressure) {
             a[0] += b[0];
             a[1] += b[1];
+        }
+        let expansion = self.pressure_expansion(data, &lame)?;
+        let from_rows = mixed.thermal_rows_transpose(&self.mesh, &expansion, &y);
+        for (t, c) in temperature.iter_mut().zip(from_rows) {
+            *t -= c;
         }
         Ok(())
     }

@@ -246,8 +246,8 @@ impl MixedOperator {
 }
 
 /// Derivatives along the data (design §2.7, "Derivatives"): the operator's zone coefficients
-/// and the pressure recovery p = P⁻¹ G u, P = C_b/μ + M/λ, differentiated in the Lamé constants
-/// (dλ, dμ) per zone.
+/// and the pressure recovery p = P⁻¹ (G u − r), P = C_b/μ + M/λ, differentiated in the Lamé
+/// constants (dλ, dμ) per zone and the thermal rows r.
 impl MixedOperator {
     /// d(μ, s, s²/μ, s²/λ, 0, 0) per zone for the Lamé derivatives `d_lame`, the pressure scale s
     /// held at its value for `lame`: s only scales the pressure unknown (p = s p̂), so u and p do
@@ -264,13 +264,15 @@ impl MixedOperator {
             .collect()
     }
 
-    /// The derivative of the nodal pressures p = P⁻¹ G u at fixed u along `d_lame`:
-    /// dp = −P⁻¹ dP p = P⁻¹ (C_b dμ/μ² + M dλ/λ²) p.
+    /// The derivative of the nodal pressures p = P⁻¹ (G u − r) at fixed u along `d_lame` and the
+    /// derivative `d_rows` of the thermal rows r (None: no temperature):
+    /// dp = −P⁻¹ (dP p + dr) = P⁻¹ ((C_b dμ/μ² + M dλ/λ²) p − dr).
     pub fn pressure_rate_at_fixed_displacement(
         &self,
         lame: &[(f64, f64)],
         d_lame: &[(f64, f64)],
         p: &[f64],
+        d_rows: Option<&[f64]>,
     ) -> Result<Vec<f64>, FemError> {
         let rates: Vec<[f64; 2]> = lame
             .iter()
@@ -278,20 +280,29 @@ impl MixedOperator {
             .map(|(&(l, m), &(dl, dm))| [dm / (m * m), dl / (l * l)])
             .collect();
         let values = self.pressure.assemble(&rates)?;
-        let rhs = self.pressure.apply(&values, p);
+        let mut rhs = self.pressure.apply(&values, p);
+        if let Some(dr) = d_rows {
+            for (b, r) in rhs.iter_mut().zip(dr) {
+                *b -= r;
+            }
+        }
         Ok(self.pressure_factor(lame)?.factor.solve(&rhs))
     }
 
-    /// The transpose of the pressure recovery: for nodal weights q, the global nodal
-    /// coefficients a = Gᵀ P⁻¹ q with Σ_n q_n p_n(u) = Σ_n a_n·u_n (P symmetric).
-    pub fn pressure_transpose(
+    /// The transpose of the pressure recovery: for nodal weights q, the weights y = P⁻¹ q with
+    /// Σ_n q_n p_n = yᵀ (G u − r) (P symmetric).
+    pub fn pressure_weights(&self, lame: &[(f64, f64)], q: &[f64]) -> Result<Vec<f64>, FemError> {
+        Ok(self.pressure_factor(lame)?.factor.solve(q))
+    }
+
+    /// The global nodal coefficients a = Gᵀ y with yᵀ G u = Σ_n a_n·u_n, for the pressure
+    /// weights y of [`Self::pressure_weights`].
+    pub fn divergence_transpose(
         &self,
         mesh: &Mesh,
         gradients: &[TriangleGradients],
-        lame: &[(f64, f64)],
-        q: &[f64],
-    ) -> Result<Vec<[f64; 2]>, FemError> {
-        let y = self.pressure_factor(lame)?.factor.solve(q);
+        y: &[f64],
+    ) -> Vec<[f64; 2]> {
         let mut a = vec![[0.0; 2]; mesh.nodes.len()];
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let g = &gradients[t];
@@ -301,7 +312,7 @@ impl MixedOperator {
                 a[n][1] += weight * g.dy[k];
             }
         }
-        Ok(a)
+        a
     }
 }
 
@@ -336,14 +347,14 @@ pub(super) fn mean_excess(tri: [usize; 3], temperature: &[f64], reference: f64) 
 }
 
 impl MixedOperator {
-    /// The thermal rows r_j = Σ_T (|T|/3) β33 ΔT̄_T / λ of the pressure equation
-    /// ∫ q div u − ∫ q (p + β33 ΔT)/λ = 0, i.e. G u − (C_b/μ + M/λ) p = r, for the zones' (λ, μ)
-    /// in `lame`, their β33 in `beta33` and the temperature's excess over `reference`.
+    /// The thermal rows r_j = Σ_T (|T|/3) γ ΔT̄_T of the pressure equation
+    /// ∫ q div u − ∫ q (p + β33 ΔT)/λ = 0, i.e. G u − (C_b/μ + M/λ) p = r, for the zones'
+    /// γ = β33/λ in `expansion` and the temperature's excess over `reference` (linear in γ and in
+    /// (temperature, reference)).
     pub fn thermal_rows(
         &self,
         mesh: &Mesh,
-        lame: &[(f64, f64)],
-        beta33: &[f64],
+        expansion: &[f64],
         temperature: &[f64],
         reference: f64,
     ) -> Vec<f64> {
@@ -351,12 +362,27 @@ impl MixedOperator {
         for (t, &tri) in mesh.triangles.iter().enumerate() {
             let z = mesh.triangle_zone[t];
             let area = mesh.triangle_area(t);
-            let v = area / 3.0 * beta33[z] * mean_excess(tri, temperature, reference) / lame[z].0;
+            let v = area / 3.0 * expansion[z] * mean_excess(tri, temperature, reference);
             for n in tri {
                 r[n] += v;
             }
         }
         r
+    }
+
+    /// The transpose of the thermal rows in the temperature: for pressure weights y, the nodal
+    /// coefficients c with yᵀ r(T) = Σ_n c_n T_n + (the reference's part), r of
+    /// [`Self::thermal_rows`] for the zones' `expansion`.
+    pub fn thermal_rows_transpose(&self, mesh: &Mesh, expansion: &[f64], y: &[f64]) -> Vec<f64> {
+        let mut c = vec![0.0; mesh.nodes.len()];
+        for (t, &tri) in mesh.triangles.iter().enumerate() {
+            let weight = tri.iter().map(|&n| y[n]).sum::<f64>();
+            let v = mesh.triangle_area(t) / 9.0 * expansion[mesh.triangle_zone[t]] * weight;
+            for n in tri {
+                c[n] += v;
+            }
+        }
+        c
     }
 
     /// Adds the thermal rows s r (scaled like the pressure rows of the system, p = s p̂) to the

@@ -30,6 +30,7 @@ pub mod stress_measures;
 
 pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;
+pub(crate) use elasticity::MixedThermalRate;
 pub use geometry::{segment_node_normals, TriangleGradients};
 pub use heat::{HeatProblem, Thermal};
 pub use linear::{symmetric_apply, Factor, Symbolic};

@@ -420,14 +420,6 @@ impl StateProblem {
         stencils: &[Stencil],
         route: DerivativeRoute,
     ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
-        if elastic.is_some() && self.elastic.element() == Element::Mixed && self.heat.is_some() {
-            return Err(WsmError::Scene(SceneError::new(
-                "mesh.element",
-                "derivatives of the elastic criteria of a thermo-elastic scene are not \
-                 implemented for \"mixed\" elements (the temperature enters the pressure \
-                 equation, design §2.7)",
-            )));
-        }
         let bound = &options.needs.bound_regions;
         match elastic {
             Some(parts) => self.with_solved_state(data, options, parts, solution, |state| {

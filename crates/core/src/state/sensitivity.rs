@@ -28,7 +28,7 @@ use crate::contact::direct::{
     TangentDisplacement,
 };
 use crate::error::WsmError;
-use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients};
+use crate::fem::{ElasticCoefficients, ElementStress, HeatCoefficients, MixedThermalRate};
 use crate::scene::params::Stencil;
 use crate::scene::{Criterion, Data, Element};
 pub use wsm_search::OneSided;
@@ -545,10 +545,29 @@ impl StateProblem {
                 }
             }
         }
+        let thermal = match (&d_lame, state.temperature) {
+            (Some(_), Some(t)) => Some(self.mixed_thermal_rate(t, stencil)?),
+            _ => None,
+        };
+        if let (Some(d_lame), Some(rate)) = (&d_lame, &thermal) {
+            // The temperature enters the mixed element's pressure rows (design §2.7).
+            elastic.add_mixed_thermal_rows_rate(
+                state.data,
+                d_lame,
+                rate,
+                d_temperature,
+                &mut part.residual,
+            )?;
+        }
         if let Some(d_lame) = d_lame.filter(|_| law_varies) {
             // The mixed element's law is rational in λ, μ: its exact derivative at fixed u.
-            let rates =
-                elastic.mixed_stress_rates(state.data, &d_lame, el.displacement, elements)?;
+            let rates = elastic.mixed_stress_rates(
+                state.data,
+                &d_lame,
+                el.displacement,
+                thermal.as_ref(),
+                elements,
+            )?;
             let mut sum = vec![[0.0; 4]; el.stresses.len()];
             for (&e, rate) in elements.iter().zip(rates) {
                 sum[e] = rate;
@@ -584,6 +603,28 @@ impl StateProblem {
             }
         }
         Ok(Some(sum))
+    }
+
+    /// For the mixed element at the temperature `temperature`, the derivatives of the zones' β
+    /// and of the reference temperature along the stencil's parameter (Σ_k w_k of them: exact
+    /// for the data β is affine in, order 4 for ν).
+    fn mixed_thermal_rate<'a>(
+        &self,
+        temperature: &'a [f64],
+        stencil: &Stencil,
+    ) -> Result<MixedThermalRate<'a>, WsmError> {
+        let mut rate = MixedThermalRate {
+            temperature,
+            d_beta: vec![[0.0; 4]; self.mesh().zones.len()],
+            d_reference: 0.0,
+        };
+        for (_, w, d) in &stencil.points {
+            for (s, m) in rate.d_beta.iter_mut().zip(self.elastic.zone_materials(d)?) {
+                add_scaled(s, *w, &m.beta);
+            }
+            rate.d_reference += w * d.reference_temperature;
+        }
+        Ok(rate)
     }
 
     /// dT along the stencil's parameter: K_h dT_f = Σ_k w_k (q(D_k) − K_h(D_k) T_f) on the free

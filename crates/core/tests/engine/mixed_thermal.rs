@@ -2,8 +2,8 @@
 //! stress"): a free and a clamped plate under a uniform ΔT against their closed forms, a thick
 //! cylinder under a steady radial temperature against the plane-strain thermo-elastic solution
 //! (mixed and P1 at ν = 0.3, mixed at ν = 0.4999 where P1 locks), the thermo-elastic contact
-//! scene `thermo-contact-fault` solved on the mixed element (KKT, mixed vs P1), and the refusal
-//! of the derivatives of a thermo-elastic mixed scene.
+//! scene `thermo-contact-fault` solved on the mixed element (KKT, mixed vs P1), and the exact
+//! derivatives of its criteria (adjoint = forward = central differences).
 
 use crate::solves;
 
@@ -12,8 +12,10 @@ use solves::{bc, data, material, relative_difference, solve};
 use wsm_core::fem::{ElasticProblem, Par};
 use wsm_core::fixtures::{perturb_interior, rectangle};
 use wsm_core::scene::params::{apply, parameters, stencil};
-use wsm_core::scene::{parse, BoundaryValue, Data, Elastic, Element, Expansion, SolverKind};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::scene::{
+    parse, BoundaryValue, Criterion, Data, Elastic, Element, Expansion, SolverKind,
+};
+use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
 
 const ELEMENTS: [Element; 2] = [Element::P1, Element::Mixed];
 
@@ -331,13 +333,34 @@ fn thermo_elastic_contact_solves_on_the_mixed_element() {
     );
 }
 
-/// Derivatives of the elastic criteria of a thermo-elastic mixed scene are refused with a
-/// warning naming the element; the state stands.
-#[test]
-fn derivatives_of_a_thermo_elastic_mixed_scene_are_refused() {
-    let problem = StateProblem::new(parse(&thermo_contact("mixed").to_string()).unwrap()).unwrap();
+/// `thermo-contact-fault` on the mixed element on a coarse mesh, with the rock's Young's
+/// modulus, Poisson's ratio and the top-left pressure uncertain besides its conductivity κ,
+/// source W, boundary temperature T1, expansion α and slip limit g, and the top right side as a
+/// boundary piece; then `edit`.
+fn coarse_thermo_contact_mixed(edit: impl Fn(&mut Value)) -> StateProblem {
+    let mut v = thermo_contact("mixed");
+    v["mesh"]["max_size"] = json!(2.0);
+    v["mesh"]["refine"][0]["max_size"] = json!(1.0);
+    // A boundary piece off Γu for Φ2 (heat flux) and Φ4 (normal displacement).
+    v["criteria"]["boundary_pieces"] = json!([{"name": "top", "segment": "top_right"}]);
+    let uncertain = v["uncertain"].as_array_mut().unwrap();
+    uncertain.push(json!({"name": "E", "field": "materials.rock.E", "interval": [4.6e9, 5.8e9]}));
+    uncertain.push(json!({"name": "nu", "field": "materials.rock.nu", "interval": [0.15, 0.21]}));
+    uncertain.push(json!({
+        "name": "p", "field": "boundary[top left].pressure", "interval": [4e6, 6e6]
+    }));
+    edit(&mut v);
+    StateProblem::new(parse(&v.to_string()).unwrap()).unwrap()
+}
+
+/// The exact derivatives of the criteria of `problem` at an interior point of its box: every
+/// computed Φ's derivative by the adjoint equals the forward tangent's to 1e-9 and central
+/// differences of whole solves to 1e-6 relative where the state is smooth (the difference with
+/// step h agreeing with the one of step h/2); some Φ is compared along each datum of `along`
+/// and Φ3–Φ6 are computed.
+fn check_derivatives(label: &str, problem: &StateProblem, along: &[&str]) {
     let params = parameters(&problem.scene).unwrap();
-    let theta: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
+    let theta: Vec<f64> = params.iter().map(|p| p.lo + 0.37 * (p.hi - p.lo)).collect();
     let d = apply(&problem.scene, &problem.nominal, &params, &theta);
     let stencils: Vec<_> = (0..params.len())
         .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
@@ -347,17 +370,122 @@ fn derivatives_of_a_thermo_elastic_mixed_scene_are_refused() {
         par: Par::Seq,
         warm: None,
     };
-    let sol = problem
-        .solve_with_sensitivities(&d, &options, &stencils)
-        .unwrap();
-    assert!(sol.sensitivities.is_empty());
-    assert!(
-        sol.report
-            .warnings
-            .iter()
-            .any(|w| w.contains("thermo-elastic") && w.contains("mixed")),
+    let by = |route| {
+        problem
+            .solve_with_sensitivities_by(&d, &options, &stencils, route)
+            .unwrap()
+    };
+    let (adjoint, forward) = (by(DerivativeRoute::Adjoint), by(DerivativeRoute::Forward));
+    assert_eq!(
+        adjoint.sensitivities.len(),
+        params.len(),
         "{:?}",
-        sol.report.warnings
+        adjoint.report.warnings
     );
-    assert!(sol.report.kkt.max() <= 1e-9);
+    assert!(adjoint.report.kkt.max() <= 1e-9);
+    let criteria_at = |j: usize, h: f64| {
+        let mut at = theta.clone();
+        at[j] += h;
+        let data = apply(&problem.scene, &problem.nominal, &params, &at);
+        problem.solve(&data, &options).unwrap().criteria
+    };
+    let (mut compared, mut worst, mut worst_routes, mut kinks) = (0, 0.0_f64, 0.0_f64, 0);
+    let mut compared_along = Vec::new();
+    for (j, p) in params.iter().enumerate() {
+        let h = 1e-4 * (p.hi - p.lo);
+        let (plus, minus) = (criteria_at(j, h), criteria_at(j, -h));
+        let (plus2, minus2) = (criteria_at(j, 0.5 * h), criteria_at(j, -0.5 * h));
+        for c in Criterion::ALL {
+            let i = c as usize;
+            let Some(value) = adjoint.criteria[i] else {
+                continue;
+            };
+            let (a, f) = (
+                adjoint.sensitivities[j][i].unwrap(),
+                forward.sensitivities[j][i].unwrap(),
+            );
+            let scale = (value.abs() / (p.hi - p.lo)).max(f.right.abs());
+            let routes = (a.right - f.right).abs().max((a.left - f.left).abs()) / scale;
+            assert!(
+                routes <= 1e-9,
+                "d{c:?}/d{}: adjoint {a:?}, forward {f:?}",
+                p.name
+            );
+            worst_routes = worst_routes.max(routes);
+            let coarse = (plus[i].unwrap() - minus[i].unwrap()) / (2.0 * h);
+            let fine = (plus2[i].unwrap() - minus2[i].unwrap()) / h;
+            if a.left != a.right || (coarse - fine).abs() > 1e-5 * scale {
+                kinks += 1;
+                continue;
+            }
+            let error = (a.right - fine).abs() / scale;
+            println!(
+                "d{c:?}/d{}: exact {:.9e}, central difference {fine:.9e} (relative {error:.1e})",
+                p.name, a.right
+            );
+            assert!(
+                error <= 1e-6,
+                "d{c:?}/d{}: exact {} vs central difference {fine} (relative {error:.1e})",
+                p.name,
+                a.right
+            );
+            compared += 1;
+            worst = worst.max(error);
+            compared_along.push(p.name.clone());
+        }
+    }
+    println!(
+        "{label}: {compared} derivatives compared, worst relative {worst:.1e}, \
+         adjoint vs forward {worst_routes:.1e}, {kinks} skipped at kinks; adjoint gave {} of {} \
+         directions",
+        adjoint.report.adjoint_directions,
+        params.len()
+    );
+    for c in [
+        Criterion::Phi3,
+        Criterion::Phi4,
+        Criterion::Phi5,
+        Criterion::Phi6,
+    ] {
+        assert!(adjoint.criteria[c as usize].is_some(), "{c:?} computed");
+    }
+    for name in along {
+        assert!(
+            compared_along.iter().any(|n| n == name),
+            "nothing compared along {name}"
+        );
+    }
+}
+
+/// The exact derivatives of a thermo-elastic mixed scene (the temperature enters the pressure
+/// rows, design §2.7 "Derivatives", item 4) on `thermo-contact-fault`: along the elastic data E
+/// and ν (along which γ = β33/λ of the pressure rows changes), the expansion α, the thermal data
+/// κ, W and T1, a load and the slip limit.
+#[test]
+fn derivatives_of_a_thermo_elastic_mixed_scene_equal_central_differences() {
+    let problem = coarse_thermo_contact_mixed(|_| {});
+    check_derivatives(
+        "thermo-contact-fault mixed",
+        &problem,
+        &["E", "nu", "beta", "kappa", "W", "T1", "p"],
+    );
+}
+
+/// The same with a canister of anisotropic Voigt β (β_d ≠ 0: the displacement rows and the
+/// stresses carry the deviatoric thermal part) and the reference temperature T0 uncertain.
+#[test]
+fn derivatives_with_a_voigt_beta_and_an_uncertain_reference_temperature() {
+    let problem = coarse_thermo_contact_mixed(|v| {
+        let canister = &mut v["materials"]["canister"];
+        canister.as_object_mut().unwrap().remove("expansion");
+        canister["beta"] = json!([6.5e6, 5.0e6, 0.8e6, 5.8e6]);
+        v["uncertain"].as_array_mut().unwrap().push(json!({
+            "name": "T0", "field": "thermal.reference_temperature", "interval": [15.0, 25.0]
+        }));
+    });
+    check_derivatives(
+        "thermo-contact-fault mixed, Voigt β",
+        &problem,
+        &["T0", "kappa", "W", "T1", "E", "nu"],
+    );
 }
