@@ -750,8 +750,14 @@ mod tests {
         let asked = std::sync::atomic::AtomicUsize::new(0);
         let after_one_point = || asked.fetch_add(1, std::sync::atomic::Ordering::SeqCst) >= 2;
         let inside = run(&problem, &params, &extrema, 2, &after_one_point);
-        assert!(inside.points >= 2, "a level with a point solved and one stopped");
-        assert!(!inside.complete && inside.failures.is_empty(), "{inside:#?}");
+        assert!(
+            inside.points >= 2,
+            "a level with a point solved and one stopped"
+        );
+        assert!(
+            !inside.complete && inside.failures.is_empty(),
+            "{inside:#?}"
+        );
         assert_eq!(inside.meshes.len(), 1);
         let whole = run(&problem, &params, &extrema, 1, &|| false);
         assert!(whole.complete && whole.warnings(1).is_empty(), "{whole:#?}");

@@ -28,7 +28,11 @@ pub fn summary(outcome: &WorstOutcome, defined: &[DefinedCriterion]) -> String {
     for c in &outcome.criteria {
         let kind = c.criterion.criterion;
         let quantity = (kind == Criterion::Defined)
-            .then(|| defined.iter().find(|d| Some(&d.name) == c.criterion.region.as_ref()))
+            .then(|| {
+                defined
+                    .iter()
+                    .find(|d| Some(&d.name) == c.criterion.region.as_ref())
+            })
             .flatten()
             .map(|d| d.quantity);
         let (unit, definition) = quantity.map_or((kind.unit(), kind.definition()), |q| {
@@ -74,10 +78,7 @@ fn extremum(
         .region
         .as_ref()
         .map_or(String::new(), |r| format!(" in '{r}'"));
-    let _ = writeln!(
-        out,
-        "  {which} {value:.6e} {unit}{equivalent}{region}"
-    );
+    let _ = writeln!(out, "  {which} {value:.6e} {unit}{equivalent}{region}");
     let data: Vec<String> = names
         .iter()
         .zip(o.point.iter().flatten())
@@ -112,8 +113,7 @@ fn extremum(
         let _ = writeln!(
             out,
             "    runner-up local {kind}: {:.6e} {unit} ({:.2e} relative, less extreme)",
-            r.value,
-            r.gap
+            r.value, r.gap
         );
     }
 }
