@@ -367,13 +367,11 @@ fn solve_reports_the_peaks_and_static_scenes_refuse_dynamic_data() {
     );
 }
 
-/// A clamped block pulled up on its top by p(t) (ramped in, then held) with E and p uncertain:
-/// the largest mean lift of the top over time grows with p and falls with E, so the worst is
-/// (E lo, p hi) and the best (E hi, p lo), each certified by the exact derivatives over time.
-#[test]
-fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
-    let scene = json!({
-        "version": 1, "name": "dynamic monotone block",
+/// A clamped unit block pulled up on its top by a traction p(t), ramped in over 0.5 ms and then
+/// held (newmark, 2 ms), with E ∈ [5, 10] GPa and p ∈ [1, 2] MPa uncertain; no criteria yet.
+fn lifted_block(name: &str) -> Value {
+    json!({
+        "version": 1, "name": name,
         "bodies": [{"name": "b", "zones": [{"name": "z", "material": "m",
             "polygon": [[0,0],[1,0],[1,1],[0,1]]}]}],
         "segments": {
@@ -387,14 +385,24 @@ fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
              "time_function": {"table": {"times": [0.0, 5e-4], "values": [0.0, 1.0]}}}
         ],
         "mesh": {"max_size": 0.25},
-        "criteria": {"boundary_pieces": [{"name": "top", "segment": "top", "from": [1,1], "to": [0,1]}]},
         "uncertain": [
             {"field": "materials.m.E", "interval": [5e9, 1e10]},
             {"field": "boundary[1].traction[1]", "interval": [1e6, 2e6]}
         ],
-        "search": {"criteria": ["phi4"], "budget": 60, "seed": 1},
         "dynamics": {"t_end": 2e-3, "dt": 2.5e-5, "scheme": "newmark"}
-    });
+    })
+}
+
+/// A clamped block pulled up on its top by p(t) (ramped in, then held) with E and p uncertain:
+/// the largest mean lift of the top over time grows with p and falls with E, so the worst is
+/// (E lo, p hi) and the best (E hi, p lo), each certified by the exact derivatives over time.
+#[test]
+fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
+    let mut scene = lifted_block("dynamic monotone block");
+    scene["criteria"] = json!({"boundary_pieces": [
+        {"name": "top", "segment": "top", "from": [1,1], "to": [0,1]}
+    ]});
+    scene["search"] = json!({"criteria": ["phi4"], "budget": 60, "seed": 1});
     let request = WorstRequest {
         budget: Some(60),
         derivatives: Some(true),
@@ -595,32 +603,12 @@ fn defined_criteria_gradients_over_time_match_central_differences_with_contact()
 /// corners' values, name the receiver and a time within the run.
 #[test]
 fn worst_peak_velocity_of_a_dynamic_block() {
-    let scene = json!({
-        "version": 1, "name": "dynamic block, peak velocity",
-        "bodies": [{"name": "b", "zones": [{"name": "z", "material": "m",
-            "polygon": [[0,0],[1,0],[1,1],[0,1]]}]}],
-        "segments": {
-            "bottom": {"body": "b", "from": [0,0], "to": [1,0]},
-            "top": {"body": "b", "from": [1,1], "to": [0,1]}
-        },
-        "materials": {"m": {"E": 7.0e9, "nu": 0.3, "density": 2500.0, "viscosity": 1e-4}},
-        "boundary": [
-            {"segment": "bottom", "displacement": [0, 0]},
-            {"segment": "top", "traction": [0, 1.5e6],
-             "time_function": {"table": {"times": [0.0, 5e-4], "values": [0.0, 1.0]}}}
-        ],
-        "mesh": {"max_size": 0.25},
-        "receivers": [{"name": "crest", "point": [0.5, 0.9]}],
-        "criteria": {"defined": [
-            {"name": "crest_speed", "receiver": "crest", "quantity": "peak_velocity"}
-        ]},
-        "uncertain": [
-            {"field": "materials.m.E", "interval": [5e9, 1e10]},
-            {"field": "boundary[1].traction[1]", "interval": [1e6, 2e6]}
-        ],
-        "search": {"criteria": ["crest_speed"], "budget": 60, "seed": 1},
-        "dynamics": {"t_end": 2e-3, "dt": 2.5e-5, "scheme": "newmark"}
-    });
+    let mut scene = lifted_block("dynamic block, peak velocity");
+    scene["receivers"] = json!([{"name": "crest", "point": [0.5, 0.9]}]);
+    scene["criteria"] = json!({"defined": [
+        {"name": "crest_speed", "receiver": "crest", "quantity": "peak_velocity"}
+    ]});
+    scene["search"] = json!({"criteria": ["crest_speed"], "budget": 60, "seed": 1});
     let request = WorstRequest {
         budget: Some(60),
         derivatives: Some(true),
