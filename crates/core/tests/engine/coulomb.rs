@@ -137,34 +137,14 @@ fn block_slips_exactly_when_q_exceeds_f_n() {
 /// Tangential load with a prescribed shift: two stacked blocks, the upper one's left side
 /// displaced by 1e-4 m, under a pressure (the setting of the frictionless patch test).
 fn stacked_blocks(friction: Value) -> Value {
-    let mut contact = json!({"name": "c", "between": ["upper_bottom", "lower_top"]});
-    for (k, v) in friction.as_object().expect("an object").iter() {
-        contact[k] = v.clone();
+    let mut scene = solves::stacked_blocks(1.0e6, 0.0, 0.1);
+    scene["boundary"][2] = json!({"segment": "upper_left", "displacement": [1.0e-4, null]});
+    let contact = scene["contacts"][0].as_object_mut().expect("a contact");
+    contact.remove("slip_limit");
+    for (k, v) in friction.as_object().expect("an object") {
+        contact.insert(k.clone(), v.clone());
     }
-    json!({
-        "version": 1, "name": "stacked blocks",
-        "bodies": [
-            {"name": "lower", "zones": [{"name": "lower", "material": "m", "polygon": [[0,0],[1,0],[1,0.5],[0,0.5]]}]},
-            {"name": "upper", "zones": [{"name": "upper", "material": "m", "polygon": [[0,0.5],[1,0.5],[1,1],[0,1]]}]}
-        ],
-        "segments": {
-            "floor": {"body": "lower", "from": [0,0], "to": [1,0]},
-            "lower_left": {"body": "lower", "from": [0,0.5], "to": [0,0]},
-            "upper_left": {"body": "upper", "from": [0,1], "to": [0,0.5]},
-            "top": {"body": "upper", "from": [1,1], "to": [0,1]},
-            "lower_top": {"body": "lower", "from": [0,0.5], "to": [1,0.5]},
-            "upper_bottom": {"body": "upper", "from": [0,0.5], "to": [1,0.5]}
-        },
-        "materials": {"m": {"E": 2.0e10, "nu": 0.3}},
-        "boundary": [
-            {"segment": "floor", "roller": {}},
-            {"segment": "lower_left", "roller": {}},
-            {"segment": "upper_left", "displacement": [1.0e-4, null]},
-            {"segment": "top", "pressure": 1.0e6}
-        ],
-        "contacts": [contact],
-        "mesh": {"max_size": 0.1}
-    })
+    scene
 }
 
 /// F → 0 tends to the frictionless solution (g = 0), linearly in F; F = 0 is it.

@@ -9,7 +9,7 @@
 
 use serde_json::{json, Value};
 use wsm_core::dynamics::solve_over_time;
-use wsm_core::run::{worst, RunControl, Status, Verdict, WorstRequest};
+use wsm_core::run::{worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
 use wsm_core::scene::params::{apply, parameters, stencil};
 use wsm_core::scene::{parse, Criterion, StopRule};
 use wsm_core::state::StateProblem;
@@ -297,6 +297,22 @@ fn gradients_over_time_with_slip_rate_friction_match_central_differences() {
     check_both_schemes("block sliding on a slip-rate joint", &sliding_block);
 }
 
+/// `wsm worst` on `scene` with exact derivatives, stopping at the first certificate.
+fn worst_to_first_certificate(scene: &Value, budget: usize) -> WorstOutcome {
+    let request = WorstRequest {
+        budget: Some(budget),
+        derivatives: Some(true),
+        stop: Some(StopRule::FirstCertificate),
+        ..WorstRequest::default()
+    };
+    worst(
+        parse(&scene.to_string()).unwrap(),
+        &request,
+        &RunControl::new(),
+    )
+    .expect("worst over time")
+}
+
 /// `wsm worst` on the sliding block started from its static solution (push ramped from half to
 /// full, Φ3): the search ends with exact derivatives over time at both extrema — each carries a
 /// certificate judged on them (`locally_certified` or `not_optimal`, never `no_derivatives`).
@@ -307,19 +323,8 @@ fn worst_over_time_from_the_static_start_with_slip_rate_friction_uses_the_deriva
         json!({"table": {"times": [0.0, 1e-3], "values": [0.5, 1.0]}});
     scene["dynamics"]["initial"] = json!("static");
     scene["search"] = json!({"criteria": ["phi3"], "budget": 30, "seed": 1});
-    let request = WorstRequest {
-        budget: Some(30),
-        derivatives: Some(true),
-        stop: Some(StopRule::FirstCertificate),
-        ..WorstRequest::default()
-    };
     let started = std::time::Instant::now();
-    let outcome = worst(
-        parse(&scene.to_string()).unwrap(),
-        &request,
-        &RunControl::new(),
-    )
-    .expect("worst over time");
+    let outcome = worst_to_first_certificate(&scene, 30);
     let c = &outcome.criteria[0];
     eprintln!(
         "sliding block from static: worst {:?} at {:?} ({:?}), best {:?} at {:?} ({:?}); {} evaluations in {:.2} s; warnings {:?}",
@@ -403,19 +408,8 @@ fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
         {"name": "top", "segment": "top", "from": [1,1], "to": [0,1]}
     ]});
     scene["search"] = json!({"criteria": ["phi4"], "budget": 60, "seed": 1});
-    let request = WorstRequest {
-        budget: Some(60),
-        derivatives: Some(true),
-        stop: Some(StopRule::FirstCertificate),
-        ..WorstRequest::default()
-    };
     let started = std::time::Instant::now();
-    let outcome = worst(
-        parse(&scene.to_string()).unwrap(),
-        &request,
-        &RunControl::new(),
-    )
-    .expect("worst over time");
+    let outcome = worst_to_first_certificate(&scene, 60);
     let c = &outcome.criteria[0];
     eprintln!(
         "dynamic block: worst {:?} at {:?} (t = {:?}), best {:?} at {:?} (t = {:?}); {} evaluations in {:.2} s",
