@@ -161,29 +161,39 @@ impl Tangent {
     }
 }
 
-impl StateProblem {
-    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state, by `route`; the derivatives
-    /// of the region values that tie for each maximum or that `bound` lists (per Φ, indices in
-    /// its family); and how many directions the adjoint gave.
-    pub(super) fn sensitivities(
-        &self,
-        state: &SolvedState,
-        stencils: &[Stencil],
-        route: DerivativeRoute,
-        bound: &PerCriterion<Vec<usize>>,
-    ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
-        let fields = Fields {
-            temperature: state.temperature,
-            displacement: state.elastic.as_ref().map(|e| e.displacement),
-            stresses: state.elastic.as_ref().map(|e| e.stresses),
-            multipliers: state
+impl SolvedState<'_> {
+    /// The state's fields as the criteria read them.
+    fn fields(&self) -> Fields<'_> {
+        Fields {
+            temperature: self.temperature,
+            displacement: self.elastic.as_ref().map(|e| e.displacement),
+            stresses: self.elastic.as_ref().map(|e| e.stresses),
+            multipliers: self
                 .elastic
                 .as_ref()
                 .map(|e| e.contact.multipliers.as_slice()),
             velocity: None,
-        };
-        let forms = region_forms(&self.criteria, &fields);
-        let values = per_region_with(&self.criteria, &fields, &forms);
+        }
+    }
+}
+
+/// One direction of differentiation: the data stencil of a parameter and the temperature
+/// derivative along it (`None` without heat).
+struct Direction<'a> {
+    stencil: &'a Stencil,
+    d_temperature: Option<&'a [f64]>,
+}
+
+/// Which region values are differentiated: per Φ, the regions that tie for its maximum, and
+/// those plus the regions a criterion is bound to.
+struct RegionSelection {
+    tied: PerCriterion<Vec<bool>>,
+    needed: PerCriterion<Vec<bool>>,
+}
+
+impl RegionSelection {
+    /// The selection at the region values `values`, with the bound regions `bound`.
+    fn new(values: &PerCriterion<Vec<f64>>, bound: &PerCriterion<Vec<usize>>) -> RegionSelection {
         // The defined criteria have no maximum: only the bound ones are differentiated.
         let tied: PerCriterion<Vec<bool>> = std::array::from_fn(|i| {
             if i == Criterion::Defined as usize {
@@ -192,7 +202,7 @@ impl StateProblem {
                 tied_regions(&values[i])
             }
         });
-        let needed: PerCriterion<Vec<bool>> = std::array::from_fn(|i| {
+        let needed = std::array::from_fn(|i| {
             let mut needed = tied[i].clone();
             for &r in &bound[i] {
                 if let Some(n) = needed.get_mut(r) {
@@ -201,93 +211,22 @@ impl StateProblem {
             }
             needed
         });
-        let d_temperatures: Vec<Option<Vec<f64>>> = stencils
-            .iter()
-            .map(|stencil| {
-                state
-                    .temperature
-                    .map(|t| self.temperature_derivative(state.data, t, stencil))
-                    .transpose()
-            })
-            .collect::<Result<_, _>>()?;
-        // Per stencil: the region derivatives along +θ_j and −θ_j.
-        let mut derivatives: Vec<Option<OneSidedRegions>> = vec![None; stencils.len()];
-        let mut adjoint_directions = 0;
-        match &state.elastic {
-            None => {
-                for (slot, dt) in derivatives.iter_mut().zip(&d_temperatures) {
-                    let tangent = Fields {
-                        temperature: dt.as_deref(),
-                        displacement: None,
-                        stresses: None,
-                        multipliers: None,
-                        velocity: None,
-                    };
-                    let right = apply_forms(&forms, &tangent);
-                    *slot = Some((right.clone(), right));
-                }
-            }
-            Some(el) => {
-                let mut elements: Vec<usize> = forms
-                    .iter()
-                    .flatten()
-                    .flat_map(|f| f.stresses.iter().map(|&(e, _)| e))
-                    .collect();
-                elements.sort_unstable();
-                elements.dedup();
-                let parts: Vec<ElasticDerivative> = stencils
-                    .iter()
-                    .zip(&d_temperatures)
-                    .map(|(stencil, dt)| {
-                        self.elastic_derivative(state, el, stencil, dt.as_deref(), &elements)
-                    })
-                    .collect::<Result<_, _>>()?;
-                let (lo, hi, friction) = self.bounds_at(state.data, el);
-                let point = contact_point(el, &lo, &hi, &friction);
-                // The adjoint is built on the dense path's C; the sparse path takes the forward
-                // tangents (design §3.1).
-                if route == DerivativeRoute::Adjoint && !self.contact.is_sparse() {
-                    if let Some(adjoint) =
-                        self.adjoint_criteria(state, el, &point, &forms, &needed)?
-                    {
-                        for (j, part) in parts.iter().enumerate() {
-                            if adjoint.contact.is_linear_along(&part.view()) {
-                                let right = adjoint.along(part, d_temperatures[j].as_deref());
-                                derivatives[j] = Some((right.clone(), right));
-                            }
-                        }
-                    }
-                }
-                adjoint_directions = derivatives.iter().filter(|d| d.is_some()).count();
-                let rest: Vec<usize> = (0..stencils.len())
-                    .filter(|&j| derivatives[j].is_none())
-                    .collect();
-                let rest_parts: Vec<&ElasticDerivative> = rest.iter().map(|&j| &parts[j]).collect();
-                let rest_dt: Vec<Option<&[f64]>> =
-                    rest.iter().map(|&j| d_temperatures[j].as_deref()).collect();
-                let tangents = self.tangents(state, el, &point, &rest_parts, &rest_dt)?;
-                for (j, (plus, minus)) in rest.into_iter().zip(tangents) {
-                    let right = apply_forms(&forms, &plus.fields());
-                    let left = match minus {
-                        Some(m) => {
-                            apply_forms(&forms, &m.fields()).map(|d| d.iter().map(|v| -v).collect())
-                        }
-                        None => right.clone(),
-                    };
-                    derivatives[j] = Some((right, left));
-                }
-            }
-        }
-        let derivatives: Vec<OneSidedRegions> = derivatives
-            .into_iter()
-            .map(|d| d.ok_or_else(|| WsmError::contact("a direction was not differentiated")))
-            .collect::<Result<_, WsmError>>()?;
+        RegionSelection { tied, needed }
+    }
+
+    /// Per direction, the one-sided derivative of each Φ's maximum over its tied regions, and
+    /// those of the needed regions.
+    fn one_sided(
+        &self,
+        values: &PerCriterion<Vec<f64>>,
+        derivatives: &[OneSidedRegions],
+    ) -> (Sensitivities, RegionSensitivities) {
         let sensitivities = derivatives
             .iter()
             .map(|(right, left)| {
                 std::array::from_fn(|i| {
                     (i != Criterion::Defined as usize)
-                        .then(|| one_sided(&values[i], &tied[i], &right[i], &left[i]))
+                        .then(|| one_sided(&values[i], &self.tied[i], &right[i], &left[i]))
                         .flatten()
                 })
             })
@@ -298,7 +237,7 @@ impl StateProblem {
                 std::array::from_fn(|i| {
                     (0..values[i].len())
                         .map(|r| {
-                            needed[i][r].then(|| OneSided {
+                            self.needed[i][r].then(|| OneSided {
                                 right: right[i][r],
                                 left: left[i][r],
                             })
@@ -307,7 +246,146 @@ impl StateProblem {
                 })
             })
             .collect();
+        (sensitivities, regions)
+    }
+}
+
+/// The region derivatives of a state without elasticity: linear in the temperature derivative,
+/// the same from both sides.
+fn thermal_region_derivatives(
+    forms: &PerCriterion<Vec<LinearForm>>,
+    d_temperatures: &[Option<Vec<f64>>],
+) -> Vec<OneSidedRegions> {
+    d_temperatures
+        .iter()
+        .map(|dt| {
+            let tangent = Fields {
+                temperature: dt.as_deref(),
+                displacement: None,
+                stresses: None,
+                multipliers: None,
+                velocity: None,
+            };
+            let right = apply_forms(forms, &tangent);
+            (right.clone(), right)
+        })
+        .collect()
+}
+
+impl StateProblem {
+    /// dΦ/dθ_j for every stencil of `stencils`, at the solved state, by `route`; the derivatives
+    /// of the region values that tie for each maximum or that `bound` lists (per Φ, indices in
+    /// its family); and how many directions the adjoint gave.
+    ///
+    /// Steps: the criteria's linear forms and region values at the state; the regions whose
+    /// derivatives are needed; the temperature derivative per direction; the region derivatives
+    /// per direction (heat alone, or elasticity by the adjoint and the forward tangents); the
+    /// one-sided derivatives of each maximum and of the needed regions.
+    pub(super) fn sensitivities(
+        &self,
+        state: &SolvedState,
+        stencils: &[Stencil],
+        route: DerivativeRoute,
+        bound: &PerCriterion<Vec<usize>>,
+    ) -> Result<(Sensitivities, RegionSensitivities, usize), WsmError> {
+        let fields = state.fields();
+        let forms = region_forms(&self.criteria, &fields);
+        let values = per_region_with(&self.criteria, &fields, &forms);
+        let selection = RegionSelection::new(&values, bound);
+        let d_temperatures: Vec<Option<Vec<f64>>> = stencils
+            .iter()
+            .map(|stencil| {
+                state
+                    .temperature
+                    .map(|t| self.temperature_derivative(state.data, t, stencil))
+                    .transpose()
+            })
+            .collect::<Result<_, _>>()?;
+        let (derivatives, adjoint_directions) = match &state.elastic {
+            None => (thermal_region_derivatives(&forms, &d_temperatures), 0),
+            Some(el) => {
+                let directions: Vec<Direction> = stencils
+                    .iter()
+                    .zip(&d_temperatures)
+                    .map(|(stencil, dt)| Direction {
+                        stencil,
+                        d_temperature: dt.as_deref(),
+                    })
+                    .collect();
+                self.elastic_region_derivatives(
+                    state,
+                    el,
+                    &directions,
+                    &forms,
+                    &selection.needed,
+                    route,
+                )?
+            }
+        };
+        let (sensitivities, regions) = selection.one_sided(&values, &derivatives);
         Ok((sensitivities, regions, adjoint_directions))
+    }
+
+    /// Per stencil, the region derivatives along +θ_j and −θ_j of a state with elasticity: by
+    /// the adjoint where `route` asks for it, the contact path allows it and the contact state is
+    /// differentiable along the direction, by the forward tangents for the rest; and how many
+    /// directions the adjoint gave.
+    fn elastic_region_derivatives(
+        &self,
+        state: &SolvedState,
+        el: &ElasticState,
+        directions: &[Direction],
+        forms: &PerCriterion<Vec<LinearForm>>,
+        needed: &PerCriterion<Vec<bool>>,
+        route: DerivativeRoute,
+    ) -> Result<(Vec<OneSidedRegions>, usize), WsmError> {
+        let mut elements: Vec<usize> = forms
+            .iter()
+            .flatten()
+            .flat_map(|f| f.stresses.iter().map(|&(e, _)| e))
+            .collect();
+        elements.sort_unstable();
+        elements.dedup();
+        let parts: Vec<ElasticDerivative> = directions
+            .iter()
+            .map(|d| self.elastic_derivative(state, el, d.stencil, d.d_temperature, &elements))
+            .collect::<Result<_, _>>()?;
+        let (lo, hi, friction) = self.bounds_at(state.data, el);
+        let point = contact_point(el, &lo, &hi, &friction);
+        let mut derivatives: Vec<Option<OneSidedRegions>> = vec![None; directions.len()];
+        // The adjoint is built on the dense path's C; the sparse path takes the forward
+        // tangents (design §3.1).
+        if route == DerivativeRoute::Adjoint && !self.contact.is_sparse() {
+            if let Some(adjoint) = self.adjoint_criteria(state, el, &point, forms, needed)? {
+                for (j, part) in parts.iter().enumerate() {
+                    if adjoint.contact.is_linear_along(&part.view()) {
+                        let right = adjoint.along(part, directions[j].d_temperature);
+                        derivatives[j] = Some((right.clone(), right));
+                    }
+                }
+            }
+        }
+        let adjoint_directions = derivatives.iter().filter(|d| d.is_some()).count();
+        let rest: Vec<usize> = (0..directions.len())
+            .filter(|&j| derivatives[j].is_none())
+            .collect();
+        let rest_parts: Vec<&ElasticDerivative> = rest.iter().map(|&j| &parts[j]).collect();
+        let rest_dt: Vec<Option<&[f64]>> =
+            rest.iter().map(|&j| directions[j].d_temperature).collect();
+        let tangents = self.tangents(state, el, &point, &rest_parts, &rest_dt)?;
+        for (j, (plus, minus)) in rest.into_iter().zip(tangents) {
+            let right = apply_forms(forms, &plus.fields());
+            let left = match minus {
+                Some(m) => apply_forms(forms, &m.fields()).map(|d| d.iter().map(|v| -v).collect()),
+                None => right.clone(),
+            };
+            derivatives[j] = Some((right, left));
+        }
+        let derivatives = derivatives
+            .into_iter()
+            .map(|d| d.ok_or_else(|| WsmError::contact("a direction was not differentiated")))
+            .collect::<Result<_, WsmError>>()?;
+        Ok((derivatives, adjoint_directions))
     }
 
     /// The multiplier bounds at the state (Coulomb ones at its normal forces) and each pair's
