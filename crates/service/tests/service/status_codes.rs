@@ -15,7 +15,7 @@ use axum::Router;
 use serde_json::{json, Value};
 use tower::ServiceExt;
 
-use wsm_core::run::{self, RunControl};
+use wsm_core::RunControl;
 use wsm_service::api::{self, Access, AppState, Limits, SolveSlots};
 use wsm_service::error_code::ErrorCode;
 use wsm_service::jobs::health::StoreHealth;
@@ -167,9 +167,9 @@ async fn lease(store: &Arc<dyn JobStore>, id: &str) -> wsm_service::jobs::JobRec
 async fn jobs(app: &Router, store: &Arc<dyn JobStore>) -> [String; 5] {
     let succeeded = submit(app, 4).await;
     let job = lease(store, &succeeded).await;
-    let scene = wsm_core::scene::parse(&job.scene).unwrap();
+    let scene = wsm_core::parse_scene(&job.scene).unwrap();
     let outcome = tokio::task::spawn_blocking(move || {
-        run::worst(scene, &job.settings, &RunControl::default()).unwrap()
+        wsm_core::worst(scene, &job.settings, &RunControl::default()).unwrap()
     })
     .await
     .unwrap();

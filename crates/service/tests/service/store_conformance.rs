@@ -4,15 +4,12 @@
 //! the fan-out tasks of a batch (leased once each, results in part order, a dead worker's task
 //! leased again, a taken-over job's tasks dropped), and the workers' heartbeat.
 
-mod common;
-
 use std::collections::HashSet;
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::{postgres_url, PgSchema};
-use wsm_core::run::{Evaluation, OneSided, RefinedOutcome, WorstRequest};
-use wsm_core::scene::Criterion;
+use crate::postgres::{postgres_url, PgSchema};
+use wsm_core::{Criterion, Evaluation, OneSided, RefinedOutcome, WorstRequest};
 use wsm_service::error_code::ErrorCode;
 use wsm_service::jobs::sql::SqlStore;
 use wsm_service::jobs::{
