@@ -8,8 +8,7 @@
 use std::time::Instant;
 
 use serde_json::{json, Value};
-use wsm_core::mesh::{generate, stats, Mesh};
-use wsm_core::scene::Scene;
+use wsm_core::{generate_mesh, mesh_stats, Mesh, Scene};
 
 /// Smallest angle of every triangle, degrees.
 fn min_angles(mesh: &Mesh) -> Vec<f64> {
@@ -53,14 +52,14 @@ fn main() {
         let mut result = None;
         for _ in 0..runs.max(1) {
             let t0 = Instant::now();
-            let r = generate(&scene);
+            let r = generate_mesh(&scene);
             times.push(t0.elapsed().as_secs_f64());
             result = Some(r);
         }
         times.sort_by(f64::total_cmp);
         let line = match result {
             Some(Ok(mesh)) => {
-                let s = stats(&mesh);
+                let s = mesh_stats(&mesh);
                 let angles = min_angles(&mesh);
                 let below = |x: f64| angles.iter().filter(|&&a| a < x).count();
                 json!({

@@ -9,7 +9,7 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use wsm_core::run::{Evaluation, WorstRequest};
+use wsm_core::{Evaluation, WorstRequest};
 use wsm_service::jobs::sql::{Backend, SqlStore};
 use wsm_service::jobs::{wait, JobStore, NewJob, TaskKind, TaskScope};
 
@@ -60,7 +60,7 @@ async fn bench(db: &str, batches: usize) {
                     scene: "{}".into(),
                     settings: WorstRequest::default(),
                     scene_name: "bench".into(),
-                    criteria: vec![wsm_core::scene::Criterion::Phi3.into()],
+                    criteria: vec![wsm_core::Criterion::Phi3.into()],
                     budget: 1,
                     run_hash: format!("hash{job_no}"),
                 },

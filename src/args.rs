@@ -1,15 +1,15 @@
 //! The command line's arguments, one clap `Args` struct per command, and their conversions into
-//! the requests and configurations of the crates' front doors (`wsm_core::run`,
-//! `wsm_service::server`, `wsm_study`).
+//! the requests and configurations of the crates' front doors (`wsm_core::WorstRequest`,
+//! `wsm_core::SolveRequest`, `wsm_service::server`, `wsm_study`).
 
 use std::path::PathBuf;
 use std::time::Duration;
 
 use clap::{Args, ValueEnum};
 
-use wsm_core::error::WsmError;
-use wsm_core::run::{SolveRequest, WorstRequest};
-use wsm_core::scene::{CriterionSpec, SceneError, SolverKind, StopRule};
+use wsm_core::{
+    CriterionSpec, SceneError, SolveRequest, SolverKind, StopRule, WorstRequest, WsmError,
+};
 use wsm_service::api::{Access, Limits};
 use wsm_service::http::ConnectionLimits;
 use wsm_service::jobs::runner::{FaultRule, FaultSolves};
@@ -68,7 +68,7 @@ pub struct SceneArgs {
 pub struct MemoryArgs {
     /// Refuse (exit status 2), before meshing, a scene whose solve is estimated to need more
     /// memory than this: bytes, or 512M, 12G, 1.5T (default: half the machine's memory).
-    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::parse_bytes)]
     pub max_solve_memory: Option<u64>,
 }
 
@@ -76,7 +76,7 @@ impl MemoryArgs {
     /// The limit in bytes: the flag's value or the machine's default share.
     pub fn limit(&self) -> u64 {
         self.max_solve_memory
-            .unwrap_or_else(wsm_core::run::default_max_solve_memory)
+            .unwrap_or_else(wsm_core::default_max_solve_memory)
     }
 }
 
@@ -280,7 +280,7 @@ pub struct ServeArgs {
     /// Peak memory one solve may need: bytes, or 512M, 12G (default: half the machine's
     /// memory). A scene beyond it is refused with 422 naming the mesh size to coarsen, before
     /// meshing; a job's refined accuracy levels beyond it are not built (and say so).
-    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::parse_bytes)]
     pub max_solve_memory: Option<u64>,
     /// A job whose worker died (its lease expired) this many times fails instead of being
     /// leased again.
@@ -354,7 +354,7 @@ impl From<ServeArgs> for ServeConfig {
                 max_field_triangles: args.max_field_triangles,
                 max_solve_memory: args
                     .max_solve_memory
-                    .unwrap_or_else(wsm_core::run::default_max_solve_memory),
+                    .unwrap_or_else(wsm_core::default_max_solve_memory),
                 body_timeout: Duration::from_secs_f64(args.body_timeout),
                 ..Limits::default()
             },
@@ -401,7 +401,7 @@ pub struct WorkerArgs {
     /// Peak memory one solve may need: bytes, or 512M, 12G (default: half the machine's
     /// memory). A job beyond it fails naming the mesh size to coarsen; its refined accuracy
     /// levels beyond it are not built (and say so).
-    #[arg(long, value_name = "BYTES", value_parser = wsm_core::run::parse_bytes)]
+    #[arg(long, value_name = "BYTES", value_parser = wsm_core::parse_bytes)]
     pub max_solve_memory: Option<u64>,
 }
 
@@ -416,7 +416,7 @@ impl From<WorkerArgs> for WorkerConfig {
             max_attempts: args.max_attempts,
             max_solve_memory: args
                 .max_solve_memory
-                .unwrap_or_else(wsm_core::run::default_max_solve_memory),
+                .unwrap_or_else(wsm_core::default_max_solve_memory),
         }
     }
 }
@@ -512,7 +512,7 @@ impl TryFrom<&AccuracyArgs> for AccuracyOptions {
 
     fn try_from(args: &AccuracyArgs) -> Result<AccuracyOptions, WsmError> {
         Ok(AccuracyOptions {
-            ladder: wsm_core::run::Ladder::new(args.coarsest, args.ratio, args.levels)?,
+            ladder: wsm_core::Ladder::new(args.coarsest, args.ratio, args.levels)?,
             dd_tolerances: if args.direct_only {
                 Vec::new()
             } else {

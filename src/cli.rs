@@ -1,5 +1,5 @@
-//! What the `wsm` commands do, as a thin layer over the front door (`wsm_core::run`): reading scene
-//! files, a progress bar on stderr, writing result files, and one-line errors with an exit code
+//! What the `wsm` commands do, as a thin layer over wsm-core's front door (`wsm_core::worst`,
+//! `wsm_core::solve`, …): reading scene files, a progress bar on stderr, writing result files, and one-line errors with an exit code
 //! per error kind.
 
 use std::path::Path;
@@ -8,14 +8,12 @@ use std::sync::Arc;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use wsm_core::error::WsmError;
-use wsm_core::run::{
-    self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Sense,
-    SolveRequest, WorstOutcome, WorstRequest,
+use wsm_core::{
+    parse_scene, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, ProgressEvent, RunControl, Scene,
+    SceneError, Sense, SolveRequest, WorstOutcome, WorstRequest, WsmError,
 };
-use wsm_core::scene::{parse, Scene, SceneError};
 
-/// Exit status of an error ([`wsm_core::error::ErrorKind::exit_code`]).
+/// Exit status of an error ([`wsm_core::ErrorKind::exit_code`]).
 pub fn exit_code(error: &WsmError) -> ExitCode {
     ExitCode::from(error.kind().exit_code())
 }
@@ -32,7 +30,7 @@ pub fn load_affordable_scene(
     memory: &crate::args::MemoryArgs,
 ) -> Result<Scene, WsmError> {
     let scene = load_scene(input)?;
-    run::estimate_solve_cost(&scene)?.check(memory.limit() as f64)?;
+    wsm_core::estimate_solve_cost(&scene)?.check(memory.limit() as f64)?;
     Ok(scene)
 }
 
@@ -42,14 +40,14 @@ pub fn load_affordable_scene(
 fn read_scene(path: Option<&Path>, example: Option<&str>) -> Result<Scene, WsmError> {
     let text = match (path, example) {
         (Some(p), None) => std::fs::read_to_string(p).map_err(|e| WsmError::io(p.display(), e))?,
-        (None, Some(name)) => wsm_core::run::find_example(name)?.to_string(),
+        (None, Some(name)) => wsm_core::find_example(name)?.to_string(),
         _ => {
             return Err(
                 SceneError::new("SCENE", "give a scene file or --example NAME (not both)").into(),
             )
         }
     };
-    let mut scene = parse(&text)?;
+    let mut scene = parse_scene(&text)?;
     if let (Some(p), Some(file)) = (path, scene.mesh.gmsh_file.as_mut()) {
         *file = beside(p, file)?;
     }
@@ -117,15 +115,15 @@ pub fn solve(
         let stem = p.file_stem().unwrap_or_default().to_string_lossy();
         let file = format!("{stem}-{index:05}.vtu");
         write(&p.with_file_name(&file), &text)?;
-        entries.push(run::SeriesEntry {
+        entries.push(wsm_core::SeriesEntry {
             file,
             title: format!("t = {time:e} s"),
             time: Some(time),
         });
         Ok(())
     };
-    let series = (dynamic && vtu.is_some()).then_some(&mut sink as &mut run::SeriesSink);
-    let output = run::solve_watched(scene, None, &request, &control, series);
+    let series = (dynamic && vtu.is_some()).then_some(&mut sink as &mut wsm_core::SeriesSink);
+    let output = wsm_core::solve_watched(scene, None, &request, &control, series);
     bar.finish_and_clear();
     let output = output?;
     for warning in &output.summary.report.warnings {
@@ -138,7 +136,7 @@ pub fn solve(
         write(p, text)?;
         if !entries.is_empty() {
             let index = p.with_extension("pvd");
-            write(&index, &run::write_pvd(&entries))?;
+            write(&index, &wsm_core::write_pvd(&entries))?;
             eprintln!(
                 "{} output times written as {}-*.vtu, indexed by {}",
                 entries.len(),
@@ -148,7 +146,7 @@ pub fn solve(
         }
     }
     if let (Some(p), Some(fields)) = (profiles, &output.fields) {
-        write(p, &run::profiles_csv(&fields.contact_profiles))?;
+        write(p, &wsm_core::profiles_csv(&fields.contact_profiles))?;
     }
     to_json(&output.summary)
 }
@@ -156,7 +154,7 @@ pub fn solve(
 /// `wsm evaluate`: answers stream to stdout as the points arrive on stdin; the summary line
 /// (the number of points) goes to stderr.
 pub fn evaluate(scene: Scene, request: WorstRequest) -> Result<String, WsmError> {
-    let count = run::evaluate_points(
+    let count = wsm_core::evaluate_points(
         scene,
         &request,
         &mut std::io::stdin().lock(),
@@ -218,9 +216,9 @@ pub fn worst(
     }
     let fields_scene = files.fields.as_ref().map(|_| scene.clone());
     let defined = scene.criteria.defined.clone();
-    let outcome = run::worst(scene, &request, &control)?;
+    let outcome = wsm_core::worst(scene, &request, &control)?;
     bar.finish_and_clear();
-    eprint!("{}", run::summary(&outcome, &defined));
+    eprint!("{}", wsm_core::summary(&outcome, &defined));
     if let Some(p) = &files.out {
         write(p, &to_json(&outcome)?)?;
     }
@@ -231,7 +229,7 @@ pub fn worst(
             (None, None) => Vec::new(),
         };
         let file = std::fs::File::create(p).map_err(|e| WsmError::io(p.display(), e))?;
-        run::write_csv(
+        wsm_core::write_csv(
             file,
             &p.display().to_string(),
             &outcome.parameters,
@@ -248,14 +246,14 @@ pub fn worst(
 /// `wsm worst --fields DIR`: a VTU per scenario (nominal, worst and best of every criterion)
 /// and their index `scenarios.pvd` in `dir`; scenarios without data are named on stderr.
 fn write_scenario_fields(dir: &Path, scene: Scene, outcome: &WorstOutcome) -> Result<(), WsmError> {
-    let (series, skipped) = run::scenario_series(scene, outcome, &SolveRequest::default())?;
+    let (series, skipped) = wsm_core::scenario_series(scene, outcome, &SolveRequest::default())?;
     for reason in skipped {
         eprintln!("warning: --fields: {reason}; its file is left out");
     }
     for s in &series {
         write_in(dir, &s.file, s.output.vtu.as_deref().unwrap_or_default())?;
     }
-    write_in(dir, "scenarios.pvd", &run::series_index(&series))?;
+    write_in(dir, "scenarios.pvd", &wsm_core::series_index(&series))?;
     eprintln!(
         "fields of {} scenarios written to {}",
         series.len(),
@@ -267,17 +265,15 @@ fn write_scenario_fields(dir: &Path, scene: Scene, outcome: &WorstOutcome) -> Re
 /// `wsm example`: a scene's JSON, or the list of names.
 pub fn example(name: Option<&str>, list: bool) -> Result<String, WsmError> {
     match (name, list) {
-        (Some(n), false) => Ok(wsm_core::run::find_example(n)?.to_string()),
-        _ => Ok(wsm_core::run::example_names()
-            .collect::<Vec<_>>()
-            .join("\n")),
+        (Some(n), false) => Ok(wsm_core::find_example(n)?.to_string()),
+        _ => Ok(wsm_core::example_names().collect::<Vec<_>>().join("\n")),
     }
 }
 
 /// `wsm inline-mesh`: the scene file with its Gmsh mesh given inline (`mesh.inline`), as JSON.
 pub fn inline_mesh(scene: &Path) -> Result<String, WsmError> {
     let scene = read_scene(Some(scene), None)?;
-    to_json(&wsm_core::run::with_inline_mesh(&scene)?)
+    to_json(&wsm_core::with_inline_mesh(&scene)?)
 }
 
 /// `wsm openapi`: the OpenAPI document of the HTTP API.
@@ -289,7 +285,7 @@ pub fn openapi() -> Result<String, WsmError> {
 
 /// `wsm schema`: the JSON Schema of the scene document (design §5.2).
 pub fn schema() -> String {
-    wsm_core::scene::scene_schema_json().trim_end().to_string()
+    wsm_core::scene_schema_json().trim_end().to_string()
 }
 
 /// `wsm bench`: the inner-solver timings, or with `--worst` the worst-scenario loop, or with

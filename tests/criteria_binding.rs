@@ -8,11 +8,10 @@
 use std::process::Command;
 
 use serde_json::{json, Value};
-use wsm_core::run::{self, RunControl, SolveRequest, WorstRequest};
-use wsm_core::scenario::evaluator::ScenarioEvaluator;
-use wsm_core::scene::params::parameters;
-use wsm_core::scene::{parse, Criterion, CriterionSpec, Scene, StopRule};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    parse_scene, scene_parameters, Criterion, CriterionSpec, RunControl, ScenarioEvaluator, Scene,
+    SolveRequest, StateProblem, StopRule, WorstRequest,
+};
 
 fn spec(s: &str) -> CriterionSpec {
     CriterionSpec::parse(s).unwrap()
@@ -57,7 +56,7 @@ fn a_criterion_reads_and_writes_as_a_name_or_an_object() {
 #[test]
 fn a_bound_criterion_is_its_region_value_with_exact_derivatives() {
     let scene = tunnel();
-    let params = parameters(&scene).unwrap();
+    let params = scene_parameters(&scene).unwrap();
     let problem = StateProblem::new(scene).unwrap();
     let criteria: Vec<CriterionSpec> = [
         "phi3",
@@ -82,14 +81,14 @@ fn a_bound_criterion_is_its_region_value_with_exact_derivatives() {
         assert!(values[pair[0]] != values[pair[1]]);
     }
     // The solve's region values are the same numbers, by name.
-    let data = wsm_core::scene::params::apply(&problem.scene, &problem.nominal, &params, &mid);
-    let options = wsm_core::state::SolveOptions {
-        needs: wsm_core::state::Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+    let data = wsm_core::apply_parameters(&problem.scene, &problem.nominal, &params, &mid);
+    let options = wsm_core::SolveOptions {
+        needs: wsm_core::Needs::all(&problem.scene),
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let solution = problem.solve(&data, &options).unwrap();
-    let summary = wsm_core::output::result::summary(&problem, &data, &solution);
+    let summary = wsm_core::result_summary(&problem, &data, &solution);
     assert_eq!(summary.region_values["phi3"]["crown"], values[1]);
     assert_eq!(summary.region_values["phi5"]["fault"], values[5]);
     // Exact derivatives against central differences, for the region attaining the maximum and
@@ -128,14 +127,14 @@ fn a_bound_criterion_is_its_region_value_with_exact_derivatives() {
 
 #[test]
 fn a_search_reports_where_each_extremum_comes_from() {
-    let scene = parse(&dam().to_string()).unwrap();
+    let scene = parse_scene(&dam().to_string()).unwrap();
     let request = WorstRequest {
         criteria: Some(["phi3@crest", "phi5", "phi6@heel"].map(spec).to_vec()),
         accuracy_refinements: Some(0),
         stop: Some(StopRule::FirstCertificate),
         ..WorstRequest::default()
     };
-    let outcome = run::worst(scene.clone(), &request, &RunControl::new()).unwrap();
+    let outcome = wsm_core::worst(scene.clone(), &request, &RunControl::new()).unwrap();
     let names: Vec<String> = outcome
         .criteria
         .iter()
@@ -149,7 +148,8 @@ fn a_search_reports_where_each_extremum_comes_from() {
     // Φ5's region is where the solve at its data is largest, and the value is that region's.
     for o in [&outcome.criteria[1].worst, &outcome.criteria[1].best] {
         let point = o.point.clone().unwrap();
-        let solved = run::solve_at(scene.clone(), Some(&point), &SolveRequest::default()).unwrap();
+        let solved =
+            wsm_core::solve_at(scene.clone(), Some(&point), &SolveRequest::default()).unwrap();
         let region = o.region.as_deref().expect("a region");
         assert_eq!(solved.summary.attained_in["phi5"], region);
         assert_eq!(
@@ -159,7 +159,7 @@ fn a_search_reports_where_each_extremum_comes_from() {
     }
     // The bound crest is the crest's own value at its data, not the largest Φ3 (the heel's).
     let point = crest.worst.point.clone().unwrap();
-    let solved = run::solve_at(scene, Some(&point), &SolveRequest::default()).unwrap();
+    let solved = wsm_core::solve_at(scene, Some(&point), &SolveRequest::default()).unwrap();
     assert_eq!(
         solved.summary.region_values["phi3"]["crest"],
         crest.worst.value.unwrap()
@@ -169,7 +169,7 @@ fn a_search_reports_where_each_extremum_comes_from() {
 
 #[test]
 fn a_bad_binding_is_refused_and_unused_search_criteria_do_not_block_a_solve() {
-    let scene = parse(&dam().to_string()).unwrap();
+    let scene = parse_scene(&dam().to_string()).unwrap();
     let refused = |criteria: &str| {
         let request = WorstRequest {
             criteria: Some(vec![spec(criteria)]),

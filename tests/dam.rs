@@ -10,10 +10,10 @@ use std::path::PathBuf;
 use std::process::Command;
 
 use serde_json::{json, Value};
-use wsm_core::error::WsmError;
-use wsm_core::run::{self, RunControl, SolveRequest, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene, WarningKind};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    parse_scene, Criterion, RunControl, Scene, SolveRequest, StateProblem, WarningKind,
+    WorstRequest, WsmError,
+};
 
 fn dam() -> Value {
     serde_json::from_str(include_str!("data/dam-coulomb-3data.json")).unwrap()
@@ -32,12 +32,12 @@ fn named_dam() -> Value {
 }
 
 fn scene(v: &Value) -> Scene {
-    parse(&v.to_string()).unwrap()
+    parse_scene(&v.to_string()).unwrap()
 }
 
 /// Criteria Φ1..Φ6 of one solve at the data `point` (in the order of `uncertain`).
 fn criteria_at(v: &Value, point: &[f64]) -> [Option<f64>; 6] {
-    let output = run::solve_at(scene(v), Some(point), &SolveRequest::default()).unwrap();
+    let output = wsm_core::solve_at(scene(v), Some(point), &SolveRequest::default()).unwrap();
     let c = output.summary.criteria;
     [c.phi1, c.phi2, c.phi3, c.phi4, c.phi5, c.phi6]
 }
@@ -89,7 +89,7 @@ fn a_named_datum_stays_on_its_entry_when_entries_are_inserted() {
     let moved = criteria_at(&by_index, &point);
     assert_ne!(moved, before, "the index now points at the reservoir bed");
     // The parameter keeps the path as written.
-    let info = run::parameter_info(&scene(&by_name)).unwrap();
+    let info = wsm_core::parameter_info(&scene(&by_name)).unwrap();
     assert_eq!(info[2].field, "boundary[up1].pressure");
 }
 
@@ -100,7 +100,7 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
     let v = named_dam();
     let expected = "uncertain[2].field: boundary[4] is the entry named 'up1'; refer to it as \
                     boundary[up1] so that inserting entries cannot move the datum";
-    let solved = run::solve(scene(&v), &SolveRequest::default()).unwrap();
+    let solved = wsm_core::solve(scene(&v), &SolveRequest::default()).unwrap();
     let warnings = &solved.summary.report.warnings;
     // In the order of `uncertain`: the contact zone's index path (entry 1) first.
     assert!(warnings.iter().all(|w| w.kind == WarningKind::DataPath));
@@ -119,7 +119,7 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
         accuracy_refinements: Some(0),
         ..WorstRequest::default()
     };
-    let outcome = run::worst(scene(&v), &request, &RunControl::new()).unwrap();
+    let outcome = wsm_core::worst(scene(&v), &request, &RunControl::new()).unwrap();
     assert_eq!(
         outcome.warnings[1].to_string(),
         expected,
@@ -136,7 +136,7 @@ fn an_index_to_a_named_entry_is_warned_first_by_solve_and_worst() {
     let mut by_name = v.clone();
     by_name["uncertain"][1]["field"] = json!("contacts[dam_foundation_joint].friction_coefficient");
     by_name["uncertain"][2]["field"] = json!("boundary[up1].pressure");
-    let solved = run::solve(scene(&by_name), &SolveRequest::default()).unwrap();
+    let solved = wsm_core::solve(scene(&by_name), &SolveRequest::default()).unwrap();
     assert!(
         solved.summary.report.warnings.is_empty(),
         "{:?}",
@@ -154,7 +154,7 @@ fn a_nominal_value_outside_its_interval_is_refused_by_every_front_door() {
     let reason = "the nominal value 0.9 of contacts[0].friction_coefficient lies outside its \
                   interval [0.5, 0.8]";
 
-    let error = parse(&v.to_string()).unwrap_err();
+    let error = parse_scene(&v.to_string()).unwrap_err();
     assert_eq!(error.path, "uncertain[1]");
     assert!(error.reason.starts_with(reason), "{}", error.reason);
 
@@ -164,16 +164,16 @@ fn a_nominal_value_outside_its_interval_is_refused_by_every_front_door() {
         let text = result.unwrap_err().to_string();
         assert!(text.contains(&format!("uncertain[1]: {reason}")), "{text}");
     };
-    refused(run::solve(unchecked.clone(), &SolveRequest::default()).map(drop));
+    refused(wsm_core::solve(unchecked.clone(), &SolveRequest::default()).map(drop));
     refused(
-        run::worst(
+        wsm_core::worst(
             unchecked.clone(),
             &WorstRequest::default(),
             &RunControl::new(),
         )
         .map(drop),
     );
-    refused(run::parameter_info(&unchecked).map(drop));
+    refused(wsm_core::parameter_info(&unchecked).map(drop));
 
     let path = write("outside.json", &v);
     for command in ["solve", "worst"] {
@@ -205,7 +205,7 @@ fn the_crest_piece_is_measured_on_every_mesh() {
             "×{factor}: {}",
             crest.length
         );
-        let summary = run::solve(scene(&v), &SolveRequest::default())
+        let summary = wsm_core::solve(scene(&v), &SolveRequest::default())
             .unwrap()
             .summary;
         let phi4 = summary.criteria.phi4.unwrap();

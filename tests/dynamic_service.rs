@@ -72,7 +72,7 @@ fn a_dynamic_solve_returns_consistent_histories_and_frames() {
     let history = &out["summary"]["history"];
     let times = numbers(&history["times"]);
     let n = times.len();
-    let scene: Value = serde_json::from_str(wsm_core::bundled::example(EXAMPLE).unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example(EXAMPLE).unwrap()).unwrap();
     let dynamics = &scene["dynamics"];
     let (t_end, dt) = (
         dynamics["t_end"].as_f64().unwrap(),

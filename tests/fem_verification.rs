@@ -9,10 +9,11 @@ use solves::{bc, data, material};
 
 use std::f64::consts::PI;
 
-use wsm_core::fem::{ElasticProblem, FemError, HeatProblem, Par, TriangleGradients};
-use wsm_core::fixtures::{perturb_interior, quarter_annulus, rectangle, rotate, stacked_blocks};
-use wsm_core::mesh::{Mesh, MeshSegment};
-use wsm_core::scene::{BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData};
+use wsm_core::{
+    fixtures::perturb_interior, fixtures::quarter_annulus, fixtures::rectangle, fixtures::rotate,
+    fixtures::stacked_blocks, BoundaryData, BoundaryValue, Data, Elastic, ElasticProblem,
+    Expansion, FemError, HeatProblem, MaterialData, Mesh, MeshSegment, Par, TriangleGradients,
+};
 use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder, Manufactured};
 
 // ---------- helpers ----------
@@ -594,7 +595,7 @@ fn conflicting_and_invalid_data_give_errors() {
 fn benchmark_direct_pipeline() {
     for (nx, ny) in [(100, 50), (320, 160)] {
         for (name, par) in [("seq", Par::Seq), ("rayon", Par::rayon(0))] {
-            let t = wsm_core::fem::bench::elastic_benchmark(nx, ny, 5, par).unwrap();
+            let t = wsm_core::bench::elastic_benchmark(nx, ny, 5, par).unwrap();
             println!(
                 "{nx}x{ny} {name}: {} free DOFs, nnz(L) {}, assembly {:.4}s, symbolic {:.4}s, numeric {:.4}s, solve {:.4}s, (numeric+solve)/first = {:.3}",
                 t.free_dofs, t.factor_nnz, t.assembly, t.symbolic, t.numeric, t.solve, t.refactor_ratio

@@ -161,8 +161,7 @@ fn hostile_requests_get_clear_4xx_answers_and_the_server_keeps_answering() {
     let addr = &server.addr;
     let mut tally = Tally::default();
 
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     let mut leaves = Vec::new();
     pointers(&scene, String::new(), &mut leaves);
     for pointer in &leaves {

@@ -10,7 +10,7 @@ use common::{get, post, temp_db, Server};
 use serde_json::{json, Value};
 
 fn block() -> Value {
-    serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap()
+    serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap()
 }
 
 /// The block's polygon with 100,000 vertices along its top edge (the probe's repro of defect 1).

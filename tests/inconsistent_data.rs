@@ -14,7 +14,7 @@ use common::{post, temp_db, Server};
 use serde_json::{json, Value};
 
 fn tunnel() -> Value {
-    serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap()
+    serde_json::from_str(wsm_core::example("tunnel-fault").unwrap()).unwrap()
 }
 
 /// The tunnel with the hanging wall's bottom pushed by `ux` (the footwall's stays 0.025 m).
@@ -111,9 +111,8 @@ fn an_admissible_set_with_overlapping_vertices_is_refused_before_any_evaluation(
         "evaluations were made: {evaluations}"
     );
     // The suggested interval is admissible as a whole.
-    let feasible: wsm_core::scene::Scene =
-        serde_json::from_value(with_interval(0.015, 0.025)).unwrap();
-    wsm_core::run::check_admissible_set(&feasible).unwrap();
+    let feasible: wsm_core::Scene = serde_json::from_value(with_interval(0.015, 0.025)).unwrap();
+    wsm_core::check_admissible_set(&feasible).unwrap();
 }
 
 /// POST `body` to `endpoint`, expect 422, and return the error body.

@@ -13,12 +13,11 @@ use solves::{bc, data, material};
 use std::f64::consts::PI;
 
 use serde_json::{json, Value};
-use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::fixtures::{perturb_interior, rectangle};
-use wsm_core::mesh::Mesh;
-use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
-use wsm_core::scene::{parse, BoundaryValue, Elastic, Element, Scene};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{
+    fixtures::perturb_interior, fixtures::rectangle, parse_scene, worst, BoundaryValue, Elastic,
+    ElasticProblem, Element, Mesh, Needs, Par, RunControl, Scene, Solution, SolveOptions,
+    StateProblem, Status, WorstRequest,
+};
 use wsm_study::analytic::{field_errors, points, ExactField, LameCylinder};
 
 fn rate(errors: &[f64]) -> Vec<f64> {
@@ -32,8 +31,7 @@ fn rate(errors: &[f64]) -> Vec<f64> {
 /// ten rings of the area-weighted mean |σθθ − σθθ exact| / σθθ(a), the largest single-triangle
 /// σθθ error / σθθ(a)), after checking KKT and equilibrium.
 fn cylinder_errors(element: &str) -> [f64; 3] {
-    let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("thick-cylinder").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("thick-cylinder").unwrap()).unwrap();
     v["materials"]["steel"]["nu"] = json!(0.4999);
     v["mesh"]["element"] = json!(element);
     let (problem, sol) = solve_value(&v).unwrap();
@@ -206,8 +204,8 @@ fn options(scene: &Scene) -> SolveOptions {
     }
 }
 
-fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::error::WsmError> {
-    let scene = parse(&v.to_string())?;
+fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::WsmError> {
+    let scene = parse_scene(&v.to_string())?;
     let problem = StateProblem::new(scene)?;
     let sol = problem.solve(&problem.nominal, &options(&problem.scene))?;
     Ok((problem, sol))
@@ -215,7 +213,7 @@ fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::error::W
 
 /// The bundled Hertz scene with both bodies at ν = 0.499, refined to `h` under the contact.
 fn hertz_scene(element: &str, h: f64) -> Value {
-    let mut v: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("hertz").unwrap()).unwrap();
     v["materials"]["steel"]["nu"] = json!(0.499);
     v["mesh"]["refine"][0]["max_size"] = json!(h);
     v["mesh"]["element"] = json!(element);
@@ -265,7 +263,7 @@ fn hertz_at_nu_0499_with_mixed_elements() {
 /// cylinder's contact side at `cylinder`, the flat's at `flat`) with both bodies at ν = 0.499.
 fn hertz_mortar_scene(element: &str, cylinder: f64, flat: f64) -> Value {
     let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("hertz-nonmatching").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("hertz-nonmatching").unwrap()).unwrap();
     v["materials"]["steel"]["nu"] = json!(0.499);
     v["mesh"]["element"] = json!(element);
     v["mesh"]["refine"][0]["max_size"] = json!(cylinder);
@@ -346,16 +344,15 @@ fn stacked_blocks_with_mixed_elements_transmit_uniform_pressure() {
 /// refined values those of independent mixed solves on the halved mesh at the same data.
 #[test]
 fn a_worst_scenario_run_on_the_mixed_tibia_is_certified_with_its_accuracy_statement() {
-    let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("tibia-marrow").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("tibia-marrow").unwrap()).unwrap();
     v["mesh"]["element"] = json!("mixed");
-    let scene = parse(&v.to_string()).unwrap();
+    let scene = parse_scene(&v.to_string()).unwrap();
     let request = WorstRequest {
         accuracy_refinements: Some(1),
         ..WorstRequest::default()
     };
     let start = std::time::Instant::now();
-    let r = run_worst(scene.clone(), &request, &RunControl::new()).unwrap();
+    let r = worst(scene.clone(), &request, &RunControl::new()).unwrap();
     eprintln!(
         "mixed tibia-marrow: {} evaluations, {:.1} s, status {:?}",
         r.evaluations,
@@ -385,15 +382,15 @@ fn a_worst_scenario_run_on_the_mixed_tibia_is_certified_with_its_accuracy_statem
     );
     let statement = r.accuracy.as_ref().expect("an accuracy statement");
     assert!(statement.complete, "{:?}", statement.failures);
-    let fine = StateProblem::new(wsm_core::estimate::ladder::scaled(&scene, 0.5).unwrap()).unwrap();
+    let fine = StateProblem::new(wsm_core::scaled_scene(&scene, 0.5).unwrap()).unwrap();
     assert_eq!(fine.elastic.element(), Element::Mixed);
-    let params = wsm_core::scene::params::parameters(&scene).unwrap();
+    let params = wsm_core::scene_parameters(&scene).unwrap();
     for (c, a) in r.criteria.iter().zip(&statement.criteria) {
         let target = fine.targets(std::slice::from_ref(&c.criterion)).unwrap()[0];
         for (o, e) in [(&c.worst, &a.worst), (&c.best, &a.best)] {
             let point = o.point.as_ref().unwrap();
             let e = e.as_ref().unwrap();
-            let data = wsm_core::scene::params::apply(&scene, &fine.nominal, &params, point);
+            let data = wsm_core::apply_parameters(&scene, &fine.nominal, &params, point);
             let solution = fine.solve(&data, &options(&fine.scene)).unwrap();
             let independent = solution.value(target).unwrap();
             let refined = e.refined[0].unwrap();
@@ -420,7 +417,7 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
         let mut v = base.clone();
         v["mesh"]["element"] = json!("mixed");
         edit(&mut v);
-        let err = parse(&v.to_string()).expect_err("must be refused");
+        let err = parse_scene(&v.to_string()).expect_err("must be refused");
         assert_eq!(err.path, path, "{err}");
         assert!(err.to_string().contains(words), "{err}");
     };
@@ -445,12 +442,12 @@ fn mixed_scenes_refuse_what_they_do_not_support() {
         "isotropic",
     );
     // The default stays P1 and P1 scenes are unchanged.
-    let scene = parse(&base.to_string()).unwrap();
+    let scene = parse_scene(&base.to_string()).unwrap();
     assert_eq!(scene.mesh.element, Element::P1);
     // The DD element matrices are refused by the FEM layer.
     let mut v = base.clone();
     v["mesh"]["element"] = json!("mixed");
-    let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&v.to_string()).unwrap()).unwrap();
     let coefficients = problem.elastic.coefficients(&problem.nominal).unwrap();
     let err = problem
         .elastic

@@ -9,18 +9,17 @@ mod solves;
 
 use std::process::Command;
 
-use wsm_core::run::{self, SolveFields, SolveRequest};
-use wsm_core::scene::parse;
+use wsm_core::{parse_scene, SolveFields, SolveRequest};
 
 /// Solve a bundled example at its nominal data with fields.
 fn fields_of(example: &str) -> SolveFields {
-    let scene = parse(wsm_core::bundled::example(example).unwrap()).unwrap();
+    let scene = parse_scene(wsm_core::example(example).unwrap()).unwrap();
     let request = SolveRequest {
         solver: None,
         fields: true,
         frames: false,
     };
-    let output = run::solve(scene, &request).unwrap();
+    let output = wsm_core::solve(scene, &request).unwrap();
     assert!(output.summary.report.kkt.max() <= 1e-9);
     output.fields.unwrap()
 }
@@ -162,7 +161,7 @@ fn hertz_contact_profile_matches_the_hertz_pressure() {
     let text = std::fs::read_to_string(&csv).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     let mut lines = text.lines();
-    assert_eq!(lines.next(), Some(run::PROFILE_CSV_HEADER));
+    assert_eq!(lines.next(), Some(wsm_core::PROFILE_CSV_HEADER));
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     assert_eq!(rows.len(), profile.pressure.len());
     for (m, row) in rows.iter().enumerate() {

@@ -1,10 +1,10 @@
 //! Bad scenes are refused before any work, with an error naming the offending JSON field.
 
 use serde_json::{json, Value};
-use wsm_core::scene::parse;
+use wsm_core::parse_scene;
 
 fn base() -> Value {
-    serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap()
+    serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap()
 }
 
 /// Apply `edit` to the block-on-base example and check the error path starts with `path`.
@@ -12,7 +12,7 @@ fn refused(edit: impl FnOnce(&mut Value), path: &str) {
     let mut scene = base();
     edit(&mut scene);
     let text = serde_json::to_string(&scene).unwrap();
-    match parse(&text) {
+    match parse_scene(&text) {
         Ok(_) => panic!("scene accepted, expected an error at {path}"),
         Err(e) => assert!(
             e.path.starts_with(path),
@@ -28,10 +28,11 @@ fn refused(edit: impl FnOnce(&mut Value), path: &str) {
 fn refused_by_search(edit: impl FnOnce(&mut Value), path: &str) {
     let mut v = base();
     edit(&mut v);
-    let scene = parse(&v.to_string()).expect("the criteria a search uses do not block parsing");
-    match wsm_core::run::WorstRequest::default().settings(&scene) {
+    let scene =
+        parse_scene(&v.to_string()).expect("the criteria a search uses do not block parsing");
+    match wsm_core::WorstRequest::default().settings(&scene) {
         Ok(_) => panic!("search accepted, expected an error at {path}"),
-        Err(wsm_core::error::WsmError::Scene(e)) => assert!(
+        Err(wsm_core::WsmError::Scene(e)) => assert!(
             e.path.starts_with(path),
             "expected error at '{path}', got '{}': {}",
             e.path,
@@ -43,7 +44,7 @@ fn refused_by_search(edit: impl FnOnce(&mut Value), path: &str) {
 
 #[test]
 fn base_scene_is_valid() {
-    parse(&base().to_string()).unwrap();
+    parse_scene(&base().to_string()).unwrap();
 }
 
 #[test]
@@ -260,7 +261,7 @@ fn non_finite_number_is_refused() {
     let text = base()
         .to_string()
         .replace("\"max_size\":0.05", "\"max_size\":1e999");
-    let err = parse(&text).unwrap_err();
+    let err = parse_scene(&text).unwrap_err();
     assert!(err.path.starts_with("mesh.max_size"), "{err}");
 }
 
@@ -296,7 +297,7 @@ fn phi4_piece_on_the_dirichlet_boundary() {
     let mut scene = base();
     scene["criteria"]["boundary_pieces"][0]["segment"] = json!("bottom");
     scene["search"]["criteria"] = json!(["phi3"]);
-    parse(&scene.to_string()).unwrap();
+    parse_scene(&scene.to_string()).unwrap();
 }
 
 #[test]
@@ -391,8 +392,8 @@ fn general_matrix() -> Value {
 }
 
 /// The error of a scene that must be refused.
-fn refusal(scene: &Value) -> wsm_core::scene::SceneError {
-    match parse(&scene.to_string()) {
+fn refusal(scene: &Value) -> wsm_core::SceneError {
+    match parse_scene(&scene.to_string()) {
         Ok(_) => panic!("scene accepted, expected an error"),
         Err(e) => e,
     }
@@ -405,13 +406,13 @@ fn orthotropic_and_matrix_materials_are_accepted() {
         json!({"field": "materials.rock.angle", "interval": [0.0, 60.0]}),
         json!({"field": "materials.rock.nu23", "interval": [0.2, 0.3]}),
     ];
-    parse(&with_rock(orthotropic(), &uncertain).to_string()).unwrap();
+    parse_scene(&with_rock(orthotropic(), &uncertain).to_string()).unwrap();
     let uncertain = [
         json!({"field": "materials.rock.matrix[0][1]", "interval": [3e9, 5e9]}),
         json!({"field": "materials.rock.matrix[2][2]", "interval": [3.5e9, 4.5e9]}),
         json!({"field": "materials.rock.out_of_plane[0]", "interval": [3e9, 5e9]}),
     ];
-    parse(&with_rock(general_matrix(), &uncertain).to_string()).unwrap();
+    parse_scene(&with_rock(general_matrix(), &uncertain).to_string()).unwrap();
 }
 
 #[test]
@@ -477,7 +478,7 @@ fn conductivity_matrix_must_be_symmetric_positive_definite() {
 #[test]
 fn stiffness_interval_matrix_checks_margin_4_6() {
     let passing = [json!({"field": "materials.rock.matrix[0][1]", "interval": [2e9, 6e9]})];
-    parse(&with_rock(general_matrix(), &passing).to_string()).unwrap();
+    parse_scene(&with_rock(general_matrix(), &passing).to_string()).unwrap();
     // Mid [[14, 4, 1], [4, 12, -0.5], [1, -0.5, 4]] GPa has λ_min < 4 GPa (below d33); a radius
     // of 6 GPa on d12 alone has ρ = 6 GPa.
     let failing = [json!({"field": "materials.rock.matrix[1][0]", "interval": [-2e9, 10e9]})];
@@ -501,7 +502,7 @@ fn conductivity_interval_matrix_checks_margin_4_8() {
     let mut m = orthotropic();
     m["conductivity"] = json!([[3.0, 0.5], [0.5, 2.0]]);
     let passing = [json!({"field": "materials.rock.conductivity[0][1]", "interval": [0.0, 1.0]})];
-    parse(&with_rock(m.clone(), &passing).to_string()).unwrap();
+    parse_scene(&with_rock(m.clone(), &passing).to_string()).unwrap();
     let failing = [
         json!({"field": "materials.rock.conductivity[0][1]", "interval": [-2.0, 3.0]}),
         json!({"field": "materials.rock.conductivity[1][1]", "interval": [1.5, 2.5]}),
@@ -533,16 +534,16 @@ fn symmetric_entry_is_uncertain_once() {
         json!({"field": "materials.rock.matrix[0][1]", "interval": [3e9, 5e9]}),
         json!({"field": "materials.rock.matrix[1][0]", "interval": [3e9, 5e9]}),
     ];
-    let scene = parse(&with_rock(general_matrix(), &twice).to_string()).unwrap();
-    let e = wsm_core::scene::params::parameters(&scene).unwrap_err();
+    let scene = parse_scene(&with_rock(general_matrix(), &twice).to_string()).unwrap();
+    let e = wsm_core::scene_parameters(&scene).unwrap_err();
     assert_eq!(e.path, "uncertain[1].field");
 }
 
 /// The refusal of the block-on-base example after `edit`.
-fn refusal_of(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {
+fn refusal_of(edit: impl FnOnce(&mut Value)) -> wsm_core::SceneError {
     let mut scene = base();
     edit(&mut scene);
-    parse(&scene.to_string()).unwrap_err()
+    parse_scene(&scene.to_string()).unwrap_err()
 }
 
 /// Boundary conditions and contact zones may be named; a name must be unique in its list and
@@ -555,7 +556,7 @@ fn entry_names_are_unique_and_usable_in_paths() {
     };
     let mut ok = base();
     named(&mut ok);
-    parse(&ok.to_string()).unwrap();
+    parse_scene(&ok.to_string()).unwrap();
     let e = refusal_of(|s| {
         named(s);
         s["boundary"][1]["name"] = json!("push");
@@ -585,14 +586,14 @@ fn entry_names_are_unique_and_usable_in_paths() {
 /// A path may pick a boundary condition or contact zone by name: the same datum as its index.
 #[test]
 fn a_name_in_a_path_picks_the_same_datum_as_the_index() {
-    use wsm_core::scene::params::parameters;
+    use wsm_core::scene_parameters;
     let mut by_index = base();
     by_index["boundary"][2]["name"] = json!("push");
     let mut by_name = by_index.clone();
     by_name["uncertain"][1]["field"] = json!("boundary[push].traction[0]");
     by_name["uncertain"][2]["field"] = json!("contacts[joint].slip_limit");
     let targets = |v: &Value| {
-        parameters(&parse(&v.to_string()).unwrap())
+        scene_parameters(&parse_scene(&v.to_string()).unwrap())
             .unwrap()
             .into_iter()
             .map(|p| (p.target, p.lo, p.hi))
@@ -601,15 +602,15 @@ fn a_name_in_a_path_picks_the_same_datum_as_the_index() {
     by_index["uncertain"][2]["field"] = json!("contacts[0].slip_limit");
     assert_eq!(targets(&by_name), targets(&by_index));
     // The parameter is reported by the path as written.
-    let scene = parse(&by_name.to_string()).unwrap();
+    let scene = parse_scene(&by_name.to_string()).unwrap();
     assert_eq!(
-        parameters(&scene).unwrap()[1].name,
+        scene_parameters(&scene).unwrap()[1].name,
         "boundary[push].traction[0]"
     );
     // One datum named twice, by name and by index, is refused as for two indices.
     let mut twice = by_name.clone();
     twice["uncertain"][0] = json!({"field": "boundary[2].traction[0]", "interval": [3e5, 4e5]});
-    let e = parameters(&parse(&twice.to_string()).unwrap()).unwrap_err();
+    let e = scene_parameters(&parse_scene(&twice.to_string()).unwrap()).unwrap_err();
     assert_eq!(e.path, "uncertain[1].field");
 }
 
@@ -660,18 +661,18 @@ fn a_nominal_value_outside_its_interval_is_refused() {
     let mut at_the_ends = base();
     at_the_ends["uncertain"][0]["interval"] = json!([1e10, 1.2e10]);
     at_the_ends["uncertain"][2]["interval"] = json!([2.5e5, 3e5]);
-    parse(&at_the_ends.to_string()).unwrap();
+    parse_scene(&at_the_ends.to_string()).unwrap();
 }
 
 /// Implausible magnitudes are warned about (not refused), with the JSON path and the value;
 /// every bundled example is free of warnings.
 #[test]
 fn implausible_magnitudes_are_warned_about_with_path_and_value() {
-    use wsm_core::scene::warnings;
+    use wsm_core::scene_warnings;
     let warned = |edit: &dyn Fn(&mut Value)| {
         let mut s = base();
         edit(&mut s);
-        warnings(&parse(&s.to_string()).unwrap())
+        scene_warnings(&parse_scene(&s.to_string()).unwrap())
     };
     type Edit<'a> = &'a dyn Fn(&mut Value);
     let cases: [(Edit, &str); 8] = [
@@ -728,12 +729,12 @@ fn implausible_magnitudes_are_warned_about_with_path_and_value() {
         );
     }
     assert!(warned(&|_| ()).is_empty());
-    for name in wsm_core::bundled::names() {
-        let scene = parse(wsm_core::bundled::find(name).unwrap()).unwrap();
+    for name in wsm_core::example_names() {
+        let scene = parse_scene(wsm_core::find_example(name).unwrap()).unwrap();
         assert!(
-            warnings(&scene).is_empty(),
+            scene_warnings(&scene).is_empty(),
             "{name}: {:?}",
-            warnings(&scene)
+            scene_warnings(&scene)
         );
     }
 }
@@ -741,7 +742,7 @@ fn implausible_magnitudes_are_warned_about_with_path_and_value() {
 // ---------- design §5.2: shapes, plain messages, names, coordinates, angles ----------
 
 /// The error of the block-on-base example after `edit`.
-fn refusal_after(edit: impl FnOnce(&mut Value)) -> wsm_core::scene::SceneError {
+fn refusal_after(edit: impl FnOnce(&mut Value)) -> wsm_core::SceneError {
     let mut scene = base();
     edit(&mut scene);
     refusal(&scene)
@@ -757,7 +758,7 @@ const RUST_WORDS: [&str; 9] = [
     "struct", "Material", "Scene", "f64", "u64", "usize", "u32", "sequence", "enum ",
 ];
 
-fn assert_plain(e: &wsm_core::scene::SceneError) {
+fn assert_plain(e: &wsm_core::SceneError) {
     for word in RUST_WORDS {
         assert!(!e.reason.contains(word), "'{word}' in {e}");
     }
@@ -829,7 +830,7 @@ fn type_errors_are_told_in_json_words() {
 
 #[test]
 fn every_name_has_the_same_limit_in_every_message() {
-    let limit = wsm_core::scene::MAX_NAME;
+    let limit = wsm_core::MAX_NAME;
     let edits: Vec<(Naming, &str)> = vec![
         (Box::new(|s, n| s["name"] = json!(n)), "name"),
         (
@@ -849,7 +850,7 @@ fn every_name_has_the_same_limit_in_every_message() {
         ),
     ];
     for (edit, path) in &edits {
-        for length in [limit + 1, 5 * limit, wsm_core::scene::MAX_TEXT + 1] {
+        for length in [limit + 1, 5 * limit, wsm_core::MAX_TEXT + 1] {
             let mut scene = base();
             edit(&mut scene, "n".repeat(length));
             let e = refusal(&scene);
@@ -862,7 +863,7 @@ fn every_name_has_the_same_limit_in_every_message() {
         let mut scene = base();
         edit(&mut scene, "n".repeat(limit));
         if *path == "name" {
-            parse(&scene.to_string()).expect("a name of the limit's length is accepted");
+            parse_scene(&scene.to_string()).expect("a name of the limit's length is accepted");
         }
     }
 }
@@ -908,7 +909,7 @@ fn huge_coordinates_are_named_as_such_not_as_zero_area() {
             p[1] = json!(p[1].as_f64().unwrap() * 1e5);
         }
     }
-    if let Err(e) = parse(&scene.to_string()) {
+    if let Err(e) = parse_scene(&scene.to_string()) {
         assert!(!e.reason.contains("finite numbers"), "{e}");
     }
 }
@@ -929,7 +930,7 @@ fn an_orthotropic_angle_must_be_a_sane_number_of_degrees() {
         &[json!({"field": "materials.rock.angle", "interval": [0.0, 1e308]})],
     ));
     assert_eq!(e.path, "uncertain[0].interval", "{e}");
-    parse(
+    parse_scene(
         &with_rock(
             orthotropic(),
             &[json!({"field": "materials.rock.angle", "interval": [-90.0, 90.0]})],
@@ -964,7 +965,7 @@ fn a_segment_component_is_prescribed_once() {
         .as_array_mut()
         .unwrap()
         .push(json!({"segment": "bottom", "displacement": [null, 0.0]}));
-    parse(&scene.to_string()).expect("x by one condition, y by another");
+    parse_scene(&scene.to_string()).expect("x by one condition, y by another");
 }
 
 #[test]
@@ -972,14 +973,14 @@ fn a_repeated_key_is_refused_naming_its_path() {
     let text = base()
         .to_string()
         .replace("\"max_size\":0.05", "\"max_size\":0.05,\"max_size\":0.5");
-    let err = parse(&text).unwrap_err();
+    let err = parse_scene(&text).unwrap_err();
     assert_eq!(err.path, "mesh.max_size", "{err}");
     assert_eq!(
         err.reason,
         "the key 'max_size' appears more than once in its object"
     );
     let text = base().to_string().replacen("{", "{\"version\":1,", 1);
-    assert_eq!(parse(&text).unwrap_err().path, "version");
+    assert_eq!(parse_scene(&text).unwrap_err().path, "version");
 }
 
 /// The command line reads a scene file as the service reads a request body: a repeated key is
@@ -1015,7 +1016,7 @@ fn the_built_in_mesher_needs_a_mesh_size() {
     ] {
         let mut scene = base();
         scene["mesh"] = mesh;
-        let err = parse(&scene.to_string()).unwrap_err();
+        let err = parse_scene(&scene.to_string()).unwrap_err();
         assert_eq!(err.path, "mesh.max_size", "{err}");
         assert!(
             err.reason.starts_with("missing: the built-in mesher needs")
@@ -1031,7 +1032,7 @@ fn the_built_in_mesher_needs_a_mesh_size() {
 fn a_gmsh_scene_needs_no_mesh_size() {
     let mut scene = base();
     scene["mesh"] = json!({ "gmsh_file": "blocks.msh" });
-    let parsed = parse(&scene.to_string()).unwrap();
+    let parsed = parse_scene(&scene.to_string()).unwrap();
     assert_eq!(parsed.mesh.max_size, None);
     let written = serde_json::to_value(&parsed).unwrap();
     assert_eq!(
@@ -1056,7 +1057,7 @@ fn inline_meshes_and_subdivisions_are_checked_in_the_mesh_section() {
     });
     let mut scene = base();
     scene["mesh"] = json!({ "inline": inline.clone(), "subdivide": 2 });
-    let parsed = parse(&scene.to_string()).unwrap();
+    let parsed = parse_scene(&scene.to_string()).unwrap();
     assert_eq!(parsed.mesh.max_size, None);
     assert_eq!(parsed.mesh.subdivide, 2);
     let written = serde_json::to_value(&parsed).unwrap();

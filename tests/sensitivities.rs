@@ -9,16 +9,16 @@
 //! straddles a kink): such components are counted and must stay rare. A derivative so small that
 //! the solver's rounding of Φ dominates its difference (counted as negligible) must be as small.
 
-use wsm_core::fixtures;
-use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
-use wsm_core::scene::{Criterion, Scene};
-use wsm_core::state::{DerivativeRoute, Needs, PerCriterion, SolveOptions, StateProblem};
+use wsm_core::{
+    apply_parameters, fixtures, parameter_stencil, scene_parameters, Criterion, DerivativeRoute,
+    Needs, Parameter, PerCriterion, Scene, SolveOptions, StateProblem,
+};
 use wsm_study::bench::scaled_scene;
 
 fn options(problem: &StateProblem) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
@@ -28,7 +28,7 @@ fn criteria_at(
     params: &[Parameter],
     theta: &[f64],
 ) -> PerCriterion<Option<f64>> {
-    let data = apply(&problem.scene, &problem.nominal, params, theta);
+    let data = apply_parameters(&problem.scene, &problem.nominal, params, theta);
     problem.solve(&data, &options(problem)).unwrap().criteria
 }
 
@@ -55,7 +55,7 @@ struct Tally {
 /// Compare exact and finite-difference derivatives at `points` random interior points.
 fn check(scene: Scene, points: usize, seed: u64) -> Tally {
     let problem = StateProblem::new(scene).unwrap();
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let mut rng = Rng::new(seed);
     let mut tally = Tally::default();
     for point in 0..points {
@@ -68,9 +68,9 @@ fn check(scene: Scene, points: usize, seed: u64) -> Tally {
                 (_, r) => p.lo + (0.1 + 0.8 * r) * (p.hi - p.lo),
             })
             .collect();
-        let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+        let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
         let stencils: Vec<_> = (0..params.len())
-            .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+            .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
             .collect();
         let solution = problem
             .solve_with_sensitivities(&data, &options(&problem), &stencils)
@@ -166,7 +166,7 @@ fn check(scene: Scene, points: usize, seed: u64) -> Tally {
 /// the derivative, or to |Φ| over the interval width for a vanishing one). Returns (directions
 /// the adjoint gave, directions).
 fn compare_routes(name: &str, problem: &StateProblem, rng: &mut Rng) -> (usize, usize) {
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let (mut adjoint, mut directions) = (0, 0);
     for point in 0..3 {
         let theta: Vec<f64> = params
@@ -176,9 +176,9 @@ fn compare_routes(name: &str, problem: &StateProblem, rng: &mut Rng) -> (usize, 
                 _ => p.lo + (0.1 + 0.8 * rng.next()) * (p.hi - p.lo),
             })
             .collect();
-        let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+        let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
         let stencils: Vec<_> = (0..params.len())
-            .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+            .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
             .collect();
         let solve = |route| {
             problem
@@ -226,7 +226,7 @@ fn compare_routes(name: &str, problem: &StateProblem, rng: &mut Rng) -> (usize, 
 #[test]
 fn adjoint_equals_forward_on_every_example() {
     let mut rng = Rng::new(11);
-    for name in wsm_core::bundled::names() {
+    for name in wsm_core::example_names() {
         let coarsen = if name.starts_with("tunnel") || name == "knee" {
             2.0
         } else {
@@ -287,7 +287,7 @@ fn hertz_nonmatching_matches_finite_differences() {
 /// respect to the conductivity, the source, a boundary temperature and the reference temperature.
 #[test]
 fn heated_hertz_nonmatching_matches_finite_differences() {
-    let text = wsm_core::bundled::find("hertz-nonmatching").unwrap();
+    let text = wsm_core::find_example("hertz-nonmatching").unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
     scene["materials"]["steel"] = serde_json::json!({"E": 2e11, "nu": 0.3,
         "conductivity": 50.0, "heat_source": 2000.0, "expansion": 1.2e-5});
@@ -306,7 +306,7 @@ fn heated_hertz_nonmatching_matches_finite_differences() {
     .iter()
     .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
     .collect();
-    let tally = check(wsm_core::scene::parse(&scene.to_string()).unwrap(), 3, 7);
+    let tally = check(wsm_core::parse_scene(&scene.to_string()).unwrap(), 3, 7);
     eprintln!("heated hertz-nonmatching: {tally:?}");
     assert!(tally.checked > 0, "nothing checked");
     assert!(tally.one_sided > 0, "nothing checked at a bound");
@@ -359,7 +359,7 @@ fn tunnel_fault_slip_profile_matches_finite_differences() {
 /// linear slip limit, and the heat problem's conductivity, source, boundary temperature, heat
 /// flux, expansion α and β, and reference temperature.
 fn every_kind_scene() -> Scene {
-    let text = wsm_core::bundled::find("block-on-base").unwrap();
+    let text = wsm_core::find_example("block-on-base").unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
     scene["mesh"] = serde_json::json!({"max_size": 0.1, "refine": [
         {"segments": ["block_contact"], "max_size": 0.05}]});
@@ -403,7 +403,7 @@ fn every_kind_scene() -> Scene {
         .iter()
         .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
         .collect();
-    wsm_core::scene::parse(&scene.to_string()).unwrap()
+    wsm_core::parse_scene(&scene.to_string()).unwrap()
 }
 
 proptest::proptest! {
@@ -437,7 +437,7 @@ fn tunnel_layered_rock_matches_finite_differences() {
 /// orthotropic E1, ν12, G12 and angle with an expansion α, a conductivity-matrix entry, the
 /// entries of a plane-strain matrix and its out-of-plane row, and a Voigt β entry.
 fn anisotropic_kind_scene() -> Scene {
-    let text = wsm_core::bundled::find("block-on-base").unwrap();
+    let text = wsm_core::find_example("block-on-base").unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
     scene["mesh"] = serde_json::json!({"max_size": 0.1, "refine": [
         {"segments": ["block_contact"], "max_size": 0.05}]});
@@ -474,7 +474,7 @@ fn anisotropic_kind_scene() -> Scene {
         .iter()
         .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
         .collect();
-    wsm_core::scene::parse(&scene.to_string()).unwrap()
+    wsm_core::parse_scene(&scene.to_string()).unwrap()
 }
 
 #[test]
@@ -494,7 +494,7 @@ fn anisotropic_data_match_finite_differences() {
 /// μ, so the zone with the largest μ (which sets the pressure scale s = μ_max/h) changes in the
 /// box.
 fn mixed_hertz_scene() -> Scene {
-    let text = wsm_core::bundled::find("hertz").unwrap();
+    let text = wsm_core::find_example("hertz").unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
     scene["mesh"]["element"] = "mixed".into();
     scene["mesh"]["refine"][0]["max_size"] = 0.016.into();
@@ -515,17 +515,17 @@ fn mixed_hertz_scene() -> Scene {
         .iter()
         .map(|(field, interval)| serde_json::json!({"field": field, "interval": interval}))
         .collect();
-    wsm_core::scene::parse(&scene.to_string()).unwrap()
+    wsm_core::parse_scene(&scene.to_string()).unwrap()
 }
 
 /// The bundled tibia with marrow (bilateral contact, marrow at ν = 0.49, its E, the bone's E and
 /// the load uncertain) with the mixed element, coarsened by 1.5.
 fn mixed_tibia_scene() -> Scene {
-    let text = wsm_core::bundled::find("tibia-marrow").unwrap();
+    let text = wsm_core::find_example("tibia-marrow").unwrap();
     let mut scene: serde_json::Value = serde_json::from_str(text).unwrap();
     scene["mesh"]["element"] = "mixed".into();
-    let scene = wsm_core::scene::parse(&scene.to_string()).unwrap();
-    wsm_core::estimate::ladder::scaled(&scene, 1.5).unwrap()
+    let scene = wsm_core::parse_scene(&scene.to_string()).unwrap();
+    wsm_core::scaled_scene(&scene, 1.5).unwrap()
 }
 
 /// The mixed element's exact derivatives (the coefficients (μ, s, s²/μ, s²/λ) and the pressure

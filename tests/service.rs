@@ -330,8 +330,7 @@ fn bad_requests_answer_the_right_status_and_name_the_field() {
         ],
     );
     let addr = &server.addr;
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     let with = |path: &str, value: Value| {
         let mut s = scene.clone();
         let mut target = &mut s;
@@ -632,7 +631,7 @@ fn the_bearer_token_guards_job_endpoints_when_set() {
 /// token at /v1/schema/scene, and carried by the OpenAPI document where the scene is a body.
 #[test]
 fn the_scene_schema_is_the_derived_one_everywhere() {
-    let derived = wsm_core::scene::scene_schema();
+    let derived = wsm_core::scene_schema();
     assert_eq!(
         derived["$schema"], "https://json-schema.org/draft/2020-12/schema",
         "the schema declares JSON Schema 2020-12"

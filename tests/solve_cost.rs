@@ -10,7 +10,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::Instant;
 
 fn probe_scene(refine: f64) -> String {
-    let text = wsm_core::bundled::example("block-on-base").expect("bundled");
+    let text = wsm_core::example("block-on-base").expect("bundled");
     let mut scene: serde_json::Value = serde_json::from_str(text).expect("json");
     scene["mesh"]["refine"][0]["max_size"] = serde_json::json!(refine);
     scene.to_string()
@@ -87,13 +87,13 @@ fn a_solve_that_fits_runs_and_a_bad_limit_is_named() {
 /// why — the run itself finishes (design §3.1, cost estimate; §6 no failure hidden).
 #[test]
 fn a_refined_level_beyond_the_limit_is_not_built_and_says_so() {
-    use wsm_core::estimate::ladder::scaled;
-    use wsm_core::estimate::statement::refinement_factor;
-    use wsm_core::run::{self, estimate_solve_cost, RunControl, WorstRequest};
+    use wsm_core::{
+        estimate_solve_cost, refinement_factor, scaled_scene, RunControl, WorstRequest,
+    };
 
-    let scene = wsm_core::scene::parse(&probe_scene(0.01)).expect("scene");
+    let scene = wsm_core::parse_scene(&probe_scene(0.01)).expect("scene");
     let base = estimate_solve_cost(&scene).expect("cost").bytes;
-    let refined = scaled(&scene, refinement_factor(1)).expect("scaled");
+    let refined = scaled_scene(&scene, refinement_factor(1)).expect("scaled");
     let finer = estimate_solve_cost(&refined).expect("cost").bytes;
     assert!(finer > 1.2 * base, "{base} vs {finer}");
     let limit = (0.5 * (base + finer)) as u64;
@@ -103,7 +103,7 @@ fn a_refined_level_beyond_the_limit_is_not_built_and_says_so() {
         ..WorstRequest::default()
     };
     let control = RunControl::new().with_max_solve_memory(limit);
-    let outcome = run::worst(scene.clone(), &request, &control).expect("the run finishes");
+    let outcome = wsm_core::worst(scene.clone(), &request, &control).expect("the run finishes");
     let accuracy = outcome.accuracy.as_ref().expect("a statement");
     assert!(!accuracy.complete);
     assert!(!accuracy.failures.is_empty());
@@ -119,7 +119,7 @@ fn a_refined_level_beyond_the_limit_is_not_built_and_says_so() {
         outcome.warnings
     );
     // Without the limit the same level is built and solved.
-    let free = run::worst(scene, &request, &RunControl::new()).expect("runs");
+    let free = wsm_core::worst(scene, &request, &RunControl::new()).expect("runs");
     let accuracy = free.accuracy.as_ref().expect("a statement");
     assert!(accuracy.complete && accuracy.meshes[1].unknowns > 0);
 }
@@ -129,11 +129,11 @@ fn a_refined_level_beyond_the_limit_is_not_built_and_says_so() {
 /// size to coarsen, instead of taking the process down.
 #[test]
 fn a_run_beyond_its_limit_fails_before_meshing_with_the_path() {
-    use wsm_core::run::{self, RunControl, WorstRequest};
-    let scene = wsm_core::scene::parse(&probe_scene(0.00005)).expect("scene");
+    use wsm_core::{RunControl, WorstRequest};
+    let scene = wsm_core::parse_scene(&probe_scene(0.00005)).expect("scene");
     let control = RunControl::new().with_max_solve_memory(2 << 30);
     let start = Instant::now();
-    let err = run::worst(scene, &WorstRequest::default(), &control).expect_err("refused");
+    let err = wsm_core::worst(scene, &WorstRequest::default(), &control).expect_err("refused");
     let text = err.to_string();
     assert!(text.contains("mesh.refine[0].max_size"), "{text}");
     assert!(start.elapsed().as_secs_f64() < 3.0);

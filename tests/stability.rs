@@ -6,9 +6,10 @@
 //! never a NaN or a success above tolerance.
 
 use serde_json::json;
-use wsm_core::run::{self, RunControl, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Warning, WarningKind};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::{
+    parse_scene, Criterion, Needs, RunControl, SolveOptions, StateProblem, Warning, WarningKind,
+    WorstRequest,
+};
 use wsm_study::stability::{catalogue, pushed_block, run_catalogue};
 
 #[test]
@@ -59,10 +60,10 @@ fn near_lift_off_the_contact_carries_exactly_the_net_load() {
     // The block weighs 12250 N/m and is pulled up by 12240 N/m: 10 N/m stay on the contact.
     let mut v = pushed_block(1.0e10, 1.0e10, 0.25, 1.0e4, -12_240.0);
     v["materials"]["block"]["specific_weight"] = json!(2.45e4);
-    let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&v.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();
@@ -86,7 +87,12 @@ fn a_worst_scenario_result_warns_about_p1_locking() {
         accuracy_refinements: Some(0),
         ..WorstRequest::default()
     };
-    let outcome = run::worst(parse(&v.to_string()).unwrap(), &request, &RunControl::new()).unwrap();
+    let outcome = wsm_core::worst(
+        parse_scene(&v.to_string()).unwrap(),
+        &request,
+        &RunControl::new(),
+    )
+    .unwrap();
     let locking: Vec<&Warning> = outcome
         .warnings
         .iter()
@@ -96,7 +102,12 @@ fn a_worst_scenario_result_warns_about_p1_locking() {
     assert!(locking[0].contains("'block'"), "{:?}", outcome.warnings);
     v["materials"]["block"]["nu"] = json!(0.3);
     v["uncertain"] = json!([{"field": "materials.block.nu", "interval": [0.3, 0.4]}]);
-    let calm = run::worst(parse(&v.to_string()).unwrap(), &request, &RunControl::new()).unwrap();
+    let calm = wsm_core::worst(
+        parse_scene(&v.to_string()).unwrap(),
+        &request,
+        &RunControl::new(),
+    )
+    .unwrap();
     assert!(
         !calm.warnings.iter().any(|w| w.kind == WarningKind::Locking),
         "{:?}",

@@ -5,9 +5,7 @@
 //! with the run.
 
 use serde_json::{json, Value};
-use wsm_core::estimate::ladder::Ladder;
-use wsm_core::run::{self, RunControl, Status, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene};
+use wsm_core::{parse_scene, Criterion, Ladder, RunControl, Scene, Status, WorstRequest};
 use wsm_study::accuracy::{run as study, AccuracyOptions, AccuracyStudy, Case, Reference};
 
 fn options(coarsest: f64, ratio: f64, levels: usize, dd: Vec<f64>) -> AccuracyOptions {
@@ -111,10 +109,9 @@ fn hertz_errors_shrink_with_the_mesh() {
 
 /// The block pushed on a base with a coarse mesh.
 fn block() -> Scene {
-    let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     v["mesh"] = json!({ "max_size": 0.2 });
-    parse(&v.to_string()).unwrap()
+    parse_scene(&v.to_string()).unwrap()
 }
 
 fn request(threads: usize, refinements: Option<usize>) -> WorstRequest {
@@ -130,8 +127,8 @@ fn request(threads: usize, refinements: Option<usize>) -> WorstRequest {
 
 #[test]
 fn the_accuracy_statement_refines_twice_and_is_the_same_on_any_thread_count() {
-    let one = run::worst(block(), &request(1, None), &RunControl::new()).unwrap();
-    let two = run::worst(block(), &request(2, None), &RunControl::new()).unwrap();
+    let one = wsm_core::worst(block(), &request(1, None), &RunControl::new()).unwrap();
+    let two = wsm_core::worst(block(), &request(2, None), &RunControl::new()).unwrap();
     let (a, b) = (one.accuracy.unwrap(), two.accuracy.unwrap());
     assert!(a.complete && a.meshes.len() == 3, "{a:?}");
     assert!(a
@@ -154,7 +151,7 @@ fn the_accuracy_statement_refines_twice_and_is_the_same_on_any_thread_count() {
         a.criteria[0].worst.as_ref().unwrap().value,
         one.criteria[0].worst.value.unwrap()
     );
-    let none = run::worst(block(), &request(1, Some(0)), &RunControl::new()).unwrap();
+    let none = wsm_core::worst(block(), &request(1, Some(0)), &RunControl::new()).unwrap();
     assert!(none.accuracy.is_none());
     assert!(WorstRequest {
         accuracy_refinements: Some(3),
@@ -170,7 +167,7 @@ fn a_cancelled_run_has_no_accuracy_statement() {
     control
         .cancel
         .store(true, std::sync::atomic::Ordering::SeqCst);
-    let outcome = run::worst(block(), &request(1, Some(2)), &control).unwrap();
+    let outcome = wsm_core::worst(block(), &request(1, Some(2)), &control).unwrap();
     assert_eq!(outcome.status, Status::Cancelled);
     assert!(outcome.accuracy.is_none());
 }
@@ -182,7 +179,7 @@ fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
         accuracy_refinements: Some(1),
         ..request(2, None)
     };
-    let a = run::worst(block(), &targeted, &RunControl::new()).unwrap();
+    let a = wsm_core::worst(block(), &targeted, &RunControl::new()).unwrap();
     let choice = a.mesh_choice.clone().expect("a mesh choice");
     assert_eq!(choice.target_error, 0.02);
     let chosen = choice
@@ -193,8 +190,8 @@ fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
     assert!(choice.met && chosen.meets_target, "{choice:#?}");
     assert!(chosen.relative_errors.iter().all(|r| r.unwrap() <= 0.02));
     // The same run as one on the chosen mesh without a target, bit for bit; a different hash.
-    let plain = run::worst(
-        wsm_core::estimate::ladder::scaled(&block(), choice.size_factor).unwrap(),
+    let plain = wsm_core::worst(
+        wsm_core::scaled_scene(&block(), choice.size_factor).unwrap(),
         &WorstRequest {
             accuracy_refinements: Some(1),
             ..request(1, None)
@@ -218,7 +215,7 @@ fn a_target_error_runs_on_the_chosen_mesh_and_says_so() {
     }
     // Bad targets name the field.
     for bad in [0.0, 1.5, f64::NAN] {
-        let e = run::worst(
+        let e = wsm_core::worst(
             block(),
             &WorstRequest {
                 target_error: Some(bad),

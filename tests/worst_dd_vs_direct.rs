@@ -5,11 +5,10 @@
 //! before it in the process (cached factorisations give the same bits as fresh ones; a warm-started
 //! solve equals a cold one to the solver tolerance).
 
-use wsm_core::run::{self, RunControl, WorstOutcome, WorstRequest};
-use wsm_core::scenario::evaluator::ScenarioEvaluator;
-use wsm_core::scene::params::parameters;
-use wsm_core::scene::{Scene, SolverKind};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    scene_parameters, RunControl, ScenarioEvaluator, Scene, SolverKind, StateProblem, WorstOutcome,
+    WorstRequest,
+};
 use wsm_study::bench::scaled_scene;
 
 fn scene(example: &str, coarsen: f64, kind: SolverKind) -> Scene {
@@ -26,7 +25,7 @@ fn worst(scene: Scene, budget: usize, threads: usize) -> WorstOutcome {
         threads: Some(threads),
         ..WorstRequest::default()
     };
-    run::worst(scene, &request, &RunControl::new()).unwrap()
+    wsm_core::worst(scene, &request, &RunControl::new()).unwrap()
 }
 
 fn relative(a: f64, b: f64) -> f64 {
@@ -75,7 +74,7 @@ fn thermal_worst_case_with_dd_equals_direct() {
 
 /// Points spread over the admissible box (deterministic).
 fn points(problem: &StateProblem, count: usize) -> Vec<Vec<f64>> {
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     (0..count)
         .map(|k| {
             params
@@ -98,7 +97,7 @@ fn an_evaluation_does_not_depend_on_the_ones_before_it() {
         let scene = scene("tunnel-fault", 3.0, kind);
         let criteria = scene.search.criteria.clone();
         let busy = StateProblem::new(scene.clone()).unwrap();
-        let params = parameters(&busy.scene).unwrap();
+        let params = scene_parameters(&busy.scene).unwrap();
         let all = points(&busy, 4);
         let mut last = all[3].clone();
         // A point that shares the Lamé coefficients of an earlier one (only loads and slip
@@ -134,19 +133,19 @@ fn an_evaluation_does_not_depend_on_the_ones_before_it() {
 /// tolerance.
 #[test]
 fn a_warm_started_solve_equals_a_cold_one() {
-    use wsm_core::state::{Needs, SolveOptions};
+    use wsm_core::{Needs, SolveOptions};
     for kind in [SolverKind::Direct, SolverKind::Dd] {
         let problem = StateProblem::new(scene("tunnel-fault", 3.0, kind)).unwrap();
-        let params = parameters(&problem.scene).unwrap();
+        let params = scene_parameters(&problem.scene).unwrap();
         let options = |warm| SolveOptions {
             needs: Needs::all(&problem.scene),
-            par: wsm_core::fem::Par::Seq,
+            par: wsm_core::Par::Seq,
             warm,
         };
         let nominal = problem.solve(&problem.nominal, &options(None)).unwrap();
         for theta in points(&problem, 3) {
             let data =
-                wsm_core::scene::params::apply(&problem.scene, &problem.nominal, &params, &theta);
+                wsm_core::apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
             let warm = problem
                 .solve(&data, &options(nominal.warm_start.clone()))
                 .unwrap();

@@ -1,8 +1,8 @@
-//! `wsm._native`: the engine's front door (`wsm_core::run`) for the Python package (README
-//! "Python", design §5.7). Scenes, requests and results cross as JSON text through the same
-//! serde types the command line and the service use, so a result's JSON here is the CLI's, bit
-//! for bit; the pure-Python layer (`crates/python/python/wsm/`) turns it into dicts, NumPy
-//! arrays and DataFrames.
+//! `wsm._native`: the engine's front door (wsm-core's re-exports of its `run`, `scene` and `error`)
+//! for the Python package (README "Python", design §5.7). Scenes, requests and results cross as
+//! JSON text through the same serde types the command line and the service use, so a result's JSON
+//! here is the CLI's, bit for bit; the pure-Python layer (`crates/python/python/wsm/`) turns it
+//! into dicts, NumPy arrays and DataFrames.
 //!
 //! The GIL is released while the engine works. A worst-scenario run goes on in its own thread
 //! while the calling thread waits without the GIL, hands progress events to a Python callback
@@ -18,12 +18,10 @@ use std::time::Duration;
 
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use wsm_core::error::WsmError;
-use wsm_core::run::{
-    self, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, PointEvaluator, ProgressEvent,
-    RunControl, SolveRequest, WorstRequest,
+use wsm_core::{
+    parse_scene, EvaluationLog, JsonLinesLog, LogMode, MemoryLog, PointEvaluator, ProgressEvent,
+    RunControl, SceneError, SolveRequest, WorstRequest, WsmError,
 };
-use wsm_core::scene::{parse, SceneError};
 
 pyo3::create_exception!(
     _native,
@@ -59,20 +57,22 @@ fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
 /// The names of the bundled examples.
 #[pyfunction]
 fn example_names() -> Vec<String> {
-    run::example_names().map(String::from).collect()
+    wsm_core::example_names().map(String::from).collect()
 }
 
 /// The scene text of a bundled example.
 #[pyfunction]
 fn example(name: &str) -> PyResult<String> {
-    run::find_example(name).map(String::from).map_err(raise)
+    wsm_core::find_example(name)
+        .map(String::from)
+        .map_err(raise)
 }
 
 /// Check a scene's text as every command does (repeated keys, fields, physics); the error
 /// names the field.
 #[pyfunction]
 fn check_scene(scene: &str) -> PyResult<()> {
-    parse(scene).map(drop).map_err(|e| raise(e.into()))
+    parse_scene(scene).map(drop).map_err(|e| raise(e.into()))
 }
 
 /// One state solve: the JSON of the summary and, with `fields`, the fields; and with fields
@@ -80,9 +80,11 @@ fn check_scene(scene: &str) -> PyResult<()> {
 #[pyfunction]
 #[pyo3(signature = (scene, request))]
 fn solve(py: Python<'_>, scene: &str, request: &str) -> PyResult<(String, Option<String>)> {
-    let scene = parse(scene).map_err(|e| raise(e.into()))?;
+    let scene = parse_scene(scene).map_err(|e| raise(e.into()))?;
     let request: SolveRequest = serde_json::from_str(request).map_err(|e| bad_json("solver", e))?;
-    let output = py.detach(|| run::solve(scene, &request)).map_err(raise)?;
+    let output = py
+        .detach(|| wsm_core::solve(scene, &request))
+        .map_err(raise)?;
     Ok((to_json(&output)?, output.vtu))
 }
 
@@ -101,7 +103,7 @@ fn worst(
     resume: Option<PathBuf>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(String, String, String, String)> {
-    let scene = parse(scene).map_err(|e| raise(e.into()))?;
+    let scene = parse_scene(scene).map_err(|e| raise(e.into()))?;
     let request: WorstRequest =
         serde_json::from_str(request).map_err(|e| bad_json("request", e))?;
     let settings = request.settings(&scene).map_err(raise)?;
@@ -136,7 +138,7 @@ fn worst(
         let (request, control) = (&request, &control);
         s.spawn(move || {
             // The receiver lives until the result arrives: the send cannot fail.
-            let _ = done.send(run::worst(scene, request, control));
+            let _ = done.send(wsm_core::worst(scene, request, control));
         });
         loop {
             // The receiver goes into the GIL-free wait and comes back (it is Send, not Sync).
@@ -175,7 +177,7 @@ fn worst(
         (None, None) => Vec::new(),
     };
     let mut table = Vec::new();
-    run::write_csv(
+    wsm_core::write_csv(
         &mut table,
         "evaluations table",
         &outcome.parameters,
@@ -186,7 +188,7 @@ fn worst(
     let table =
         String::from_utf8(table).map_err(|e| raise(WsmError::io("evaluations table", e)))?;
     let full = to_json(&outcome)?;
-    let summary = run::summary(&outcome, &defined);
+    let summary = wsm_core::summary(&outcome, &defined);
     let printed = serde_json::to_string_pretty(&outcome.without_histories())
         .map_err(|e| raise(WsmError::io("JSON output", e)))?;
     Ok((full, printed, table, summary))
@@ -204,7 +206,7 @@ impl Evaluator {
     /// of `request` (JSON of a worst request).
     #[new]
     fn new(py: Python<'_>, scene: &str, request: &str) -> PyResult<Evaluator> {
-        let scene = parse(scene).map_err(|e| raise(e.into()))?;
+        let scene = parse_scene(scene).map_err(|e| raise(e.into()))?;
         let request: WorstRequest =
             serde_json::from_str(request).map_err(|e| bad_json("request", e))?;
         let inner = py

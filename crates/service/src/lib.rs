@@ -3,8 +3,9 @@
 //! the dashboard (`web`), the connections (`http`: timeouts and a connection cap) and the
 //! `wsm serve` / `wsm worker` entry points (`server`).
 //!
-//! It drives the engine only through `wsm_core::run` (requests, prepared models, outcomes)
-//! and `wsm_core::scene` (the document); the engine never depends on this crate.
+//! It drives the engine only through wsm-core's front door (the re-exports of its `run`:
+//! requests, prepared models, outcomes; of its `scene`: the document; of its `error`); the
+//! engine never depends on this crate.
 
 pub mod api;
 pub mod error_code;

@@ -13,7 +13,7 @@ use crate::jobs::health::{spawn_monitor, StoreHealth};
 use crate::jobs::runner::{release_on_shutdown, spawn_workers, FaultRule, Live, RunnerConfig};
 use crate::jobs::sql::SqlStore;
 use crate::jobs::JobStore;
-use wsm_core::error::WsmError;
+use wsm_core::WsmError;
 
 /// Settings of `wsm serve`.
 #[derive(Debug, Clone)]

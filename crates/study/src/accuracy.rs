@@ -4,8 +4,8 @@
 //! quantity's error is measured against its analytic value where the case has one (Hertz
 //! half-width and peak pressure, the exact Lamé or manufactured field in L² and in energy) and
 //! otherwise against the Richardson extrapolation of the direct solver's sequence
-//! ([`wsm_core::estimate::richardson`]), with the observed order. The energy error of a scene without an
-//! exact field comes from the extrapolated total potential energy ([`crate::energy`]).
+//! ([`wsm_core::extrapolate`], [`wsm_core::observed_order`]), with the observed order. The energy
+//! error of a scene without an exact field comes from the extrapolated total potential energy ([`crate::energy`]).
 //!
 //! Times are per solve (the median of `repeats` cold solves, contact warm start off), i.e. the
 //! cost of one evaluation of a worst-scenario run; meshing and operator set-up are reported
@@ -18,13 +18,11 @@ use serde_json::json;
 
 use super::analytic::{field_errors, ExactField, Hertz, LameCylinder, Manufactured};
 use super::energy::energy;
-use wsm_core::error::WsmError;
-use wsm_core::estimate::ladder::{scaled, Ladder};
-use wsm_core::estimate::richardson::{extrapolate, observed_order, Extrapolation};
-use wsm_core::fem::Par;
-use wsm_core::fixtures::{perturb_interior, rectangle};
-use wsm_core::scene::{parse, Criterion, Scene, SceneError, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{
+    extrapolate, fixtures::perturb_interior, fixtures::rectangle, observed_order, parse_scene,
+    scaled_scene, Criterion, Extrapolation, Ladder, Needs, Par, Scene, SceneError, Solution,
+    SolveOptions, SolverKind, StateProblem, WsmError,
+};
 
 /// One solver configuration of the study.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -114,7 +112,7 @@ impl Case {
                 mu: 1.0,
             }));
         }
-        let scene = parse(wsm_core::bundled::find(name)?)?;
+        let scene = parse_scene(wsm_core::find_example(name)?)?;
         let analytic = match name {
             "hertz" => Some(Analytic::Hertz(Hertz::from_scene(&scene)?)),
             "thick-cylinder" => Some(Analytic::Lame(LameCylinder::from_scene(&scene)?)),
@@ -639,13 +637,13 @@ fn manufactured_scene(ms: &Manufactured) -> Result<Scene, WsmError> {
         "boundary": [clamp("bottom"), clamp("left"), clamp("right"), clamp("top")],
         "mesh": {"max_size": 1.0 / 16.0}
     });
-    Ok(parse(&scene.to_string())?)
+    Ok(parse_scene(&scene.to_string())?)
 }
 
 impl<'a> LevelProblem<'a> {
     fn new(case: &'a Case, factor: f64) -> Result<LevelProblem<'a>, WsmError> {
         let state = match case {
-            Case::Scene { scene, .. } => StateProblem::new(scaled(scene, factor)?)?,
+            Case::Scene { scene, .. } => StateProblem::new(scaled_scene(scene, factor)?)?,
             Case::Manufactured(ms) => {
                 let n = ((16.0 / factor).round() as usize).max(2);
                 let mut mesh = rectangle(0.0, 0.0, 1.0, 1.0, n, n);
@@ -687,7 +685,7 @@ impl<'a> LevelProblem<'a> {
             pcg2: d.pcg2_iterations,
         });
         let fallback = report.dd.as_ref().is_some_and(|d| d.fallback.is_some())
-            || (solver.kind == SolverKind::Dd && report.solver != wsm_core::state::SolverUsed::Dd);
+            || (solver.kind == SolverKind::Dd && report.solver != wsm_core::SolverUsed::Dd);
         Ok(Measurement {
             seconds: times[times.len() / 2],
             qp_iterations: report.qp_iterations,
@@ -805,11 +803,11 @@ fn manufactured_solve(
                 .u_free
         }
         SolverKind::Dd => {
-            let options = wsm_core::dd::scene_options(&problem.scene, mesh);
-            let (sol, dd) = wsm_core::dd::solve_elastic(
+            let options = wsm_core::dd_scene_options(&problem.scene, mesh);
+            let (sol, dd) = wsm_core::dd_solve_elastic(
                 elastic,
                 &problem.contact,
-                wsm_core::contact::LoadCase {
+                wsm_core::LoadCase {
                     data,
                     coefficients: &coefficients,
                     rhs: &rhs,
@@ -819,7 +817,7 @@ fn manufactured_solve(
                 None,
             )
             .map_err(|e| WsmError::contact(format!("domain decomposition: {e}")))?;
-            solution.report.solver = wsm_core::state::SolverUsed::Dd;
+            solution.report.solver = wsm_core::SolverUsed::Dd;
             solution.report.dd = Some(Box::new(dd.report));
             sol.u_free
         }

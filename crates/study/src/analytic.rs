@@ -8,11 +8,10 @@
 
 use std::f64::consts::PI;
 
-use wsm_core::error::WsmError;
-use wsm_core::fem::stress::element_displacements;
-use wsm_core::fem::TriangleGradients;
-use wsm_core::mesh::Mesh;
-use wsm_core::scene::{BoundaryCondition, Contact, InitialGap, Material, Scene, SceneError};
+use wsm_core::{
+    element_displacements, BoundaryCondition, Contact, InitialGap, Material, Mesh, Scene,
+    SceneError, TriangleGradients, WsmError,
+};
 
 /// Degree-5 Dunavant rule on a triangle: (barycentric point, weight), weights summing to 1.
 pub fn quadrature() -> [([f64; 3], f64); 7] {

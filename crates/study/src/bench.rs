@@ -5,11 +5,10 @@
 
 use std::time::Instant;
 
-use wsm_core::error::WsmError;
-use wsm_core::fem::Par;
-use wsm_core::scene::params::{apply, stencil, Parameter};
-use wsm_core::scene::{parse, BoundaryValue, Coupling, InlineMesh, Scene};
-use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
+use wsm_core::{
+    apply_parameters, parameter_stencil, parse_scene, BoundaryValue, Coupling, DerivativeRoute,
+    InlineMesh, Needs, Par, Parameter, Scene, SolveOptions, StateProblem, WsmError,
+};
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -24,7 +23,7 @@ fn time<T>(f: impl FnOnce() -> T) -> (T, f64) {
 
 /// An example with all mesh sizes scaled by `factor`.
 pub fn scaled_scene(example: &str, factor: f64) -> Result<Scene, WsmError> {
-    wsm_core::estimate::ladder::scaled(&parse(wsm_core::bundled::find(example)?)?, factor)
+    wsm_core::scaled_scene(&parse_scene(wsm_core::find_example(example)?)?, factor)
 }
 
 /// The example scaled to about `unknowns` free DOFs (one correction step).
@@ -96,10 +95,10 @@ pub fn contact_benchmark(
         // Perturb λ, μ slightly per run so every first solve really factorises.
         let mut d = data.clone();
         for m in &mut d.materials {
-            if let wsm_core::scene::Elastic::Lame { lambda, .. } = &mut m.elastic {
+            if let wsm_core::Elastic::Lame { lambda, .. } = &mut m.elastic {
                 *lambda *= 1.0 + 1e-6 * run as f64;
             }
-            if let wsm_core::scene::Elastic::Young { e, .. } = &mut m.elastic {
+            if let wsm_core::Elastic::Young { e, .. } = &mut m.elastic {
                 *e *= 1.0 + 1e-6 * run as f64;
             }
         }
@@ -169,16 +168,16 @@ pub fn fem_benchmark(example: &str, unknowns: usize, runs: usize) -> Result<FemR
     let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
     let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
     let scene = scaled_scene(example, factor)?;
-    let data = wsm_core::scene::Data::from_scene(&scene);
+    let data = wsm_core::Data::from_scene(&scene);
     let mut samples = [Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()];
     let mut n = 0;
     for _ in 0..runs.max(1) {
-        let (mesh, t_mesh) = time(|| wsm_core::mesh::generate(&scene));
+        let (mesh, t_mesh) = time(|| wsm_core::generate_mesh(&scene));
         let mesh = mesh?;
-        let (elastic, t_build) = time(|| wsm_core::fem::ElasticProblem::new(&mesh, &data));
+        let (elastic, t_build) = time(|| wsm_core::ElasticProblem::new(&mesh, &data));
         let elastic = elastic?;
         let (symbolic, t_symbolic) =
-            time(|| wsm_core::fem::Symbolic::analyse(elastic.operator().pattern()));
+            time(|| wsm_core::Symbolic::analyse(elastic.operator().pattern()));
         symbolic?;
         let coefficients = elastic.coefficients(&data)?;
         let (f, t_numeric) = time(|| elastic.operator().factor(&coefficients, Par::rayon(0)));
@@ -246,7 +245,7 @@ pub fn run(sizes: &[usize], runs: usize, dd: bool) -> Result<String, WsmError> {
     }
     if dd {
         let mut buffer = Vec::new();
-        wsm_core::dd::bench::scalability(&mut buffer)
+        wsm_core::bench::dd_scalability(&mut buffer)
             .map_err(|e| WsmError::io("DD scalability benchmark", e))?;
         out.push_str("\nDomain decomposition:\n\n");
         out.push_str(&String::from_utf8_lossy(&buffer));
@@ -271,7 +270,7 @@ pub struct WorstRow {
     pub solver_seconds: f64,
     /// Time per phase of the inner solves (assembly, factorisation, contact, DD, post-processing),
     /// summed over threads \[s\].
-    pub phases: wsm_core::state::Timings,
+    pub phases: wsm_core::Timings,
     /// Local operators built: numeric factorisations of body blocks of K (direct solver and DD
     /// fallback) plus DD subdomain operators (factor, S, Neumann map).
     pub local_factorisations: usize,
@@ -288,25 +287,21 @@ pub fn worst_benchmark(
     example: &str,
     unknowns: usize,
     budget: usize,
-    solver: wsm_core::scene::SolverKind,
+    solver: wsm_core::SolverKind,
 ) -> Result<WorstRow, WsmError> {
     let probe = StateProblem::new(scaled_scene(example, 1.0)?)?;
     let factor = (probe.elastic.dofs().n_free() as f64 / unknowns as f64).sqrt();
     let mut scene = scaled_scene(example, factor)?;
     scene.solver.kind = solver;
     let problem = StateProblem::new(scene)?;
-    let params = wsm_core::scene::params::parameters(&problem.scene)?;
-    let mut settings = wsm_core::scenario::worst::WorstSettings::from_scene(&problem.scene);
+    let params = wsm_core::scene_parameters(&problem.scene)?;
+    let mut settings = wsm_core::WorstSettings::from_scene(&problem.scene);
     settings.budget = budget;
-    let evaluator = wsm_core::scenario::evaluator::ScenarioEvaluator::new(
-        &problem,
-        &params,
-        &settings.criteria,
-    )?
-    .with_derivatives(settings.derivatives);
+    let evaluator = wsm_core::ScenarioEvaluator::new(&problem, &params, &settings.criteria)?
+        .with_derivatives(settings.derivatives);
     let mut cache = wsm_search::EvalCache::new();
     let (outcome, wall) = time(|| {
-        wsm_core::scenario::worst::run(
+        wsm_core::run_worst_scenario(
             &problem,
             &params,
             &settings,
@@ -319,7 +314,7 @@ pub fn worst_benchmark(
     let outcome = outcome?;
     Ok(WorstRow {
         solver: match solver {
-            wsm_core::scene::SolverKind::Dd => "dd",
+            wsm_core::SolverKind::Dd => "dd",
             _ => "direct",
         },
         unknowns: problem.elastic.dofs().n_free(),
@@ -355,7 +350,7 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
     );
     for &n in sizes {
         let problem = problem_of_size("tunnel-fault", n)?;
-        let params = wsm_core::scene::params::parameters(&problem.scene)?;
+        let params = wsm_core::scene_parameters(&problem.scene)?;
         let targets = problem.targets(&problem.scene.search.criteria)?;
         let options = SolveOptions {
             needs: Needs::for_targets(&problem.scene, &targets),
@@ -365,9 +360,9 @@ pub fn run_gradients(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
         let mut times: [Vec<f64>; 4] = Default::default();
         for r in 0..runs.max(1) {
             let theta = interior_point(&params, r);
-            let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+            let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
             let stencils: Vec<_> = (0..params.len())
-                .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
                 .collect();
             times[0].push(time(|| problem.solve(&data, &options)).1);
             times[1].push(time(|| problem.solve(&data, &options)).1);
@@ -407,9 +402,9 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
         "Worst-scenario loop on the tunnel (budget {budget}, {} threads); phase shares of the summed inner-solve time:\n\n| solver | unknowns | evaluations | local factorisations (body blocks; DD subdomains, reused) | wall [s] | evaluations/s | ms per evaluation (thread time) | assembly | factor (numeric / C) | contact (QP; DD setup / PCG1 / outer / recovery) | post | worst values |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         rayon::current_num_threads()
     );
-    let mut kinds = vec![wsm_core::scene::SolverKind::Direct];
+    let mut kinds = vec![wsm_core::SolverKind::Direct];
     if dd {
-        kinds.push(wsm_core::scene::SolverKind::Dd);
+        kinds.push(wsm_core::SolverKind::Dd);
     }
     for &n in sizes {
         for &kind in &kinds {
@@ -451,7 +446,7 @@ pub fn run_worst(sizes: &[usize], budget: usize, dd: bool) -> Result<String, Wsm
 /// The scene with its own generated mesh given inline, so that a second coupling of its contact
 /// zones meets the same nodes and the same unknowns.
 fn with_generated_mesh_inline(scene: &Scene) -> Result<Scene, WsmError> {
-    let mesh = wsm_core::mesh::generate(scene)?;
+    let mesh = wsm_core::generate_mesh(scene)?;
     let mut out = scene.clone();
     out.mesh.inline = Some(InlineMesh {
         zones: mesh.zones.iter().map(|z| z.name.clone()).collect(),
@@ -495,7 +490,7 @@ pub fn run_mortar(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
                 problems.push(problem?);
                 setup.push(t);
             }
-            let params = wsm_core::scene::params::parameters(&problems[0].scene)?;
+            let params = wsm_core::scene_parameters(&problems[0].scene)?;
             let mut times: [[Vec<f64>; 2]; 2] = Default::default();
             let mut sparse = [0; 2];
             for r in 0..runs.max(1) {
@@ -509,9 +504,11 @@ pub fn run_mortar(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
                         par: Par::Seq,
                         warm: None,
                     };
-                    let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+                    let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
                     let stencils: Vec<_> = (0..params.len())
-                        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                        .map(|j| {
+                            parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j)
+                        })
                         .collect();
                     let (solution, t) = time(|| problem.solve(&data, &options));
                     sparse[k] = solution?.report.sparse_steps;
@@ -567,7 +564,7 @@ pub fn run_dynamics(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
         let dynamics = scene
             .dynamics
             .as_mut()
-            .ok_or_else(|| wsm_core::scene::SceneError::new("dynamics", "missing"))?;
+            .ok_or_else(|| wsm_core::SceneError::new("dynamics", "missing"))?;
         dynamics.t_end = DYNAMIC_STEPS as f64 * dynamics.dt;
         dynamics.output_every = 10;
         let (mut setup, mut total) = (Vec::new(), Vec::new());
@@ -576,7 +573,7 @@ pub fn run_dynamics(sizes: &[usize], runs: usize) -> Result<String, WsmError> {
             let (problem, t) = time(|| StateProblem::new(scene.clone()));
             let problem = problem?;
             setup.push(t);
-            let (run, t) = time(|| wsm_core::dynamics::simulate(&problem, &problem.nominal));
+            let (run, t) = time(|| wsm_core::simulate(&problem, &problem.nominal));
             total.push(t);
             last = Some((problem.contact.geometry.pairs.len(), run?.history.report));
         }

@@ -6,9 +6,7 @@
 
 use faer::{Mat, Side};
 
-use wsm_core::error::WsmError;
-use wsm_core::scene::Data;
-use wsm_core::state::StateProblem;
+use wsm_core::{Data, StateProblem, WsmError};
 
 /// Largest K_ff for which the estimate is computed.
 pub const MAX_UNKNOWNS: usize = 1500;

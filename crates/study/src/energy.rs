@@ -9,9 +9,7 @@
 //! error estimate ‖u − u_h‖_a ≈ (2 (J(u_h) − J*))^½, exact without contact and an upper-bound
 //! estimate with it.
 
-use wsm_core::error::WsmError;
-use wsm_core::scene::Data;
-use wsm_core::state::{Solution, StateProblem};
+use wsm_core::{Data, Solution, StateProblem, WsmError};
 
 /// The parts of J(u_h).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]

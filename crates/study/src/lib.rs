@@ -1,10 +1,11 @@
 //! wsm-study — accuracy and numerical stability as product outputs, and the benchmarks: the
-//! `wsm study` and `wsm bench` commands, built on the engine's front door (`wsm_core::run`) and
-//! its state solves.
+//! `wsm study` and `wsm bench` commands, built on the engine's front door (`wsm_core::worst`,
+//! `wsm_core::solve`) and its state solves (`wsm_core::StateProblem`).
 //!
 //! - [`accuracy`]: `wsm study accuracy` — a case on a ladder of meshes
-//!   (`wsm_core::estimate::ladder`) with the direct and the DD solver, errors against analytic
-//!   solutions ([`analytic`]) or Richardson extrapolation (`wsm_core::estimate::richardson`,
+//!   (`wsm_core::Ladder`, `wsm_core::scaled_scene`) with the direct and the DD solver, errors
+//!   against analytic solutions ([`analytic`]) or Richardson extrapolation
+//!   (`wsm_core::extrapolate`,
 //!   energy errors through [`energy`]), written as tables and a log-log plot ([`report`],
 //!   [`plot`]).
 //! - [`stability`]: `wsm study stability` — the catalogue of stiff and extreme cases, each

@@ -6,7 +6,7 @@ use std::fmt::Write;
 
 use super::accuracy::{AccuracyStudy, Reference, Row, TARGETS};
 use super::plot::{svg, Panel, Series};
-use wsm_core::error::WsmError;
+use wsm_core::WsmError;
 
 /// The quantities shown in tables and plots (the potential and strain energy feed `energy`).
 fn shown(study: &AccuracyStudy) -> Vec<usize> {

@@ -15,12 +15,10 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use super::condition::stiffness_condition;
-use wsm_core::error::WsmError;
-use wsm_core::fem::Par;
-use wsm_core::fixtures::stacked_blocks;
-use wsm_core::run::{self, RunControl, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{
+    fixtures::stacked_blocks, parse_scene, Criterion, Needs, Par, RunControl, Scene, Solution,
+    SolveOptions, SolverKind, StateProblem, WorstRequest, WsmError,
+};
 
 /// What a case must do.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -43,10 +41,10 @@ pub enum Expect {
 enum Input {
     Scene(Value),
     /// A scene on a given (structured) mesh.
-    OnMesh(Value, Box<wsm_core::mesh::Mesh>),
+    OnMesh(Value, Box<wsm_core::Mesh>),
     /// Two scenes on meshes of the same topology whose displacements must agree after scaling
     /// the second's by the factor.
-    SameShape(Box<[(Value, wsm_core::mesh::Mesh); 2]>, f64),
+    SameShape(Box<[(Value, wsm_core::Mesh); 2]>, f64),
     /// A worst-scenario run whose worst Φ3 must be at `worst` and best at `best` (vertex
     /// coordinates as 0 = lo, 1 = hi).
     Worst(Value, Vec<usize>, Vec<usize>),
@@ -90,7 +88,7 @@ pub struct CaseResult {
     /// (units cases).
     pub difference: Option<f64>,
     /// The solve's or run's warnings.
-    pub warnings: Vec<wsm_core::scene::Warning>,
+    pub warnings: Vec<wsm_core::Warning>,
     /// Wall-clock time of the case \[s\].
     pub seconds: f64,
     /// The result meets the case's expectation (no failure).
@@ -128,19 +126,13 @@ pub fn pushed_block(e_base: f64, e_block: f64, nu: f64, g: f64, pressure: f64) -
 }
 
 /// Two thin layers 10 m long and `t` thick, one cell across: cells of aspect ratio 1/t.
-fn thin_layers(t: f64) -> (Value, wsm_core::mesh::Mesh) {
+fn thin_layers(t: f64) -> (Value, wsm_core::Mesh) {
     layers(10.0, t, 1, 1.0, 1.0)
 }
 
 /// Two layers `width` long and `t` thick (`ny` cells across each), every length × `length`
 /// and every stress × `stress`.
-fn layers(
-    width: f64,
-    t: f64,
-    ny: usize,
-    length: f64,
-    stress: f64,
-) -> (Value, wsm_core::mesh::Mesh) {
+fn layers(width: f64, t: f64, ny: usize, length: f64, stress: f64) -> (Value, wsm_core::Mesh) {
     let (w, t) = (width * length, t * length);
     let mesh = stacked_blocks(w, t, t, 10, ny, ny);
     let seg = |body: &str, a: [f64; 2], b: [f64; 2]| json!({"body": body, "from": a, "to": b});
@@ -261,9 +253,8 @@ pub fn catalogue() -> Vec<Case> {
             warning: Some("not determined"),
         },
     );
-    let block: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap_or("{}"))
-            .unwrap_or(Value::Null);
+    let block: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap_or("{}"))
+        .unwrap_or(Value::Null);
     let mut coarse = block.clone();
     coarse["mesh"] = json!({"max_size": 0.1});
     add(
@@ -333,7 +324,7 @@ pub fn run_catalogue(cases: &[Case]) -> Vec<CaseResult> {
 }
 
 fn with_solver(v: &Value, kind: SolverKind) -> Result<Scene, WsmError> {
-    let mut scene = parse(&v.to_string())?;
+    let mut scene = parse_scene(&v.to_string())?;
     scene.solver.kind = kind;
     if kind == SolverKind::Dd {
         scene.solver.subdomains = 4;
@@ -396,7 +387,7 @@ fn run_case(
         iterations: String::new(),
         condition: None,
         dd_tolerance: (kind == SolverKind::Dd)
-            .then(|| wsm_core::scene::SolverSettings::default().tolerance),
+            .then(|| wsm_core::SolverSettings::default().tolerance),
         difference: None,
         warnings: Vec::new(),
         seconds: 0.0,
@@ -485,8 +476,8 @@ fn attempt(
                 accuracy_refinements: Some(0),
                 ..WorstRequest::default()
             };
-            let params = wsm_core::scene::params::parameters(&scene)?;
-            let outcome = run::worst(scene, &request, &RunControl::new())?;
+            let params = wsm_core::scene_parameters(&scene)?;
+            let outcome = wsm_core::worst(scene, &request, &RunControl::new())?;
             result.outcome = "solved".into();
             result.max_kkt = Some(outcome.inner.max_kkt_residual);
             result.iterations = format!("{} solves", outcome.inner.solves);

@@ -184,7 +184,7 @@ const MULTIPLIER_NOISE: f64 = 1e4;
 /// Solve the elastic contact problem (zone coefficients, reduced right-hand side, prescribed
 /// values) by DD on the contact rows of `direct`; `fallback` is the direct solver, used only when
 /// DD fails (and reported). Undetermined rigid motions get the direct solver's normal form.
-/// On Coulomb zones the DD solves the successive Tresca problems of [`coulomb::solve`], each
+/// On Coulomb zones the DD solves the successive Tresca problems of `coulomb::solve`, each
 /// from the subdomain operators of the first; there the fallback (a whole Coulomb solve) is not
 /// a Tresca step, so a failing step ends the DD solve and the caller answers directly.
 pub fn solve_elastic(

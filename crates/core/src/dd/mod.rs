@@ -33,12 +33,13 @@
 //! - `from_scene`: DD for a scene's elastic contact problem, the entry of the state layer
 //!   (`solver.kind = "dd"`): options from the scene's solver settings, contact rows from the
 //!   direct solver's geometry, the answer in the direct solver's form.
-//! - [`mod@bench`]: scalability tables for `wsm bench dd`.
+//! - `bench` (cargo feature `bench`): scalability tables for `wsm bench dd`.
 //!
 //! Everything works on the reduced DOF vector of [`crate::fem::ElasticProblem`] (free DOFs in the
 //! rotated nodal bases); [`DdProblem::from_elastic`] builds the input from it.
 
-pub mod bench;
+#[cfg(feature = "bench")]
+pub(crate) mod bench;
 mod coarse;
 mod coarse_space;
 mod decomposition;
@@ -57,10 +58,9 @@ use crate::fem::{ElasticCoefficients, ElasticProblem, FemError, Slot};
 use crate::scene::law::bulk_and_shear;
 
 pub use from_scene::{options as scene_options, solve_elastic};
-pub use options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner, Weights};
 pub use partition::{Partition, PartitionRequest};
-pub use report::{D03Bound, DdReport};
-pub use successive::{solve, DdSolution, DirectAnswer, Fallback};
+pub use report::DdReport;
+pub use successive::DirectAnswer;
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.

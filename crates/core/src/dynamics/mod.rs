@@ -33,10 +33,7 @@ mod step;
 #[cfg(test)]
 mod tests;
 
-pub use history::{
-    BodyHistory, CriterionPeak, DisplacementFrame, DynamicsReport, EnergyHistory, History, Peak,
-    PeakFields, Peaks, ReceiverHistory, ZoneHistory,
-};
+pub use history::{DisplacementFrame, DynamicsReport, History, PeakFields};
 pub use operators::Operators;
 pub use over_time::{derivatives_unavailable, solve_over_time};
 

@@ -30,8 +30,6 @@ pub struct Operators {
     pub stiffness: Vec<f64>,
     /// K_fd u_d: the prescribed displacements' share of K0 u on the free DOFs.
     pub prescribed_force: Vec<f64>,
-    /// Elastic zone coefficients K0 was assembled from.
-    pub coefficients: Vec<ElasticCoefficients>,
 }
 
 impl Operators {
@@ -81,7 +79,6 @@ impl Operators {
             absorbing,
             stiffness,
             prescribed_force: lifted.iter().map(|v| -v).collect(),
-            coefficients,
         })
     }
 

@@ -65,7 +65,7 @@ pub struct MeshChoice {
     /// The chosen level's size factor (the run's mesh sizes are the scene's × this).
     pub size_factor: f64,
     /// Whether the chosen level's estimate meets the target; false when no level up to
-    /// [`MAX_CHOICE_UNKNOWNS`] unknowns did (the finest level that solved is used).
+    /// `MAX_CHOICE_UNKNOWNS` unknowns did (the finest level that solved is used).
     pub met: bool,
     /// The levels built, coarsest first.
     pub candidates: Vec<CandidateMesh>,

@@ -29,7 +29,7 @@ pub struct Extrapolation {
     pub uncertainty: Option<f64>,
     /// The three finest values approach f* from one side in decreasing steps.
     pub monotone: bool,
-    /// The fitted order is at an end of [`ORDER_RANGE`]: the model does not describe the data.
+    /// The fitted order is at an end of `ORDER_RANGE`: the model does not describe the data.
     pub at_bound: bool,
 }
 

@@ -134,7 +134,7 @@ impl ElasticProblem {
     /// The reduced operator K_ff(D) with the six entries of D_z per zone as coefficients; for
     /// the mixed element the quasi-definite (u, p̂) system (pressure unknowns after the free
     /// displacement DOFs, [`Self::pressure_offset`]) with the coefficients of
-    /// [`MixedOperator::coefficients`] (design §2.7).
+    /// `MixedOperator::coefficients` (design §2.7).
     pub fn operator(&self) -> &ZonedOperator<6> {
         &self.operator
     }
@@ -216,7 +216,7 @@ impl ElasticProblem {
     }
 
     /// Operator coefficients per zone: the six independent entries of D_z
-    /// ([`crate::scene::law::ENTRIES`]); for the mixed element (μ, s, s²/μ, s²/λ, 0, 0).
+    /// (`crate::scene::law::ENTRIES`); for the mixed element (μ, s, s²/μ, s²/λ, 0, 0).
     pub fn coefficients(&self, data: &Data) -> Result<Vec<ElasticCoefficients>, FemError> {
         if let Some(mixed) = &self.mixed {
             return Ok(mixed.coefficients(&self.lame(data)?));

@@ -59,7 +59,7 @@ impl Symbolic {
 
     /// Analyse `pattern` (lower triangle) with the DOFs `trailing` eliminated last, in the
     /// given order, after an AMD ordering of the other DOFs (AMD of their submatrix), and a
-    /// supernodal factor, so that [`Factor::trailing_block`] can read L₂₂ (module doc).
+    /// supernodal factor, so that `Factor::trailing_block` can read L₂₂ (module doc).
     pub fn analyse_with_trailing(
         pattern: SymbolicSparseColMatRef<'_, usize>,
         trailing: &[usize],

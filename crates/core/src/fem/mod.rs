@@ -15,7 +15,8 @@
 //! Typical use: `let p = ElasticProblem::new(&mesh, &data)?; let k = p.factor(&data, Par::Seq)?;
 //! let u = p.solve(&k, &data, None)?;` and for a new data set only `factor` and `solve` again.
 
-pub mod bench;
+#[cfg(feature = "bench")]
+pub(crate) mod bench;
 mod dofs;
 mod elasticity;
 mod geometry;
@@ -32,12 +33,11 @@ pub use dofs::DofMap;
 pub use elasticity::ElasticProblem;
 pub(crate) use elasticity::MixedThermalRate;
 pub use geometry::{segment_node_normals, TriangleGradients};
-pub use heat::{HeatProblem, Thermal};
+pub use heat::HeatProblem;
 pub use linear::{symmetric_apply, Factor, Symbolic};
-pub use mixed::{mixed_system, MixedOperator};
-pub use operator::{OperatorFactor, Slot, ZonedOperator};
+pub use operator::{OperatorFactor, Slot};
 pub use rigid::RigidModes;
-pub use stress::{ElementStress, ZoneMaterial};
+pub use stress::ElementStress;
 
 pub use faer::Par;
 

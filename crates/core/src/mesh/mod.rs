@@ -25,9 +25,9 @@ mod subdivide;
 pub(crate) mod tests;
 mod tri;
 
-pub use count::{count, MeshCount};
-pub use generate::{generate, stats, MeshStats};
-pub use gmsh::{import_gmsh, with_inline_mesh};
+pub use count::count;
+pub use generate::{generate, stats};
+pub use gmsh::with_inline_mesh;
 pub use mortar::MortarRow;
 
 /// A material zone of the mesh.

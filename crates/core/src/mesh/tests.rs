@@ -3,6 +3,7 @@
 use std::collections::HashMap;
 
 use super::geom::{dist, point_in_ring, signed_area};
+use super::gmsh::import_gmsh;
 use super::*;
 use crate::scene::{Scene, SceneError};
 

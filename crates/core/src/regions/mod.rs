@@ -7,7 +7,7 @@
 //! moments) and of element-constant fields. A boundary piece is the part of a segment between
 //! the projections of two points; its weights integrate the P1 trace exactly, partial edges
 //! included, whether the piece spans many edges or lies inside one (it is measured on the
-//! traces of the edges it crosses, never refused for being shorter than an element). Means are then `Σ w_i f_i` (`mean_p1`, `mean_p0`).
+//! traces of the edges it crosses, never refused for being shorter than an element). Means are then `Σ w_i f_i`.
 //! A receiver's peak velocity (a defined criterion of a dynamic scene, design §3.5) reads the
 //! P1 interpolant at the receiver: the shape functions' values there are its weights.
 
@@ -95,16 +95,6 @@ pub struct DefinedRegion {
     /// For `peak_velocity`, the receiver's P1 interpolation, (node, shape function value at the
     /// receiver); `region` is then the receiver's index in `receivers` (empty otherwise).
     pub receiver: Vec<(usize, f64)>,
-}
-
-/// Mean of a P1 field: Σ w_i f_i.
-pub fn mean_p1(weights: &[(usize, f64)], field: &[f64]) -> f64 {
-    weights.iter().map(|&(i, w)| w * field[i]).sum()
-}
-
-/// Mean of an element-constant field: Σ w_t f_t.
-pub fn mean_p0(weights: &[(usize, f64)], field: &[f64]) -> f64 {
-    mean_p1(weights, field)
 }
 
 /// Builds the weights and normals of the scene's criteria regions on `mesh`.

@@ -4,6 +4,16 @@ use super::*;
 use crate::mesh::generate;
 use crate::mesh::tests::{block_on_base, scene, tunnel};
 
+/// Mean of a P1 field: Σ w_i f_i.
+fn mean_p1(weights: &[(usize, f64)], field: &[f64]) -> f64 {
+    weights.iter().map(|&(i, w)| w * field[i]).sum()
+}
+
+/// Mean of an element-constant field: Σ w_t f_t.
+fn mean_p0(weights: &[(usize, f64)], field: &[f64]) -> f64 {
+    mean_p1(weights, field)
+}
+
 fn linear(mesh: &Mesh) -> Vec<f64> {
     mesh.nodes
         .iter()

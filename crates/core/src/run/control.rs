@@ -136,7 +136,7 @@ impl RunControl {
     }
 
     /// Fail the solves where `fault` answers (tests of failure handling; see
-    /// [`crate::fault`]).
+    /// `crate::fault`).
     pub fn with_fault(mut self, fault: Arc<SolveFault>) -> Self {
         self.fault = Some(fault);
         self

@@ -100,14 +100,14 @@ pub struct SolveOutput {
 /// One state solve of `scene` at its nominal data.
 ///
 /// ```
-/// use wsm_core::run::{solve, SolveRequest};
+/// use wsm_core::{solve, SolveRequest};
 ///
-/// let scene = wsm_core::scene::parse(wsm_core::bundled::find("block-on-base")?)?;
+/// let scene = wsm_core::parse_scene(wsm_core::find_example("block-on-base")?)?;
 /// let output = solve(scene, &SolveRequest::default())?;
 /// // The block presses on its base: the mean contact pressure of the criteria region is positive.
 /// assert!(output.summary.criteria.phi6.is_some_and(|p| p > 0.0));
 /// assert!(output.summary.report.contact_pairs > 0);
-/// # Ok::<(), wsm_core::error::WsmError>(())
+/// # Ok::<(), wsm_core::WsmError>(())
 /// ```
 pub fn solve(scene: Scene, request: &SolveRequest) -> Result<SolveOutput, WsmError> {
     solve_at(scene, None, request)

@@ -184,7 +184,7 @@ impl<'a> ScenarioEvaluator<'a> {
 
     /// Also compute the exact derivatives of the criteria along every uncertain datum at each
     /// evaluation (off by default; never for a Coulomb state on the sparse contact path, nor for
-    /// a dynamic run without them, [`crate::dynamics::derivatives_unavailable`]).
+    /// a dynamic run without them, `crate::dynamics::derivatives_unavailable`).
     pub fn with_derivatives(mut self, derivatives: bool) -> Self {
         let scene = &self.problem.scene;
         let coulomb_sparse = self.problem.contact.is_sparse()

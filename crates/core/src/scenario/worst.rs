@@ -37,10 +37,10 @@ pub struct WorstSettings {
     /// Wall-time limit of the search \[s\] (`None`: no limit).
     pub max_seconds: Option<f64>,
     /// Refined meshes of the accuracy statement (`None`: by the mesh size, see
-    /// [`crate::estimate::statement::default_refinements`]).
+    /// `crate::estimate::statement::default_refinements`).
     pub accuracy_refinements: Option<usize>,
     /// Relative error the run's mesh must meet at the nominal data (`None`: the scene's mesh;
-    /// see [`crate::estimate::mesh_choice`]).
+    /// see `crate::estimate::mesh_choice`).
     pub target_error: Option<f64>,
     /// Exact derivatives on every evaluation (vertex walk, quasi-Newton polish, certificates).
     pub derivatives: bool,

@@ -33,7 +33,7 @@ pub enum Elastic {
 
 impl Elastic {
     /// The plane-strain law (FGCS 2.7′); `None` when orthotropic constants have a singular
-    /// compliance. Isotropic: λ, μ by [`lame_from_young`] when E, ν are given.
+    /// compliance. Isotropic: λ, μ by `lame_from_young` when E, ν are given.
     pub fn law(&self) -> Option<PlaneStrainLaw> {
         match self {
             Elastic::Young { .. } | Elastic::Lame { .. } => {

@@ -62,7 +62,7 @@ impl PlaneStrainLaw {
         ]
     }
 
-    /// [`bulk_and_shear`] of D.
+    /// `bulk_and_shear` of D.
     pub fn bulk_and_shear(&self) -> (f64, f64) {
         bulk_and_shear(&self.coefficients())
     }

@@ -22,8 +22,8 @@ pub(crate) use sensitivity::{add_scaled, one_sided, tied_regions, TIE_TOL};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
-    piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
-    SolverUsed, Timings, ZoneSummary,
+    piece_pressures, zone_summaries, ContactNode, ContactState, Solution, SolveReport, SolverUsed,
+    Timings, ZoneSummary,
 };
 
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -59,7 +59,7 @@ pub struct Needs {
     pub heat: bool,
     /// Solve the elastic contact problem (some criterion other than Φ1/Φ2 is requested).
     pub elastic: bool,
-    /// Per Φ, the regions (indices in its [`family`]) that criteria bound to one region read:
+    /// Per Φ, the regions (indices in its `family`) that criteria bound to one region read:
     /// their derivatives are computed beside those of the regions tying for the maximum.
     pub bound_regions: PerCriterion<Vec<usize>>,
 }
@@ -96,7 +96,7 @@ impl Needs {
 }
 
 /// A requested criterion resolved on the mesh: Φ, and when it is bound to one region, that
-/// region's index in Φ's [`family`] (design §4.2).
+/// region's index in Φ's `family` (design §4.2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Target {
     /// Which Φ.

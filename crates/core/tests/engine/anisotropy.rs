@@ -8,11 +8,9 @@ use crate::solves;
 
 use solves::{bc, data, material};
 
-use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::fixtures::{perturb_interior, rectangle, rotate};
-use wsm_core::mesh::{Mesh, MeshSegment};
-use wsm_core::scene::{
-    BoundaryData, BoundaryValue, Data, Elastic, Expansion, Orthotropic, PlaneStrainLaw,
+use wsm_core::{
+    fixtures::perturb_interior, fixtures::rectangle, fixtures::rotate, BoundaryData, BoundaryValue,
+    Data, Elastic, ElasticProblem, Expansion, Mesh, MeshSegment, Orthotropic, Par, PlaneStrainLaw,
 };
 
 /// Single-node segment (a point support) added to the mesh.

@@ -4,10 +4,10 @@ use faer::Mat;
 use proptest::prelude::*;
 use std::time::{Duration, Instant};
 
-use wsm_core::contact::qp::{
-    kkt_residuals, solve_box_qp, BoxQp, QpError, QpMethod, QpOptions, QpSolution, WarmStart,
+use wsm_core::{
+    fixtures, kkt_residuals, solve_box_qp, BoxQp, QpError, QpMethod, QpOptions, QpSolution,
+    WarmStart,
 };
-use wsm_core::fixtures;
 
 /// The shared seeded generator (`fixtures::rng`) with the draws these cases need, so that
 /// cases are reproducible from a seed.

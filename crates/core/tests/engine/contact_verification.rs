@@ -4,19 +4,20 @@
 use crate::solves;
 
 use serde_json::{json, Value};
-use wsm_core::scene::{parse, Data, Scene};
-use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{
+    parse_scene, ContactState, Data, Needs, Scene, Solution, SolveOptions, StateProblem,
+};
 
 fn options(scene: &Scene) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
 
-fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::error::WsmError> {
-    let scene = parse(&v.to_string())?;
+fn solve_value(v: &Value) -> Result<(StateProblem, Solution), wsm_core::WsmError> {
+    let scene = parse_scene(&v.to_string())?;
     let problem = StateProblem::new(scene)?;
     let sol = problem.solve(&problem.nominal, &options(&problem.scene))?;
     Ok((problem, sol))
@@ -149,7 +150,7 @@ fn pushed_block_sticks_below_and_is_refused_above_the_friction_capacity() {
 
 #[test]
 fn hertz_half_width_and_peak_pressure() {
-    let base: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    let base: Value = serde_json::from_str(wsm_core::example("hertz").unwrap()).unwrap();
     let mut errors = Vec::new();
     for h in [0.016, 0.008, 0.004] {
         let mut scene = base.clone();
@@ -181,8 +182,8 @@ fn hertz_half_width_and_peak_pressure() {
 
 #[test]
 fn every_example_solves_with_small_kkt_residuals() {
-    for (name, text) in wsm_core::bundled::EXAMPLES {
-        let scene = parse(text).unwrap();
+    for (name, text) in wsm_core::EXAMPLES {
+        let scene = parse_scene(text).unwrap();
         let problem = StateProblem::new(scene).unwrap_or_else(|e| panic!("{name}: {e}"));
         let sol = problem
             .solve(&problem.nominal, &options(&problem.scene))
@@ -203,10 +204,9 @@ fn every_example_solves_with_small_kkt_residuals() {
 fn contact_resultants_balance_the_applied_loads() {
     // block-on-base: the floating block carries 1e6 Pa on its 1 m top plus its weight
     // 2.45e4 N/m³ × 0.5 m², and is pushed by 4e5 Pa on its 0.5 m side.
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     let (problem, sol) = solve_value(&scene).unwrap();
-    let zones = wsm_core::state::zone_summaries(
+    let zones = wsm_core::zone_summaries(
         &problem.scene.contacts,
         &problem.nominal,
         &problem.contact.geometry,
@@ -235,7 +235,7 @@ fn mean_contact_pressure_on_a_contact_piece() {
     scene["criteria"] = json!({"boundary_pieces": [
         {"name": "middle", "segment": "upper_bottom", "from": [0.25, 0.5], "to": [0.75, 0.5]}]});
     let (problem, sol) = solve_value(&scene).unwrap();
-    let pieces = wsm_core::state::piece_pressures(
+    let pieces = wsm_core::piece_pressures(
         &problem.criteria.pieces,
         &problem.contact.geometry,
         &sol.contact,

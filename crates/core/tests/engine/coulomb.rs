@@ -8,24 +8,22 @@ use crate::solves;
 
 use serde_json::{json, Value};
 use solves::relative_difference;
-use wsm_core::contact::coulomb::TOLERANCE;
-use wsm_core::error::WsmError;
-use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
-use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{
-    ContactState, Needs, PerCriterion, Solution, SolveOptions, SolverUsed, StateProblem,
+use wsm_core::{
+    apply_parameters, parameter_stencil, parse_scene, scene_parameters, ContactState, Needs,
+    Parameter, PerCriterion, Solution, SolveOptions, SolverKind, SolverUsed, StateProblem,
+    WsmError, COULOMB_TOLERANCE as TOLERANCE,
 };
 
 fn options(problem: &StateProblem) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
 
 fn build(v: &Value) -> StateProblem {
-    StateProblem::new(parse(&v.to_string()).expect("scene parses")).expect("problem builds")
+    StateProblem::new(parse_scene(&v.to_string()).expect("scene parses")).expect("problem builds")
 }
 
 fn solve_value(v: &Value) -> Result<(StateProblem, Solution), WsmError> {
@@ -243,9 +241,9 @@ fn coulomb_equals_tresca_with_the_converged_slip_bound() {
 #[test]
 fn friction_coefficient_is_validated_by_path() {
     let refused = |v: Value| -> (String, String) {
-        let error = match parse(&v.to_string()) {
+        let error = match parse_scene(&v.to_string()) {
             Err(e) => e,
-            Ok(scene) => wsm_core::scene::params::parameters(&scene).expect_err("refused"),
+            Ok(scene) => wsm_core::scene_parameters(&scene).expect_err("refused"),
         };
         (error.path, error.reason)
     };
@@ -278,11 +276,8 @@ fn friction_coefficient_is_validated_by_path() {
     assert_eq!(refused(tresca).0, "uncertain[0].field");
     scene["uncertain"] =
         json!([{"field": "contacts[0].friction_coefficient", "interval": [0.2, 0.3]}]);
-    let scene = parse(&scene.to_string()).unwrap();
-    assert_eq!(
-        wsm_core::scene::params::parameters(&scene).unwrap().len(),
-        1
-    );
+    let scene = parse_scene(&scene.to_string()).unwrap();
+    assert_eq!(wsm_core::scene_parameters(&scene).unwrap().len(), 1);
 }
 
 /// DD solves the same fixed point (each step a DD solve of the Tresca problem with the current
@@ -292,7 +287,7 @@ fn dd_equals_direct_with_coulomb_friction() {
     let f = 0.4;
     let value = block_on_base(0.8 * f * N, json!({"friction_coefficient": f}));
     let solve = |kind: SolverKind| {
-        let mut scene = parse(&value.to_string()).unwrap();
+        let mut scene = parse_scene(&value.to_string()).unwrap();
         scene.solver.kind = kind;
         scene.solver.tolerance = 1e-12;
         let problem = StateProblem::new(scene).unwrap();
@@ -321,7 +316,7 @@ fn criteria_at(
     params: &[Parameter],
     theta: &[f64],
 ) -> PerCriterion<Option<f64>> {
-    let data = apply(&problem.scene, &problem.nominal, params, theta);
+    let data = apply_parameters(&problem.scene, &problem.nominal, params, theta);
     problem.solve(&data, &options(problem)).unwrap().criteria
 }
 
@@ -340,11 +335,11 @@ fn sensitivities_match_finite_differences() {
         {"field": "boundary[1].pressure", "interval": [0.9e6, 1.1e6]}
     ]);
     let problem = build(&value);
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let theta: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
-    let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+    let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
     let stencils: Vec<_> = (0..params.len())
-        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+        .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
         .collect();
     let sol = problem
         .solve_with_sensitivities(&data, &options(&problem), &stencils)
@@ -651,8 +646,7 @@ fn compliant_block(f: f64, q_ratio: f64) -> Value {
 /// frictionless bundled knee leaves undetermined.
 #[test]
 fn knee_with_coulomb_condyles_solves() {
-    let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    let mut scene: Value = serde_json::from_str(wsm_core::example("knee").unwrap()).unwrap();
     for contact in scene["contacts"].as_array_mut().unwrap() {
         if contact["kind"] == "unilateral" {
             contact.as_object_mut().unwrap().remove("slip_limit");
@@ -676,20 +670,18 @@ fn knee_with_coulomb_condyles_solves() {
 /// exact sensitivities (measured: both at vertices, 3 evaluations).
 #[test]
 fn worst_scenario_over_the_friction_coefficient() {
-    use wsm_core::run::{worst, RunControl, WorstRequest};
-    use wsm_core::scene::Criterion;
+    use wsm_core::{worst, Criterion, RunControl, WorstRequest};
     let mut value = block_on_base(0.25 * N, json!({"friction_coefficient": 0.4}));
     value["uncertain"] = json!([
         {"field": "contacts[0].friction_coefficient", "interval": [0.3, 0.5]},
         {"field": "boundary[2].traction[0]", "interval": [4.0e5, 5.0e5]}
     ]);
-    let scene = parse(&value.to_string()).unwrap();
-    let params = parameters(&scene).unwrap();
+    let scene = parse_scene(&value.to_string()).unwrap();
+    let params = scene_parameters(&scene).unwrap();
     let problem = StateProblem::new(scene.clone()).unwrap();
     let criteria = [Criterion::Phi3, Criterion::Phi6];
-    let specs = criteria.map(wsm_core::scene::CriterionSpec::from);
-    let evaluator =
-        wsm_core::scenario::evaluator::ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
+    let specs = criteria.map(wsm_core::CriterionSpec::from);
+    let evaluator = wsm_core::ScenarioEvaluator::new(&problem, &params, &specs).unwrap();
     let mut grid = [(f64::NEG_INFINITY, f64::INFINITY); 2];
     for i in 0..=10 {
         for j in 0..=10 {
@@ -726,7 +718,7 @@ fn worst_scenario_over_the_friction_coefficient() {
     }
     println!("{} evaluations, status {:?}", r.evaluations, r.status);
     assert!(r.evaluations <= 40);
-    assert_eq!(r.status, wsm_core::run::Status::LocallyCertified);
+    assert_eq!(r.status, wsm_core::Status::LocallyCertified);
 }
 
 /// Anderson mixing of the normal forces (design §3.4) against the papers' plain successive

@@ -11,10 +11,10 @@ use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
-use wsm_core::fem::stress_measures::principal;
-use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
-use wsm_core::scene::{parse, SolverKind, StopRule};
-use wsm_core::state::{Solution, StateProblem};
+use wsm_core::{
+    parse_scene, principal_stresses, worst, RunControl, Solution, SolverKind, StateProblem, Status,
+    StopRule, WorstRequest,
+};
 
 /// The six bundled models of this file.
 const MODELS: [&str; 6] = [
@@ -27,7 +27,7 @@ const MODELS: [&str; 6] = [
 ];
 
 fn scene(name: &str) -> Value {
-    serde_json::from_str(wsm_core::bundled::find(name).unwrap()).unwrap()
+    serde_json::from_str(wsm_core::find_example(name).unwrap()).unwrap()
 }
 
 /// (min σ2, max σ1) over the elements of the zones named `zone` \[Pa\].
@@ -39,7 +39,7 @@ fn principal_extremes(problem: &StateProblem, solution: &Solution, zone: &str) -
         .enumerate()
         .filter(|(t, _)| mesh.zones[mesh.triangle_zone[*t]].name == zone)
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), (_, s)| {
-            let p = principal(s.stress);
+            let p = principal_stresses(s.stress);
             (lo.min(p.sigma2), hi.max(p.sigma1))
         })
 }
@@ -195,7 +195,7 @@ fn d03_zones_carry_the_pressure_on_their_blocks() {
 #[test]
 fn every_models_worst_scenario_run_finishes() {
     for name in MODELS {
-        let scene = parse(&scene(name).to_string()).unwrap();
+        let scene = parse_scene(&scene(name).to_string()).unwrap();
         let request = WorstRequest {
             budget: Some(12),
             seed: Some(1),
@@ -204,7 +204,7 @@ fn every_models_worst_scenario_run_finishes() {
             ..WorstRequest::default()
         };
         let start = std::time::Instant::now();
-        let r = run_worst(scene, &request, &RunControl::new()).unwrap();
+        let r = worst(scene, &request, &RunControl::new()).unwrap();
         eprintln!(
             "{name}: {} evaluations, {:.1} s, status {:?}",
             r.evaluations,
@@ -227,13 +227,13 @@ fn every_models_worst_scenario_run_finishes() {
 /// says: the bone stiffest, the stem softest, the load highest.
 #[test]
 fn the_hips_defined_calcar_criterion_is_certified() {
-    let scene = parse(&scene("hip-replacement").to_string()).unwrap();
-    let params = wsm_core::scene::params::parameters(&scene).unwrap();
+    let scene = parse_scene(&scene("hip-replacement").to_string()).unwrap();
+    let params = wsm_core::scene_parameters(&scene).unwrap();
     let request = WorstRequest {
         accuracy_refinements: Some(0),
         ..WorstRequest::default()
     };
-    let r = run_worst(scene, &request, &RunControl::new()).unwrap();
+    let r = worst(scene, &request, &RunControl::new()).unwrap();
     let names: Vec<String> = r.criteria.iter().map(|c| c.criterion.name()).collect();
     assert_eq!(names, ["phi3", "phi5", "calcar_von_mises"]);
     assert_eq!(r.status, Status::LocallyCertified, "{:?}", r.warnings);
@@ -315,7 +315,7 @@ fn the_tied_set_changes_the_start_not_the_answer() {
     ] {
         let mut bad = d03.clone();
         bad["solver"] = json!({"kind": "dd", "dd": dd});
-        let err = parse(&bad.to_string()).unwrap_err().to_string();
+        let err = parse_scene(&bad.to_string()).unwrap_err().to_string();
         assert!(err.starts_with(field), "{dd}: {err}");
     }
 }

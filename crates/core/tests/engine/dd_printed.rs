@@ -8,12 +8,11 @@ use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve};
-use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{parse_scene, Needs, Solution, SolveOptions, SolverKind, StateProblem};
 
 fn block_on_base() -> Value {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     scene
 }
@@ -80,11 +79,11 @@ fn bad_dd_options_are_refused_naming_the_field() {
     ] {
         let mut scene = block_on_base();
         scene["solver"] = json!({"kind": "dd", "dd": dd});
-        let err = parse(&scene.to_string()).unwrap_err().to_string();
+        let err = parse_scene(&scene.to_string()).unwrap_err().to_string();
         assert!(err.contains(field), "{dd}: {err}");
     }
     // The defaults are not written back: a scene without `solver.dd` serialises as before.
-    let scene = parse(&block_on_base().to_string()).unwrap();
+    let scene = parse_scene(&block_on_base().to_string()).unwrap();
     let text = serde_json::to_string(&scene).unwrap();
     assert!(!text.contains("\"dd\""), "{text}");
 }
@@ -94,10 +93,10 @@ fn bad_dd_options_are_refused_naming_the_field() {
 fn papers_run(scene: &Value, subdomains: usize, dd: &Value) -> (Value, f64) {
     let mut scene = scene.clone();
     scene["solver"] = json!({"kind": "dd", "subdomains": subdomains, "tolerance": 1e-6, "dd": dd});
-    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();
@@ -114,13 +113,12 @@ fn papers_run(scene: &Value, subdomains: usize, dd: &Value) -> (Value, f64) {
 fn iteration_counts_at_the_papers_sizes() {
     let tunnel = {
         let mut s: Value =
-            serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
+            serde_json::from_str(wsm_core::example("tunnel-fault").unwrap()).unwrap();
         s["mesh"]["refine"][0]["max_size"] = json!(0.8);
         s
     };
     let knee = {
-        let mut s: Value =
-            serde_json::from_str(wsm_core::bundled::example("knee-d05").unwrap()).unwrap();
+        let mut s: Value = serde_json::from_str(wsm_core::example("knee-d05").unwrap()).unwrap();
         let env = |k: &str, d: f64| std::env::var(k).map(|v| v.parse().unwrap()).unwrap_or(d);
         s["mesh"]["max_size"] = json!(env("KNEE_SIZE", 0.0021));
         s["mesh"]["refine"][0]["max_size"] = json!(env("KNEE_REFINE", 0.0012));
@@ -128,7 +126,7 @@ fn iteration_counts_at_the_papers_sizes() {
     };
     let d03 = {
         let mut s: Value =
-            serde_json::from_str(wsm_core::bundled::example("d03-model-problem").unwrap()).unwrap();
+            serde_json::from_str(wsm_core::example("d03-model-problem").unwrap()).unwrap();
         let env = |k: &str, d: f64| std::env::var(k).map(|v| v.parse().unwrap()).unwrap_or(d);
         s["mesh"]["max_size"] = json!(env("D03_SIZE", 0.037));
         s

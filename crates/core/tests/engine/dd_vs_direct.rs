@@ -7,8 +7,9 @@ use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{relative_difference, solve, stacked_blocks_mortar};
-use wsm_core::scene::{parse, SolverKind};
-use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, SolverUsed, StateProblem};
+use wsm_core::{
+    parse_scene, ContactState, Needs, Solution, SolveOptions, SolverKind, SolverUsed, StateProblem,
+};
 
 /// Solve `scene` with both solvers, check the DD answer against the direct one and return both
 /// (direct, DD).
@@ -83,7 +84,7 @@ fn compare_mortar(name: &str, scene: Value) -> (Solution, Solution) {
 #[test]
 fn hertz_nonmatching_dd_equals_direct_with_either_side_as_slave() {
     let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("hertz-nonmatching").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("hertz-nonmatching").unwrap()).unwrap();
     compare_mortar("hertz-nonmatching (slave: fine cylinder)", scene.clone());
     let mut coarse_slave = scene;
     coarse_slave["contacts"][0]["slave"] = json!("flat_contact");
@@ -96,13 +97,13 @@ fn an_explicit_partition_through_a_mortar_rows_master_nodes_is_refused() {
     // partition cutting only the cylinder (centroids above y = 0, left of x = 0.012) puts one of
     // those master nodes on an interface, where the row could not be a cluster's.
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("hertz-nonmatching").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("hertz-nonmatching").unwrap()).unwrap();
     scene["contacts"][0]["slave"] = json!("flat_contact");
     scene["solver"] = json!({"kind": "dd", "partition": [[[-2.1, 1e-9], [0.012, 1e-9], [0.012, 2.1], [-2.1, 2.1]]]});
-    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let err = problem
@@ -132,15 +133,14 @@ fn tresca_stacked_blocks_on_non_matching_meshes_dd_equals_direct() {
 #[test]
 fn block_on_base_dd_equals_direct() {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     compare("block-on-base", scene);
 }
 
 #[test]
 fn hertz_dd_equals_direct() {
-    let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    let mut scene: Value = serde_json::from_str(wsm_core::example("hertz").unwrap()).unwrap();
     scene["mesh"]["refine"][0]["max_size"] = json!(0.02);
     compare("hertz", scene);
 }
@@ -149,8 +149,7 @@ fn hertz_dd_equals_direct() {
 fn tunnel_fault_dd_equals_direct() {
     // The paper's geomechanical example (D05 §8.1): the successive approximations do not contract
     // on the long fault bands (2β² ≥ 1), the safeguarded Newton steps converge without fallback.
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("tunnel-fault").unwrap()).unwrap();
     compare("tunnel-fault", scene);
     // Measured: outer 10, PCG1 84, PCG2 65, 6 Newton steps with 123 PCG iterations (the paper
     // reports 21 / 15 / 39 with plain successive approximations on its own mesh).
@@ -161,7 +160,7 @@ fn tunnel_fault_dd_equals_direct() {
 #[test]
 fn anisotropic_examples_dd_equal_direct() {
     for name in ["tunnel-layered-rock", "knee-orthotropic-bone"] {
-        let scene: Value = serde_json::from_str(wsm_core::bundled::example(name).unwrap()).unwrap();
+        let scene: Value = serde_json::from_str(wsm_core::example(name).unwrap()).unwrap();
         compare(name, scene);
     }
 }
@@ -172,7 +171,7 @@ fn anisotropic_examples_dd_equal_direct() {
 #[test]
 fn papers_knees_dd_equal_direct() {
     for name in ["knee-d05", "knee-cut-7"] {
-        let scene: Value = serde_json::from_str(wsm_core::bundled::example(name).unwrap()).unwrap();
+        let scene: Value = serde_json::from_str(wsm_core::example(name).unwrap()).unwrap();
         compare(name, scene);
     }
 }
@@ -182,13 +181,13 @@ fn knee_dd_equals_direct() {
     // Three bodies, one cluster holding the insert and the whole floating femur; the femur's
     // frictionless sliding is determined by nothing (interior kernel of the cluster without
     // interface trace): both solvers report the displacement with no component along it.
-    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("knee").unwrap()).unwrap();
     compare("knee", scene);
 }
 
 #[test]
 fn knee_reports_the_undetermined_sliding_with_either_solver() {
-    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("knee").unwrap()).unwrap();
     for kind in [SolverKind::Direct, SolverKind::Dd] {
         let (problem, sol) = solve(&scene, kind);
         assert_eq!(sol.report.undetermined_modes, 1, "{kind:?}");
@@ -218,13 +217,13 @@ fn tunnel_at_the_papers_size_converges_to_1e_6() {
     // D05 §8.1 / FGCS §5: 10,428 unknowns, 12 subdomains, 89 contact conditions; the paper needs
     // 21 PCG1 / 15 outer / 39 PCG2 iterations. Fault mesh size 0.8 gives the same sizes here.
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("tunnel-fault").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("tunnel-fault").unwrap()).unwrap();
     scene["mesh"]["refine"][0]["max_size"] = json!(0.8);
     scene["solver"] = json!({"kind": "dd", "subdomains": 12, "tolerance": 1e-6});
-    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let dd = problem.solve(&problem.nominal, &options).unwrap();
@@ -260,7 +259,7 @@ fn block_on_base_with_an_explicit_partition_equals_direct() {
     // of the base falls into two edge-disconnected pieces (left strip, right part), which become
     // two subdomains.
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     scene["solver"]["partition"] = json!([
         [[0.3, 0.3], [1.7, 0.3], [1.7, 1.1], [0.3, 1.1]],
@@ -274,14 +273,14 @@ fn block_on_base_with_an_explicit_partition_equals_direct() {
 #[test]
 fn an_explicit_partition_that_cuts_a_contact_zone_is_refused_naming_the_field() {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.08});
     scene["solver"] =
         json!({"kind": "dd", "partition": [[[0.0, 0.0], [1.0, 0.0], [1.0, 1.1], [0.0, 1.1]]]});
-    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&scene.to_string()).unwrap()).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let err = problem
@@ -298,7 +297,6 @@ fn an_explicit_partition_that_cuts_a_contact_zone_is_refused_naming_the_field() 
 fn thick_cylinder_without_contact_dd_equals_direct() {
     // No contact: DD is plain balancing Neumann–Neumann. The automatic partition is a chain of
     // three subdomains, whose rigid coarse traces are dependent (dropped, not refused).
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("thick-cylinder").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("thick-cylinder").unwrap()).unwrap();
     compare("thick-cylinder", scene);
 }

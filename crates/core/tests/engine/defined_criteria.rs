@@ -13,11 +13,11 @@
 //!   locally certified.
 
 use serde_json::{json, Value};
-use wsm_core::output::result::{fields, summary};
-use wsm_core::run::{worst as run_worst, RunControl, Status, WorstRequest};
-use wsm_core::scene::params::{apply, parameters, stencil};
-use wsm_core::scene::{parse, Criterion, CriterionSpec, Scene, StopRule};
-use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem, Target};
+use wsm_core::{
+    apply_parameters, parameter_stencil, parse_scene, result_fields, result_summary,
+    scene_parameters, worst, Criterion, CriterionSpec, DerivativeRoute, Needs, RunControl, Scene,
+    SolveOptions, StateProblem, Status, StopRule, Target, WorstRequest,
+};
 
 const STRESS_QUANTITIES: [&str; 7] = [
     "sigma_xx",
@@ -30,7 +30,7 @@ const STRESS_QUANTITIES: [&str; 7] = [
 ];
 
 fn bundled(name: &str) -> Value {
-    serde_json::from_str(wsm_core::bundled::example(name).unwrap()).unwrap()
+    serde_json::from_str(wsm_core::example(name).unwrap()).unwrap()
 }
 
 /// `scene` with a defined criterion per stress quantity over `area` and the contact pressure and
@@ -69,7 +69,7 @@ fn block() -> Scene {
         [0.8, 0.5],
         [1.2, 0.5],
     );
-    parse(&v.to_string()).unwrap()
+    parse_scene(&v.to_string()).unwrap()
 }
 
 fn hertz() -> Value {
@@ -104,15 +104,15 @@ fn specs() -> Vec<CriterionSpec> {
 fn options(problem: &StateProblem, targets: &[Target]) -> SolveOptions {
     SolveOptions {
         needs: Needs::for_targets(&problem.scene, targets),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
 
 /// The values of the targets at θ.
 fn values_at(problem: &StateProblem, targets: &[Target], theta: &[f64]) -> Vec<f64> {
-    let params = parameters(&problem.scene).unwrap();
-    let data = apply(&problem.scene, &problem.nominal, &params, theta);
+    let params = scene_parameters(&problem.scene).unwrap();
+    let data = apply_parameters(&problem.scene, &problem.nominal, &params, theta);
     let solution = problem.solve(&data, &options(problem, targets)).unwrap();
     targets
         .iter()
@@ -127,11 +127,11 @@ fn check_derivatives(scene: Scene, theta_of: impl Fn(f64, f64) -> f64) -> (usize
     let problem = StateProblem::new(scene).unwrap();
     let targets = problem.targets(&specs()).unwrap();
     assert!(targets.iter().all(|t| t.criterion == Criterion::Defined));
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let theta: Vec<f64> = params.iter().map(|p| theta_of(p.lo, p.hi)).collect();
-    let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+    let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
     let stencils: Vec<_> = (0..params.len())
-        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+        .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
         .collect();
     let opts = options(&problem, &targets);
     let adjoint = problem
@@ -215,7 +215,7 @@ fn derivatives_equal_central_differences_on_the_block_with_friction() {
 
 #[test]
 fn derivatives_equal_central_differences_on_hertz() {
-    let scene = parse(&hertz().to_string()).unwrap();
+    let scene = parse_scene(&hertz().to_string()).unwrap();
     let (compared, worst, kinks) = check_derivatives(scene, |lo, hi| lo + 0.37 * (hi - lo));
     eprintln!("hertz: {compared} compared, worst relative {worst:.1e}, {kinks} kinks");
     assert!(compared >= 8, "{compared} compared, {kinks} kinks");
@@ -232,7 +232,7 @@ fn derivatives_equal_central_differences_on_mixed_hertz() {
     let uncertain = v["uncertain"].as_array_mut().unwrap();
     uncertain.push(json!({"field": "materials.steel.E", "interval": [1.8e11, 2.2e11]}));
     uncertain.push(json!({"field": "materials.steel.nu", "interval": [0.49, 0.4995]}));
-    let scene = parse(&v.to_string()).unwrap();
+    let scene = parse_scene(&v.to_string()).unwrap();
     let (compared, worst, kinks) = check_derivatives(scene, |lo, hi| lo + 0.37 * (hi - lo));
     eprintln!("mixed hertz: {compared} compared, worst relative {worst:.1e}, {kinks} kinks");
     assert!(compared >= 8 * 3, "{compared} compared, {kinks} kinks");
@@ -246,13 +246,13 @@ fn nominal_values_equal_the_outputs() {
             &problem.nominal,
             &SolveOptions {
                 needs: Needs::all(&problem.scene),
-                par: wsm_core::fem::Par::Seq,
+                par: wsm_core::Par::Seq,
                 warm: None,
             },
         )
         .unwrap();
-    let out = summary(&problem, &problem.nominal, &solution);
-    let field = fields(&problem, &solution);
+    let out = result_summary(&problem, &problem.nominal, &solution);
+    let field = result_fields(&problem, &solution);
     let defined = &out.defined_criteria;
     assert_eq!(defined.len(), 9);
     let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
@@ -305,13 +305,13 @@ fn nominal_values_equal_the_outputs() {
 fn a_worst_scenario_run_on_defined_criteria_on_hertz_is_certified() {
     let mut v = hertz();
     v["search"]["criteria"] = json!(["pressure", "mean_von_mises"]);
-    let scene = parse(&v.to_string()).unwrap();
+    let scene = parse_scene(&v.to_string()).unwrap();
     let request = WorstRequest {
         budget: Some(40),
         stop: Some(StopRule::FirstCertificate),
         ..WorstRequest::default()
     };
-    let r = run_worst(scene, &request, &RunControl::new()).unwrap();
+    let r = worst(scene, &request, &RunControl::new()).unwrap();
     assert_eq!(r.criteria.len(), 2);
     for c in &r.criteria {
         for o in [&c.worst, &c.best] {
@@ -334,7 +334,7 @@ fn a_worst_scenario_run_on_defined_criteria_on_hertz_is_certified() {
     assert_eq!(r.criteria[0].worst.region.as_deref(), Some("contact piece"));
     assert_eq!(r.criteria[1].worst.region.as_deref(), Some("at contact"));
     // A higher load presses harder: the worst pressure is at the largest load.
-    let p = parameters(&parse(&v.to_string()).unwrap()).unwrap();
+    let p = scene_parameters(&parse_scene(&v.to_string()).unwrap()).unwrap();
     assert_eq!(r.criteria[0].worst.point.as_ref().unwrap()[0], p[0].hi);
 }
 
@@ -350,7 +350,7 @@ fn bad_definitions_are_refused_with_the_field() {
     let refused = |edit: &dyn Fn(&mut Value), field: &str| {
         let mut v = base.clone();
         edit(&mut v);
-        let e = parse(&v.to_string()).unwrap_err().to_string();
+        let e = parse_scene(&v.to_string()).unwrap_err().to_string();
         assert!(e.contains(field), "{field}: {e}");
     };
     refused(
@@ -381,8 +381,8 @@ fn bad_definitions_are_refused_with_the_field() {
     // A search for an undefined name names the list entry.
     let mut v = base.clone();
     v["search"]["criteria"] = json!(["pressure", "no_such"]);
-    let scene = parse(&v.to_string()).unwrap();
-    let e = run_worst(scene, &WorstRequest::default(), &RunControl::new())
+    let scene = parse_scene(&v.to_string()).unwrap();
+    let e = worst(scene, &WorstRequest::default(), &RunControl::new())
         .unwrap_err()
         .to_string();
     assert!(e.contains("no_such"), "{e}");

@@ -8,14 +8,13 @@
 //! worst run that searches a peak velocity.
 
 use serde_json::{json, Value};
-use wsm_core::dynamics::solve_over_time;
-use wsm_core::run::{worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
-use wsm_core::scene::params::{apply, parameters, stencil};
-use wsm_core::scene::{parse, Criterion, StopRule};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    apply_parameters, parameter_stencil, parse_scene, scene_parameters, solve_over_time, worst,
+    Criterion, RunControl, StateProblem, Status, StopRule, Verdict, WorstOutcome, WorstRequest,
+};
 
 fn problem(scene: &Value) -> StateProblem {
-    StateProblem::new(parse(&scene.to_string()).expect("valid scene")).expect("problem")
+    StateProblem::new(parse_scene(&scene.to_string()).expect("valid scene")).expect("problem")
 }
 
 /// A plane-strain bar [0, 1] × [0, 0.05] (rollers on the long sides, the left end held along x)
@@ -63,7 +62,7 @@ fn bar(scheme: &str) -> Value {
 /// scene from rest: the loads arrive at t = 0 and the block rings on the joint.
 fn block(scheme: &str) -> Value {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::find("block-on-base").expect("bundled"))
+        serde_json::from_str(wsm_core::find_example("block-on-base").expect("bundled"))
             .expect("json");
     scene["materials"]["rock"]["density"] = json!(2500.0);
     scene["materials"]["rock"]["viscosity"] = json!(1e-5);
@@ -117,13 +116,13 @@ const CENTRAL_4: Check = Check {
 /// by `check`, value).
 fn gradient_check(scene: &Value, criteria: &[Criterion], check: &Check) -> Vec<Row> {
     let p = problem(scene);
-    let params = parameters(&p.scene).expect("parameters");
+    let params = scene_parameters(&p.scene).expect("parameters");
     let theta: Vec<f64> = params.iter().map(|q| 0.5 * (q.lo + q.hi)).collect();
     let stencils: Vec<_> = (0..params.len())
-        .map(|i| stencil(&p.scene, &p.nominal, &params, &theta, i))
+        .map(|i| parameter_stencil(&p.scene, &p.nominal, &params, &theta, i))
         .collect();
     let at = |theta: &[f64], stencils: &[_]| {
-        let data = apply(&p.scene, &p.nominal, &params, theta);
+        let data = apply_parameters(&p.scene, &p.nominal, &params, theta);
         solve_over_time(&p, &data, criteria, stencils).expect("dynamic run")
     };
     let solution = at(&theta, &stencils);
@@ -201,7 +200,7 @@ fn gradients_over_time_match_central_differences_without_contact() {
             &[Criterion::Phi3, Criterion::Phi4, Criterion::Phi5],
             &CENTRAL,
         );
-        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
         let scale = |name: &str| {
             let q = params.iter().find(|q| q.name == name).unwrap();
             0.5 * (q.lo + q.hi)
@@ -225,7 +224,7 @@ fn gradients_over_time_match_central_differences_with_contact() {
             &[Criterion::Phi3, Criterion::Phi5, Criterion::Phi6],
             &CENTRAL,
         );
-        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
         let scale = |name: &str| {
             let q = params.iter().find(|q| q.name == name).unwrap();
             0.5 * (q.lo + q.hi)
@@ -277,7 +276,7 @@ fn check_both_schemes(name: &str, scene: &dyn Fn(&str) -> Value) {
             &[Criterion::Phi3, Criterion::Phi5, Criterion::Phi6],
             &CENTRAL_4,
         );
-        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
         let scale = |name: &str| {
             let q = params.iter().find(|q| q.name == name).unwrap();
             0.5 * (q.lo + q.hi)
@@ -306,7 +305,7 @@ fn worst_to_first_certificate(scene: &Value, budget: usize) -> WorstOutcome {
         ..WorstRequest::default()
     };
     worst(
-        parse(&scene.to_string()).unwrap(),
+        parse_scene(&scene.to_string()).unwrap(),
         &request,
         &RunControl::new(),
     )
@@ -344,8 +343,8 @@ fn worst_over_time_from_the_static_start_with_slip_rate_friction_uses_the_deriva
 /// and where it happens; a density in a static scene is refused naming the field.
 #[test]
 fn solve_reports_the_peaks_and_static_scenes_refuse_dynamic_data() {
-    let scene = parse(&bar("newmark").to_string()).unwrap();
-    let output = wsm_core::run::solve(scene, &Default::default()).expect("solve");
+    let scene = parse_scene(&bar("newmark").to_string()).unwrap();
+    let output = wsm_core::solve(scene, &Default::default()).expect("solve");
     let history = output.summary.history.expect("history");
     let peak = &history.criteria["phi4"];
     eprintln!(
@@ -360,11 +359,11 @@ fn solve_reports_the_peaks_and_static_scenes_refuse_dynamic_data() {
     assert_eq!(peak.region, "end");
 
     let mut static_scene: Value =
-        serde_json::from_str(wsm_core::bundled::find("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::find_example("block-on-base").unwrap()).unwrap();
     static_scene["materials"]["rock"]["density"] = json!(2500.0);
     static_scene["uncertain"][0] =
         json!({"field": "materials.rock.density", "interval": [2000.0, 3000.0]});
-    let error = parse(&static_scene.to_string()).map(|s| parameters(&s));
+    let error = parse_scene(&static_scene.to_string()).map(|s| scene_parameters(&s));
     let message = format!("{error:?}");
     assert!(
         message.contains("uncertain[0].field") && message.contains("dynamics"),
@@ -437,13 +436,13 @@ fn worst_of_a_monotone_dynamic_block_is_certified_at_its_vertices() {
 fn defined_gradient_check(scene: &Value) -> Vec<Row> {
     const DEFINED: usize = Criterion::Defined as usize;
     let p = problem(scene);
-    let params = parameters(&p.scene).expect("parameters");
+    let params = scene_parameters(&p.scene).expect("parameters");
     let theta: Vec<f64> = params.iter().map(|q| 0.5 * (q.lo + q.hi)).collect();
     let stencils: Vec<_> = (0..params.len())
-        .map(|i| stencil(&p.scene, &p.nominal, &params, &theta, i))
+        .map(|i| parameter_stencil(&p.scene, &p.nominal, &params, &theta, i))
         .collect();
     let at = |theta: &[f64], stencils: &[_]| {
-        let data = apply(&p.scene, &p.nominal, &params, theta);
+        let data = apply_parameters(&p.scene, &p.nominal, &params, theta);
         solve_over_time(&p, &data, &[Criterion::Defined], stencils).expect("dynamic run")
     };
     let solution = at(&theta, &stencils);
@@ -520,8 +519,8 @@ fn history_peak(velocity: &[[f64; 2]], times: &[f64]) -> (f64, f64) {
 #[test]
 fn peak_velocity_is_the_receiver_history_maximum() {
     for scheme in ["paper", "newmark"] {
-        let scene = parse(&bar_with_receiver(scheme).to_string()).expect("valid scene");
-        let output = wsm_core::run::solve(scene, &Default::default()).expect("solve");
+        let scene = parse_scene(&bar_with_receiver(scheme).to_string()).expect("valid scene");
+        let output = wsm_core::solve(scene, &Default::default()).expect("solve");
         let history = output.summary.history.expect("history");
         let receiver = &history.receivers["near_tip"];
         assert_eq!(receiver.velocity.len(), history.times.len());
@@ -550,7 +549,7 @@ fn defined_criteria_gradients_over_time_match_central_differences_without_contac
     for scheme in ["paper", "newmark"] {
         let scene = bar_with_receiver(scheme);
         let rows = defined_gradient_check(&scene);
-        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
         let scale = |name: &str| {
             let datum = name.split_once('/').map_or(name, |(_, d)| d);
             let q = params.iter().find(|q| q.name == datum).unwrap();
@@ -580,7 +579,7 @@ fn defined_criteria_gradients_over_time_match_central_differences_with_contact()
             {"name": "mid_pressure", "region": "mid", "quantity": "contact_pressure"}
         ]);
         let rows = defined_gradient_check(&scene);
-        let params = parameters(&parse(&scene.to_string()).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
         let scale = |name: &str| {
             let datum = name.split_once('/').map_or(name, |(_, d)| d);
             let q = params.iter().find(|q| q.name == datum).unwrap();
@@ -608,7 +607,7 @@ fn worst_peak_velocity_of_a_dynamic_block() {
         derivatives: Some(true),
         ..WorstRequest::default()
     };
-    let parsed = parse(&scene.to_string()).unwrap();
+    let parsed = parse_scene(&scene.to_string()).unwrap();
     let outcome = worst(parsed.clone(), &request, &RunControl::new()).expect("worst over time");
     let c = &outcome.criteria[0];
     eprintln!(
@@ -617,9 +616,9 @@ fn worst_peak_velocity_of_a_dynamic_block() {
         c.best.time, c.best.status, outcome.evaluations
     );
     let p = StateProblem::new(parsed).unwrap();
-    let params = parameters(&p.scene).unwrap();
+    let params = scene_parameters(&p.scene).unwrap();
     let corner = |theta: &[f64]| {
-        let data = apply(&p.scene, &p.nominal, &params, theta);
+        let data = apply_parameters(&p.scene, &p.nominal, &params, theta);
         solve_over_time(&p, &data, &[Criterion::Defined], &[])
             .expect("run")
             .region_values[Criterion::Defined as usize][0]

@@ -14,15 +14,15 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use serde_json::{json, Value};
-use wsm_core::error::WsmError;
-use wsm_core::run::{self, FaultSite, JsonLinesLog, LogMode, RunControl, Status, WorstRequest};
-use wsm_core::scene::{parse, Criterion, Scene, Warning, WarningKind};
+use wsm_core::{
+    parse_scene, Criterion, FaultSite, JsonLinesLog, LogMode, RunControl, Scene, Status, Warning,
+    WarningKind, WorstRequest, WsmError,
+};
 
 fn block() -> Scene {
-    let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     v["mesh"] = json!({ "max_size": 0.1 });
-    parse(&v.to_string()).unwrap()
+    parse_scene(&v.to_string()).unwrap()
 }
 
 fn request() -> WorstRequest {
@@ -66,7 +66,7 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
     let path = temp("failed.jsonl");
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Create));
     let control = fault_above(&scene, 1, 0.75).with_log(log.clone());
-    let outcome = run::worst(scene.clone(), &request(), &control).unwrap();
+    let outcome = wsm_core::worst(scene.clone(), &request(), &control).unwrap();
 
     let failures = &outcome.failures;
     assert!(failures.count > 0, "{failures:?}");
@@ -108,7 +108,7 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
     assert_eq!(failed.len(), failures.count);
     assert!(failed.iter().all(|e| e.values.is_none()));
     let mut table = Vec::new();
-    run::write_csv(
+    wsm_core::write_csv(
         &mut table,
         "memory",
         &outcome.parameters,
@@ -125,7 +125,7 @@ fn failures_are_listed_warned_about_logged_tabled_and_replayed() {
 
     // A resumed run replays the failures (no fault now: they are not recomputed).
     let log = Arc::new(JsonLinesLog::new(&path, LogMode::Resume));
-    let resumed = run::worst(scene, &request(), &RunControl::new().with_log(log)).unwrap();
+    let resumed = wsm_core::worst(scene, &request(), &RunControl::new().with_log(log)).unwrap();
     assert_eq!(resumed.new_evaluations, 0);
     assert_eq!(resumed.failures, outcome.failures);
     assert_eq!(resumed.criteria, outcome.criteria);
@@ -143,7 +143,7 @@ fn a_run_where_most_evaluations_fail_ends_with_the_first_error() {
         });
         ((bits >> 32) % 10 < 7).then(|| "injected failure".to_string())
     }));
-    match run::worst(block(), &request(), &control) {
+    match wsm_core::worst(block(), &request(), &control) {
         Err(WsmError::EvaluationsFailed {
             failed,
             evaluations,
@@ -157,7 +157,7 @@ fn a_run_where_most_evaluations_fail_ends_with_the_first_error() {
 }
 
 /// The extremum of `outcome` that `[worst, best][side]` of criterion `k` names: its point.
-fn extremum_point(outcome: &run::WorstOutcome, k: usize, side: usize) -> Vec<f64> {
+fn extremum_point(outcome: &wsm_core::WorstOutcome, k: usize, side: usize) -> Vec<f64> {
     outcome.extrema()[k][side].clone().unwrap().1
 }
 
@@ -179,13 +179,13 @@ fn failed_refined_solves_are_warned_about_and_leave_the_statement_incomplete() {
         }
         _ => None,
     }));
-    let plain = run::worst(scene.clone(), &request, &RunControl::new()).unwrap();
-    let faulty = run::worst(scene, &request, &fault).unwrap();
+    let plain = wsm_core::worst(scene.clone(), &request, &RunControl::new()).unwrap();
+    let faulty = wsm_core::worst(scene, &request, &fault).unwrap();
     assert_eq!(faulty.criteria, plain.criteria, "the search is untouched");
     let (a, p) = (faulty.accuracy.clone().unwrap(), plain.accuracy.unwrap());
     assert!(p.complete && p.failures.is_empty(), "{p:#?}");
     assert!(!a.complete);
-    let sizes = |meshes: &[run::StatementMesh]| -> Vec<(usize, usize)> {
+    let sizes = |meshes: &[wsm_core::StatementMesh]| -> Vec<(usize, usize)> {
         meshes.iter().map(|m| (m.unknowns, m.triangles)).collect()
     };
     assert_eq!(
@@ -311,7 +311,7 @@ fn a_target_error_run_goes_on_past_a_ladder_mesh_that_fails() {
         target_error: Some(0.02),
         ..request()
     };
-    let outcome = run::worst(block(), &request, &fault).unwrap();
+    let outcome = wsm_core::worst(block(), &request, &fault).unwrap();
     let choice = outcome.mesh_choice.as_ref().unwrap();
     let failed = &choice.candidates[1];
     assert_eq!(failed.size_factor, 2.0);

@@ -7,14 +7,13 @@
 //! an independent vertex screening, and an extremum never says its rule was met without the rule's
 //! conditions.
 
-use wsm_core::run::{self, RunControl, WorstOutcome, WorstRequest};
-use wsm_core::scenario::evaluator::ScenarioEvaluator;
-use wsm_core::scene::params::{parameters, Parameter};
-use wsm_core::scene::{parse, Scene};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    parse_scene, scene_parameters, Parameter, RunControl, ScenarioEvaluator, Scene, StateProblem,
+    WorstOutcome, WorstRequest,
+};
 
 fn dam() -> Scene {
-    parse(include_str!(concat!(
+    parse_scene(include_str!(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../tests/data/dam-coulomb-3data.json"
     )))
@@ -27,7 +26,7 @@ fn worst(scene: Scene) -> WorstOutcome {
         accuracy_refinements: Some(0),
         ..WorstRequest::default()
     };
-    run::worst(scene, &request, &RunControl::new()).unwrap()
+    wsm_core::worst(scene, &request, &RunControl::new()).unwrap()
 }
 
 /// Every vertex of the box, then `random` points from the shared seeded generator.
@@ -58,7 +57,7 @@ fn points(params: &[Parameter], random: usize) -> Vec<Vec<f64>> {
 /// Every extremum of `outcome` is at least as extreme (to 1e-9 relative) as the criteria at
 /// `points`, solved independently of the search.
 fn assert_beats(scene: &Scene, outcome: &WorstOutcome, points: &[Vec<f64>]) {
-    let params = parameters(scene).unwrap();
+    let params = scene_parameters(scene).unwrap();
     let problem = StateProblem::new(scene.clone()).unwrap();
     let criteria: Vec<_> = outcome
         .criteria
@@ -118,7 +117,7 @@ fn the_dam_reports_the_better_of_two_maxima_and_beats_vertices_and_random_points
     let scene = dam();
     let outcome = worst(scene.clone());
     assert!(outcome.evaluations <= 200);
-    let params = parameters(&scene).unwrap();
+    let params = scene_parameters(&scene).unwrap();
     assert_beats(&scene, &outcome, &points(&params, 300));
     assert_rules_honest(&outcome);
     let phi5 = outcome
@@ -160,9 +159,9 @@ fn small_bundled_examples_beat_an_independent_vertex_screening() {
         "knee",
         "knee-cut-3",
     ] {
-        let scene = parse(wsm_core::bundled::find(name).unwrap()).unwrap();
+        let scene = parse_scene(wsm_core::find_example(name).unwrap()).unwrap();
         let outcome = worst(scene.clone());
-        let params = parameters(&scene).unwrap();
+        let params = scene_parameters(&scene).unwrap();
         assert_beats(&scene, &outcome, &points(&params, 0));
         assert_rules_honest(&outcome);
         let json = serde_json::to_string(&outcome).unwrap();

@@ -6,26 +6,26 @@
 //! certifies the level's extremum, and the refusals of bad hydrostatic and linked data.
 
 use serde_json::{json, Value};
-use wsm_core::run::{self, RunControl, Status, WorstRequest};
-use wsm_core::scenario::evaluator::ScenarioEvaluator;
-use wsm_core::scene::params::{apply, parameters, stencil, Parameter};
-use wsm_core::scene::{parse, BoundaryValue, Criterion, CriterionSpec, Data, Scene};
-use wsm_core::state::{Needs, PerCriterion, SolveOptions, StateProblem};
+use wsm_core::{
+    apply_parameters, parameter_stencil, parse_scene, scene_parameters, BoundaryValue, Criterion,
+    CriterionSpec, Data, Needs, Parameter, PerCriterion, RunControl, ScenarioEvaluator, Scene,
+    SolveOptions, StateProblem, Status, WorstRequest,
+};
 
 const GAMMA: f64 = 9810.0;
 
 fn dam() -> Value {
-    serde_json::from_str(wsm_core::bundled::example("dam-water-level").unwrap()).unwrap()
+    serde_json::from_str(wsm_core::example("dam-water-level").unwrap()).unwrap()
 }
 
 fn scene(v: &Value) -> Scene {
-    parse(&v.to_string()).unwrap()
+    parse_scene(&v.to_string()).unwrap()
 }
 
 fn options(problem: &StateProblem) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
@@ -87,9 +87,9 @@ fn face_pressure_and_uplift_resultants_match_a_hand_calculation() {
         index(&v, "uplift_dam"),
         index(&v, "uplift_rock"),
     );
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     for level in [20.0, 23.37, 26.0, 27.913, 28.0] {
-        let data = apply(
+        let data = apply_parameters(
             &problem.scene,
             &problem.nominal,
             &params,
@@ -144,11 +144,11 @@ fn the_level_derivative_of_the_load_is_exact() {
     let v = dam();
     let problem = StateProblem::new(scene(&v)).unwrap();
     let face = index(&v, "face");
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let nominal = only(&problem.nominal, face);
     for level in [20.0, 22.5, 24.0, 25.123, 28.0] {
         let theta = [level, 4.0e5, 1e10];
-        let s = stencil(&problem.scene, &nominal, &params, &theta, 0);
+        let s = parameter_stencil(&problem.scene, &nominal, &params, &theta, 0);
         let mut derivative = [0.0; 4];
         for (_, w, d) in &s.points {
             let r = resultant(
@@ -191,9 +191,9 @@ fn sensitivities_at(
     params: &[Parameter],
     theta: &[f64],
 ) -> (Vec<PerCriterion<Option<f64>>>, PerCriterion<Option<f64>>) {
-    let data = apply(&problem.scene, &problem.nominal, params, theta);
+    let data = apply_parameters(&problem.scene, &problem.nominal, params, theta);
     let stencils: Vec<_> = (0..params.len())
-        .map(|j| stencil(&problem.scene, &problem.nominal, params, theta, j))
+        .map(|j| parameter_stencil(&problem.scene, &problem.nominal, params, theta, j))
         .collect();
     let solution = problem
         .solve_with_sensitivities(&data, &options(problem), &stencils)
@@ -217,10 +217,10 @@ fn a_linked_datum_derivative_is_the_factored_sum_of_its_fields() {
     let up_dam = index(&v, "uplift_dam");
     v["boundary"][up_dam]["hydrostatic"]["level"] = json!(13.0);
     let linked = StateProblem::new(scene(&v)).unwrap();
-    let p_linked = parameters(&linked.scene).unwrap();
+    let p_linked = scene_parameters(&linked.scene).unwrap();
     assert_eq!(p_linked.len(), 3);
     let separate = StateProblem::new(scene(&unlinked(&v))).unwrap();
-    let p_separate = parameters(&separate.scene).unwrap();
+    let p_separate = scene_parameters(&separate.scene).unwrap();
     assert_eq!(p_separate.len(), 6);
     let theta = [25.37, 4.1e5, 8e9];
     let spread = [25.37, 25.37, 0.5 * 25.37, 25.37, 4.1e5, 8e9];
@@ -247,7 +247,7 @@ fn a_linked_datum_derivative_is_the_factored_sum_of_its_fields() {
                 let at = |t: f64| {
                     let mut moved = theta.to_vec();
                     moved[j] += t;
-                    let data = apply(&linked.scene, &linked.nominal, &p_linked, &moved);
+                    let data = apply_parameters(&linked.scene, &linked.nominal, &p_linked, &moved);
                     linked.solve(&data, &options(&linked)).unwrap().criteria[i].unwrap()
                 };
                 (at(h) - at(-h)) / (2.0 * h)
@@ -280,7 +280,7 @@ fn the_worst_water_level_is_certified() {
         accuracy_refinements: Some(0),
         ..WorstRequest::default()
     };
-    let outcome = run::worst(scene(&v), &request, &RunControl::new()).unwrap();
+    let outcome = wsm_core::worst(scene(&v), &request, &RunControl::new()).unwrap();
     let phi3 = &outcome.criteria[0];
     let worst = &phi3.worst;
     let point = worst.point.as_deref().unwrap();
@@ -294,7 +294,7 @@ fn the_worst_water_level_is_certified() {
     assert!(worst.global.rule_met, "{:?}", worst.global);
     assert_eq!(worst.global.vertices_screened, 8);
     let problem = StateProblem::new(scene(&v)).unwrap();
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let vertices: Vec<Vec<f64>> = (0..8usize)
         .map(|mask| {
             params
@@ -323,8 +323,8 @@ fn the_worst_water_level_is_certified() {
 /// An edit of the scene document.
 type Edit = Box<dyn Fn(&mut Value)>;
 
-fn refusal(v: &Value) -> wsm_core::scene::SceneError {
-    let scene = parse(&v.to_string()).and_then(|s| parameters(&s).map(|_| s));
+fn refusal(v: &Value) -> wsm_core::SceneError {
+    let scene = parse_scene(&v.to_string()).and_then(|s| scene_parameters(&s).map(|_| s));
     scene.expect_err("refused")
 }
 

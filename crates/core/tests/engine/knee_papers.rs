@@ -8,11 +8,10 @@
 
 use crate::solves;
 
-use wsm_core::scene::SolverKind;
-use wsm_core::state::{Solution, SolverUsed, StateProblem};
+use wsm_core::{Solution, SolverKind, SolverUsed, StateProblem};
 
 fn solve(name: &str, kind: SolverKind) -> (StateProblem, Solution) {
-    let scene = serde_json::from_str(wsm_core::bundled::find(name).unwrap()).unwrap();
+    let scene = serde_json::from_str(wsm_core::find_example(name).unwrap()).unwrap();
     solves::solve(&scene, kind)
 }
 

@@ -11,10 +11,9 @@ use std::f64::consts::{FRAC_PI_2, PI};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use serde_json::{json, Value};
-use wsm_core::fem::Par;
-use wsm_core::mesh::{generate, stats, Mesh};
-use wsm_core::scene::{validate, Scene};
-use wsm_core::state::{Needs, SolveOptions, StateProblem};
+use wsm_core::{
+    generate_mesh, mesh_stats, validate_scene, Mesh, Needs, Par, Scene, SolveOptions, StateProblem,
+};
 
 type P = [f64; 2];
 
@@ -81,7 +80,7 @@ fn check(name: &str, mesh: &Mesh, domain_area: f64, min_angle: Option<f64>) {
         "{name}: area {total} vs {domain_area}"
     );
     if let Some(limit) = min_angle {
-        let s = stats(mesh);
+        let s = mesh_stats(mesh);
         assert!(
             s.min_angle_deg >= limit - 1e-6,
             "{name}: min angle {}",
@@ -91,7 +90,7 @@ fn check(name: &str, mesh: &Mesh, domain_area: f64, min_angle: Option<f64>) {
 }
 
 fn mesh_ok(name: &str, sc: &Scene) -> Mesh {
-    match generate(sc) {
+    match generate_mesh(sc) {
         Ok(m) => m,
         Err(e) => panic!("{name}: {e}"),
     }
@@ -133,7 +132,7 @@ fn quarter_cylinder(a: f64, b: f64, n: usize, h: f64, exact_ends: bool) -> Value
 fn solve_cylinder(a: f64, b: f64, n: usize, h: f64, exact_ends: bool) -> f64 {
     let text = quarter_cylinder(a, b, n, h, exact_ends).to_string();
     let sc: Scene = serde_json::from_str(&text).expect("scene parses");
-    validate(&sc).expect("scene is valid");
+    validate_scene(&sc).expect("scene is valid");
     let name = format!("quarter cylinder {a}/{b}, {n}-point arcs, h {h}");
     let problem = StateProblem::new(sc).unwrap_or_else(|e| panic!("{name}: {e}"));
     let mesh = problem.mesh().clone();
@@ -166,7 +165,7 @@ fn solve_cylinder(a: f64, b: f64, n: usize, h: f64, exact_ends: bool) -> f64 {
     println!(
         "{name}: {} triangles, min angle {:.2}°, Lamé u_r error {:.2e}",
         mesh.triangles.len(),
-        stats(&mesh).min_angle_deg,
+        mesh_stats(&mesh).min_angle_deg,
         worst
     );
     worst
@@ -331,7 +330,7 @@ fn thin_bodies_and_near_coincident_points() {
         json!({}),
         json!({ "max_size": 0.2 }),
     );
-    let e = generate(&sc).expect_err("near-coincident points are refused");
+    let e = generate_mesh(&sc).expect_err("near-coincident points are refused");
     assert_eq!(e.path, "bodies[0].zones[0].polygon", "{e}");
     assert!(
         e.reason.contains("(1, 0.00000001)") || e.reason.contains("(1, 0)"),
@@ -456,7 +455,7 @@ fn random_simple_polygons() {
             json!({}),
             json!({ "max_size": rel * size }),
         );
-        let m = generate(&sc).map_err(|e| TestCaseError::fail(format!("{poly:?}: {e}")))?;
+        let m = generate_mesh(&sc).map_err(|e| TestCaseError::fail(format!("{poly:?}: {e}")))?;
         check("random polygon", &m, area(&poly), None);
         count.set(count.get() + 1);
         Ok(())

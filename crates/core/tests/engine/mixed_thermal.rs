@@ -9,13 +9,11 @@ use crate::solves;
 
 use serde_json::{json, Value};
 use solves::{bc, data, material, relative_difference, solve};
-use wsm_core::fem::{ElasticProblem, Par};
-use wsm_core::fixtures::{perturb_interior, rectangle};
-use wsm_core::scene::params::{apply, parameters, stencil};
-use wsm_core::scene::{
-    parse, BoundaryValue, Criterion, Data, Elastic, Element, Expansion, SolverKind,
+use wsm_core::{
+    apply_parameters, fixtures::perturb_interior, fixtures::rectangle, parameter_stencil,
+    parse_scene, scene_parameters, BoundaryValue, Criterion, Data, DerivativeRoute, Elastic,
+    ElasticProblem, Element, Expansion, Needs, Par, SolveOptions, SolverKind, StateProblem,
 };
-use wsm_core::state::{DerivativeRoute, Needs, SolveOptions, StateProblem};
 
 const ELEMENTS: [Element; 2] = [Element::P1, Element::Mixed];
 
@@ -27,7 +25,7 @@ const PLATE: (f64, f64, f64, f64) = (200e9, 1.2e-5, 293.0, 50.0);
 fn plate(
     nu: f64,
     element: Element,
-    boundary: &dyn Fn(&wsm_core::mesh::Mesh) -> Vec<wsm_core::scene::BoundaryData>,
+    boundary: &dyn Fn(&wsm_core::Mesh) -> Vec<wsm_core::BoundaryData>,
 ) -> (ElasticProblem, Data, Vec<f64>) {
     let (e, alpha, t0, dt) = PLATE;
     let mut mesh = rectangle(0.0, 0.0, 2.0, 1.0, 8, 5);
@@ -47,7 +45,7 @@ fn plate(
 #[test]
 fn free_plate_expands_stress_free_on_both_elements() {
     let (e, alpha, _, dt) = PLATE;
-    let rollers = |mesh: &wsm_core::mesh::Mesh| {
+    let rollers = |mesh: &wsm_core::Mesh| {
         vec![
             bc(mesh, "left", BoundaryValue::Roller(Some([1.0, 0.0]))),
             bc(mesh, "bottom", BoundaryValue::Roller(Some([0.0, 1.0]))),
@@ -107,7 +105,7 @@ fn free_plate_expands_stress_free_on_both_elements() {
 #[test]
 fn clamped_plate_carries_the_full_thermal_stress_on_both_elements() {
     let (e, alpha, _, dt) = PLATE;
-    let clamped = |mesh: &wsm_core::mesh::Mesh| {
+    let clamped = |mesh: &wsm_core::Mesh| {
         ["bottom", "left", "right", "top"]
             .iter()
             .map(|s| bc(mesh, s, BoundaryValue::Displacement([Some(0.0), Some(0.0)])))
@@ -205,11 +203,10 @@ impl ThermalCylinder {
 /// [`ThermalCylinder`] (T_a = 100 K, α = 1.2e-5) on `element`: (max nodal |u_r error| / max u_r,
 /// max over ten rings of the area-weighted mean |σθθ error| / max |σθθ|).
 fn thermal_cylinder_errors(nu: f64, element: &str) -> [f64; 2] {
-    let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::example("thick-cylinder").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("thick-cylinder").unwrap()).unwrap();
     v["materials"]["steel"]["nu"] = json!(nu);
     v["mesh"]["element"] = json!(element);
-    let problem = StateProblem::new(parse(&v.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&v.to_string()).unwrap()).unwrap();
     let cyl = ThermalCylinder {
         a: 0.1,
         b: 0.2,
@@ -297,7 +294,7 @@ fn thermal_cylinder_mixed_matches_the_analytic_solution_where_p1_locks() {
 
 fn thermo_contact(element: &str) -> Value {
     let mut v: Value =
-        serde_json::from_str(wsm_core::bundled::find("thermo-contact-fault").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::find_example("thermo-contact-fault").unwrap()).unwrap();
     v["mesh"]["element"] = json!(element);
     v
 }
@@ -310,7 +307,7 @@ fn thermo_elastic_contact_solves_on_the_mixed_element() {
     let (_, p1) = solve(&thermo_contact("p1"), SolverKind::Direct);
     let (problem, mixed) = solve(&thermo_contact("mixed"), SolverKind::Direct);
     let difference = relative_difference(&p1, &mixed);
-    let resultant = |s: &wsm_core::state::Solution| {
+    let resultant = |s: &wsm_core::Solution| {
         s.contact
             .iter()
             .zip(&problem.contact.geometry.pairs)
@@ -350,7 +347,7 @@ fn coarse_thermo_contact_mixed(edit: impl Fn(&mut Value)) -> StateProblem {
         "name": "p", "field": "boundary[top left].pressure", "interval": [4e6, 6e6]
     }));
     edit(&mut v);
-    StateProblem::new(parse(&v.to_string()).unwrap()).unwrap()
+    StateProblem::new(parse_scene(&v.to_string()).unwrap()).unwrap()
 }
 
 /// The exact derivatives of the criteria of `problem` at an interior point of its box: every
@@ -359,11 +356,11 @@ fn coarse_thermo_contact_mixed(edit: impl Fn(&mut Value)) -> StateProblem {
 /// step h agreeing with the one of step h/2); some Φ is compared along each datum of `along`
 /// and Φ3–Φ6 are computed.
 fn check_derivatives(label: &str, problem: &StateProblem, along: &[&str]) {
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let theta: Vec<f64> = params.iter().map(|p| p.lo + 0.37 * (p.hi - p.lo)).collect();
-    let d = apply(&problem.scene, &problem.nominal, &params, &theta);
+    let d = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
     let stencils: Vec<_> = (0..params.len())
-        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+        .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
         .collect();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
@@ -386,7 +383,7 @@ fn check_derivatives(label: &str, problem: &StateProblem, along: &[&str]) {
     let criteria_at = |j: usize, h: f64| {
         let mut at = theta.clone();
         at[j] += h;
-        let data = apply(&problem.scene, &problem.nominal, &params, &at);
+        let data = apply_parameters(&problem.scene, &problem.nominal, &params, &at);
         problem.solve(&data, &options).unwrap().criteria
     };
     let (mut compared, mut worst, mut worst_routes, mut kinks) = (0, 0.0_f64, 0.0_f64, 0);

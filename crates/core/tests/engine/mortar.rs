@@ -11,13 +11,15 @@ use crate::solves;
 use std::time::Instant;
 
 use serde_json::{json, Value};
-use wsm_core::scene::{parse, Coupling, Scene, SolverKind};
-use wsm_core::state::{ContactState, Needs, Solution, SolveOptions, StateProblem};
+use wsm_core::{
+    parse_scene, ContactState, Coupling, Needs, Scene, Solution, SolveOptions, SolverKind,
+    StateProblem,
+};
 
 fn options(scene: &Scene) -> SolveOptions {
     SolveOptions {
         needs: Needs::all(scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     }
 }
@@ -31,7 +33,7 @@ fn solve_scene(scene: Scene) -> Result<(StateProblem, Solution), String> {
 }
 
 fn solve_value(v: &Value) -> Result<(StateProblem, Solution), String> {
-    solve_scene(parse(&v.to_string()).map_err(|e| e.to_string())?)
+    solve_scene(parse_scene(&v.to_string()).map_err(|e| e.to_string())?)
 }
 
 fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
@@ -40,7 +42,7 @@ fn max_abs(v: impl Iterator<Item = f64>) -> f64 {
 
 /// The scene's generated mesh given inline, so that a second coupling meets the same nodes.
 fn with_own_mesh_inline(scene: &Scene) -> Scene {
-    let mesh = wsm_core::mesh::generate(scene).unwrap();
+    let mesh = wsm_core::generate_mesh(scene).unwrap();
     let mut out = scene.clone();
     out.mesh.inline = Some(mesh.to_inline());
     // Larger than a posted inline mesh may be (10,000 nodes), so not through `parse` again.
@@ -50,8 +52,8 @@ fn with_own_mesh_inline(scene: &Scene) -> Scene {
 #[test]
 fn matching_meshes_give_the_node_pair_results_on_every_bundled_contact_example() {
     let mut compared = 0;
-    for name in wsm_core::bundled::names() {
-        let mut scene = parse(wsm_core::bundled::example(name).unwrap()).unwrap();
+    for name in wsm_core::example_names() {
+        let mut scene = parse_scene(wsm_core::example(name).unwrap()).unwrap();
         if scene.contacts.is_empty()
             || scene
                 .contacts
@@ -226,7 +228,7 @@ fn tresca_block_sticks_below_and_is_refused_above_the_capacity_on_non_matching_m
 /// The bundled Hertz scene with the bodies meshed on their own: the cylinder's contact side at
 /// `cylinder` and the flat's at `flat`.
 fn hertz_non_matching(cylinder: f64, flat: f64) -> Value {
-    let mut v: Value = serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    let mut v: Value = serde_json::from_str(wsm_core::example("hertz").unwrap()).unwrap();
     v["contacts"][0]["coupling"] = json!("mortar");
     v["mesh"]["refine"] = json!([
         {"segments": ["cylinder_contact"], "max_size": cylinder},
@@ -317,7 +319,7 @@ fn bad_mortar_zones_are_refused_in_milliseconds_naming_the_field() {
     ];
     for (v, path, words) in cases {
         let start = Instant::now();
-        let err = parse(&v.to_string())
+        let err = parse_scene(&v.to_string())
             .map_err(|e| e.to_string())
             .and_then(|s| StateProblem::new(s).map(|_| ()).map_err(|e| e.to_string()))
             .expect_err("must be refused");
@@ -359,7 +361,7 @@ fn a_gmsh_mesh_with_the_bodies_meshed_on_their_own_is_coupled_by_mortar() {
     let zone = &mesh.contacts[0];
     assert_eq!(mesh.segments[zone.segment_k].name, "block_contact");
     assert_eq!(zone.pairs.len(), 22, "every block node has a row");
-    let resultant = |f: fn(&wsm_core::state::ContactNode) -> f64| -> f64 {
+    let resultant = |f: fn(&wsm_core::ContactNode) -> f64| -> f64 {
         sol.contact
             .iter()
             .zip(&problem.contact.geometry.pairs)

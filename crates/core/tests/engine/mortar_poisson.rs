@@ -14,9 +14,7 @@
 use std::f64::consts::PI;
 
 use serde_json::{json, Value};
-use wsm_core::fem::{HeatProblem, Par};
-use wsm_core::mesh::Mesh;
-use wsm_core::scene::{parse, Coupling, Data, Scene};
+use wsm_core::{parse_scene, Coupling, Data, HeatProblem, Mesh, Par, Scene};
 
 /// A unit material (κ = 1, source `source`); the elastic constants are not used.
 fn material(source: f64) -> Value {
@@ -25,7 +23,7 @@ fn material(source: f64) -> Value {
 
 /// The mesh and heat problem of a scene.
 fn heat(scene: &Scene) -> (Mesh, HeatProblem) {
-    let mesh = wsm_core::mesh::generate(scene).unwrap();
+    let mesh = wsm_core::generate_mesh(scene).unwrap();
     let problem = HeatProblem::from_scene(&mesh, scene).unwrap();
     (mesh, problem)
 }
@@ -193,7 +191,7 @@ fn interface_nodes(mesh: &Mesh) -> (usize, usize) {
 #[test]
 fn a_linear_temperature_passes_a_non_matching_interface_exactly() {
     for insulated in [false, true] {
-        let scene = parse(&split_square(0.1, 2.7, insulated).to_string()).unwrap();
+        let scene = parse_scene(&split_square(0.1, 2.7, insulated).to_string()).unwrap();
         let (mesh, problem) = heat(&scene);
         let (ns, nm) = interface_nodes(&mesh);
         // Insulated sides: ∂u/∂x = 0 there, so u depends on y only.
@@ -219,8 +217,8 @@ fn matching_meshes_give_the_node_pair_temperatures() {
     v["boundary"][1]["temperature"] = json!(2.0);
     v["contacts"][0]["coupling"] = json!("nodes");
     v["contacts"][0].as_object_mut().unwrap().remove("slave");
-    let nodes = parse(&v.to_string()).unwrap();
-    let mesh = wsm_core::mesh::generate(&nodes).unwrap();
+    let nodes = parse_scene(&v.to_string()).unwrap();
+    let mesh = wsm_core::generate_mesh(&nodes).unwrap();
     let mut inline = nodes.clone();
     inline.mesh.inline = Some(mesh.to_inline());
     let mut mortar = inline.clone();
@@ -255,7 +253,7 @@ fn manufactured_heat_converges_at_h2_in_l2_and_h_in_energy_across_a_non_matching
     let hs = [0.1, 0.05, 0.025, 0.0125];
     let (mut l2, mut h1) = (Vec::new(), Vec::new());
     for &h in &hs {
-        let scene = parse(&split_square(h, 2.7, false).to_string()).unwrap();
+        let scene = parse_scene(&split_square(h, 2.7, false).to_string()).unwrap();
         let (mesh, problem) = heat(&scene);
         let u = solve_with(&mesh, &problem, &scene, f, exact);
         let (a, b) = errors(&mesh, &u, exact, gradient);
@@ -372,7 +370,7 @@ fn annulus_data(p: [f64; 2]) -> f64 {
 /// (r, π/2), r = 0.6, 0.75, 0.9, the root mean square over those radii at φ = π/2, 3π/4, …, 7π/4
 /// (every sector but the jump's), and the number of nodes.
 fn annulus_errors(sizes: [f64; 4]) -> (f64, f64, usize) {
-    let scene = parse(&annulus(sizes, 128).to_string()).unwrap();
+    let scene = parse_scene(&annulus(sizes, 128).to_string()).unwrap();
     let (mesh, problem) = heat(&scene);
     let u = solve_with(&mesh, &problem, &scene, |_| 0.0, annulus_data);
     let (mut paper_worst, mut squares, mut count) = (0.0f64, 0.0, 0);
@@ -479,7 +477,7 @@ fn example_23(subdomains: bool, h: f64) -> Value {
 #[test]
 fn example_23_matches_a_fine_conforming_solution() {
     let solve_23 = |subdomains: bool, h: f64| {
-        let scene = parse(&example_23(subdomains, h).to_string()).unwrap();
+        let scene = parse_scene(&example_23(subdomains, h).to_string()).unwrap();
         let (mesh, problem) = heat(&scene);
         let u = solve(&scene, &problem);
         (mesh, u)

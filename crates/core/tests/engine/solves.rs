@@ -6,21 +6,20 @@
 #![allow(dead_code)] // each test binary uses its own subset
 
 use serde_json::{json, Value};
-use wsm_core::mesh::Mesh;
-use wsm_core::scene::{
-    parse, BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, SolverKind,
+use wsm_core::{
+    parse_scene, BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, Mesh, Needs,
+    Solution, SolveOptions, SolverKind, StateProblem,
 };
-use wsm_core::state::{Needs, Solution, SolveOptions, StateProblem};
 
 /// Solve `scene` at its nominal data with `kind` (DD tolerance 1e-12), sequentially.
 pub fn solve(scene: &Value, kind: SolverKind) -> (StateProblem, Solution) {
-    let mut scene = parse(&scene.to_string()).unwrap();
+    let mut scene = parse_scene(&scene.to_string()).unwrap();
     scene.solver.kind = kind;
     scene.solver.tolerance = 1e-12;
     let problem = StateProblem::new(scene).unwrap();
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();

@@ -6,12 +6,13 @@
 use crate::solves;
 
 use serde_json::Value;
-use wsm_core::scene::params::{parameters, stencil};
-use wsm_core::scene::{parse, ContactMethod, SolverKind};
-use wsm_core::state::{Needs, Solution, SolveOptions, SolverUsed, StateProblem};
+use wsm_core::{
+    parameter_stencil, parse_scene, scene_parameters, ContactMethod, Needs, Solution, SolveOptions,
+    SolverKind, SolverUsed, StateProblem,
+};
 
 fn solve_with(text: &str, method: ContactMethod) -> Result<Solution, String> {
-    let mut scene = parse(text).map_err(|e| e.to_string())?;
+    let mut scene = parse_scene(text).map_err(|e| e.to_string())?;
     scene.solver.kind = SolverKind::Direct;
     scene.solver.contact = method;
     let problem = StateProblem::new(scene).map_err(|e| e.to_string())?;
@@ -22,7 +23,7 @@ fn solve_with(text: &str, method: ContactMethod) -> Result<Solution, String> {
     );
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     problem
@@ -66,8 +67,8 @@ fn sparse_path_equals_dense_on_bundled_examples() {
         env!("CARGO_MANIFEST_DIR"),
         "/../../tests/data/dam-coulomb-3data.json"
     ));
-    let cases = wsm_core::bundled::names()
-        .map(|name| (name, wsm_core::bundled::example(name).unwrap()))
+    let cases = wsm_core::example_names()
+        .map(|name| (name, wsm_core::example(name).unwrap()))
         .chain([("dam (Coulomb joint, tests/data)", dam)]);
     for (name, text) in cases {
         let value: Value = serde_json::from_str(text).unwrap();
@@ -112,20 +113,19 @@ fn sparse_path_equals_dense_on_bundled_examples() {
 /// pressure within 3 % of Hertz's, and exact derivatives given (by the forward tangent).
 #[test]
 fn many_pairs_take_the_sparse_path_and_meet_hertz() {
-    let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("hertz").unwrap()).unwrap();
+    let mut scene: Value = serde_json::from_str(wsm_core::example("hertz").unwrap()).unwrap();
     let h = 7.2e-4;
     scene["mesh"] = serde_json::json!({
         "max_size": 0.25,
         "refine": [{"polygon": [[-0.3, -2.0 * h], [0.3, -2.0 * h], [0.3, 2.0 * h], [-0.3, 2.0 * h]], "max_size": h}]
     });
-    let problem = StateProblem::new(parse(&scene.to_string()).unwrap()).unwrap();
+    let problem = StateProblem::new(parse_scene(&scene.to_string()).unwrap()).unwrap();
     let pairs = &problem.contact.geometry.pairs;
     assert!(pairs.len() >= 1500, "{} pairs", pairs.len());
     assert!(problem.contact.is_sparse(), "auto takes the sparse path");
     let options = SolveOptions {
         needs: Needs::all(&problem.scene),
-        par: wsm_core::fem::Par::Seq,
+        par: wsm_core::Par::Seq,
         warm: None,
     };
     let sol = problem.solve(&problem.nominal, &options).unwrap();
@@ -146,10 +146,10 @@ fn many_pairs_take_the_sparse_path_and_meet_hertz() {
     );
     assert!((a - a_exact).abs() < 0.03 * a_exact, "a = {a}");
     assert!((p0 - p0_exact).abs() < 0.03 * p0_exact, "p0 = {p0}");
-    let params = parameters(&problem.scene).unwrap();
+    let params = scene_parameters(&problem.scene).unwrap();
     let theta: Vec<f64> = params.iter().map(|p| 0.5 * (p.lo + p.hi)).collect();
     let stencils: Vec<_> = (0..params.len())
-        .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+        .map(|j| parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j))
         .collect();
     assert!(!stencils.is_empty());
     let with = problem
@@ -172,10 +172,10 @@ fn many_pairs_take_the_sparse_path_and_meet_hertz() {
 /// criterion, left and right; Coulomb states have none on the sparse path and say so.
 #[test]
 fn sparse_derivatives_equal_dense_ones() {
-    use wsm_core::scene::params::apply;
+    use wsm_core::apply_parameters;
     let mut compared = 0;
-    for name in wsm_core::bundled::names() {
-        let text = wsm_core::bundled::example(name).unwrap();
+    for name in wsm_core::example_names() {
+        let text = wsm_core::example(name).unwrap();
         let value: Value = serde_json::from_str(text).unwrap();
         if value["contacts"].as_array().is_none_or(|c| c.is_empty())
             || value["uncertain"].as_array().is_none_or(|u| u.is_empty())
@@ -183,7 +183,7 @@ fn sparse_derivatives_equal_dense_ones() {
             continue;
         }
         let build = |method: ContactMethod| {
-            let mut scene = parse(text).unwrap();
+            let mut scene = parse_scene(text).unwrap();
             scene.solver.kind = SolverKind::Direct;
             scene.solver.contact = method;
             StateProblem::new(scene).map_err(|e| e.to_string())
@@ -199,7 +199,7 @@ fn sparse_derivatives_equal_dense_ones() {
             Err(e) => panic!("{name}: {e}"),
         };
         let coulomb = dense.nominal.has_coulomb();
-        let params = parameters(&dense.scene).unwrap();
+        let params = scene_parameters(&dense.scene).unwrap();
         for vertex in [false, true] {
             let theta: Vec<f64> = params
                 .iter()
@@ -211,13 +211,15 @@ fn sparse_derivatives_equal_dense_ones() {
                 })
                 .collect();
             let derivatives = |problem: &StateProblem| {
-                let data = apply(&problem.scene, &problem.nominal, &params, &theta);
+                let data = apply_parameters(&problem.scene, &problem.nominal, &params, &theta);
                 let stencils: Vec<_> = (0..params.len())
-                    .map(|j| stencil(&problem.scene, &problem.nominal, &params, &theta, j))
+                    .map(|j| {
+                        parameter_stencil(&problem.scene, &problem.nominal, &params, &theta, j)
+                    })
                     .collect();
                 let options = SolveOptions {
                     needs: Needs::all(&problem.scene),
-                    par: wsm_core::fem::Par::Seq,
+                    par: wsm_core::Par::Seq,
                     warm: None,
                 };
                 problem

@@ -1,14 +1,13 @@
-//! Worst-scenario engine acceptance, through the front door (`wsm_core::run::worst`): known worst
+//! Worst-scenario engine acceptance, through the front door (`wsm_core::worst`): known worst
 //! cases, a two-parameter contact case against a dense grid, a thermal case that needs only the
 //! heat solve, the bundled mortar examples against their matching twins, and bad admissible sets
 //! refused before any solve.
 
 use serde_json::{json, Value};
-use wsm_core::run::{worst as run_worst, RunControl, Status, Verdict, WorstOutcome, WorstRequest};
-use wsm_core::scenario::evaluator::ScenarioEvaluator;
-use wsm_core::scene::params::parameters;
-use wsm_core::scene::{parse, Criterion, CriterionSpec, StopRule, WarningKind};
-use wsm_core::state::StateProblem;
+use wsm_core::{
+    parse_scene, scene_parameters, Criterion, CriterionSpec, RunControl, ScenarioEvaluator,
+    StateProblem, Status, StopRule, Verdict, WarningKind, WorstOutcome, WorstRequest,
+};
 
 /// Search a scene for the given criteria (fresh run, never cancelled, exact derivatives),
 /// stopping each extremum at its first local certificate: these are the known-worst cases, whose
@@ -25,7 +24,7 @@ fn worst_with(
     seed: u64,
     derivatives: bool,
 ) -> WorstOutcome {
-    let scene = parse(&scene.to_string()).unwrap();
+    let scene = parse_scene(&scene.to_string()).unwrap();
     let request = WorstRequest {
         criteria: Some(criteria.iter().map(|&c| c.into()).collect()),
         budget: Some(budget),
@@ -34,7 +33,7 @@ fn worst_with(
         stop: Some(StopRule::FirstCertificate),
         ..WorstRequest::default()
     };
-    run_worst(scene, &request, &RunControl::new()).unwrap()
+    wsm_core::worst(scene, &request, &RunControl::new()).unwrap()
 }
 
 /// Every extremum of the run is `locally_certified` by its certificate, with no warning but the
@@ -91,7 +90,7 @@ fn loaded_block() -> Value {
     })
 }
 
-fn point(o: &wsm_core::run::ObjectiveResult) -> Vec<f64> {
+fn point(o: &wsm_core::ObjectiveResult) -> Vec<f64> {
     o.point.clone().expect("a best point")
 }
 
@@ -146,14 +145,14 @@ fn monotone_stress_criterion_worst_is_the_max_load() {
 #[test]
 fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluations() {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [0.0, 4.0e5]},
         {"field": "materials.rock.E", "interval": [8.0e9, 1.2e10]}
     ]);
-    let parsed = parse(&scene.to_string()).unwrap();
-    let params = parameters(&parsed).unwrap();
+    let parsed = parse_scene(&scene.to_string()).unwrap();
+    let params = scene_parameters(&parsed).unwrap();
     let problem = StateProblem::new(parsed).unwrap();
     let criteria = [Criterion::Phi6];
     let specs = criteria.map(CriterionSpec::from);
@@ -177,8 +176,7 @@ fn two_parameter_contact_case_matches_a_dense_grid_with_a_fifth_of_the_evaluatio
 
 #[test]
 fn thermal_criteria_use_the_heat_solve_only() {
-    let scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("heated-plate").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("heated-plate").unwrap()).unwrap();
     let r = worst(&scene, &[Criterion::Phi1, Criterion::Phi2], 30, 7);
     assert!(r.inner.heat_solves > 0);
     assert_eq!(
@@ -197,7 +195,7 @@ fn thermal_criteria_use_the_heat_solve_only() {
 
 #[test]
 fn knee_is_certified_in_a_few_evaluations() {
-    let scene: Value = serde_json::from_str(wsm_core::bundled::example("knee").unwrap()).unwrap();
+    let scene: Value = serde_json::from_str(wsm_core::example("knee").unwrap()).unwrap();
     let r = worst(&scene, &[Criterion::Phi5, Criterion::Phi6], 150, 1);
     assert_all_certified(&r);
     assert!(r.evaluations <= 20, "{} evaluations", r.evaluations);
@@ -208,7 +206,7 @@ fn knee_is_certified_in_a_few_evaluations() {
 /// extreme as every vertex, each certified.
 #[test]
 fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
-    let text = wsm_core::bundled::example("tunnel-fault").unwrap();
+    let text = wsm_core::example("tunnel-fault").unwrap();
     let scene: Value = serde_json::from_str(text).unwrap();
     let criteria = [
         Criterion::Phi3,
@@ -216,8 +214,8 @@ fn tunnel_extrema_beat_every_vertex_and_are_certified_within_120_solves() {
         Criterion::Phi5,
         Criterion::Phi6,
     ];
-    let parsed = parse(text).unwrap();
-    let params = parameters(&parsed).unwrap();
+    let parsed = parse_scene(text).unwrap();
+    let params = scene_parameters(&parsed).unwrap();
     assert_eq!(params.len(), 8);
     let problem = StateProblem::new(parsed).unwrap();
     let specs = criteria.map(CriterionSpec::from);
@@ -267,7 +265,7 @@ fn mortar_examples_end_certified_like_their_matching_twins() {
         ),
     ];
     for (twin, mortar, criteria, budget) in cases {
-        let text = |name| wsm_core::bundled::example(name).unwrap();
+        let text = |name| wsm_core::example(name).unwrap();
         let run = |name| {
             worst(
                 &serde_json::from_str(text(name)).unwrap(),
@@ -283,7 +281,7 @@ fn mortar_examples_end_certified_like_their_matching_twins() {
         );
         assert_all_certified(&a);
         assert_all_certified(&b);
-        let params = parameters(&parse(text(twin)).unwrap()).unwrap();
+        let params = scene_parameters(&parse_scene(text(twin)).unwrap()).unwrap();
         let specs: Vec<CriterionSpec> = criteria.iter().map(|&c| c.into()).collect();
         // Each run's extrema (in the order of the requested criteria, worst then best) on its
         // scene with all mesh sizes halved.
@@ -293,17 +291,15 @@ fn mortar_examples_end_certified_like_their_matching_twins() {
                 .iter()
                 .flat_map(|c| [point(&c.worst), point(&c.best)])
                 .collect();
-            let scene = parse(text(name)).unwrap();
-            let problem =
-                StateProblem::new(wsm_core::estimate::ladder::scaled(&scene, 0.5).unwrap())
-                    .unwrap();
+            let scene = parse_scene(text(name)).unwrap();
+            let problem = StateProblem::new(wsm_core::scaled_scene(&scene, 0.5).unwrap()).unwrap();
             solve_all(
                 &ScenarioEvaluator::new(&problem, &params, &specs).unwrap(),
                 &extrema,
             )
         };
         let (half_a, half_b) = (halved(twin, &a), halved(mortar, &b));
-        let ends = |o: &wsm_core::run::ObjectiveResult| -> Vec<&str> {
+        let ends = |o: &wsm_core::ObjectiveResult| -> Vec<&str> {
             point(o)
                 .iter()
                 .zip(&params)
@@ -382,7 +378,7 @@ fn assert_at_least_as_extreme(r: &WorstOutcome, values: &[Vec<f64>], kind: &str)
 #[test]
 fn changing_only_loads_and_slip_limits_never_refactorises() {
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 4.0e5]},
@@ -402,16 +398,16 @@ fn changing_only_loads_and_slip_limits_never_refactorises() {
 fn unbalanced_vertex_is_refused_before_any_solve() {
     // The block floats: at traction 6e5 Pa × 0.5 m = 3e5 N/m > g L = 2.5e5 N/m it slides away.
     let mut scene: Value =
-        serde_json::from_str(wsm_core::bundled::example("block-on-base").unwrap()).unwrap();
+        serde_json::from_str(wsm_core::example("block-on-base").unwrap()).unwrap();
     scene["mesh"] = json!({"max_size": 0.1});
     scene["uncertain"] = json!([
         {"field": "boundary[2].traction[0]", "interval": [3.0e5, 6.0e5]},
         {"field": "contacts[0].slip_limit", "interval": [2.5e5, 4.0e5]}
     ]);
-    let parsed = parse(&scene.to_string()).unwrap();
-    let err = run_worst(parsed, &WorstRequest::default(), &RunControl::new())
+    let parsed = parse_scene(&scene.to_string()).unwrap();
+    let err = wsm_core::worst(parsed, &WorstRequest::default(), &RunControl::new())
         .expect_err("must be refused");
-    assert_eq!(err.kind(), wsm_core::error::ErrorKind::BadInput);
+    assert_eq!(err.kind(), wsm_core::ErrorKind::BadInput);
     let msg = err.to_string();
     assert!(
         msg.starts_with("uncertain") && msg.contains("block"),
@@ -426,14 +422,14 @@ fn unbalanced_vertex_is_refused_before_any_solve() {
 /// projected slip limit, which satisfies the bound.
 #[test]
 fn slope_limited_slip_limit_extrema_beat_an_enumeration_of_its_set() {
-    let text = wsm_core::bundled::example("tunnel-fault-slip-profile").unwrap();
+    let text = wsm_core::example("tunnel-fault-slip-profile").unwrap();
     let mut scene: Value = serde_json::from_str(text).unwrap();
     let knots = scene["uncertain"].as_array().unwrap()[..3].to_vec();
     scene["uncertain"] = Value::Array(knots);
     let max_step = 4e4 * 22.0 * 0.5;
     let criteria = [Criterion::Phi3, Criterion::Phi4, Criterion::Phi6];
-    let parsed = parse(&scene.to_string()).unwrap();
-    let params = parameters(&parsed).unwrap();
+    let parsed = parse_scene(&scene.to_string()).unwrap();
+    let params = scene_parameters(&parsed).unwrap();
     let problem = StateProblem::new(parsed).unwrap();
     let specs = criteria.map(CriterionSpec::from);
     let evaluator = ScenarioEvaluator::new(&problem, &params, &specs).unwrap();

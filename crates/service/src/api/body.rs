@@ -12,7 +12,7 @@ use serde_json::Value;
 
 use super::error::ApiError;
 use crate::error_code::ErrorCode;
-use wsm_core::scene::{plain_message, strict_value, StrictError};
+use wsm_core::{plain_message, strict_value, StrictError};
 
 /// Members of a submission that must be JSON objects when given.
 const OBJECT_MEMBERS: [&str; 2] = ["scene", "settings"];

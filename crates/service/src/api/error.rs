@@ -11,7 +11,7 @@ use utoipa::ToSchema;
 
 use crate::error_code::ErrorCode;
 use crate::jobs::StoreError;
-use wsm_core::error::WsmError;
+use wsm_core::WsmError;
 
 /// The body of every error response.
 #[derive(Debug, Clone, Serialize, ToSchema)]
@@ -103,7 +103,7 @@ impl ApiError {
 }
 
 impl ApiError {
-    /// An error of a run's settings ([`wsm_core::run::WorstRequest::settings`]): a path under
+    /// An error of a run's settings ([`wsm_core::WorstRequest::settings`]): a path under
     /// `search.` names the scene's own search block (`scene.search.criteria[0]`), any other a
     /// field of the request's `settings` (`settings.budget`).
     pub fn settings(error: WsmError) -> ApiError {

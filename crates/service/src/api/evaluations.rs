@@ -12,7 +12,7 @@ use super::jobs::{attachment, find, page, stored_scene};
 use super::query::Query;
 use super::{AppState, CanRead};
 use crate::jobs::{JobRecord, Page};
-use wsm_core::run::{self, Evaluation};
+use wsm_core::Evaluation;
 
 /// How the evaluations are written.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, ToSchema)]
@@ -61,7 +61,7 @@ impl EvaluationsQuery {
 /// evaluation (id, parameters by field path, criteria, largest KKT residual, solve time).
 #[utoipa::path(get, path = "/v1/jobs/{id}/evaluations", tag = "jobs",
     params(("id" = String, Path, description = "Job id"), EvaluationsQuery),
-    responses((status = 200, body = Vec<run::Evaluation>),
+    responses((status = 200, body = Vec<wsm_core::Evaluation>),
         (status = 401, description = "Token required", body = ErrorBody), (status = 404, body = ErrorBody),
         (status = 422, body = ErrorBody)))]
 pub async fn job_evaluations(
@@ -83,12 +83,12 @@ pub async fn job_evaluations(
     }
 }
 
-/// The CSV table of `evaluations` of `job` (`run::write_csv`, as `wsm worst --table`).
+/// The CSV table of `evaluations` of `job` (`wsm_core::write_csv`, as `wsm worst --table`).
 fn csv_table(job: &JobRecord, evaluations: &[Evaluation]) -> Result<Vec<u8>, ApiError> {
-    let parameters = wsm_core::run::parameter_info(&stored_scene(job)?)
+    let parameters = wsm_core::parameter_info(&stored_scene(job)?)
         .map_err(|e| ApiError::internal(e.to_string()))?;
     let mut buffer = Vec::new();
-    run::write_csv(
+    wsm_core::write_csv(
         &mut buffer,
         "evaluations",
         &parameters,

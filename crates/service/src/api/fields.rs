@@ -12,8 +12,7 @@ use super::error::{ApiError, ErrorBody};
 use super::jobs::{attachment, outcome, stored_scene};
 use super::query::Query;
 use super::{blocking, solves, AppState, CanRead};
-use wsm_core::run::{self, Scenario, ScenarioMissing, SolveOutput, SolveRequest, WorstOutcome};
-use wsm_core::scene::CriterionSpec;
+use wsm_core::{CriterionSpec, Scenario, ScenarioMissing, SolveOutput, SolveRequest, WorstOutcome};
 
 /// Which data of the job to solve with.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize, ToSchema)]
@@ -111,7 +110,7 @@ pub async fn job_fields(
     let place = state.solves.take()?;
     let output = blocking(move || {
         let _place = place;
-        run::scenario_solve(scene, &outcome, &scenario, &request)
+        wsm_core::scenario_solve(scene, &outcome, &scenario, &request)
     })
     .await?
     .map_err(|e| ApiError::engine(e, "scene"))?;

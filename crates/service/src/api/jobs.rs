@@ -21,8 +21,7 @@ use super::schema::SceneDocument;
 use super::status::JobStatus;
 use super::{AppState, CanRead, CanWrite};
 use crate::jobs::{JobRecord, JobState, Page};
-use wsm_core::run::{CriterionOutcome, WorstOutcome};
-use wsm_core::scene::{CriterionSpec, Scene};
+use wsm_core::{CriterionOutcome, CriterionSpec, Scene, WorstOutcome};
 
 /// The stored record of job `id`; 404 when there is none.
 pub(super) async fn find(state: &AppState, id: &str) -> Result<JobRecord, ApiError> {
@@ -57,7 +56,7 @@ pub(super) async fn outcome(
 /// The scene a job was submitted with, read back from its record (validated at submission; a
 /// stored scene that no longer reads is the server's fault: 500).
 pub(super) fn stored_scene(job: &JobRecord) -> Result<Scene, ApiError> {
-    wsm_core::scene::parse(&job.scene).map_err(|e| ApiError::internal(e.to_string()))
+    wsm_core::parse_scene(&job.scene).map_err(|e| ApiError::internal(e.to_string()))
 }
 
 /// A page of at most `max` items: `limit` (default 50, at most `max`) after `offset`.

@@ -11,8 +11,7 @@ use utoipa::ToSchema;
 
 use crate::error_code::ErrorCode;
 use crate::jobs::JobState;
-use wsm_core::run::{RunPhase, Verdict};
-use wsm_core::scene::{Criterion, WarningKind};
+use wsm_core::{Criterion, RunPhase, Verdict, WarningKind};
 
 /// A criterion Φ1–Φ6 for a person: `{symbol}` is the mean `{quantity}` over `{over}` in
 /// `{unit}`; bound to one region, the region's name takes the place of `over`.

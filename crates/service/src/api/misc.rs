@@ -27,10 +27,10 @@ pub struct ExampleInfo {
     responses((status = 200, body = Vec<ExampleInfo>)))]
 pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
     Json(
-        wsm_core::run::EXAMPLES
+        wsm_core::EXAMPLES
             .iter()
             .filter_map(|(name, text)| {
-                let scene = wsm_core::scene::parse(text).ok()?;
+                let scene = wsm_core::parse_scene(text).ok()?;
                 Some(ExampleInfo {
                     name: name.to_string(),
                     title: scene.name.clone(),
@@ -47,11 +47,10 @@ pub async fn list_examples() -> Json<Vec<ExampleInfo>> {
     responses((status = 200, description = "The scene document", body = SceneDocument),
         (status = 404, body = ErrorBody)))]
 pub async fn get_example(Path(name): Path<String>) -> Result<Json<Value>, ApiError> {
-    let text =
-        wsm_core::run::find_example(&name).map_err(|_| ApiError::not_found("example", &name))?;
+    let text = wsm_core::find_example(&name).map_err(|_| ApiError::not_found("example", &name))?;
     serde_json::from_str(text)
         .map(Json)
-        .map_err(|e| ApiError::engine(wsm_core::error::WsmError::io("example", e), ""))
+        .map_err(|e| ApiError::engine(wsm_core::WsmError::io("example", e), ""))
 }
 
 /// Service health.

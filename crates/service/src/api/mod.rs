@@ -85,7 +85,7 @@ impl Default for Limits {
             max_active_jobs: 1000,
             max_concurrent_solves: default_concurrent_solves(),
             max_field_triangles: 50_000,
-            max_solve_memory: wsm_core::run::default_max_solve_memory(),
+            max_solve_memory: wsm_core::default_max_solve_memory(),
             body_timeout: Duration::from_secs(30),
         }
     }

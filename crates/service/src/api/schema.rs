@@ -33,13 +33,13 @@ impl utoipa::ToSchema for SceneDocument {
     responses((status = 200, description = "The JSON Schema (2020-12) of the scene document: \
         what `wsm schema` prints and openapi/scene.schema.json holds", body = Object)))]
 pub async fn scene_schema() -> Json<Value> {
-    Json(wsm_core::scene::scene_schema())
+    Json(wsm_core::scene_schema())
 }
 
 /// `document` (an OpenAPI document) with the scene's JSON Schema as its components `Scene` and
 /// `Scene.<name>`, the schema's references (`#/$defs/<name>`) rewritten to them.
 pub fn with_scene_components(mut document: Value) -> Value {
-    let mut root = wsm_core::scene::scene_schema();
+    let mut root = wsm_core::scene_schema();
     let defs = root
         .as_object_mut()
         .and_then(|root| {

@@ -20,7 +20,7 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use super::error::ApiError;
 use crate::error_code::ErrorCode;
-use wsm_core::run::SolveOutput;
+use wsm_core::SolveOutput;
 
 /// Places for synchronous solves.
 #[derive(Debug, Clone)]

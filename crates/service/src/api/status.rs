@@ -7,8 +7,7 @@ use utoipa::ToSchema;
 
 use crate::error_code::ErrorCode;
 use crate::jobs::{now, JobRecord, JobState};
-use wsm_core::run::{self, BestSoFar, RunPhase, WorstOutcome};
-use wsm_core::scene::CriterionSpec;
+use wsm_core::{BestSoFar, CriterionSpec, RunPhase, WorstOutcome};
 
 /// What a job is doing.
 #[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
@@ -58,7 +57,7 @@ pub struct JobStatus {
     /// The class of a failed job's error (`bad_input`, `solver`, `damaged`, …).
     pub error_kind: Option<ErrorCode>,
     /// The outcome's status once finished (`completed`, `budget_exhausted`, `time_limit`, …).
-    pub outcome_status: Option<run::Status>,
+    pub outcome_status: Option<wsm_core::Status>,
 }
 
 impl JobStatus {

@@ -19,9 +19,7 @@ use super::schema::SceneDocument;
 use super::{blocking, AppState, CanWrite, Limits};
 use crate::error_code::ErrorCode;
 use crate::jobs::{JobState, NewJob};
-use wsm_core::run::{self, SolveOutput, SolveRequest, WorstRequest};
-use wsm_core::scene::dynamics::output_count;
-use wsm_core::scene::Scene;
+use wsm_core::{dynamic_output_count, Scene, SolveOutput, SolveRequest, WorstRequest};
 
 /// A scene given inline or by the name of a bundled example.
 #[derive(Debug, Clone, Deserialize, ToSchema)]
@@ -80,7 +78,7 @@ fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, Str
         }
         (None, None) => return Err(ApiError::invalid("scene", "give `scene` or `example`")),
     };
-    let scene = wsm_core::scene::parse(&text)
+    let scene = wsm_core::parse_scene(&text)
         .map_err(|e| ApiError::invalid(join_path("scene", &e.path), e.to_string()))?;
     if scene.mesh.gmsh_file.is_some() {
         return Err(ApiError::invalid(
@@ -93,12 +91,12 @@ fn scene_of(scene: Option<Value>, example: Option<String>) -> Result<(Scene, Str
 }
 
 fn run_example(name: &str) -> Result<String, ApiError> {
-    wsm_core::run::find_example(name)
+    wsm_core::find_example(name)
         .map(str::to_string)
         .map_err(|e| ApiError::invalid("example", e.to_string()))
 }
 
-/// The scene's solve cost estimated before meshing (design §3.1, `run::estimate_solve_cost`)
+/// The scene's solve cost estimated before meshing (design §3.1, `wsm_core::estimate_solve_cost`)
 /// against the server's limits: at most `max_triangles` for `what`, and a peak memory of at
 /// most `max_bytes`; a refusal names the mesh size to coarsen and the value that fits.
 fn check_cost(
@@ -106,8 +104,8 @@ fn check_cost(
     max_triangles: usize,
     max_bytes: u64,
     what: &str,
-) -> Result<run::SolveCost, ApiError> {
-    let cost = run::estimate_solve_cost(scene).map_err(|e| ApiError::engine(e, "scene"))?;
+) -> Result<wsm_core::SolveCost, ApiError> {
+    let cost = wsm_core::estimate_solve_cost(scene).map_err(|e| ApiError::engine(e, "scene"))?;
     cost.check(max_bytes as f64)
         .map_err(|r| ApiError::invalid(format!("scene.{}", r.path), r.message))?;
     if cost.triangles > max_triangles as f64 {
@@ -163,7 +161,7 @@ fn check_limits(scene: &Scene, request: &WorstRequest, limits: &Limits) -> Resul
 
 /// The plan of a submitted job — the record to queue — once the submission passed every check,
 /// in this order: the scene itself ([`scene_of`]), the server's limits, the search settings, the
-/// uncertain parameters, the admissible set (`run::check_admissible_set`: the checks a search
+/// uncertain parameters, the admissible set (`wsm_core::check_admissible_set`: the checks a search
 /// makes before its first evaluation, so that a job that cannot start is refused with the field)
 /// and the run's log header, whose hash the record keeps. Runs on a blocking thread:
 /// validation can take a while for large polygons (bounded by the scene's vertex limit).
@@ -173,9 +171,9 @@ fn plan_job(submission: JobSubmission, limits: &Limits) -> Result<NewJob, ApiErr
     check_limits(&scene, &request, limits)?;
     let settings = request.settings(&scene).map_err(ApiError::settings)?;
     let in_scene = |e| ApiError::engine(e, "scene");
-    run::parameter_info(&scene).map_err(in_scene)?;
-    run::check_admissible_set(&scene).map_err(in_scene)?;
-    let header = run::log_header(&scene, &settings).map_err(in_scene)?;
+    wsm_core::parameter_info(&scene).map_err(in_scene)?;
+    wsm_core::check_admissible_set(&scene).map_err(in_scene)?;
+    let header = wsm_core::log_header(&scene, &settings).map_err(in_scene)?;
     Ok(NewJob {
         id: uuid::Uuid::new_v4().to_string(),
         scene: text,
@@ -256,13 +254,13 @@ fn solve_now(submission: SolveSubmission, limits: &Limits) -> Result<SolveOutput
     )?;
     if let (true, Some(dynamics)) = (settings.frames, &scene.dynamics) {
         super::solves::check_frames(
-            output_count(dynamics),
+            dynamic_output_count(dynamics),
             cost.triangles.round() as usize,
             limits.max_field_triangles,
             "about ",
         )?;
     }
-    run::solve(scene, &settings).map_err(|e| ApiError::engine(e, "scene"))
+    wsm_core::solve(scene, &settings).map_err(|e| ApiError::engine(e, "scene"))
 }
 
 /// Solve one small scene now (its nominal data) and return the summary (and fields on request).

@@ -35,8 +35,9 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use crate::error_code::ErrorCode;
-use wsm_core::run::{Evaluation, ProgressEvent, RefinedOutcome, WorstOutcome, WorstRequest};
-use wsm_core::scene::CriterionSpec;
+use wsm_core::{
+    CriterionSpec, Evaluation, ProgressEvent, RefinedOutcome, WorstOutcome, WorstRequest,
+};
 
 /// The state of a job.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -104,7 +105,7 @@ pub struct NewJob {
     pub criteria: Vec<CriterionSpec>,
     /// The most inner solves the search may spend.
     pub budget: usize,
-    /// The run hash of the scene, criteria and target error (`wsm_core::run::hash::run_hash`),
+    /// The run hash of the scene, criteria and target error (`wsm_core::run_hash`),
     /// which ties stored evaluations and tasks to this run.
     pub run_hash: String,
 }

@@ -1,5 +1,5 @@
 //! The job side of a worker process (`wsm serve` and `wsm worker`): each job slot leases a job from
-//! the store and coordinates it — runs it through the front door (`run::worst`) on a blocking
+//! the store and coordinates it — runs it through the front door (`wsm_core::worst`) on a blocking
 //! thread (never on the async runtime), with its batches fanned out as tasks when other workers
 //! share the store (`task_coordinator`), stores the evaluations it computes chunk by chunk, renews the
 //! lease by heartbeat, passes cancel requests on, publishes progress, and stores how the job ended.
@@ -17,10 +17,9 @@ use super::task_coordinator::StoreDispatch;
 use super::task_worker::{serve_tasks, TaskConfig};
 use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use crate::error_code::ErrorCode;
-use wsm_core::error::{ErrorKind, WsmError};
-use wsm_core::run::{
-    self, Evaluation, EvaluationLog, FaultSite, LogHeader, ProgressEvent, RunControl, SolveFault,
-    Status,
+use wsm_core::{
+    ErrorKind, Evaluation, EvaluationLog, FaultSite, LogHeader, ProgressEvent, RunControl,
+    SolveFault, Status, WsmError,
 };
 
 /// Settings of a worker process.
@@ -89,7 +88,7 @@ impl FaultRule {
 
 /// The fault of a job's run: the rules whose field is among its scene's uncertain data (`None`
 /// when there is none).
-fn fault_for(rules: &[FaultRule], scene: &wsm_core::scene::Scene) -> Option<Arc<SolveFault>> {
+fn fault_for(rules: &[FaultRule], scene: &wsm_core::Scene) -> Option<Arc<SolveFault>> {
     let active: Vec<(usize, FaultRule)> = rules
         .iter()
         .filter_map(|rule| {
@@ -461,13 +460,13 @@ impl Run<'_> {
         let scene_text = job.scene.clone();
         let rules = config.inject_failures.clone();
         let task = tokio::task::spawn_blocking(move || {
-            let scene = wsm_core::scene::parse(&scene_text)?;
+            let scene = wsm_core::parse_scene(&scene_text)?;
             let fault = fault_for(&rules, &scene);
             let control = match fault {
                 Some(fault) => control.with_fault(fault),
                 None => control,
             };
-            run::worst(scene, &request, &control)
+            wsm_core::worst(scene, &request, &control)
         });
         Attempt::Ended(Box::new(match task.await {
             // A cancel that came after the last evaluation (during the sensitivities or

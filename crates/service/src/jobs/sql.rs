@@ -24,7 +24,7 @@ use super::{
     StoreResult, TaskKey, TaskKind, TaskRecord, TaskScope,
 };
 use crate::error_code::ErrorCode;
-use wsm_core::run::{Evaluation, ProgressEvent, RefinedOutcome};
+use wsm_core::{Evaluation, ProgressEvent, RefinedOutcome};
 
 /// The database behind the store.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -1239,7 +1239,7 @@ async fn delete_tasks(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use wsm_core::scene::{Criterion, CriterionSpec};
+    use wsm_core::{Criterion, CriterionSpec};
 
     /// A fresh SQLite store in the temporary folder.
     async fn store() -> SqlStore {
@@ -1314,7 +1314,7 @@ mod tests {
         assert!(store.insert(new, 10).await.unwrap());
         store.lease("w", 60.0, 3).await.unwrap().unwrap();
         let end = JobEnd::Failed {
-            kind: ErrorCode::of_kind(wsm_core::error::ErrorKind::BadInput),
+            kind: ErrorCode::of_kind(wsm_core::ErrorKind::BadInput),
             error: "why".into(),
         };
         store.finish("new", "w", end).await.unwrap();

@@ -29,12 +29,10 @@ use std::time::{Duration, Instant};
 use tokio::task::JoinHandle;
 
 use super::{wait, JobStore, StoreError, StoreResult, TaskKey, TaskKind, TaskScope};
-use wsm_core::error::WsmError;
-use wsm_core::run::{
+use wsm_core::{
     BatchDispatch, DispatchedBatch, Evaluation, LocalEvaluate, RefinedDispatch, RefinedOutcome,
-    RefinedSolve,
+    RefinedSolve, Scene, WsmError,
 };
-use wsm_core::scene::Scene;
 
 /// Solve time of one chunk per live thread \[s\].
 const CHUNK_SECONDS: f64 = 1.5;

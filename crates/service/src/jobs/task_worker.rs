@@ -21,8 +21,7 @@ use std::sync::{mpsc, Arc};
 use std::time::Duration;
 
 use super::{wait, JobInput, JobStore, TaskKind, TaskRecord, TaskScope};
-use wsm_core::error::WsmError;
-use wsm_core::run::{Evaluation, PreparedModel, RefinedLevel, RefinedOutcome, WorstRequest};
+use wsm_core::{Evaluation, PreparedModel, RefinedLevel, RefinedOutcome, WorstRequest, WsmError};
 
 /// Prepared models kept per worker process.
 const MODELS_KEPT: usize = 2;
