@@ -19,16 +19,17 @@
 //! and workers).
 //!
 //! The modules are private; what the crate offers is the curated set of re-exports below, in
-//! two groups. **The front door** — the typed requests and outcomes of `run`, the scene document
+//! three groups. **The front door** — the typed requests and outcomes of `run`, the scene document
 //! of `scene` and the errors of `error` — is all the service, the binary and the Python package
 //! use (a test keeps it so: `front_door`). **The engine's stages** — the contact QP, the FEM
 //! operators, the mesh, the state solve and its derivatives, the DD solver, time stepping, the
-//! estimates — serve the studies (`wsm-study`) and the engine's own tests.
+//! estimates — serve the studies (`wsm-study`) and the engine's own tests. **Their types** —
+//! reports, histories, options — are named last.
 //!
-//! Two cargo features add what is not the engine: `fixtures` (the [`mod@fixtures`] module:
-//! structured meshes and the seeded random generator of the tests and studies) and `bench`
-//! (the [`mod@bench`] drivers of `wsm bench`, with `fixtures`). Both are off by default; `wsm-study`
-//! and the tests turn them on.
+//! Two cargo features add what is not the engine: `fixtures` (the `fixtures` module: structured
+//! meshes and the seeded random generator of the tests and studies) and `bench` (the `bench`
+//! drivers of `wsm bench`, with `fixtures`). Both are off by default; `wsm-study` and the tests
+//! turn them on.
 //!
 //! The crate depends on no service crate (tokio, axum, sqlx, tower, rust-embed): the service
 //! (`wsm-service`) and the studies (`wsm-study`) use it through its public items.
@@ -120,6 +121,26 @@ pub use state::{
     piece_pressures, zone_summaries, ContactNode, ContactState, DerivativeRoute, Needs,
     PerCriterion, Solution, SolveOptions, SolverUsed, StateProblem, Target, Timings,
 };
+
+// The types the items above return or take: result documents and reports (the state solve's,
+// the contact solvers', the DD solver's, time stepping's histories, the accuracy statement, the
+// failed evaluations of a run), the mesh's parts and the DD solver's options.
+pub use contact::coulomb::CoulombReport;
+pub use contact::direct::SparseReport;
+pub use dd::{
+    CoarseKind, D03Bound, DdError, DdOptions, DdReport, DdSolution, DdTimes, OuterIteration,
+    PartitionRequest, Pcg1Preconditioner,
+};
+pub use dynamics::{
+    BodyHistory, CriterionPeak, DisplacementFrame, DynamicsReport, EnergyHistory, History, Peak,
+    PeakFields, Peaks, ReceiverHistory, ZoneHistory,
+};
+pub use estimate::statement::AccuracyStatement;
+pub use fem::stress_measures::Principal;
+pub use fem::ElementStress;
+pub use mesh::{MeshContact, MeshStats, MeshZone, MortarRow};
+pub use scenario::failures::{FailedEvaluation, FailureSummary};
+pub use state::{ContactKkt, SolveReport, ZoneSummary};
 
 /// The drivers of `wsm bench` (cargo feature `bench`): the FEM assembly and factorisation
 /// timings and the DD solver's scalability tables.

@@ -58,9 +58,10 @@ use crate::fem::{ElasticCoefficients, ElasticProblem, FemError, Slot};
 use crate::scene::law::bulk_and_shear;
 
 pub use from_scene::{options as scene_options, solve_elastic};
+pub use options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner};
 pub use partition::{Partition, PartitionRequest};
-pub use report::DdReport;
-pub use successive::DirectAnswer;
+pub use report::{D03Bound, DdReport, Times as DdTimes};
+pub use successive::{DdSolution, DirectAnswer};
 
 /// One P1 triangle in the reduced basis: its nodes, the reduced index of each of its six DOFs
 /// (node-major; `None` for prescribed DOFs) and its 6×6 stiffness in the same basis.

@@ -23,13 +23,15 @@ pub struct Times {
     pub setup: f64,
     /// Auxiliary problem (coarse operator + PCG1).
     pub pcg1: f64,
-    /// Successive approximations in total, of which S_CON evaluations and PCG2 (with the Newton
-    /// steps' PCG).
+    /// Successive approximations in total (`scon` and `pcg2` are parts of it).
     pub outer: f64,
+    /// Of `outer`: the evaluations of the contact Schur operator S_CON.
     pub scon: f64,
+    /// Of `outer`: PCG2, with the Newton steps' PCG.
     pub pcg2: f64,
     /// Interior and multiplier recovery.
     pub recovery: f64,
+    /// The whole solve.
     pub total: f64,
 }
 

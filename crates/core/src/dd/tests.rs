@@ -4,7 +4,7 @@
 use faer::Mat;
 
 use super::bench::{two_blocks, two_blocks_with};
-use super::options::{CoarseKind, DdOptions, OuterIteration, Pcg1Preconditioner, Weights};
+use super::options::Weights;
 use super::successive::{solve, DirectAnswer};
 use super::*;
 use crate::contact::qp::{solve_box_qp, BoxQp, QpOptions};

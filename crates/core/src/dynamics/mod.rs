@@ -33,7 +33,10 @@ mod step;
 #[cfg(test)]
 mod tests;
 
-pub use history::{DisplacementFrame, DynamicsReport, History, PeakFields};
+pub use history::{
+    BodyHistory, CriterionPeak, DisplacementFrame, DynamicsReport, EnergyHistory, History, Peak,
+    PeakFields, Peaks, ReceiverHistory, ZoneHistory,
+};
 pub use operators::Operators;
 pub use over_time::{derivatives_unavailable, solve_over_time};
 

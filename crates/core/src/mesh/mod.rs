@@ -26,7 +26,7 @@ pub(crate) mod tests;
 mod tri;
 
 pub use count::count;
-pub use generate::{generate, stats};
+pub use generate::{generate, stats, MeshStats};
 pub use gmsh::with_inline_mesh;
 pub use mortar::MortarRow;
 

@@ -22,8 +22,8 @@ pub(crate) use sensitivity::{add_scaled, one_sided, tied_regions, TIE_TOL};
 pub use sensitivity::{OneSided, RegionSensitivities, Sensitivities};
 pub(crate) use solution::contact_results;
 pub use solution::{
-    piece_pressures, zone_summaries, ContactNode, ContactState, Solution, SolveReport, SolverUsed,
-    Timings, ZoneSummary,
+    piece_pressures, zone_summaries, ContactKkt, ContactNode, ContactState, Solution, SolveReport,
+    SolverUsed, Timings, ZoneSummary,
 };
 
 use std::sync::atomic::{AtomicUsize, Ordering};
