@@ -339,49 +339,10 @@ async fn run_job(
         cancel: &cancel,
         lost: &lost,
     };
-    let mut retries = 0;
-    let end = loop {
-        match run.attempt(progress_tx.clone()).await {
-            Attempt::Ended(end) => break *end,
-            Attempt::StoreFailed(error) if retries < STORE_RETRIES => {
-                retries += 1;
-                tracing::warn!(job = %id, error = %error, "resuming once the store takes writes");
-                if !run.await_writable(live).await {
-                    break match cancel.load(Ordering::SeqCst) {
-                        true => JobEnd::Cancelled(None),
-                        false => JobEnd::Failed {
-                            kind: ErrorCode::Io,
-                            error,
-                        },
-                    };
-                }
-            }
-            Attempt::StoreFailed(error) => {
-                break JobEnd::Failed {
-                    kind: ErrorCode::Io,
-                    error: format!(
-                        "{error} (the store failed {} times in a row while the job ran)",
-                        retries + 1
-                    ),
-                }
-            }
-        }
-    };
+    let end = run.to_end(live, &progress_tx).await;
     drop(progress_tx);
     let _ = publisher.await;
-    // A job whose lease was taken over belongs to its new owner now; a process that stops has
-    // given its leases back. The end is stored once the store takes writes again.
-    let mut backoff = Backoff::new();
-    while !lost.load(Ordering::SeqCst) && !live.stopping.load(Ordering::SeqCst) {
-        match store.finish(&id, &config.owner, end.clone()).await {
-            Ok(()) => break,
-            Err(e) if e.unavailable => backoff.failed(format!("job {id}: {e}")).await,
-            Err(e) => {
-                tracing::error!(job = %id, error = %e, "storing how the job ended");
-                break;
-            }
-        }
-    }
+    run.store_end(live, end).await;
     heartbeat.abort();
     live.lock().remove(&id);
 }
@@ -404,6 +365,61 @@ struct Run<'a> {
 }
 
 impl Run<'_> {
+    /// Run the job to its end: attempt after attempt while the store fails (up to
+    /// `STORE_RETRIES` times, each after the store takes writes again).
+    async fn to_end(
+        &self,
+        live: &Live,
+        progress_tx: &mpsc::UnboundedSender<ProgressEvent>,
+    ) -> JobEnd {
+        let mut retries = 0;
+        loop {
+            match self.attempt(progress_tx.clone()).await {
+                Attempt::Ended(end) => return *end,
+                Attempt::StoreFailed(error) if retries < STORE_RETRIES => {
+                    retries += 1;
+                    tracing::warn!(job = %self.job.id, error = %error, "resuming once the store takes writes");
+                    if !self.await_writable(live).await {
+                        return match self.cancel.load(Ordering::SeqCst) {
+                            true => JobEnd::Cancelled(None),
+                            false => JobEnd::Failed {
+                                kind: ErrorCode::Io,
+                                error,
+                            },
+                        };
+                    }
+                }
+                Attempt::StoreFailed(error) => {
+                    return JobEnd::Failed {
+                        kind: ErrorCode::Io,
+                        error: format!(
+                            "{error} (the store failed {} times in a row while the job ran)",
+                            retries + 1
+                        ),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Store how the job ended, once the store takes writes again — unless its lease was taken
+    /// over (the job belongs to its new owner now) or this process stops (it has given its
+    /// leases back).
+    async fn store_end(&self, live: &Live, end: JobEnd) {
+        let (id, owner) = (&self.job.id, &self.config.owner);
+        let mut backoff = Backoff::new();
+        while !self.lost.load(Ordering::SeqCst) && !live.stopping.load(Ordering::SeqCst) {
+            match self.store.finish(id, owner, end.clone()).await {
+                Ok(()) => break,
+                Err(e) if e.unavailable => backoff.failed(format!("job {id}: {e}")).await,
+                Err(e) => {
+                    tracing::error!(job = %id, error = %e, "storing how the job ended");
+                    break;
+                }
+            }
+        }
+    }
+
     /// Run the job from its stored evaluations to its end (or to a store failure).
     async fn attempt(&self, progress_tx: mpsc::UnboundedSender<ProgressEvent>) -> Attempt {
         let (store, config, job) = (self.store, self.config, self.job);
