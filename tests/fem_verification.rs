@@ -5,7 +5,7 @@
 #[path = "../crates/core/tests/engine/solves.rs"]
 mod solves;
 
-use solves::{bc, data, material};
+use solves::{bc, data, linear_patch_solve, material, max_abs};
 
 use std::f64::consts::PI;
 
@@ -37,10 +37,6 @@ fn rate(errors: &[f64]) -> Vec<f64> {
     errors.windows(2).map(|e| (e[0] / e[1]).log2()).collect()
 }
 
-fn max_abs(v: &[[f64; 2]]) -> f64 {
-    v.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
-}
-
 // ---------- patch tests ----------
 
 #[test]
@@ -48,18 +44,7 @@ fn patch_test_linear_field_is_exact_on_perturbed_mesh() {
     let mut mesh = rectangle(0.0, 0.0, 2.0, 1.0, 10, 6);
     perturb_interior(&mut mesh, 0.04, 42);
     let d = data(vec![lame(3.0, 1.5)], clamp_all(&mesh));
-    let problem = ElasticProblem::new(&mesh, &d).unwrap();
-    let exact = |p: [f64; 2]| {
-        [
-            0.1 + 0.02 * p[0] - 0.03 * p[1],
-            -0.05 + 0.01 * p[0] + 0.04 * p[1],
-        ]
-    };
-    let field: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| exact(p)).collect();
-    let fixed = problem.dofs().fixed_values_from(&field).unwrap();
-    let factor = problem.factor(&d, Par::Seq).unwrap();
-    let zero = vec![[0.0; 2]; mesh.nodes.len()];
-    let u = problem.solve_with(&factor, &zero, &fixed).unwrap();
+    let (problem, u, field) = linear_patch_solve(&mesh, &d);
     let scale = max_abs(&field);
     for (n, (a, b)) in u.iter().zip(&field).enumerate() {
         for k in 0..2 {

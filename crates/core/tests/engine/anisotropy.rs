@@ -6,7 +6,7 @@
 
 use crate::solves;
 
-use solves::{bc, data, material};
+use solves::{bc, data, linear_patch_solve, material, max_abs};
 
 use wsm_core::{
     fixtures::perturb_interior, fixtures::rectangle, fixtures::rotate, BoundaryData, BoundaryValue,
@@ -26,10 +26,6 @@ fn point_segment(mesh: &mut Mesh, name: &str, at: [f64; 2]) {
         nodes: vec![node],
         edges: vec![],
     });
-}
-
-fn max_abs(v: &[[f64; 2]]) -> f64 {
-    v.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
 }
 
 fn solve(mesh: &Mesh, d: &Data, temperature: Option<&[f64]>) -> Vec<[f64; 2]> {
@@ -243,18 +239,7 @@ fn patch_test_with_a_general_matrix() {
         })
         .collect();
     let d = data(vec![material(Elastic::Matrix(law))], boundary);
-    let problem = ElasticProblem::new(&mesh, &d).unwrap();
-    let exact = |p: [f64; 2]| {
-        [
-            0.1 + 0.02 * p[0] - 0.03 * p[1],
-            -0.05 + 0.01 * p[0] + 0.04 * p[1],
-        ]
-    };
-    let field: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| exact(p)).collect();
-    let fixed = problem.dofs().fixed_values_from(&field).unwrap();
-    let factor = problem.factor(&d, Par::Seq).unwrap();
-    let zero = vec![[0.0; 2]; mesh.nodes.len()];
-    let u = problem.solve_with(&factor, &zero, &fixed).unwrap();
+    let (problem, u, field) = linear_patch_solve(&mesh, &d);
     let scale = max_abs(&field);
     let err = u
         .iter()

@@ -171,8 +171,17 @@ fn gradient_check(scene: &Value, criteria: &[Criterion], check: &Check) -> Vec<R
 type Row = (Criterion, String, f64, f64, f64, f64);
 
 /// |exact − central| within 1e-6 of the derivative's scale (the derivative itself, or Φ per
-/// unit datum where the derivative is much smaller), for the right and the left derivative.
-fn assert_close(rows: &[Row], theta_scale: &dyn Fn(&str) -> f64) {
+/// unit datum where the derivative is much smaller, the datum at the middle of its interval in
+/// `scene`), for the right and the left derivative; `label` names the case in the printout. A
+/// row's datum may carry its criterion's name as a prefix (`criterion/datum`).
+fn assert_close(scene: &Value, label: &str, rows: &[Row]) {
+    let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
+    let theta_scale = |name: &str| {
+        let datum = name.split_once('/').map_or(name, |(_, d)| d);
+        let q = params.iter().find(|q| q.name == datum).unwrap();
+        0.5 * (q.lo + q.hi)
+    };
+    eprintln!("{label}:");
     let mut worst: f64 = 0.0;
     for (c, name, right, left, fd, value) in rows {
         for exact in [right, left] {
@@ -200,13 +209,7 @@ fn gradients_over_time_match_central_differences_without_contact() {
             &[Criterion::Phi3, Criterion::Phi4, Criterion::Phi5],
             &CENTRAL,
         );
-        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
-        let scale = |name: &str| {
-            let q = params.iter().find(|q| q.name == name).unwrap();
-            0.5 * (q.lo + q.hi)
-        };
-        eprintln!("bar, {scheme}:");
-        assert_close(&rows, &scale);
+        assert_close(&scene, &format!("bar, {scheme}"), &rows);
         // Every datum moves the criteria: nothing is differentiated by accident to zero.
         assert!(rows
             .iter()
@@ -224,13 +227,7 @@ fn gradients_over_time_match_central_differences_with_contact() {
             &[Criterion::Phi3, Criterion::Phi5, Criterion::Phi6],
             &CENTRAL,
         );
-        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
-        let scale = |name: &str| {
-            let q = params.iter().find(|q| q.name == name).unwrap();
-            0.5 * (q.lo + q.hi)
-        };
-        eprintln!("block on base, {scheme}:");
-        assert_close(&rows, &scale);
+        assert_close(&scene, &format!("block on base, {scheme}"), &rows);
     }
 }
 
@@ -276,13 +273,7 @@ fn check_both_schemes(name: &str, scene: &dyn Fn(&str) -> Value) {
             &[Criterion::Phi3, Criterion::Phi5, Criterion::Phi6],
             &CENTRAL_4,
         );
-        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
-        let scale = |name: &str| {
-            let q = params.iter().find(|q| q.name == name).unwrap();
-            0.5 * (q.lo + q.hi)
-        };
-        eprintln!("{name}, {scheme}:");
-        assert_close(&rows, &scale);
+        assert_close(&scene, &format!("{name}, {scheme}"), &rows);
     }
 }
 
@@ -549,14 +540,7 @@ fn defined_criteria_gradients_over_time_match_central_differences_without_contac
     for scheme in ["paper", "newmark"] {
         let scene = bar_with_receiver(scheme);
         let rows = defined_gradient_check(&scene);
-        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
-        let scale = |name: &str| {
-            let datum = name.split_once('/').map_or(name, |(_, d)| d);
-            let q = params.iter().find(|q| q.name == datum).unwrap();
-            0.5 * (q.lo + q.hi)
-        };
-        eprintln!("bar with a receiver, {scheme}:");
-        assert_close(&rows, &scale);
+        assert_close(&scene, &format!("bar with a receiver, {scheme}"), &rows);
         // The pulse's amplitude moves the peak speed (linearly: no contact).
         assert!(rows
             .iter()
@@ -579,14 +563,11 @@ fn defined_criteria_gradients_over_time_match_central_differences_with_contact()
             {"name": "mid_pressure", "region": "mid", "quantity": "contact_pressure"}
         ]);
         let rows = defined_gradient_check(&scene);
-        let params = scene_parameters(&parse_scene(&scene.to_string()).unwrap()).unwrap();
-        let scale = |name: &str| {
-            let datum = name.split_once('/').map_or(name, |(_, d)| d);
-            let q = params.iter().find(|q| q.name == datum).unwrap();
-            0.5 * (q.lo + q.hi)
-        };
-        eprintln!("block on base with defined criteria, {scheme}:");
-        assert_close(&rows, &scale);
+        assert_close(
+            &scene,
+            &format!("block on base with defined criteria, {scheme}"),
+            &rows,
+        );
     }
 }
 

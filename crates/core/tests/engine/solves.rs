@@ -7,8 +7,8 @@
 
 use serde_json::{json, Value};
 use wsm_core::{
-    parse_scene, BoundaryData, BoundaryValue, Data, Elastic, Expansion, MaterialData, Mesh, Needs,
-    Solution, SolveOptions, SolverKind, StateProblem,
+    parse_scene, BoundaryData, BoundaryValue, Data, Elastic, ElasticProblem, Expansion,
+    MaterialData, Mesh, Needs, Par, Solution, SolveOptions, SolverKind, StateProblem,
 };
 
 /// Solve `scene` at its nominal data with `kind` (DD tolerance 1e-12), sequentially.
@@ -165,4 +165,29 @@ pub fn data(materials: Vec<MaterialData>, boundary: Vec<BoundaryData>) -> Data {
         reference_temperature: 0.0,
         dynamic: Default::default(),
     }
+}
+
+/// The patch test's solve on `mesh` with the data `d` (no loads, every node `d` clamps
+/// prescribed): the linear field u = (0.1 + 0.02x − 0.03y, −0.05 + 0.01x + 0.04y) on the clamped
+/// nodes. Returns the problem, the FEM displacement and the exact field at the nodes, which a
+/// consistent element reproduces to rounding.
+pub fn linear_patch_solve(mesh: &Mesh, d: &Data) -> (ElasticProblem, Vec<[f64; 2]>, Vec<[f64; 2]>) {
+    let problem = ElasticProblem::new(mesh, d).unwrap();
+    let exact = |p: [f64; 2]| {
+        [
+            0.1 + 0.02 * p[0] - 0.03 * p[1],
+            -0.05 + 0.01 * p[0] + 0.04 * p[1],
+        ]
+    };
+    let field: Vec<[f64; 2]> = mesh.nodes.iter().map(|&p| exact(p)).collect();
+    let fixed = problem.dofs().fixed_values_from(&field).unwrap();
+    let factor = problem.factor(d, Par::Seq).unwrap();
+    let zero = vec![[0.0; 2]; mesh.nodes.len()];
+    let u = problem.solve_with(&factor, &zero, &fixed).unwrap();
+    (problem, u, field)
+}
+
+/// The largest |component| of a vector field.
+pub fn max_abs(v: &[[f64; 2]]) -> f64 {
+    v.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()))
 }
