@@ -26,6 +26,7 @@
 //! clock; a task whose worker died is leased again, a job whose coordinator died is taken over.
 
 pub mod health;
+mod migrations;
 pub mod runner;
 pub mod sql;
 pub mod task_coordinator;

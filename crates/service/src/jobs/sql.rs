@@ -324,11 +324,7 @@ impl SqlStore {
             .connect_with(options)
             .await
             .map_err(db("opening the database"))?;
-        let migrations = match backend {
-            Backend::Sqlite => sqlx::migrate!("../../migrations/sqlite"),
-            Backend::Postgres => sqlx::migrate!("../../migrations/postgres"),
-        };
-        migrations
+        super::migrations::migrator(backend)
             .run(&pool)
             .await
             .map_err(|e| StoreError::new(format!("migrations: {e}")))?;
