@@ -3,6 +3,10 @@
 //! (`#[cfg(test)] mod tests` at the end of a file, files named `tests.rs` or `*_tests.rs`) may use
 //! anything.
 
+/// Stages that are crates of their own (`scene` is `wsm-scene`, named `scene` at the root by a
+/// `use`) have no source here: a crate boundary keeps them from using the engine.
+const CRATES: [&str; 1] = ["scene"];
+
 /// The pipeline, earliest first, as the crate documentation states it.
 const PIPELINE: [&str; 17] = [
     "memo", "scene", "mesh", "fixtures", "fem", "error", "fault", "bundled", "contact", "dd",
@@ -55,6 +59,9 @@ fn no_module_uses_a_later_stage_of_the_pipeline() {
     let mut violations = Vec::new();
     let mut checked = 0;
     for module in PIPELINE {
+        if CRATES.contains(&module) {
+            continue;
+        }
         let mut files = Vec::new();
         let file = root.join(format!("{module}.rs"));
         if file.exists() {

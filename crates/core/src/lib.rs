@@ -3,7 +3,8 @@
 //!
 //! The pipeline, one module each, every module using only those before it (a test keeps it so:
 //! `layering`), after the private `memo` (a small value cache): `scene` (the JSON
-//! document and its validation) → `mesh` (P1 triangles, contact node pairs) → `fixtures` (structured meshes
+//! document and its validation: the crate `wsm-scene`, which needs no numerics library and so
+//! compiles beside faer) → `mesh` (P1 triangles, contact node pairs) → `fixtures` (structured meshes
 //! and the seeded random generator for tests, studies and benchmarks) → `fem` (elasticity
 //! and heat operators, loads, stresses) → `error` (the engine's error type, over the scene and
 //! FEM errors and the search's) → `fault` (injected solve failures, for the tests of how runs
@@ -50,8 +51,11 @@ mod output;
 mod regions;
 mod run;
 mod scenario;
-mod scene;
 mod state;
+
+// The scene document is its own crate (it needs no numerics library, so it compiles beside
+// faer); the engine names it `scene` as before.
+use wsm_scene as scene;
 
 #[cfg(test)]
 mod layering;

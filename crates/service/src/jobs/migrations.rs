@@ -47,7 +47,13 @@ mod tests {
             .iter()
             .map(|m| {
                 let reversible = m.migration_type.is_reversible();
-                (m.version, m.description.to_string(), m.checksum.to_vec(), m.no_tx, reversible)
+                (
+                    m.version,
+                    m.description.to_string(),
+                    m.checksum.to_vec(),
+                    m.no_tx,
+                    reversible,
+                )
             })
             .collect()
     }
@@ -56,7 +62,9 @@ mod tests {
     async fn embedded_migrations_are_what_sqlx_reads_from_the_directories() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../migrations");
         for (backend, dir) in [(Backend::Sqlite, "sqlite"), (Backend::Postgres, "postgres")] {
-            let read = Migrator::new(root.join(dir)).await.expect("sqlx reads the directory");
+            let read = Migrator::new(root.join(dir))
+                .await
+                .expect("sqlx reads the directory");
             let embedded = migrator(backend);
             assert!(embedded.iter().count() >= 5, "{dir}: migrations missing");
             assert_eq!(fields(&embedded), fields(&read), "{dir}");

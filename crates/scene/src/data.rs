@@ -184,7 +184,7 @@ pub struct SlipData {
 }
 
 /// Linear interpolation of `values` at increasing `knots`, constant outside; 0 without knots.
-pub(crate) fn piecewise_linear(knots: &[f64], values: &[f64], s: f64) -> f64 {
+pub fn piecewise_linear(knots: &[f64], values: &[f64], s: f64) -> f64 {
     let n = knots.len().min(values.len());
     if n == 0 {
         return 0.0;

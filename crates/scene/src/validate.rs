@@ -1139,7 +1139,7 @@ fn check_criteria(scene: &Scene) -> Result<(), SceneError> {
     let mut defined = BTreeSet::new();
     for (k, d) in scene.criteria.defined.iter().enumerate() {
         let path = format!("criteria.defined[{k}]");
-        if !crate::scene::is_defined_name(&d.name) {
+        if !crate::is_defined_name(&d.name) {
             return Err(SceneError::new(
                 format!("{path}.name"),
                 format!(
@@ -1290,7 +1290,7 @@ fn touches_a_contact(scene: &Scene, polygon: &[Point]) -> bool {
 
 /// The distance below which a region touches a line: 1e-6 of the polygon's diameter (rounding
 /// of coordinates given in decimal, far below any mesh size).
-pub(crate) fn touching_tolerance(polygon: &[Point]) -> f64 {
+pub fn touching_tolerance(polygon: &[Point]) -> f64 {
     let diameter = polygon
         .iter()
         .flat_map(|p| {

@@ -6,23 +6,23 @@
 use super::model::Point;
 
 /// a − b.
-pub(crate) fn sub(a: Point, b: Point) -> Point {
+pub fn sub(a: Point, b: Point) -> Point {
     [a[0] - b[0], a[1] - b[1]]
 }
 
 /// The cross product a × b = a_x b_y − a_y b_x.
-pub(crate) fn cross(a: Point, b: Point) -> f64 {
+pub fn cross(a: Point, b: Point) -> f64 {
     a[0] * b[1] - a[1] * b[0]
 }
 
 /// Twice the signed area of triangle (a, b, c): positive when counter-clockwise.
-pub(crate) fn orient(a: Point, b: Point, c: Point) -> f64 {
+pub fn orient(a: Point, b: Point, c: Point) -> f64 {
     cross(sub(b, a), sub(c, a))
 }
 
 /// Twice the signed area of a closed ring (the last point connects to the first): positive when
 /// counter-clockwise.
-pub(crate) fn signed_area2(ring: &[Point]) -> f64 {
+pub fn signed_area2(ring: &[Point]) -> f64 {
     let n = ring.len();
     (0..n).map(|i| cross(ring[i], ring[(i + 1) % n])).sum()
 }

@@ -1341,11 +1341,11 @@ mod tests {
     /// naming the field.
     #[test]
     fn max_slope_is_per_metre_and_an_empty_set_is_refused() {
-        let text = crate::bundled::find("tunnel-fault-slip-profile").unwrap();
-        let scene = crate::scene::parse(text).unwrap();
+        let text = include_str!("../../../scenes/tunnel-fault-slip-profile.json");
+        let scene = crate::parse(text).unwrap();
         assert!((zone_length(&scene, 0) - 22.0).abs() < 1e-9);
         let params = parameters(&scene).unwrap();
-        let problem_data = crate::scene::data::Data::from_scene(&scene);
+        let problem_data = crate::data::Data::from_scene(&scene);
         let mut theta: Vec<f64> = params.iter().map(|p| p.lo).collect();
         theta[1] = 1.5e6;
         let g = &apply(&scene, &problem_data, &params, &theta).slip[0].values;
@@ -1357,7 +1357,7 @@ mod tests {
         value["uncertain"][0]["interval"] = serde_json::json!([1.4e6, 1.5e6]);
         value["uncertain"][1]["interval"] = serde_json::json!([3e5, 4e5]);
         value["contacts"][0]["slip_limit"]["values"] = serde_json::json!([1.45e6, 3.5e5, 1.1e6]);
-        let scene = crate::scene::parse(&value.to_string()).unwrap();
+        let scene = crate::parse(&value.to_string()).unwrap();
         let error = parameters(&scene).unwrap_err();
         assert_eq!(error.path, "contacts[0].slip_limit.max_slope");
         assert!(error.reason.contains("knot 1"), "{}", error.reason);

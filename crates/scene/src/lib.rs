@@ -1,5 +1,9 @@
-//! Scene: the JSON document a user submits (design §5.2), its validation, its numeric data and
-//! its uncertain parameters.
+//! wsm-scene — the scene: the JSON document a user submits (design §5.2), its validation, its
+//! numeric data and its uncertain parameters. The first stage of the engine's pipeline, a crate
+//! of its own because it needs no numerics library: it compiles beside faer, and the engine
+//! (`wsm-core`) names it `scene` and re-exports the document at its front door; other crates use
+//! it through wsm-core. The planar primitives, `piecewise_linear` and `touching_tolerance` are
+//! public for the engine's mesher and loads, which share them.
 //!
 //! `model` is the serde shape, `validate` checks meaning and names the JSON path of any bad
 //! field, `data` resolves the numbers a solve needs, `params` maps uncertain parameters onto them,
@@ -25,7 +29,7 @@ mod validate;
 mod warning;
 mod warnings;
 
-pub(crate) use data::piecewise_linear;
+pub use data::piecewise_linear;
 pub use data::{
     BoundaryData, BoundaryValue, Data, DynamicData, Elastic, Expansion, HydrostaticData,
     MaterialData, SlipData,
@@ -43,11 +47,11 @@ pub use model::{
     Point, Refinement, Roller, Scene, SearchSettings, Segment, SlipLimit, SolverKind,
     SolverSettings, StopRule, Thermal, ThermalStress, Uncertain, Zone, MAX_SUBDIVIDE,
 };
-pub(crate) use planar::{cross, orient, signed_area2, sub};
+pub use planar::{cross, orient, signed_area2, sub};
 pub use schema::{scene_schema, scene_schema_json, SCENE_SCHEMA_DIALECT};
 pub use shape::{objects_where_objects, plain_message};
 pub use strict::{strict_value, StrictError};
-pub(crate) use validate::touching_tolerance;
+pub use validate::touching_tolerance;
 pub use validate::{check_criteria_list, parse, validate, MAX_COORDINATE, MAX_NAME, MAX_TEXT};
 pub use warning::{Warning, WarningKind};
 pub use warnings::{warnings, MAX_SPECIFIC_WEIGHT, MAX_SURFACE_LOAD, MIN_SOLID_MODULUS};
