@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use tokio::sync::mpsc;
 
-use super::task_coordinator::StoreDispatch;
+use super::task_coordinator::{HeldJob, StoreDispatch};
 use super::task_worker::{serve_tasks, TaskConfig};
 use super::{wait, JobEnd, JobRecord, JobStore, Lease};
 use crate::error_code::ErrorCode;
@@ -261,21 +261,16 @@ pub fn spawn_workers(store: Arc<dyn JobStore>, live: Arc<Live>, config: RunnerCo
 
 /// The evaluation log of a job: its stored evaluations, appended to chunk by chunk.
 struct StoreLog {
-    store: Arc<dyn JobStore>,
-    runtime: tokio::runtime::Handle,
-    job: String,
-    owner: String,
+    held: HeldJob,
     run_hash: String,
     replay: Vec<Evaluation>,
-    /// Raised when an append failed because the database was unavailable.
-    store_failed: Arc<AtomicBool>,
 }
 
 impl EvaluationLog for StoreLog {
     fn open(&self, header: &LogHeader) -> Result<Vec<Evaluation>, WsmError> {
         if header.run_hash != self.run_hash {
             return Err(WsmError::LogMismatch {
-                path: format!("job {}", self.job),
+                path: format!("job {}", self.held.job),
                 expected: header.run_hash.clone(),
                 found: self.run_hash.clone(),
             });
@@ -284,18 +279,12 @@ impl EvaluationLog for StoreLog {
     }
 
     fn append(&self, evaluations: &[Evaluation]) -> Result<(), WsmError> {
-        self.runtime
-            .block_on(
-                self.store
-                    .append_evaluations(&self.job, &self.owner, evaluations),
-            )
-            .map(|_| ())
-            .map_err(|e| {
-                if e.unavailable {
-                    self.store_failed.store(true, Ordering::SeqCst);
-                }
-                WsmError::io(format!("job {}", self.job), e)
-            })
+        let held = &self.held;
+        held.call(
+            held.store
+                .append_evaluations(&held.job, &held.owner, evaluations),
+        )
+        .map(|_| ())
     }
 }
 
@@ -441,25 +430,24 @@ impl Run<'_> {
             }
         };
         let store_failed = Arc::new(AtomicBool::new(false));
-        let log = StoreLog {
+        let held = HeldJob {
             store: store.clone(),
             runtime: tokio::runtime::Handle::current(),
             job: id.clone(),
             owner: config.owner.clone(),
-            run_hash: job.run_hash.clone(),
-            replay,
+            attempt: job.attempts,
             store_failed: store_failed.clone(),
         };
+        let log = StoreLog {
+            held: held.clone(),
+            run_hash: job.run_hash.clone(),
+            replay,
+        };
         let dispatch = StoreDispatch::new(
-            store.clone(),
-            tokio::runtime::Handle::current(),
-            id.clone(),
-            config.owner.clone(),
-            job.attempts,
+            held,
             config.threads(),
             config.lease_seconds,
             self.lost.clone(),
-            store_failed.clone(),
         );
         let control = RunControl::new()
             .with_max_solve_memory(config.max_solve_memory)

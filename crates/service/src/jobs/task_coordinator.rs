@@ -47,9 +47,11 @@ type Complete<'a, T> = dyn Fn(&TaskKey, &[T]) -> Result<bool, WsmError> + 'a;
 /// dispatched).
 type Fanned<T> = Option<(Vec<T>, Vec<bool>)>;
 
-/// The batches of one job (one lease attempt) as tasks.
-pub struct StoreDispatch {
-    /// The job store the tasks are posted to and their results read back from.
+/// A job as its coordinator holds it in the store during one lease attempt: what the job's
+/// evaluation log and its batch dispatch share.
+#[derive(Clone)]
+pub struct HeldJob {
+    /// The job store the evaluations and tasks are written to and read back from.
     pub store: Arc<dyn JobStore>,
     /// The runtime's handle, through which the search's blocking thread calls the store.
     pub runtime: tokio::runtime::Handle,
@@ -59,15 +61,41 @@ pub struct StoreDispatch {
     pub owner: String,
     /// The job's lease attempt; its tasks carry it, so an earlier coordinator's are told apart.
     pub attempt: u32,
+    /// Raised when a store call failed because the database was unavailable (the job is then
+    /// retried, not failed).
+    pub store_failed: Arc<AtomicBool>,
+}
+
+impl HeldJob {
+    /// An error of this job's (its id named).
+    fn io(&self, e: impl std::fmt::Display) -> WsmError {
+        WsmError::io(format!("job {}", self.job), e)
+    }
+
+    /// A store error as this job's, noting an unavailable database.
+    fn store_error(&self, e: StoreError) -> WsmError {
+        if e.unavailable {
+            self.store_failed.store(true, Ordering::SeqCst);
+        }
+        self.io(e)
+    }
+
+    /// Wait for a store call; its error as this job's.
+    pub fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
+        self.runtime.block_on(call).map_err(|e| self.store_error(e))
+    }
+}
+
+/// The batches of one job (one lease attempt) as tasks.
+pub struct StoreDispatch {
+    /// The job and its store.
+    pub held: HeldJob,
     /// Evaluation threads of this process's job pool.
     pub own_threads: usize,
     /// Workers seen within this many seconds are live.
     pub lease_seconds: f64,
     /// Raised when the job's lease was lost: stop waiting.
     pub lost: Arc<AtomicBool>,
-    /// Raised when a store call failed because the database was unavailable (the job is then
-    /// retried, not failed).
-    pub store_failed: Arc<AtomicBool>,
     next_batch: AtomicU64,
     /// The live threads last counted, and when.
     live: Mutex<Option<(Instant, usize)>>,
@@ -76,30 +104,19 @@ pub struct StoreDispatch {
 }
 
 impl StoreDispatch {
-    /// A dispatch of the batches of job `job` in lease attempt `attempt`, held by `owner`;
-    /// batches are numbered from 0.
-    #[allow(clippy::too_many_arguments)]
+    /// A dispatch of the batches of the held job with this process's `own_threads`, live
+    /// workers counted within `lease_seconds`; batches are numbered from 0.
     pub fn new(
-        store: Arc<dyn JobStore>,
-        runtime: tokio::runtime::Handle,
-        job: String,
-        owner: String,
-        attempt: u32,
+        held: HeldJob,
         own_threads: usize,
         lease_seconds: f64,
         lost: Arc<AtomicBool>,
-        store_failed: Arc<AtomicBool>,
     ) -> StoreDispatch {
         StoreDispatch {
-            store,
-            runtime,
-            job,
-            owner,
-            attempt,
+            held,
             own_threads,
             lease_seconds,
             lost,
-            store_failed,
             next_batch: AtomicU64::new(0),
             live: Mutex::new(None),
             pending: Mutex::new(None),
@@ -113,8 +130,9 @@ impl StoreDispatch {
             Some((at, n)) if at.elapsed() < Duration::from_secs(1) => n,
             _ => {
                 let n = self
+                    .held
                     .runtime
-                    .block_on(self.store.live_threads(self.lease_seconds))
+                    .block_on(self.held.store.live_threads(self.lease_seconds))
                     .unwrap_or(0);
                 *live = Some((Instant::now(), n));
                 n
@@ -138,37 +156,26 @@ impl StoreDispatch {
     /// Store this process's share in the background (after the previous share).
     fn store_share(&self, evaluations: Vec<Evaluation>) -> Result<(), WsmError> {
         self.settle()?;
-        let (store, job, owner) = (self.store.clone(), self.job.clone(), self.owner.clone());
+        let (store, job, owner) = (
+            self.held.store.clone(),
+            self.held.job.clone(),
+            self.held.owner.clone(),
+        );
         let append = self
+            .held
             .runtime
             .spawn(async move { store.append_evaluations(&job, &owner, &evaluations).await });
         *self.pending.lock().unwrap_or_else(PoisonError::into_inner) = Some(append);
         Ok(())
     }
 
-    fn io(&self, e: impl std::fmt::Display) -> WsmError {
-        WsmError::io(format!("job {}", self.job), e)
-    }
-
-    /// A store error as this job's, noting an unavailable database.
-    fn store_error(&self, e: StoreError) -> WsmError {
-        if e.unavailable {
-            self.store_failed.store(true, Ordering::SeqCst);
-        }
-        self.io(e)
-    }
-
-    /// Wait for a store call; its error as this job's.
-    fn call<T>(&self, call: impl Future<Output = StoreResult<T>>) -> Result<T, WsmError> {
-        self.runtime.block_on(call).map_err(|e| self.store_error(e))
-    }
-
     /// Wait for a store call spawned on the runtime; its error (or the task's) as this job's.
     fn join<T>(&self, task: JoinHandle<StoreResult<T>>) -> Result<T, WsmError> {
-        self.runtime
+        self.held
+            .runtime
             .block_on(task)
-            .map_err(|e| self.io(e))?
-            .map_err(|e| self.store_error(e))
+            .map_err(|e| self.held.io(e))?
+            .map_err(|e| self.held.store_error(e))
     }
 
     /// Take over the batch's tasks nobody has started (or whose worker died), solve them with
@@ -181,12 +188,12 @@ impl StoreDispatch {
     ) -> Result<Vec<u32>, WsmError> {
         let mut taken = Vec::new();
         let scope = TaskScope::Batch {
-            job: &self.job,
-            attempt: self.attempt,
+            job: &self.held.job,
+            attempt: self.held.attempt,
             batch,
         };
-        while let Some(task) = self.call(self.store.lease_task(
-            &self.owner,
+        while let Some(task) = self.held.call(self.held.store.lease_task(
+            &self.held.owner,
             self.lease_seconds,
             scope,
         ))? {
@@ -233,17 +240,17 @@ impl StoreDispatch {
         };
         let parts: Vec<Vec<Vec<f64>>> = by_slot[own..].iter().map(|ix| gather(ix)).collect();
         let batch = self.next_batch.fetch_add(1, Ordering::SeqCst);
-        let mut done = self.store.results_signal();
+        let mut done = self.held.store.results_signal();
         done.borrow_and_update();
         // The tasks are posted while this process computes its share.
         let post = {
             let (store, job, owner, attempt) = (
-                self.store.clone(),
-                self.job.clone(),
-                self.owner.clone(),
-                self.attempt,
+                self.held.store.clone(),
+                self.held.job.clone(),
+                self.held.owner.clone(),
+                self.held.attempt,
             );
-            self.runtime.spawn(async move {
+            self.held.runtime.spawn(async move {
                 store
                     .post_tasks(&job, &owner, attempt, batch, kind, &parts)
                     .await
@@ -256,14 +263,15 @@ impl StoreDispatch {
         let mut taken: HashSet<u32> = HashSet::new();
         let remote_results = loop {
             if self.lost.load(Ordering::SeqCst) {
-                return Err(self.io("the job's lease was taken over"));
+                return Err(self.held.io("the job's lease was taken over"));
             }
             if let Some(values) = results(batch)? {
                 break values;
             }
             let newly = self.take_over(batch, local, complete)?;
             if newly.is_empty() {
-                self.runtime
+                self.held
+                    .runtime
                     .block_on(wait(&mut done, Duration::from_millis(200)));
             }
             taken.extend(newly);
@@ -300,10 +308,19 @@ impl BatchDispatch for StoreDispatch {
         local: &LocalEvaluate<'_>,
     ) -> Result<Option<DispatchedBatch>, WsmError> {
         let complete = |key: &TaskKey, evaluations: &[Evaluation]| {
-            self.call(self.store.complete_task(key, &self.owner, evaluations))
+            self.held.call(
+                self.held
+                    .store
+                    .complete_task(key, &self.held.owner, evaluations),
+            )
         };
-        let results =
-            |batch: u64| self.call(self.store.batch_results(&self.job, self.attempt, batch));
+        let results = |batch: u64| {
+            self.held.call(
+                self.held
+                    .store
+                    .batch_results(&self.held.job, self.held.attempt, batch),
+            )
+        };
         let fanned = self.fan_out(
             TaskKind::Evaluate,
             points,
@@ -319,15 +336,16 @@ impl BatchDispatch for StoreDispatch {
     }
 
     fn share_scene(&self, scene: &Scene) -> Result<(), WsmError> {
-        let text = serde_json::to_string(scene).map_err(|e| self.io(e))?;
-        let held = self.call(
-            self.store
-                .record_chosen_scene(&self.job, &self.owner, &text),
-        )?;
+        let text = serde_json::to_string(scene).map_err(|e| self.held.io(e))?;
+        let held = self.held.call(self.held.store.record_chosen_scene(
+            &self.held.job,
+            &self.held.owner,
+            &text,
+        ))?;
         if held {
             Ok(())
         } else {
-            Err(self.io("the job's lease was taken over"))
+            Err(self.held.io("the job's lease was taken over"))
         }
     }
 
@@ -344,10 +362,19 @@ impl RefinedDispatch for StoreDispatch {
         local: &RefinedSolve<'_>,
     ) -> Result<Option<Vec<RefinedOutcome>>, WsmError> {
         let complete = |key: &TaskKey, values: &[RefinedOutcome]| {
-            self.call(self.store.complete_refined_task(key, &self.owner, values))
+            self.held.call(
+                self.held
+                    .store
+                    .complete_refined_task(key, &self.held.owner, values),
+            )
         };
-        let results =
-            |batch: u64| self.call(self.store.refined_results(&self.job, self.attempt, batch));
+        let results = |batch: u64| {
+            self.held.call(self.held.store.refined_results(
+                &self.held.job,
+                self.held.attempt,
+                batch,
+            ))
+        };
         // The refined solves are not search points: nothing of them goes to the evaluations.
         let fanned = self.fan_out(
             TaskKind::Refined(level),

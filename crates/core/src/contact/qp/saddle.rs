@@ -57,6 +57,16 @@ pub(super) struct SaddleInfo {
     pub inconsistent: Vec<(Vec<f64>, f64)>,
 }
 
+/// The equality-constrained system on the free set that one solve refines and checks:
+/// `C_FF x_F − G_Fᵀ α = r_x`, `G_F x_F = r_e`, with `C`, `G` of the scaled problem `p`.
+#[derive(Clone, Copy)]
+struct FreeSystem<'a> {
+    p: &'a Scaled,
+    free: &'a [usize],
+    rx: &'a [f64],
+    re: &'a [f64],
+}
+
 /// `H` could not be factorised even after shifting: `C` is not positive semidefinite.
 #[derive(Debug)]
 pub(super) struct Indefinite;
@@ -98,8 +108,14 @@ impl Saddle {
         let (rx, re) = (std::mem::take(&mut self.rx), std::mem::take(&mut self.re));
         let mut xf = vec![0.0; self.nf];
         self.apply_inverse(&rx, &re, &mut xf, alpha);
-        self.refine(p, free, &rx, &re, &mut xf, alpha, shifted);
-        let inconsistent = self.inconsistent_directions(p, free, &rx, &re, &xf, alpha);
+        let system = FreeSystem {
+            p,
+            free,
+            rx: &rx,
+            re: &re,
+        };
+        self.refine(&system, &mut xf, alpha, shifted);
+        let inconsistent = self.inconsistent_directions(&system, &xf, alpha);
         self.rx = rx;
         self.re = re;
         for (a, &i) in free.iter().enumerate() {
@@ -249,21 +265,11 @@ impl Saddle {
     }
 
     /// Iterative refinement on the unshifted, unaugmented system until the residual stalls.
-    #[allow(clippy::too_many_arguments)]
-    fn refine(
-        &mut self,
-        p: &Scaled,
-        free: &[usize],
-        rx: &[f64],
-        re: &[f64],
-        xf: &mut [f64],
-        alpha: &mut [f64],
-        shifted: bool,
-    ) {
+    fn refine(&mut self, system: &FreeSystem, xf: &mut [f64], alpha: &mut [f64], shifted: bool) {
         let passes = if shifted { 50 } else { 4 };
         let mut last = f64::INFINITY;
         for _ in 0..passes {
-            let (res_x, res_e) = self.residual(p, free, rx, re, xf, alpha);
+            let (res_x, res_e) = self.residual(system, xf, alpha);
             let norm = super::inf_norm(&res_x).max(super::inf_norm(&res_e));
             if norm == 0.0 || norm >= 0.5 * last {
                 break;
@@ -286,18 +292,16 @@ impl Saddle {
     /// Null directions of `S` with a non-negligible equality residual.
     fn inconsistent_directions(
         &self,
-        p: &Scaled,
-        free: &[usize],
-        rx: &[f64],
-        re: &[f64],
+        system: &FreeSystem,
         xf: &[f64],
         alpha: &[f64],
     ) -> Vec<(Vec<f64>, f64)> {
+        let (p, re) = (system.p, system.re);
         let k = re.len();
         if !self.s_inv.contains(&0.0) {
             return Vec::new();
         }
-        let (_, res_e) = self.residual(p, free, rx, re, xf, alpha);
+        let (_, res_e) = self.residual(system, xf, alpha);
         let scale = super::inf_norm(&p.e)
             .max(super::inf_norm(re))
             .max(f64::MIN_POSITIVE);
@@ -312,15 +316,8 @@ impl Saddle {
     }
 
     /// `(r_x − C_FF x_F + G_Fᵀ α, r_e − G_F x_F)`.
-    fn residual(
-        &self,
-        p: &Scaled,
-        free: &[usize],
-        rx: &[f64],
-        re: &[f64],
-        xf: &[f64],
-        alpha: &[f64],
-    ) -> (Vec<f64>, Vec<f64>) {
+    fn residual(&self, system: &FreeSystem, xf: &[f64], alpha: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let FreeSystem { p, free, rx, re } = *system;
         let (nf, k) = (self.nf, re.len());
         let mut res_x = rx.to_vec();
         for (b, &j) in free.iter().enumerate() {
