@@ -29,7 +29,7 @@ use faer::Par;
 use crate::mesh::Mesh;
 
 use super::dofs::DofMap;
-use super::elasticity::{element_matrices, rotate};
+use super::element_matrices::{element_matrices, rotate};
 use super::geometry::TriangleGradients;
 use super::operator::{OperatorBuilder, OperatorFactor, Slot, ZonedOperator};
 use super::{ElasticCoefficients, FemError};

@@ -19,6 +19,7 @@
 pub(crate) mod bench;
 mod dofs;
 mod elasticity;
+mod element_matrices;
 mod geometry;
 mod heat;
 mod hydrostatic;

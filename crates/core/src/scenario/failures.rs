@@ -11,7 +11,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::worst::CriterionOutcome;
 use crate::error::WsmError;
 use crate::scene::{Warning, WarningKind};
 use wsm_search::{EvalCache, ObjectiveResult, Status};
@@ -63,11 +62,12 @@ impl FailureSummary {
         summary
     }
 
-    /// Mark the objectives whose best point has a failure within the search's resolution: every
-    /// failed point of `cache` counts, not only the listed ones.
-    pub fn unsettle(
+    /// Mark the objectives (each criterion's worst and best) whose best point has a failure
+    /// within the search's resolution: every failed point of `cache` counts, not only the
+    /// listed ones.
+    pub fn unsettle<'a>(
         cache: &EvalCache,
-        criteria: &mut [CriterionOutcome],
+        objectives: impl IntoIterator<Item = &'a mut ObjectiveResult>,
         bounds: &[[f64; 2]],
         budget: usize,
     ) {
@@ -83,11 +83,9 @@ impl FailureSummary {
             return;
         }
         let resolution = (budget.max(1) as f64).powf(-1.0 / bounds.len() as f64);
-        for c in criteria.iter_mut() {
-            for objective in [&mut c.worst, &mut c.best] {
-                if near(&failed, objective, bounds, resolution) {
-                    objective.status = Status::Unsettled;
-                }
+        for objective in objectives {
+            if near(&failed, objective, bounds, resolution) {
+                objective.status = Status::Unsettled;
             }
         }
     }

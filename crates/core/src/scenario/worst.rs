@@ -279,7 +279,9 @@ pub fn run(
     let failures = FailureSummary::from_cache(cache);
     FailureSummary::unsettle(
         cache,
-        &mut criteria,
+        criteria
+            .iter_mut()
+            .flat_map(|c| [&mut c.worst, &mut c.best]),
         &search_problem.bounds,
         settings.budget,
     );

@@ -9,18 +9,23 @@ use std::borrow::Cow;
 use sqlx::migrate::{Migration, MigrationType, Migrator};
 use sqlx::SqlSafeStr;
 
-use super::sql::Backend;
-
 mod embedded {
     include!(concat!(env!("OUT_DIR"), "/migrations.rs"));
 }
 
-/// The migrator of a backend's store: every embedded migration, in version order.
-pub(crate) fn migrator(backend: Backend) -> Migrator {
-    let files = match backend {
-        Backend::Sqlite => embedded::SQLITE,
-        Backend::Postgres => embedded::POSTGRES,
-    };
+/// The migrator of a SQLite store: every migration of `migrations/sqlite`, in version order.
+pub(crate) fn sqlite() -> Migrator {
+    migrator(embedded::SQLITE)
+}
+
+/// The migrator of a PostgreSQL store: every migration of `migrations/postgres`, in version
+/// order.
+pub(crate) fn postgres() -> Migrator {
+    migrator(embedded::POSTGRES)
+}
+
+/// A migrator of embedded `(version, description, SQL)` files.
+fn migrator(files: &[(i64, &'static str, &'static str)]) -> Migrator {
     Migrator::with_migrations(
         files
             .iter()
@@ -61,11 +66,10 @@ mod tests {
     #[tokio::test]
     async fn embedded_migrations_are_what_sqlx_reads_from_the_directories() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../migrations");
-        for (backend, dir) in [(Backend::Sqlite, "sqlite"), (Backend::Postgres, "postgres")] {
+        for (embedded, dir) in [(sqlite(), "sqlite"), (postgres(), "postgres")] {
             let read = Migrator::new(root.join(dir))
                 .await
                 .expect("sqlx reads the directory");
-            let embedded = migrator(backend);
             assert!(embedded.iter().count() >= 5, "{dir}: migrations missing");
             assert_eq!(fields(&embedded), fields(&read), "{dir}");
         }

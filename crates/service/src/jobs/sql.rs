@@ -324,7 +324,11 @@ impl SqlStore {
             .connect_with(options)
             .await
             .map_err(db("opening the database"))?;
-        super::migrations::migrator(backend)
+        let migrator = match backend {
+            Backend::Sqlite => super::migrations::sqlite(),
+            Backend::Postgres => super::migrations::postgres(),
+        };
+        migrator
             .run(&pool)
             .await
             .map_err(|e| StoreError::new(format!("migrations: {e}")))?;
