@@ -9,11 +9,11 @@ use std::path::Path;
 
 fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../migrations");
+    // A directory is watched with everything in it: a migration added, changed or removed.
     println!("cargo:rerun-if-changed={}", root.display());
     let mut code = String::new();
     for (constant, backend) in [("SQLITE", "sqlite"), ("POSTGRES", "postgres")] {
         let dir = root.join(backend);
-        println!("cargo:rerun-if-changed={}", dir.display());
         let mut files: Vec<_> = std::fs::read_dir(&dir)
             .unwrap_or_else(|e| panic!("reading {}: {e}", dir.display()))
             .map(|entry| entry.expect("a directory entry").path())

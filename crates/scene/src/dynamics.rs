@@ -238,7 +238,7 @@ pub(super) fn check_dynamics(scene: &Scene) -> Result<(), SceneError> {
             "a thermal part with `dynamics` is not supported",
         ));
     }
-    for name in used_materials(scene) {
+    for name in scene.used_materials() {
         if scene.materials[name].density.is_none() {
             return Err(SceneError::new(
                 format!("materials.{name}.density"),
@@ -326,17 +326,6 @@ fn check_dynamic_contacts(scene: &Scene) -> Result<(), SceneError> {
         }
     }
     Ok(())
-}
-
-/// Names of the materials some zone uses.
-fn used_materials(scene: &Scene) -> BTreeSet<&str> {
-    scene
-        .bodies
-        .iter()
-        .flat_map(|b| &b.zones)
-        .map(|z| z.material.as_str())
-        .filter(|name| scene.materials.contains_key(*name))
-        .collect()
 }
 
 /// Densities positive, retardation times non-negative, wherever given.

@@ -13,7 +13,7 @@ use super::rules::{
 };
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 pub use wsm_search::StopRule;
 
 /// A point `[x, y]` in metres.
@@ -1155,6 +1155,17 @@ fn default_seed() -> u64 {
 }
 
 impl Scene {
+    /// Names of the defined materials some zone uses (a zone naming an undefined one is refused
+    /// by validation, not listed here).
+    pub fn used_materials(&self) -> BTreeSet<&str> {
+        self.bodies
+            .iter()
+            .flat_map(|b| &b.zones)
+            .map(|z| z.material.as_str())
+            .filter(|name| self.materials.contains_key(*name))
+            .collect()
+    }
+
     /// The search budget: `search.budget`, else the default for the scene's free uncertain data
     /// (those with lo < hi; see [`wsm_search::default_budget`]).
     pub fn search_budget(&self) -> usize {

@@ -149,12 +149,7 @@ pub const MAX_STIFFNESS_RATIO: f64 = 1e12;
 /// The material moduli at the corners of their intervals, the stiffest and the softest against
 /// [`MAX_STIFFNESS_RATIO`].
 fn check_stiffness_ratio(scene: &Scene, parameters: &[Parameter]) -> Result<(), SceneError> {
-    let used: BTreeSet<&str> = scene
-        .bodies
-        .iter()
-        .flat_map(|b| &b.zones)
-        .map(|z| z.material.as_str())
-        .collect();
+    let used = scene.used_materials();
     // (material, constant varied when soft) at the stiffest and softest corner.
     let mut stiffest: Option<(f64, &str)> = None;
     let mut softest: Option<(f64, &str, &str)> = None;

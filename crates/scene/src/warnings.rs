@@ -28,12 +28,7 @@ pub const MAX_SURFACE_LOAD: f64 = 1e10;
 pub fn warnings(scene: &Scene) -> Vec<Warning> {
     let mut out = index_path_warnings(scene);
     let extent = extent(scene);
-    let used: BTreeSet<&str> = scene
-        .bodies
-        .iter()
-        .flat_map(|b| &b.zones)
-        .map(|z| z.material.as_str())
-        .collect();
+    let used = scene.used_materials();
     for (name, m) in &scene.materials {
         if used.contains(name.as_str()) {
             out.extend(material_warnings(&format!("materials.{name}"), m));
